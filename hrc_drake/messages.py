@@ -1,0 +1,202 @@
+"""Value types that travel on the ports of hrc_drake systems.
+
+Every type is a frozen dataclass. Arrays are numpy arrays; their axes are stated in the
+field comments. Times are seconds of simulated time, positions metres in the world frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: The 8 skeletal points, in port order (thesis Fig. 9.1).
+SKELETON_POINTS: tuple[str, ...] = (
+    "thorax",
+    "head",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+)
+THORAX, HEAD, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST = range(8)
+#: Parent of every skeletal point in the kinematic hierarchy (-1: root).
+SKELETON_PARENTS: tuple[int, ...] = (-1, THORAX, THORAX, THORAX, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW)
+HANDS: tuple[str, ...] = ("left", "right")
+WRIST_OF_HAND = {"left": L_WRIST, "right": R_WRIST}
+
+HUMAN_AGENT = "human"
+
+
+def _empty_points() -> np.ndarray:
+    return np.zeros((8, 3))
+
+
+@dataclass(frozen=True)
+class SkeletonFrame:
+    """One camera measurement of the skeleton.
+
+    points: (8, 3) measured positions; rows of untracked points hold NaN.
+    tracked: (8,) bool, False where the camera lost the point (occluded or out of view).
+    gaze: (3,) unit gaze direction (head z axis), world frame.
+    gaze_valid: the gaze flag F of thesis 3.1.2 (False when the face is turned away).
+    """
+
+    time: float = 0.0
+    points: np.ndarray = field(default_factory=_empty_points)
+    tracked: np.ndarray = field(default_factory=lambda: np.ones(8, dtype=bool))
+    gaze: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    gaze_valid: bool = True
+
+
+@dataclass(frozen=True)
+class SkeletonEstimate:
+    """The tracker's belief about the skeleton.
+
+    points: (8, 3) mean positions.
+    spread: (8,) standard deviation of each point's position (m, isotropic summary).
+    tracked: (8,) bool, whether the point was measured in the last frame.
+    workspace_fraction: (8,) fraction of each point's belief mass inside the robot workspace box.
+    gaze, gaze_valid: as in `SkeletonFrame`.
+    particles: optional (8, N, 3) samples of the belief, for display.
+    """
+
+    time: float = 0.0
+    points: np.ndarray = field(default_factory=_empty_points)
+    spread: np.ndarray = field(default_factory=lambda: np.zeros(8))
+    tracked: np.ndarray = field(default_factory=lambda: np.ones(8, dtype=bool))
+    workspace_fraction: np.ndarray = field(default_factory=lambda: np.zeros(8))
+    gaze: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    gaze_valid: bool = True
+    particles: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class GoalBelief:
+    """Probability of each goal for each hand (thesis 3.1, recursive Bayes eq. 3.2).
+
+    goals: goal names, in column order.
+    probabilities: (2, G), row 0 the left hand, row 1 the right hand; rows sum to 1.
+    understood: (hand, goal) pairs whose probability crossed the feedback threshold
+        (Fig. 3.6) at this update.
+    """
+
+    time: float = 0.0
+    goals: tuple[str, ...] = ()
+    probabilities: np.ndarray = field(default_factory=lambda: np.zeros((2, 0)))
+    understood: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class HumanEvent:
+    """The operator began or ended an action, or began/ended waiting for parts.
+
+    kind: "begin", "end", "wait_begin" or "wait_end".
+    seq: strictly increasing number per source, so readers can skip what they have seen.
+    """
+
+    time: float
+    action: str
+    kind: str
+    seq: int
+    agent: str = HUMAN_AGENT
+
+
+@dataclass(frozen=True)
+class RobotEvent:
+    """A robot agent (an arm) began or ended an action, or began/ended waiting.
+
+    agent: the robot agent name, e.g. "yumi_right".
+    kind: "begin", "end", "wait_begin" or "wait_end".
+    """
+
+    time: float
+    agent: str
+    action: str
+    kind: str
+    seq: int
+
+
+@dataclass(frozen=True)
+class EventLog:
+    """The events a source has emitted so far, oldest first (a port value).
+
+    Readers remember the last `seq` they processed and read `since(seq)`.
+    """
+
+    events: tuple = ()
+
+    def since(self, seq: int) -> tuple:
+        """Events with a sequence number greater than `seq`."""
+        out = []
+        for event in reversed(self.events):
+            if event.seq <= seq:
+                break
+            out.append(event)
+        return tuple(reversed(out))
+
+
+@dataclass(frozen=True)
+class RobotCommand:
+    """What the scheduler asks a robot agent to do next.
+
+    action: the action to start, or None to wait `wait` seconds (thesis 6.3.1 wait quantum).
+    seq: strictly increasing per scheduler; the executor acts on each command once.
+    """
+
+    time: float
+    agent: str
+    action: str | None
+    seq: int
+    wait: float = 0.0
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """Predicted next human actions and their waiting times (thesis Ch. 5).
+
+    actions: action names, in column order.
+    next_probabilities: (A,) probability that each action is the next one.
+    percentile_levels: (P,) levels in (0, 1), e.g. (0.2, 0.5, 0.8).
+    waiting_percentiles: (A, P) time from now until each action starts, per level; inf if
+        it does not start within the horizon.
+    """
+
+    time: float = 0.0
+    actions: tuple[str, ...] = ()
+    next_probabilities: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    percentile_levels: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    waiting_percentiles: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+
+@dataclass(frozen=True)
+class SweptVolumes:
+    """Capsules bounding where the human body can be within the horizon (thesis 8.1).
+
+    start, end: (K, 3) capsule segment end points; radius: (K,); names: K labels
+    (torso, upper arms, forearms, ...); horizon: seconds covered.
+    """
+
+    time: float = 0.0
+    names: tuple[str, ...] = ()
+    start: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    end: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    horizon: float = 0.0
+
+
+@dataclass(frozen=True)
+class WorldSnapshot:
+    """Ground truth of the cell: parts in each buffer, what each agent is doing.
+
+    buffers: buffer name -> number of parts.
+    activity: agent name -> current action name, "wait:<action>" or "idle".
+    finished_products: products that left the cell so far.
+    """
+
+    time: float = 0.0
+    buffers: dict = field(default_factory=dict)
+    activity: dict = field(default_factory=dict)
+    finished_products: int = 0
