@@ -1,10 +1,12 @@
 """Scenario schema: the typed dataclasses a scenario YAML is read into.
 
+No `from __future__ import annotations` here: pydrake's typed YAML loader reads the annotations
+as real types at run time.
+
 Plain dataclasses (no pydrake import) so that algorithm cores, e.g. the flow compiler of
 `hrc_drake.scheduling`, can use them. `hrc_drake.cell.scenario` loads and validates them.
 """
 
-from __future__ import annotations
 
 from dataclasses import dataclass, field
 

@@ -1,0 +1,305 @@
+"""Build a cell diagram from a scenario (DESIGN.md "Data flow of a cell").
+
+`build_cell` wires the robot plant (kinematic or discrete dynamic), path follower and task
+executor, the operator (synthetic or recorded), depth camera, optional tracker / intention /
+predictor / scheduler / motion systems, the metrics recorder and, when asked, Meshcat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role, SceneGraph
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource, MatrixGain
+from pydrake.systems.rendering import MultibodyPositionToGeometryPose
+
+from hrc_drake.cell.scenario import ScenarioError
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.cell.systems import (
+    HumanGeometry,
+    MetricsRecorder,
+    MinOverride,
+    RobotCapsules,
+    register_scene,
+)
+from hrc_drake.cell.world import CellWorld
+from hrc_drake.human.body import BodyModel
+from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
+from hrc_drake.robots.models import (
+    RobotCapsuleKinematics,
+    add_robot,
+    arm_joint_limits,
+    arm_position_indices,
+    set_pd_gains,
+)
+from hrc_drake.robots.path import JointPathFollower
+from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
+from hrc_drake.scheduling.durations import sample_duration
+
+
+@dataclass
+class Cell:
+    """A built cell: the diagram and handles on the parts a run reads back."""
+
+    diagram: object
+    scenario: Scenario
+    world: CellWorld
+    plant: MultibodyPlant
+    scene_graph: SceneGraph
+    body: BodyModel
+    recorder: MetricsRecorder
+    executor: RobotTaskExecutor
+    agents: list[str]
+    product_actions: dict[str, int]
+    meshcat: object = None
+    visualizer: object = None
+    systems: dict = field(default_factory=dict)
+
+
+def _places(scenario: Scenario) -> dict[str, np.ndarray]:
+    places = {g.name: np.asarray(g.center, float) for g in scenario.layout.goals}
+    places.update({b.name: np.asarray(b.position, float) for b in scenario.layout.buffers})
+    return places
+
+
+def _add_robots(plant, scenario: Scenario):
+    return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in scenario.robots]
+
+
+def solve_named_poses(scenario: Scenario, file: str | Path = "<scenario>") -> dict[tuple[str, str], np.ndarray]:
+    """Joint vectors of every named pose; Cartesian targets by Drake InverseKinematics.
+
+    Raises `ScenarioError` naming the pose when a target is out of reach.
+    """
+    from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
+
+    plant = MultibodyPlant(0.0)
+    robots = _add_robots(plant, scenario)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    solved: dict[tuple[str, str], np.ndarray] = {}
+    for i, (instance, robot) in enumerate(robots):
+        lower_upper = {}
+        for j, pose in enumerate(robot.poses):
+            field_path = f"robots[{i}].poses[{j}]"
+            if pose.arm not in lower_upper:
+                lower_upper[pose.arm] = arm_joint_limits(plant, instance, robot.model, pose.arm)
+            lower, upper, _ = lower_upper[pose.arm]
+            if pose.joints:
+                q = np.asarray(pose.joints, float)
+                bad = np.flatnonzero((q < lower - 1e-9) | (q > upper + 1e-9))
+                if len(bad):
+                    k = int(bad[0])
+                    raise ScenarioError(
+                        file, f"{field_path}.joints[{k}]",
+                        f"{q[k]:.4f} rad is outside the joint's limits [{lower[k]:.4f}, {upper[k]:.4f}]",
+                    )
+            else:
+                seed_q = next(
+                    (solved[(robot.name, p.name)] for p in reversed(robot.poses[:j])
+                     if p.arm == pose.arm and (robot.name, p.name) in solved), None,
+                )
+                try:
+                    q = solve_tool_position(
+                        plant, context, instance, robot.model, pose.arm, pose.target.xyz,
+                        target_rpy=pose.target.rpy if pose.orient else None, q_seed=seed_q,
+                        tolerance=pose.tolerance, tool_z_down=not pose.orient,
+                    )
+                except InfeasibleTarget as err:
+                    raise ScenarioError(file, f"{field_path}.target", f"out of reach: {err}") from err
+            solved[(robot.name, pose.name)] = np.asarray(q, float)
+    return solved
+
+
+def _product_actions(scenario: Scenario) -> dict[str, int]:
+    kinds = {b.name: b.kind for b in scenario.layout.buffers}
+    out = {}
+    for a in scenario.flow.actions:
+        n = sum(1 for b in a.outputs if kinds.get(b) == "product")
+        if n:
+            out[a.name] = n
+    return out
+
+
+def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng, file):
+    from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+    from hrc_drake.human.systems import OperatorSource
+
+    op = scenario.operator
+    places = _places(scenario)
+    tasks = {}
+    for a in op.actions:
+        def sampler(generator, dist=a.duration):
+            return float(sample_duration(dist, generator))
+
+        tasks[a.name] = OperatorTask(a.name, [places[g] for g in a.goals], a.hand, sampler)
+    base = op.base
+    rest_q = body.rest_q(base_xy=base.xyz[:2], yaw=base.rpy[2])
+    operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, world=world, agent=op.name)
+    return OperatorSource(operator), operator
+
+
+def build_cell(
+    scenario: Scenario,
+    scenario_path: str | Path = "<scenario>",
+    meshcat=None,
+    replay_fps: float = 10.0,
+    named_poses: dict | None = None,
+) -> Cell:
+    """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer."""
+    seeds = np.random.SeedSequence(scenario.seed).spawn(8)
+    rngs = [np.random.default_rng(s) for s in seeds]
+    if named_poses is None:
+        named_poses = solve_named_poses(scenario, scenario_path)
+    world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
+    builder = DiagramBuilder()
+    dynamic = any(r.mode == "dynamic" for r in scenario.robots)
+    if dynamic:
+        time_step = min(r.time_step for r in scenario.robots)
+        plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=time_step)
+        robots = _add_robots(plant, scenario)
+        for instance, _ in robots:
+            set_pd_gains(plant, instance)
+    else:
+        scene_graph = builder.AddSystem(SceneGraph())
+        plant = MultibodyPlant(0.0)
+        plant.RegisterAsSourceForSceneGraph(scene_graph)
+        robots = _add_robots(plant, scenario)
+    plant.Finalize()
+
+    # Arm agents: one path-follower channel each.
+    q0 = np.zeros(plant.num_positions())
+    arm_indices, v_max, agents, moves = [], [], [], {}
+    for instance, robot in robots:
+        for arm in robot.arms:
+            idx = arm_position_indices(plant, instance, robot.model, arm.arm)
+            _, _, vel = arm_joint_limits(plant, instance, robot.model, arm.arm)
+            if arm.home:
+                q0[idx] = named_poses[(robot.name, arm.home)]
+            agents.append(ArmAgent(arm.agent, len(arm_indices), list(arm.program)))
+            arm_indices.append(idx)
+            v_max.append(vel)
+        for action in robot.actions:
+            waypoints = np.array([named_poses[(robot.name, p)] for p in action.poses])
+            moves[action.name] = RobotMove(waypoints, np.full(len(waypoints), action.dwell))
+    follower = builder.AddSystem(PathFollower(JointPathFollower(q0, arm_indices, v_max)))
+    follower.set_name("path_follower")
+    use_scheduler = scenario.scheduler.kind not in ("none",)
+
+    def make_executor(request_path):
+        return TaskExecutor(agents, moves, world, request_path, use_commands=use_scheduler)
+
+    executor = builder.AddSystem(RobotTaskExecutor(make_executor))
+    executor.set_name("robot_task_executor")
+    builder.Connect(executor.GetOutputPort("path_requests"), follower.GetInputPort("path_requests"))
+    builder.Connect(follower.GetOutputPort("path_done"), executor.GetInputPort("path_done"))
+
+    nq = plant.num_positions()
+    if dynamic:
+        for instance, _ in robots:
+            actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
+            n = len(actuators)
+            selector = np.zeros((2 * n, nq))
+            for row, actuator in enumerate(actuators):
+                selector[row, actuator.joint().position_start()] = 1.0
+            gain = builder.AddSystem(MatrixGain(selector))
+            builder.Connect(follower.GetOutputPort("positions"), gain.get_input_port())
+            builder.Connect(gain.get_output_port(), plant.get_desired_state_input_port(instance))
+        plant_positions_port = plant.get_state_output_port()
+        plant_positions_size = plant.num_multibody_states()
+        for instance, _ in robots:
+            plant.SetDefaultPositions(instance, q0[_instance_position_indices(plant, instance)])
+    else:
+        to_pose = builder.AddSystem(MultibodyPositionToGeometryPose(plant))
+        builder.Connect(follower.GetOutputPort("positions"), to_pose.get_input_port())
+        builder.Connect(to_pose.get_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
+        plant_positions_port = follower.GetOutputPort("positions")
+        plant_positions_size = nq
+    capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
+    robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, plant_positions_size))
+    robot_capsules.set_name("robot_capsules")
+    builder.Connect(plant_positions_port, robot_capsules.get_input_port())
+
+    # The operator and the camera.
+    body = BodyModel(scenario.operator.segments)
+    systems: dict = {}
+    if scenario.operator.recorded:
+        raise ScenarioError(scenario_path, "operator.recorded", "recorded skeletons are read by `build_recorded_cell`")
+    operator_source, operator = _operator_system(scenario, body, world, rngs[0], scenario_path)
+    builder.AddSystem(operator_source)
+    operator_source.set_name("operator")
+    systems["operator"] = operator_source
+    human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body))
+    builder.Connect(operator_source.GetOutputPort("q"), human_geometry.get_input_port())
+    builder.Connect(human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id))
+    register_scene(scene_graph, scenario)
+
+    from hrc_drake.human.camera import DepthCameraModel
+    from hrc_drake.human.systems import DepthCamera
+
+    cam = scenario.layout.camera
+    camera_model = DepthCameraModel(
+        cam.position, cam.target,
+        [(np.asarray(o.center, float), np.asarray(o.size, float)) for o in scenario.layout.occluders],
+        noise_std=cam.noise_std, rate=cam.rate, margin=cam.margin, gaze_valid_angle=cam.gaze_valid_angle,
+    )
+    camera = builder.AddSystem(DepthCamera(camera_model, int(rngs[1].integers(2**31))))
+    camera.set_name("depth_camera")
+    builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
+    builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
+    builder.Connect(robot_capsules.get_output_port(), camera.GetInputPort("occluding_capsules"))
+    systems["camera"] = camera
+    systems["camera_model"] = camera_model
+
+    overrides = []
+    from hrc_drake.cell import plugins
+
+    estimate_port = plugins.add_tracker(builder, scenario, camera, camera_model, capsule_kin, systems, overrides,
+                                        int(rngs[2].integers(2**31)))
+    plugins.add_intention(builder, scenario, estimate_port, systems)
+    plugins.add_predictor(builder, scenario, operator_source, systems)
+    plugins.add_scheduler(builder, scenario, operator_source, executor, systems, int(rngs[3].integers(2**31)))
+    plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides,
+                       int(rngs[4].integers(2**31)))
+
+    min_override = builder.AddSystem(MinOverride(max(len(overrides), 1)))
+    min_override.set_name("speed_override")
+    for k, port in enumerate(overrides):
+        builder.Connect(port, min_override.get_input_port(k))
+    if not overrides:
+        one = builder.AddSystem(ConstantVectorSource([1.0]))
+        builder.Connect(one.get_output_port(), min_override.get_input_port(0))
+    builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
+
+    recorder = builder.AddSystem(MetricsRecorder(body, world))
+    recorder.set_name("metrics")
+    builder.Connect(operator_source.GetOutputPort("human_events"), recorder.GetInputPort("human_events"))
+    builder.Connect(executor.GetOutputPort("robot_events"), recorder.GetInputPort("robot_events"))
+    builder.Connect(operator_source.GetOutputPort("q"), recorder.GetInputPort("human_q"))
+    builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
+    builder.Connect(follower.GetOutputPort("speed_override_applied"), recorder.GetInputPort("speed_override"))
+
+    visualizer = None
+    if meshcat is not None:
+        params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
+        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
+        plugins.add_replay_markers(builder, scenario, meshcat, world, systems, replay_fps)
+
+    diagram = builder.Build()
+    agent_names = [scenario.operator.name] + [a.agent for a in agents]
+    return Cell(
+        diagram=diagram, scenario=scenario, world=world, plant=plant, scene_graph=scene_graph, body=body,
+        recorder=recorder, executor=executor, agents=agent_names, product_actions=_product_actions(scenario),
+        meshcat=meshcat, visualizer=visualizer, systems=systems,
+    )
+
+
+def _instance_position_indices(plant, instance) -> np.ndarray:
+    """Indices into the plant's q of `instance`'s positions, in the instance's own order."""
+    return np.sort(np.array([plant.get_joint(j).position_start() + k
+                             for j in plant.GetJointIndices(instance)
+                             for k in range(plant.get_joint(j).num_positions())], dtype=int))

@@ -1,0 +1,172 @@
+"""Cell metrics from the event log: cycle times, idle times, utilisation, human-robot distance.
+
+Pure Python core: `MetricsLog` is filled by the `MetricsRecorder` system (or by any event-level
+simulator) and `summarize` turns it into the figures of a report.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class Interval:
+    agent: str
+    action: str
+    kind: str  # "work" or "wait"
+    start: float
+    end: float
+
+
+@dataclass
+class MetricsLog:
+    """What a run recorded: events of every agent and periodic samples."""
+
+    events: list = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+    distances: list[float] = field(default_factory=list)
+    overrides: list[float] = field(default_factory=list)
+    buffers: list[dict] = field(default_factory=list)
+    products: list[int] = field(default_factory=list)
+
+    def record(self, time: float, distance: float, override: float, buffers: dict, products: int) -> None:
+        self.times.append(time)
+        self.distances.append(distance)
+        self.overrides.append(override)
+        self.buffers.append(buffers)
+        self.products.append(products)
+
+
+def _agent_of(event) -> str:
+    return getattr(event, "agent", "human")
+
+
+def intervals(events, end_time: float) -> list[Interval]:
+    """Work and wait intervals of every agent; an interval still open at `end_time` is cut there."""
+    open_work: dict[str, tuple[str, float]] = {}
+    open_wait: dict[str, tuple[str, float]] = {}
+    out: list[Interval] = []
+    for e in sorted(events, key=lambda e: (e.time, _agent_of(e), e.seq)):
+        agent = _agent_of(e)
+        if e.kind == "begin":
+            open_work[agent] = (e.action, e.time)
+        elif e.kind == "end" and agent in open_work:
+            action, start = open_work.pop(agent)
+            out.append(Interval(agent, action, "work", start, e.time))
+        elif e.kind == "wait_begin":
+            open_wait[agent] = (e.action, e.time)
+        elif e.kind == "wait_end" and agent in open_wait:
+            action, start = open_wait.pop(agent)
+            out.append(Interval(agent, action, "wait", start, e.time))
+    for agent, (action, start) in open_work.items():
+        out.append(Interval(agent, action, "work", start, end_time))
+    for agent, (action, start) in open_wait.items():
+        out.append(Interval(agent, action, "wait", start, end_time))
+    return sorted(out, key=lambda i: (i.agent, i.start))
+
+
+def product_times(events, product_actions: dict[str, int]) -> list[float]:
+    """Times at which finished products leave the cell: ends of actions that output products."""
+    times = []
+    for e in events:
+        if e.kind == "end" and e.action in product_actions:
+            times.extend([e.time] * product_actions[e.action])
+    return sorted(times)
+
+
+def summarize(log: MetricsLog, end_time: float, agents: list[str], product_actions: dict[str, int],
+              wall_time: float | None = None) -> dict:
+    """Figures of a run: products, cycle times, idle and busy time per agent, minimum distance."""
+    spans = intervals(log.events, end_time)
+    done = product_times(log.events, product_actions)
+    cycle = np.diff([0.0, *done]) if done else np.zeros(0)
+    per_agent = {}
+    for agent in agents:
+        work = sum(i.end - i.start for i in spans if i.agent == agent and i.kind == "work")
+        wait = sum(i.end - i.start for i in spans if i.agent == agent and i.kind == "wait")
+        count = sum(1 for i in spans if i.agent == agent and i.kind == "work" and i.end < end_time)
+        per_agent[agent] = {
+            "busy_time": round(work, 3),
+            "wait_time": round(wait, 3),
+            "idle_time": round(max(end_time - work, 0.0), 3),
+            "utilisation": round(work / end_time, 4) if end_time > 0 else 0.0,
+            "actions_finished": count,
+        }
+    finite = [d for d in log.distances if np.isfinite(d)]
+    out = {
+        "simulated_time": round(end_time, 3),
+        "products_finished": len(done),
+        "product_times": [round(t, 3) for t in done],
+        "cycle_times": [round(float(c), 3) for c in cycle],
+        "mean_cycle_time": round(float(np.mean(cycle[1:] if len(cycle) > 1 else cycle)), 3) if len(cycle) else None,
+        "agents": per_agent,
+        "min_human_robot_distance": round(min(finite), 4) if finite else None,
+        "mean_speed_override": round(float(np.mean(log.overrides)), 4) if log.overrides else None,
+    }
+    if wall_time is not None:
+        out["wall_time"] = round(wall_time, 3)
+        out["realtime_factor"] = round(end_time / wall_time, 2) if wall_time > 0 else None
+    return out
+
+
+def write_events_csv(path: Path, events) -> None:
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["time", "agent", "action", "kind", "seq"])
+        for e in sorted(events, key=lambda e: (e.time, _agent_of(e), e.seq)):
+            writer.writerow([f"{e.time:.3f}", _agent_of(e), e.action, e.kind, e.seq])
+
+
+def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], title: str = "") -> None:
+    """Gantt chart: one row per agent, a coloured bar per action, waits hatched (cf. thesis Fig. 7.15)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    spans = intervals(log.events, end_time)
+    actions = sorted({i.action for i in spans if i.kind == "work"})
+    cmap = plt.get_cmap("tab20")
+    colors = {a: cmap(k % 20) for k, a in enumerate(actions)}
+    fig, (ax, ax2) = plt.subplots(
+        2, 1, figsize=(12, 1.2 + 0.7 * len(agents) + 1.6), sharex=True,
+        gridspec_kw={"height_ratios": [max(len(agents), 1), 1.4]},
+    )
+    for row, agent in enumerate(agents):
+        for i in spans:
+            if i.agent != agent:
+                continue
+            if i.kind == "work":
+                ax.barh(row, i.end - i.start, left=i.start, height=0.6, color=colors[i.action], edgecolor="black", lw=0.3)
+                if i.end - i.start > 0.03 * end_time:
+                    ax.text((i.start + i.end) / 2, row, i.action, ha="center", va="center", fontsize=7)
+            else:
+                ax.barh(row, i.end - i.start, left=i.start, height=0.35, color="lightgrey", hatch="////",
+                        edgecolor="grey", lw=0.3)
+    ax.set_yticks(range(len(agents)))
+    ax.set_yticklabels(agents)
+    ax.invert_yaxis()
+    handles = [Patch(color=colors[a], label=a) for a in actions]
+    handles.append(Patch(facecolor="lightgrey", hatch="////", edgecolor="grey", label="waiting for parts"))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
+    ax.set_title(title or "Agents' activities")
+    if log.times:
+        d = np.array(log.distances, dtype=float)
+        ax2.plot(log.times, np.where(np.isfinite(d), d, np.nan), color="tab:red", lw=0.8, label="min human-robot distance")
+        ax2.set_ylabel("distance [m]")
+        ax3 = ax2.twinx()
+        ax3.plot(log.times, log.overrides, color="tab:blue", lw=0.8, label="speed override")
+        ax3.set_ylim(-0.05, 1.05)
+        ax3.set_ylabel("override")
+        ax2.legend(loc="upper left", fontsize=7)
+        ax3.legend(loc="upper right", fontsize=7)
+    ax2.set_xlabel("time [s]")
+    ax2.set_xlim(0, end_time)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,204 @@
+"""Optional systems of a cell, chosen by the scenario (tracker, intention, predictor, scheduler,
+motion model) and the replay's extra markers. With kind "none" a plain default is wired
+(DESIGN.md: no tracker -> estimates are the measurements; no scheduler -> fixed programs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import Rgba, Sphere
+from pydrake.geometry import Box as MeshcatBox
+from pydrake.math import RigidTransform
+from pydrake.systems.framework import LeafSystem
+
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame
+
+
+class MeasurementAsEstimate(LeafSystem):
+    """No tracker: the estimate is the last measurement (untracked points keep their last value)."""
+
+    def __init__(self, workspace_center, workspace_size):
+        super().__init__()
+        self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
+        self._lo = np.asarray(workspace_center, float) - 0.5 * np.asarray(workspace_size, float)
+        self._hi = np.asarray(workspace_center, float) + 0.5 * np.asarray(workspace_size, float)
+        self._last = np.full((8, 3), np.nan)
+        self.DeclareAbstractOutputPort(
+            "skeleton_estimate", lambda: AbstractValue.Make(SkeletonEstimate()), self._calc
+        )
+
+    def _calc(self, context, output):
+        frame = self._frame.Eval(context)
+        points = np.where(frame.tracked[:, None], frame.points, self._last)
+        self._last = np.where(np.isfinite(points), points, self._last)
+        inside = np.all((points >= self._lo) & (points <= self._hi), axis=1)
+        output.set_value(SkeletonEstimate(
+            time=frame.time, points=np.nan_to_num(points), spread=np.where(frame.tracked, 0.0, np.inf),
+            tracked=frame.tracked.copy(), workspace_fraction=inside.astype(float), gaze=frame.gaze,
+            gaze_valid=frame.gaze_valid,
+        ))
+
+
+def add_tracker(builder, scenario: Scenario, camera, camera_model, capsule_kin, systems, overrides, seed):
+    """The skeleton tracker of Ch. 9 (or the measurement itself); returns the estimate port."""
+    lay = scenario.layout
+    kind = scenario.tracker.kind
+    if kind == "none":
+        tracker = builder.AddSystem(MeasurementAsEstimate(lay.workspace_center, lay.workspace_size))
+    else:
+        from hrc_drake.perception.systems import OcclusionTracker
+
+        def is_hidden(points):
+            return camera_model.is_hidden(points, getattr(camera, "last_capsules", None))
+
+        tracker = builder.AddSystem(OcclusionTracker(
+            kind, dict(scenario.tracker.params), is_hidden, lay.workspace_center, lay.workspace_size,
+            rate=lay.camera.rate, seed=seed,
+        ))
+        overrides.append(tracker.GetOutputPort("speed_override"))
+    tracker.set_name("tracker")
+    builder.Connect(camera.GetOutputPort("skeleton_frame"), tracker.GetInputPort("skeleton_frame"))
+    systems["tracker"] = tracker
+    return tracker.GetOutputPort("skeleton_estimate")
+
+
+def add_intention(builder, scenario: Scenario, estimate_port, systems):
+    if scenario.intention.kind == "none":
+        return
+    from hrc_drake.intention.systems import IntentionEstimator
+
+    goals = scenario.layout.goals
+    params = dict(scenario.intention.params)
+    estimator = builder.AddSystem(IntentionEstimator(
+        [g.name for g in goals], np.array([g.center for g in goals], float),
+        threshold=params.get("threshold", 0.8),
+    ))
+    estimator.set_name("intention")
+    builder.Connect(estimate_port, estimator.GetInputPort("skeleton_estimate"))
+    systems["intention"] = estimator
+
+
+def add_predictor(builder, scenario: Scenario, operator_source, systems):
+    if scenario.predictor.kind == "none":
+        return
+    from hrc_drake.prediction.systems import ActivityPredictor
+
+    actions = [a.name for a in scenario.operator.actions]
+    predictor = builder.AddSystem(ActivityPredictor(actions, kind=scenario.predictor.kind,
+                                                    params=dict(scenario.predictor.params)))
+    predictor.set_name("activity_predictor")
+    builder.Connect(operator_source.GetOutputPort("human_events"), predictor.GetInputPort("human_events"))
+    systems["predictor"] = predictor
+
+
+def add_scheduler(builder, scenario: Scenario, operator_source, executor, systems, seed):
+    if scenario.scheduler.kind == "none":
+        return
+    from hrc_drake.scheduling.systems import make_scheduler
+
+    scheduler = builder.AddSystem(make_scheduler(scenario, seed=seed))
+    scheduler.set_name("scheduler")
+    builder.Connect(operator_source.GetOutputPort("human_events"), scheduler.GetInputPort("human_events"))
+    builder.Connect(executor.GetOutputPort("robot_events"), scheduler.GetInputPort("robot_events"))
+    builder.Connect(scheduler.GetOutputPort("robot_commands"), executor.GetInputPort("robot_commands"))
+    systems["scheduler"] = scheduler
+
+
+def add_motion(builder, scenario: Scenario, body, estimate_port, robot_capsules, systems, overrides, seed):
+    if scenario.motion_model.kind == "none":
+        return
+    from hrc_drake.motion.systems import HumanMotionPredictor, SpeedScaler
+
+    params = dict(scenario.motion_model.params)
+    predictor = builder.AddSystem(HumanMotionPredictor(body, scenario.motion_model.kind, params, seed=seed))
+    predictor.set_name("human_motion_predictor")
+    scaler = builder.AddSystem(SpeedScaler(params))
+    scaler.set_name("speed_scaler")
+    builder.Connect(estimate_port, predictor.GetInputPort("skeleton_estimate"))
+    builder.Connect(predictor.GetOutputPort("swept_volumes"), scaler.GetInputPort("swept_volumes"))
+    builder.Connect(robot_capsules.get_output_port(), scaler.GetInputPort("robot_capsules"))
+    overrides.append(scaler.GetOutputPort("speed_override"))
+    systems["motion_predictor"] = predictor
+    systems["speed_scaler"] = scaler
+
+
+class ReplayMarkers(LeafSystem):
+    """Animates what SceneGraph does not show: parts in buffers, measured and estimated skeleton
+    points, swept volumes and intention flashes, as Meshcat objects recorded with the replay."""
+
+    def __init__(self, scenario: Scenario, meshcat, world, systems, fps: float):
+        super().__init__()
+        self.meshcat = meshcat
+        self.world = world
+        self.systems = systems
+        self._visible: dict[str, bool] = {}
+        self._buffers = {b.name: b for b in scenario.layout.buffers if b.kind == "intermediate"}
+        for b in self._buffers.values():
+            for k in range(min(b.capacity, 4)):
+                path = f"/markers/parts/{b.name}/{k}"
+                meshcat.SetObject(path, MeshcatBox(0.035, 0.035, 0.035), Rgba(0.95, 0.75, 0.1, 1.0))
+                offset = np.array([0.0, (k - (min(b.capacity, 4) - 1) / 2) * 0.045, 0.025])
+                meshcat.SetTransform(path, RigidTransform(np.asarray(b.position, float) + offset))
+                meshcat.SetProperty(path, "visible", False)
+                self._visible[path] = False
+        # Skeleton markers cost ~2 kB per replay frame: only where a tracker makes them worth it.
+        self._show_skeleton = scenario.tracker.kind != "none"
+        if self._show_skeleton:
+            for name, color in (("measured", Rgba(0.1, 0.4, 1.0, 1.0)), ("estimated", Rgba(1.0, 0.2, 0.2, 1.0))):
+                for k in range(8):
+                    meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.02), color)
+        self._frame_port = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
+        self._estimate_port = self.DeclareAbstractInputPort(
+            "skeleton_estimate", AbstractValue.Make(SkeletonEstimate())
+        )
+        self._goals = {g.name: g for g in scenario.layout.goals}
+        for g in self._goals.values():
+            meshcat.SetObject(f"/markers/flash/{g.name}", Sphere(g.radius * 1.15), Rgba(1.0, 0.9, 0.1, 0.6))
+            meshcat.SetTransform(f"/markers/flash/{g.name}", RigidTransform(np.asarray(g.center, float)))
+            meshcat.SetProperty(f"/markers/flash/{g.name}", "visible", False)
+            self._visible[f"/markers/flash/{g.name}"] = False
+        self._intention_port = self.DeclareAbstractInputPort("intention_events", AbstractValue.Make(EventLog()))
+        self._flash_until: dict[str, float] = {}
+        self._last_intention = 0
+        self.DeclarePeriodicPublishEvent(1.0 / fps, 0.0, self._publish)
+
+    def _set_visible(self, path: str, visible: bool, t: float) -> None:
+        if self._visible.get(path) != visible:
+            self.meshcat.SetProperty(path, "visible", visible, t)
+            self._visible[path] = visible
+
+    def _publish(self, context):
+        t = context.get_time()
+        for name, b in self._buffers.items():
+            count = self.world.parts[name]
+            for k in range(min(b.capacity, 4)):
+                self._set_visible(f"/markers/parts/{name}/{k}", k < count, t)
+        for port, name in ((self._frame_port, "measured"), (self._estimate_port, "estimated")):
+            if not self._show_skeleton or not port.HasValue(context):
+                continue
+            value = port.Eval(context)
+            for k in range(8):
+                path = f"/markers/skeleton/{name}/{k}"
+                p = value.points[k]
+                shown = bool(np.all(np.isfinite(p))) and (name == "estimated" or bool(value.tracked[k]))
+                if shown:
+                    self.meshcat.SetTransform(path, RigidTransform(p), t)
+                self._set_visible(path, shown, t)
+        if self._intention_port.HasValue(context):
+            for event in self._intention_port.Eval(context).since(self._last_intention):
+                self._last_intention = event.seq
+                self._flash_until[event.goal] = t + 0.6
+        for goal in self._goals:
+            self._set_visible(f"/markers/flash/{goal}", self._flash_until.get(goal, -1.0) > t, t)
+
+
+def add_replay_markers(builder, scenario: Scenario, meshcat, world, systems, fps):
+    markers = builder.AddSystem(ReplayMarkers(scenario, meshcat, world, systems, fps))
+    markers.set_name("replay_markers")
+    builder.Connect(systems["camera"].GetOutputPort("skeleton_frame"), markers.GetInputPort("skeleton_frame"))
+    builder.Connect(systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate"))
+    if "intention" in systems:
+        builder.Connect(systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events"))
+    return markers

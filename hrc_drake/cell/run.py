@@ -1,0 +1,76 @@
+"""Run a cell: simulate with progress output, gather metrics, write the replay and report."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydrake.systems.analysis import Simulator
+
+from hrc_drake.cell.build import Cell
+from hrc_drake.cell.metrics import plot_gantt, summarize, write_events_csv
+
+
+@dataclass
+class RunResult:
+    metrics: dict
+    wall_time: float
+    simulated_time: float
+
+
+def simulate(cell: Cell, duration: float, progress=sys.stderr, record: bool = False, chunks: int = 50) -> RunResult:
+    """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent)."""
+    if duration <= 0:
+        raise ValueError(f"duration must be positive, got {duration}")
+    simulator = Simulator(cell.diagram)
+    simulator.set_target_realtime_rate(0.0)
+    simulator.set_publish_every_time_step(False)
+    if record and cell.visualizer is not None:
+        cell.visualizer.StartRecording(False)
+    start = time.perf_counter()
+    simulator.Initialize()
+    for k in range(1, chunks + 1):
+        simulator.AdvanceTo(duration * k / chunks)
+        if progress is not None:
+            wall = time.perf_counter() - start
+            t = simulator.get_context().get_time()
+            print(
+                f"\r  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s   "
+                f"products = {cell.world.finished_products:3d}   realtime factor = {t / max(wall, 1e-9):6.1f}x",
+                end="", file=progress, flush=True,
+            )
+    cell.diagram.ForcedPublish(simulator.get_context())
+    wall = time.perf_counter() - start
+    if progress is not None:
+        print(file=progress)
+    if record and cell.visualizer is not None:
+        cell.visualizer.StopRecording()
+        cell.visualizer.PublishRecording()
+    metrics = summarize(cell.recorder.log, duration, cell.agents, cell.product_actions, wall_time=wall)
+    return RunResult(metrics=metrics, wall_time=wall, simulated_time=duration)
+
+
+def write_replay(cell: Cell, path: Path) -> int:
+    """Write the recorded run as one self-contained HTML file; returns its size in bytes."""
+    html = cell.meshcat.StaticHtml()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(html)
+    return path.stat().st_size
+
+
+def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
+    """metrics.json, events.csv and gantt.png in `out_dir`."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    metrics_path = out_dir / "metrics.json"
+    metrics_path.write_text(json.dumps(result.metrics, indent=2))
+    events_path = out_dir / "events.csv"
+    write_events_csv(events_path, cell.recorder.log.events)
+    gantt_path = out_dir / "gantt.png"
+    title = cell.scenario.description or "cell"
+    plot_gantt(gantt_path, cell.recorder.log, result.simulated_time, cell.agents, title=title)
+    return [metrics_path, events_path, gantt_path]

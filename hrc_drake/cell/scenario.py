@@ -1,0 +1,347 @@
+"""Load and check scenario files (DESIGN.md "Scenario files").
+
+The YAML is read with pydrake's typed loader into the dataclasses of `schema`. Before that, a
+walk over the raw document names the path of any unknown key; after it, semantic checks name
+the field at fault. Every problem raises `ScenarioError(file, field path, reason)`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from pathlib import Path
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+
+from hrc_drake.cell import schema
+from hrc_drake.cell.schema import Distribution, Scenario
+
+DISTRIBUTION_KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
+BUFFER_KINDS = ("raw", "intermediate", "product")
+ROBOT_MODELS = ("yumi", "irb140")
+ROBOT_MODES = ("kinematic", "dynamic")
+HANDS = ("left", "right", "both")
+TRACKER_KINDS = ("none", "particle_filter", "kalman")
+INTENTION_KINDS = ("none", "gmm")
+PREDICTOR_KINDS = ("none", "homm", "suffix_tree", "markov")
+SCHEDULER_KINDS = ("none", "round_robin", "monte_carlo", "greedy", "deterministic")
+MOTION_KINDS = ("none", "gp_a", "gp_b", "gp_c", "worst_case")
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used: names the file, the field path and the reason."""
+
+    def __init__(self, file: str | Path, field: str, reason: str):
+        self.file = str(file)
+        self.field = field
+        self.reason = reason
+        where = f"{self.file}: {field}" if field else self.file
+        super().__init__(f"{where}: {reason}")
+
+
+def _unwrap_optional(tp):
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(args) == 1:
+            return args[0]
+    return tp
+
+
+def _check_keys(node, cls, path: str, file: str) -> None:
+    """Walk the raw YAML against the dataclass tree; raise on unknown keys and wrong shapes."""
+    cls = _unwrap_optional(cls)
+    if dataclasses.is_dataclass(cls):
+        if node is None:
+            return
+        if not isinstance(node, dict):
+            raise ScenarioError(file, path or "<top>", f"expected a mapping, got {type(node).__name__}")
+        hints = typing.get_type_hints(cls)
+        for key, value in node.items():
+            sub = f"{path}.{key}" if path else str(key)
+            if key not in hints:
+                known = ", ".join(sorted(hints))
+                raise ScenarioError(file, sub, f"unknown key '{key}' (known keys: {known})")
+            _check_keys(value, hints[key], sub, file)
+    elif typing.get_origin(cls) is list:
+        if node is None:
+            return
+        if not isinstance(node, list):
+            raise ScenarioError(file, path, f"expected a list, got {type(node).__name__}")
+        (item,) = typing.get_args(cls)
+        for i, value in enumerate(node):
+            _check_keys(value, item, f"{path}[{i}]", file)
+    elif typing.get_origin(cls) is dict:
+        if not isinstance(node, dict):
+            raise ScenarioError(file, path, f"expected a mapping, got {type(node).__name__}")
+        _, value_type = typing.get_args(cls)
+        for key, value in node.items():
+            _check_keys(value, value_type, f"{path}.{key}", file)
+    elif cls in (float, int):
+        if isinstance(node, bool) or not isinstance(node, (int, float)):
+            raise ScenarioError(file, path, f"expected a number, got {node!r}")
+        if cls is int and isinstance(node, float) and not node.is_integer():
+            raise ScenarioError(file, path, f"expected an integer, got {node!r}")
+        if isinstance(node, float) and not math.isfinite(node):
+            raise ScenarioError(file, path, f"expected a finite number, got {node!r}")
+    elif cls is str:
+        if not isinstance(node, str):
+            raise ScenarioError(file, path, f"expected a string, got {node!r}")
+    elif cls is bool:
+        if not isinstance(node, bool):
+            raise ScenarioError(file, path, f"expected true or false, got {node!r}")
+
+
+def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenario:
+    """Read, type and check a scenario file; raise `ScenarioError` on any problem."""
+    path = Path(path)
+    if not path.is_file():
+        raise ScenarioError(path, "", "no such file")
+    text = path.read_text()
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ScenarioError(path, "", f"not valid YAML: {err}") from err
+    if not isinstance(raw, dict):
+        raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
+    _check_keys(raw, Scenario, "", str(path))
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=text)
+    except (RuntimeError, ValueError, TypeError) as err:
+        raise ScenarioError(path, "", f"cannot be read as a scenario: {err}") from err
+    check_scenario(scenario, path)
+    if check_reachability:
+        from hrc_drake.cell.build import solve_named_poses
+
+        solve_named_poses(scenario, path)
+    return scenario
+
+
+def _check_vec(file, field, values, n=3):
+    if len(values) != n:
+        raise ScenarioError(file, field, f"expected {n} numbers, got {len(values)}")
+
+
+def check_distribution(file, field: str, dist: Distribution) -> None:
+    """A duration distribution must have a known kind and only positive durations."""
+    if dist.kind not in DISTRIBUTION_KINDS:
+        raise ScenarioError(file, f"{field}.kind", f"unknown distribution '{dist.kind}' (one of {DISTRIBUTION_KINDS})")
+    if dist.kind in ("fixed", "normal", "lognormal") and dist.mean <= 0:
+        raise ScenarioError(file, f"{field}.mean", f"a duration must be positive, got {dist.mean}")
+    if dist.kind in ("normal", "lognormal") and dist.std < 0:
+        raise ScenarioError(file, f"{field}.std", f"must be >= 0, got {dist.std}")
+    if dist.kind == "uniform" and not (0 < dist.low < dist.high):
+        raise ScenarioError(file, field, f"uniform needs 0 < low < high, got low={dist.low}, high={dist.high}")
+    if dist.kind == "triangular" and not (0 < dist.low <= dist.mode <= dist.high and dist.low < dist.high):
+        raise ScenarioError(
+            file, field, f"triangular needs 0 < low <= mode <= high, got {dist.low}, {dist.mode}, {dist.high}"
+        )
+    if dist.kind == "empirical":
+        if not dist.samples:
+            raise ScenarioError(file, f"{field}.samples", "an empirical distribution needs samples")
+        if min(dist.samples) <= 0:
+            raise ScenarioError(file, f"{field}.samples", "durations must be positive")
+
+
+def _unique(file, field, names):
+    seen = set()
+    for i, name in enumerate(names):
+        if not name:
+            raise ScenarioError(file, f"{field}[{i}].name", "a name is required")
+        if name in seen:
+            raise ScenarioError(file, f"{field}[{i}].name", f"duplicate name '{name}'")
+        seen.add(name)
+    return seen
+
+
+def _kind(file, field, value, allowed):
+    if value not in allowed:
+        raise ScenarioError(file, field, f"unknown kind '{value}' (one of {', '.join(allowed)})")
+
+
+def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
+    """Semantic checks: names resolve, durations positive, the flow can supply every action."""
+    if sc.duration <= 0:
+        raise ScenarioError(file, "duration", f"must be positive, got {sc.duration}")
+    lay = sc.layout
+    goals = _unique(file, "layout.goals", [g.name for g in lay.goals])
+    for i, g in enumerate(lay.goals):
+        _check_vec(file, f"layout.goals[{i}].center", g.center)
+        if g.radius <= 0:
+            raise ScenarioError(file, f"layout.goals[{i}].radius", f"must be positive, got {g.radius}")
+    buffers = _unique(file, "layout.buffers", [b.name for b in lay.buffers])
+    for i, b in enumerate(lay.buffers):
+        _kind(file, f"layout.buffers[{i}].kind", b.kind, BUFFER_KINDS)
+        _check_vec(file, f"layout.buffers[{i}].position", b.position)
+        if b.kind == "intermediate" and b.capacity < 1:
+            raise ScenarioError(file, f"layout.buffers[{i}].capacity", f"must be >= 1, got {b.capacity}")
+        if b.initial < 0 or (b.kind == "intermediate" and b.initial > b.capacity):
+            raise ScenarioError(file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}")
+    places = goals | buffers
+    for i, o in enumerate(lay.occluders):
+        _check_vec(file, f"layout.occluders[{i}].center", o.center)
+        _check_vec(file, f"layout.occluders[{i}].size", o.size)
+        if min(o.size) <= 0:
+            raise ScenarioError(file, f"layout.occluders[{i}].size", "sizes must be positive")
+    _check_vec(file, "layout.camera.position", lay.camera.position)
+    _check_vec(file, "layout.camera.target", lay.camera.target)
+    if not 0 < lay.camera.rate <= 120:
+        raise ScenarioError(file, "layout.camera.rate", f"must be in (0, 120] Hz, got {lay.camera.rate}")
+    if lay.camera.noise_std < 0:
+        raise ScenarioError(file, "layout.camera.noise_std", "must be >= 0")
+
+    agents: set[str] = set()
+    _unique(file, "robots", [r.name for r in sc.robots])
+    for i, robot in enumerate(sc.robots):
+        field = f"robots[{i}]"
+        _kind(file, f"{field}.model", robot.model, ROBOT_MODELS)
+        _kind(file, f"{field}.mode", robot.mode, ROBOT_MODES)
+        if robot.time_step <= 0:
+            raise ScenarioError(file, f"{field}.time_step", "must be positive")
+        arm_names = ("left", "right") if robot.model == "yumi" else ("arm",)
+        poses = _unique(file, f"{field}.poses", [p.name for p in robot.poses])
+        pose_arm = {}
+        for j, pose in enumerate(robot.poses):
+            pf = f"{field}.poses[{j}]"
+            if pose.arm not in arm_names:
+                raise ScenarioError(file, f"{pf}.arm", f"unknown arm '{pose.arm}' of {robot.model} ({arm_names})")
+            if bool(pose.joints) == (pose.target is not None):
+                raise ScenarioError(file, pf, "give exactly one of 'joints' or 'target'")
+            if pose.joints:
+                n = 7 if robot.model == "yumi" else 6
+                if len(pose.joints) != n:
+                    raise ScenarioError(file, f"{pf}.joints", f"expected {n} joint values, got {len(pose.joints)}")
+            else:
+                _check_vec(file, f"{pf}.target.xyz", pose.target.xyz)
+                _check_vec(file, f"{pf}.target.rpy", pose.target.rpy)
+            pose_arm[pose.name] = pose.arm
+        actions = _unique(file, f"{field}.actions", [a.name for a in robot.actions])
+        for j, action in enumerate(robot.actions):
+            af = f"{field}.actions[{j}]"
+            if action.arm not in arm_names:
+                raise ScenarioError(file, f"{af}.arm", f"unknown arm '{action.arm}' ({arm_names})")
+            if not action.poses:
+                raise ScenarioError(file, f"{af}.poses", "an action needs at least one pose")
+            for k, pose_name in enumerate(action.poses):
+                if pose_name not in poses:
+                    raise ScenarioError(file, f"{af}.poses[{k}]", f"unknown pose '{pose_name}'")
+                if pose_arm[pose_name] != action.arm:
+                    raise ScenarioError(file, f"{af}.poses[{k}]", f"pose '{pose_name}' belongs to another arm")
+            if action.dwell < 0:
+                raise ScenarioError(file, f"{af}.dwell", "must be >= 0")
+        for j, arm in enumerate(robot.arms):
+            af = f"{field}.arms[{j}]"
+            if arm.arm not in arm_names:
+                raise ScenarioError(file, f"{af}.arm", f"unknown arm '{arm.arm}' ({arm_names})")
+            if not arm.agent:
+                raise ScenarioError(file, f"{af}.agent", "an agent name is required")
+            if arm.agent in agents:
+                raise ScenarioError(file, f"{af}.agent", f"duplicate agent '{arm.agent}'")
+            agents.add(arm.agent)
+            if arm.home and arm.home not in poses:
+                raise ScenarioError(file, f"{af}.home", f"unknown pose '{arm.home}'")
+            for k, name in enumerate(arm.program):
+                if name not in actions:
+                    raise ScenarioError(file, f"{af}.program[{k}]", f"unknown robot action '{name}'")
+
+    op = sc.operator
+    if op.name in agents:
+        raise ScenarioError(file, "operator.name", f"'{op.name}' is also a robot agent")
+    agents.add(op.name)
+    seg = op.segments
+    for name in ("torso", "neck", "shoulder_width", "upper_arm", "forearm"):
+        if getattr(seg, name) <= 0:
+            raise ScenarioError(file, f"operator.segments.{name}", "must be positive")
+    op_actions = _unique(file, "operator.actions", [a.name for a in op.actions])
+    for i, a in enumerate(op.actions):
+        af = f"operator.actions[{i}]"
+        _kind(file, f"{af}.hand", a.hand, HANDS)
+        if not a.goals:
+            raise ScenarioError(file, f"{af}.goals", "an action needs at least one goal")
+        for k, g in enumerate(a.goals):
+            if g not in places:
+                raise ScenarioError(file, f"{af}.goals[{k}]", f"unknown goal or buffer '{g}'")
+        check_distribution(file, f"{af}.duration", a.duration)
+    if not op.recorded:
+        if not op.pattern:
+            raise ScenarioError(file, "operator.pattern", "the operator needs a pattern of actions")
+        for k, name in enumerate(op.pattern):
+            if name not in op_actions:
+                raise ScenarioError(file, f"operator.pattern[{k}]", f"unknown operator action '{name}'")
+
+    _check_flow(sc, file, agents, buffers)
+    _kind(file, "tracker.kind", sc.tracker.kind, TRACKER_KINDS)
+    _kind(file, "intention.kind", sc.intention.kind, INTENTION_KINDS)
+    _kind(file, "predictor.kind", sc.predictor.kind, PREDICTOR_KINDS)
+    _kind(file, "scheduler.kind", sc.scheduler.kind, SCHEDULER_KINDS)
+    _kind(file, "motion_model.kind", sc.motion_model.kind, MOTION_KINDS)
+
+
+def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None:
+    flow = sc.flow
+    names = _unique(file, "flow.actions", [a.name for a in flow.actions])
+    kinds = {b.name: b.kind for b in sc.layout.buffers}
+    for i, action in enumerate(flow.actions):
+        af = f"flow.actions[{i}]"
+        if not action.agents:
+            raise ScenarioError(file, f"{af}.agents", "an action needs at least one agent")
+        for k, agent in enumerate(action.agents):
+            if agent not in agents:
+                raise ScenarioError(file, f"{af}.agents[{k}]", f"unknown agent '{agent}'")
+        for key in ("inputs", "outputs"):
+            for k, b in enumerate(getattr(action, key)):
+                if b not in buffers:
+                    raise ScenarioError(file, f"{af}.{key}[{k}]", f"unknown buffer '{b}'")
+        for k, b in enumerate(action.outputs):
+            if kinds[b] == "raw":
+                raise ScenarioError(file, f"{af}.outputs[{k}]", f"'{b}' is a raw buffer: nothing can be put in it")
+        for k, r in enumerate(action.resources):
+            if r not in flow.resources:
+                raise ScenarioError(file, f"{af}.resources[{k}]", f"unknown resource '{r}'")
+        check_distribution(file, f"{af}.duration", action.duration)
+    for r, units in flow.resources.items():
+        if units < 1:
+            raise ScenarioError(file, f"flow.resources.{r}", f"needs at least 1 unit, got {units}")
+    # An action is live when every input buffer is raw, starts with parts, or is fed by a live action.
+    live_buffers = {b.name for b in sc.layout.buffers if b.kind == "raw" or b.initial > 0}
+    live_actions: set[str] = set()
+    changed = True
+    while changed:
+        changed = False
+        for action in flow.actions:
+            if action.name not in live_actions and all(b in live_buffers for b in action.inputs):
+                live_actions.add(action.name)
+                live_buffers.update(action.outputs)
+                changed = True
+    for i, action in enumerate(flow.actions):
+        if action.name not in live_actions:
+            missing = sorted(b for b in action.inputs if b not in live_buffers)
+            raise ScenarioError(
+                file,
+                f"flow.actions[{i}].inputs",
+                f"action '{action.name}' can never start: no action or raw buffer ever supplies {missing}",
+            )
+    # A flow action in a program or pattern must be assigned to that agent.
+    for i, robot in enumerate(sc.robots):
+        for j, arm in enumerate(robot.arms):
+            for k, name in enumerate(arm.program):
+                if name in names:
+                    spec = next(a for a in flow.actions if a.name == name)
+                    if arm.agent not in spec.agents:
+                        raise ScenarioError(
+                            file,
+                            f"robots[{i}].arms[{j}].program[{k}]",
+                            f"flow action '{name}' is assigned to {spec.agents}, not to '{arm.agent}'",
+                        )
+    for k, name in enumerate(sc.operator.pattern):
+        if name in names:
+            spec = next(a for a in flow.actions if a.name == name)
+            if sc.operator.name not in spec.agents:
+                raise ScenarioError(
+                    file, f"operator.pattern[{k}]", f"flow action '{name}' is not assigned to '{sc.operator.name}'"
+                )
+
+
+__all__ = ["ScenarioError", "load_scenario", "check_scenario", "schema"]

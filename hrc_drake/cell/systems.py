@@ -1,0 +1,189 @@
+"""Drake systems of the cell: human geometry, static scene, robot capsules, metrics."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    Box,
+    Capsule,
+    Cylinder,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    MakePhongIllustrationProperties,
+    Sphere,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from hrc_drake.cell.metrics import MetricsLog
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.human.camera import segment_segment_distance
+from hrc_drake.messages import EventLog
+
+HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
+GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]
+BUFFER_COLOR = [0.3, 0.5, 0.9, 0.6]
+PART_COLOR = [0.95, 0.8, 0.1, 1.0]
+OCCLUDER_COLOR = [0.5, 0.5, 0.55, 0.8]
+TABLE_COLOR = [0.75, 0.7, 0.6, 1.0]
+CAMERA_COLOR = [0.1, 0.1, 0.1, 1.0]
+MAX_PARTS_SHOWN = 4
+PART_SIZE = 0.035
+
+
+def segment_pose(start: np.ndarray, end: np.ndarray) -> RigidTransform:
+    """Pose whose z axis runs from `start` to `end`, centred between them."""
+    axis = end - start
+    length = np.linalg.norm(axis)
+    R = RotationMatrix.MakeFromOneVector(axis / length, 2) if length > 1e-9 else RotationMatrix()
+    return RigidTransform(R, 0.5 * (start + end))
+
+
+class HumanGeometry(LeafSystem):
+    """Registers the operator's body capsules in SceneGraph and poses them from q (12,).
+
+    Input "q" (12,); output "geometry_pose" (FramePoseVector) for SceneGraph.
+    """
+
+    def __init__(self, scene_graph, body_model, name: str = "human", color=HUMAN_COLOR):
+        super().__init__()
+        self.body = body_model
+        self.source_id = scene_graph.RegisterSource(name)
+        start, end, radius = body_model.capsules(body_model.rest_q())
+        lengths = np.linalg.norm(end - start, axis=-1)
+        from hrc_drake.human.body import CAPSULE_NAMES
+
+        self.frame_ids = []
+        for k, cap_name in enumerate(CAPSULE_NAMES):
+            frame_id = scene_graph.RegisterFrame(self.source_id, GeometryFrame(f"{name}_{cap_name}"))
+            instance = GeometryInstance(RigidTransform(), Capsule(float(radius[k]), float(lengths[k])), cap_name)
+            instance.set_illustration_properties(MakePhongIllustrationProperties(color))
+            scene_graph.RegisterGeometry(self.source_id, frame_id, instance)
+            self.frame_ids.append(frame_id)
+        self._q = self.DeclareVectorInputPort("q", 12)
+        self.DeclareAbstractOutputPort(
+            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc_poses
+        )
+
+    def _calc_poses(self, context, output):
+        start, end, _ = self.body.capsules(self._q.Eval(context))
+        poses = output.get_mutable_value()
+        for k, frame_id in enumerate(self.frame_ids):
+            poses.set_value(frame_id, segment_pose(start[k], end[k]))
+
+
+def register_scene(scene_graph, scenario: Scenario):
+    """Anchored illustration geometry of the layout: table, goal spheres, buffers, occluders, camera.
+
+    Returns {buffer name: list of geometry names of its part markers} for the replay.
+    """
+    source_id = scene_graph.RegisterSource("cell")
+    lay = scenario.layout
+
+    def add(shape, X, name, color):
+        instance = GeometryInstance(X, shape, name)
+        instance.set_illustration_properties(MakePhongIllustrationProperties(color))
+        scene_graph.RegisterAnchoredGeometry(source_id, instance)
+
+    t = lay.table
+    add(Box(*t.size), RigidTransform([t.center[0], t.center[1], t.height - t.size[2] / 2]), "table", TABLE_COLOR)
+    for g in lay.goals:
+        add(Sphere(g.radius), RigidTransform(g.center), f"goal_{g.name}", GOAL_COLOR)
+    for b in lay.buffers:
+        add(Cylinder(0.06, 0.01), RigidTransform(b.position), f"buffer_{b.name}", BUFFER_COLOR)
+    for o in lay.occluders:
+        add(Box(*o.size), RigidTransform(o.center), f"occluder_{o.name}", OCCLUDER_COLOR)
+    cam = lay.camera
+    direction = np.asarray(cam.target, float) - np.asarray(cam.position, float)
+    add(Box(0.06, 0.06, 0.12), segment_pose(np.asarray(cam.position), np.asarray(cam.position) + direction), "camera",
+        CAMERA_COLOR)
+    return source_id
+
+
+class RobotCapsules(LeafSystem):
+    """World capsules of every robot link, from the plant positions.
+
+    Input "positions" (n >= nq; the first nq entries are the plant's positions).
+    Output "capsules": abstract (start (K,3), end (K,3), radius (K,)).
+    """
+
+    def __init__(self, plant, kinematics, input_size: int):
+        super().__init__()
+        self.plant = plant
+        self.kinematics = kinematics
+        self._plant_context = plant.CreateDefaultContext()
+        self._nq = plant.num_positions()
+        self._positions = self.DeclareVectorInputPort("positions", input_size)
+        empty = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(empty), self._calc)
+
+    def _calc(self, context, output):
+        self.plant.SetPositions(self._plant_context, self._positions.Eval(context)[: self._nq])
+        output.set_value(self.kinematics.capsules(self._plant_context))
+
+
+class MinOverride(LeafSystem):
+    """The smallest of several speed overrides (each (1,) in [0, 1]); unconnected inputs are 1."""
+
+    def __init__(self, num_inputs: int):
+        super().__init__()
+        self._inputs = [self.DeclareVectorInputPort(f"override_{i}", 1) for i in range(num_inputs)]
+        self.DeclareVectorOutputPort("speed_override", 1, self._calc)
+
+    def _calc(self, context, output: BasicVector):
+        value = 1.0
+        for port in self._inputs:
+            if port.HasValue(context):
+                value = min(value, float(port.Eval(context)[0]))
+        output.SetAtIndex(0, value if np.isfinite(value) else 0.0)
+
+
+class MetricsRecorder(LeafSystem):
+    """Collects events, buffer contents and the true human-robot distance (periodic, `period` s).
+
+    Inputs "human_events", "robot_events" (EventLog), "human_q" (12,), "robot_capsules",
+    "speed_override" (1,). The `log` attribute (`MetricsLog`) holds what was recorded.
+    """
+
+    def __init__(self, body_model, world, period: float = 0.1):
+        super().__init__()
+        self.body = body_model
+        self.world = world
+        self.log = MetricsLog()
+        self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
+        self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
+        self._human_q = self.DeclareVectorInputPort("human_q", 12)
+        empty = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(empty))
+        self._override = self.DeclareVectorInputPort("speed_override", 1)
+        self._last_seq = {"human": 0, "robot": 0}
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
+        self.DeclareForcedPublishEvent(self._record)
+
+    def _collect(self, port, key, context):
+        if not port.HasValue(context):
+            return
+        new = port.Eval(context).since(self._last_seq[key])
+        if new:
+            self._last_seq[key] = new[-1].seq
+            self.log.events.extend(new)
+
+    def _record(self, context):
+        t = context.get_time()
+        if self.log.times and t <= self.log.times[-1]:
+            return
+        self._collect(self._human_events, "human", context)
+        self._collect(self._robot_events, "robot", context)
+        distance = np.inf
+        if self._human_q.HasValue(context) and self._robot_capsules.HasValue(context):
+            r_start, r_end, r_radius = self._robot_capsules.Eval(context)
+            if len(r_radius):
+                h_start, h_end, h_radius = self.body.capsules(self._human_q.Eval(context))
+                d = segment_segment_distance(
+                    h_start[:, None, :], h_end[:, None, :], r_start[None, :, :], r_end[None, :, :]
+                )
+                distance = float(np.min(d - h_radius[:, None] - r_radius[None, :]))
+        override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
+        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products)

@@ -1,0 +1,329 @@
+"""The 12-dof kinematic model of the operator's upper body (thesis Fig. 8.2, Sec. 9.0.1).
+
+Frames: world z up. The body frame B sits on the floor under the hips, x forward (the way
+the operator faces), y to the operator's left. q (12,):
+
+    0 base_x, 1 base_y, 2 base_yaw           unicycle base on the floor (Fig. 8.2a)
+    3 torso_flexion                          forward lean of the upper body around the hip
+    4..7  left arm  (shoulder_flexion, shoulder_abduction, shoulder_rotation, elbow_flexion)
+    8..11 right arm (same order)
+
+Geometry (documented choice, the thesis gives none):
+    hip height      h = HIP_FRACTION * (torso + neck + LEG_OFFSET) = 0.53 * (torso + neck + 0.75),
+                    i.e. ~0.53 of a stature estimated as torso + neck + 0.75 m
+    torso axis      u = R_z(yaw) R_y(flexion) e_z   (flexion > 0 leans forward)
+    thorax          hip + torso * u   (top of the torso segment, at shoulder height)
+    head            thorax + neck * u
+    shoulders       thorax +/- shoulder_width / 2 along the torso's y axis
+    arm (mirror m = +1 left, -1 right), all in the torso frame R_T = R_z(yaw) R_y(flexion):
+        R_S = R_y(-flexion) R_x(m abduction) R_z(m rotation)
+        elbow  = shoulder + upper_arm * R_T R_S (-e_z)
+        wrist  = elbow + forearm * R_T R_S R_y(-elbow_flexion) (-e_z)
+    so at q_arm = 0 the arm hangs straight down; shoulder flexion raises it forward,
+    abduction raises it sideways (outwards), positive rotation turns the bent forearm
+    outwards (external rotation), elbow flexion bends the forearm forward.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from hrc_drake.messages import (
+    HEAD,
+    L_ELBOW,
+    L_SHOULDER,
+    L_WRIST,
+    R_ELBOW,
+    R_SHOULDER,
+    R_WRIST,
+    THORAX,
+)
+
+N_DOF = 12
+JOINT_NAMES: tuple[str, ...] = (
+    "base_x",
+    "base_y",
+    "base_yaw",
+    "torso_flexion",
+    "left_shoulder_flexion",
+    "left_shoulder_abduction",
+    "left_shoulder_rotation",
+    "left_elbow_flexion",
+    "right_shoulder_flexion",
+    "right_shoulder_abduction",
+    "right_shoulder_rotation",
+    "right_elbow_flexion",
+)
+ARM_DOFS = {"left": slice(4, 8), "right": slice(8, 12)}
+CAPSULE_NAMES: tuple[str, ...] = (
+    "torso",
+    "head",
+    "left_upper_arm",
+    "right_upper_arm",
+    "left_forearm",
+    "right_forearm",
+)
+
+HIP_FRACTION = 0.53
+LEG_OFFSET = 0.75
+#: hand length beyond the wrist, as a fraction of the forearm length (capsules only)
+HAND_FRACTION = 0.37
+
+_BASE_RANGE = 50.0
+_ARM_LOWER = np.array([-0.8, -0.5, -1.5, 0.0])
+_ARM_UPPER = np.array([3.0, 2.8, 1.5, 2.6])
+_MIRROR = {"left": 1.0, "right": -1.0}
+
+
+def _rot_x(a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
+def _rot_y(a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+
+
+def _rot_z(a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def _apply(R: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.einsum("...ij,...j->...i", R, v)
+
+
+class BodyModel:
+    """12-dof upper-body model and its 8 skeletal points (thesis Fig. 8.2 and Fig. 9.1).
+
+    segments: `hrc_drake.cell.schema.Segments` (torso, neck, shoulder_width, upper_arm,
+    forearm in metres), or any object with those attributes; None uses the defaults.
+    """
+
+    N_DOF = N_DOF
+    JOINT_NAMES = JOINT_NAMES
+    ARM_DOFS = ARM_DOFS
+    CAPSULE_NAMES = CAPSULE_NAMES
+
+    def __init__(self, segments=None):
+        if segments is None:
+            from hrc_drake.cell.schema import Segments
+
+            segments = Segments()
+        lengths = {}
+        for name in ("torso", "neck", "shoulder_width", "upper_arm", "forearm"):
+            value = float(getattr(segments, name))
+            if not np.isfinite(value) or value <= 0.0:
+                raise ValueError(f"BodyModel: segment length {name}={value!r} must be a positive number (m)")
+            lengths[name] = value
+        self.segments = segments
+        self.torso = lengths["torso"]
+        self.neck = lengths["neck"]
+        self.shoulder_width = lengths["shoulder_width"]
+        self.upper_arm = lengths["upper_arm"]
+        self.forearm = lengths["forearm"]
+        self.hip_height = HIP_FRACTION * (self.torso + self.neck + LEG_OFFSET)
+        self.hand_length = HAND_FRACTION * self.forearm
+        base_lower = [-_BASE_RANGE, -_BASE_RANGE, -2 * np.pi, -0.3]
+        base_upper = [_BASE_RANGE, _BASE_RANGE, 2 * np.pi, 1.2]
+        self.q_lower = np.concatenate([base_lower, _ARM_LOWER, _ARM_LOWER])
+        self.q_upper = np.concatenate([base_upper, _ARM_UPPER, _ARM_UPPER])
+        # capsule radii (m): torso ~ chest half-depth scaled with the shoulders, limbs fixed
+        self.capsule_radius = np.array(
+            [0.375 * self.shoulder_width, 0.11, 0.06, 0.06, 0.05, 0.05]
+        )
+
+    # ------------------------------------------------------------------ poses
+    def rest_q(self, base_xy=(0.0, 0.0), yaw: float = 0.0) -> np.ndarray:
+        """Standing upright, arms hanging slightly away from the body, elbows slightly bent."""
+        base_xy = np.asarray(base_xy, dtype=float).reshape(-1)
+        if base_xy.shape != (2,) or not np.all(np.isfinite(base_xy)) or not np.isfinite(yaw):
+            raise ValueError(f"rest_q: base_xy must be 2 finite numbers and yaw finite, got {base_xy}, {yaw}")
+        arm = np.array([0.1, 0.1, 0.0, 0.3])
+        return np.concatenate([base_xy, [float(yaw), 0.0], arm, arm])
+
+    def _check_q(self, q, where: str) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        if q.ndim == 0 or q.shape[-1] != N_DOF:
+            raise ValueError(f"{where}: q must have last axis of size {N_DOF}, got shape {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ValueError(f"{where}: q contains NaN or inf")
+        return q
+
+    # ------------------------------------------------------------------ kinematics
+    def _frames(self, q: np.ndarray):
+        """Torso rotation, hip, thorax, torso axis for q (..., 12)."""
+        R_torso = _rot_z(q[..., 2]) @ _rot_y(q[..., 3])
+        hip = np.stack([q[..., 0], q[..., 1], np.full(q.shape[:-1], self.hip_height)], -1)
+        axis = R_torso[..., :, 2]
+        thorax = hip + self.torso * axis
+        return R_torso, hip, thorax, axis
+
+    def _arm(self, q: np.ndarray, R_torso: np.ndarray, shoulder: np.ndarray, hand: str):
+        m = _MIRROR[hand]
+        a = q[..., ARM_DOFS[hand]]
+        R_upper = R_torso @ _rot_y(-a[..., 0]) @ _rot_x(m * a[..., 1]) @ _rot_z(m * a[..., 2])
+        elbow = shoulder - self.upper_arm * R_upper[..., :, 2]
+        R_fore = R_upper @ _rot_y(-a[..., 3])
+        fore_dir = -R_fore[..., :, 2]
+        wrist = elbow + self.forearm * fore_dir
+        return elbow, wrist, fore_dir
+
+    def points(self, q) -> np.ndarray:
+        """Forward kinematics: the 8 skeletal points (..., 8, 3) for q (..., 12), Fig. 9.1 order."""
+        q = self._check_q(q, "BodyModel.points")
+        return self._points(q)
+
+    def _points(self, q: np.ndarray, with_fore_dir: bool = False):
+        R_torso, _, thorax, axis = self._frames(q)
+        lateral = 0.5 * self.shoulder_width * R_torso[..., :, 1]
+        l_sh = thorax + lateral
+        r_sh = thorax - lateral
+        l_el, l_wr, l_dir = self._arm(q, R_torso, l_sh, "left")
+        r_el, r_wr, r_dir = self._arm(q, R_torso, r_sh, "right")
+        head = thorax + self.neck * axis
+        pts = np.stack([thorax, head, l_sh, r_sh, l_el, r_el, l_wr, r_wr], -2)
+        if with_fore_dir:
+            return pts, l_dir, r_dir
+        return pts
+
+    def gaze(self, q, head_yaw_pitch=None) -> np.ndarray:
+        """Unit gaze direction (..., 3): the torso's forward axis turned by head yaw, then pitch.
+
+        head_yaw_pitch: (..., 2) head yaw (left positive) and pitch (down positive) relative
+        to the torso, or None for straight ahead.
+        """
+        q = self._check_q(q, "BodyModel.gaze")
+        R = _rot_z(q[..., 2]) @ _rot_y(q[..., 3])
+        if head_yaw_pitch is not None:
+            hyp = np.asarray(head_yaw_pitch, dtype=float)
+            if hyp.shape[-1] != 2:
+                raise ValueError(f"BodyModel.gaze: head_yaw_pitch must end with size 2, got {hyp.shape}")
+            R = R @ _rot_z(hyp[..., 0]) @ _rot_y(hyp[..., 1])
+        return R[..., :, 0]
+
+    def capsules(self, q):
+        """Body capsules: start (..., 6, 3), end (..., 6, 3), radius (6,) in CAPSULE_NAMES order.
+
+        Torso hip -> thorax, head along the neck axis around the head point, upper arms
+        shoulder -> elbow, forearms elbow -> wrist extended by a hand length.
+        """
+        q = self._check_q(q, "BodyModel.capsules")
+        _, hip, thorax, axis = self._frames(q)
+        pts, l_dir, r_dir = self._points(q, with_fore_dir=True)
+        head = pts[..., HEAD, :]
+        start = np.stack(
+            [hip, head - 0.06 * axis, pts[..., L_SHOULDER, :], pts[..., R_SHOULDER, :],
+             pts[..., L_ELBOW, :], pts[..., R_ELBOW, :]], -2
+        )
+        end = np.stack(
+            [thorax, head + 0.06 * axis, pts[..., L_ELBOW, :], pts[..., R_ELBOW, :],
+             pts[..., L_WRIST, :] + self.hand_length * l_dir,
+             pts[..., R_WRIST, :] + self.hand_length * r_dir], -2
+        )
+        return start, end, self.capsule_radius.copy()
+
+    # ------------------------------------------------------------------ inverse kinematics
+    def _clip(self, q: np.ndarray) -> np.ndarray:
+        span = self.q_upper - self.q_lower
+        return np.clip(q, self.q_lower + 1e-6 * span, self.q_upper - 1e-6 * span)
+
+    def _arm_closed_form(self, R_torso, shoulder, elbow, wrist, hand: str):
+        """Closed-form arm angles from shoulder, elbow, wrist positions (None if degenerate)."""
+        m = _MIRROR[hand]
+        d_upper = R_torso.T @ (elbow - shoulder)
+        n = np.linalg.norm(d_upper)
+        if n < 1e-9:
+            return None
+        d = d_upper / n
+        # d = R_y(-f) R_x(m a) (-e_z) = (sin f cos a, m sin a, -cos f cos a)
+        abduction = np.arcsin(np.clip(m * d[1], -1.0, 1.0))
+        flexion = np.arctan2(d[0], -d[2])
+        if wrist is None:
+            return np.array([flexion, abduction, 0.0, 0.3])
+        d_fore = wrist - elbow
+        nf = np.linalg.norm(d_fore)
+        if nf < 1e-9:
+            return np.array([flexion, abduction, 0.0, 0.3])
+        R_upper0 = _rot_y(np.array(-flexion)) @ _rot_x(np.array(m * abduction))
+        v = R_upper0.T @ (R_torso.T @ d_fore) / nf
+        # v = R_z(m r) R_y(-e) (-e_z) = (cos(m r) sin e, sin(m r) sin e, -cos e)
+        elbow_flexion = np.arccos(np.clip(-v[2], -1.0, 1.0))
+        rotation = m * np.arctan2(v[1], v[0]) if np.hypot(v[0], v[1]) > 1e-6 else 0.0
+        return np.array([flexion, abduction, rotation, elbow_flexion])
+
+    def _initial_guess(self, pts: np.ndarray, finite: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+        """Closed-form pose from the visible points, falling back on q_ref where they are missing."""
+        q = q_ref.copy()
+        yaw = q[2]
+        if finite[L_SHOULDER] and finite[R_SHOULDER]:
+            lateral = pts[L_SHOULDER] - pts[R_SHOULDER]
+            yaw = np.arctan2(-lateral[0], lateral[1])
+            yaw = q_ref[2] + (yaw - q_ref[2] + np.pi) % (2 * np.pi) - np.pi  # nearest to reference
+        q[2] = yaw
+        thorax = None
+        if finite[THORAX]:
+            thorax = pts[THORAX]
+        elif finite[L_SHOULDER] and finite[R_SHOULDER]:
+            thorax = 0.5 * (pts[L_SHOULDER] + pts[R_SHOULDER])
+        if thorax is not None:
+            flexion = np.arccos(np.clip((thorax[2] - self.hip_height) / self.torso, -1.0, 1.0))
+            if finite[HEAD]:
+                up = pts[HEAD] - thorax
+                forward = up[0] * np.cos(yaw) + up[1] * np.sin(yaw)
+                flexion = np.arctan2(forward, up[2])
+            q[3] = flexion
+            lean = self.torso * np.sin(flexion)
+            q[0] = thorax[0] - lean * np.cos(yaw)
+            q[1] = thorax[1] - lean * np.sin(yaw)
+        q = self._clip(q)
+        R_torso = _rot_z(np.array(q[2])) @ _rot_y(np.array(q[3]))
+        model_pts = self._points(q)
+        chains = (("left", L_SHOULDER, L_ELBOW, L_WRIST), ("right", R_SHOULDER, R_ELBOW, R_WRIST))
+        for hand, sh, el, wr in chains:
+            if not finite[el]:
+                continue
+            shoulder = pts[sh] if finite[sh] else model_pts[sh]
+            arm = self._arm_closed_form(R_torso, shoulder, pts[el], pts[wr] if finite[wr] else None, hand)
+            if arm is not None:
+                q[ARM_DOFS[hand]] = arm
+        return self._clip(q)
+
+    def inverse(self, points, q0=None, regularization: float = 1e-3) -> np.ndarray:
+        """Least-squares inverse kinematics from the 8 skeletal points (thesis 8.1.1, ref. [134]).
+
+        Minimises sum ||FK_i(q) - p_i||^2 over the finite rows of `points` (8, 3) plus a small
+        `regularization`^2 ||q - q_init||^2 that keeps unseen joints near the initial guess;
+        q stays within [q_lower, q_upper]. The initial guess is solved in closed form from the
+        visible points, completed by q0 (or the rest pose) where points are missing.
+        """
+        pts = np.asarray(points, dtype=float)
+        if pts.shape != (8, 3):
+            raise ValueError(f"BodyModel.inverse: points must have shape (8, 3), got {pts.shape}")
+        finite = np.all(np.isfinite(pts), axis=1)
+        if finite.sum() < 3:
+            raise ValueError(
+                f"BodyModel.inverse: need at least 3 finite skeletal points, got {int(finite.sum())}"
+            )
+        if q0 is None:
+            centre = pts[finite].mean(axis=0)
+            q_ref = self.rest_q(centre[:2], 0.0)
+        else:
+            q_ref = self._check_q(q0, "BodyModel.inverse(q0)").reshape(N_DOF).copy()
+        q_init = self._initial_guess(pts, finite, self._clip(q_ref))
+        target = pts[finite]
+
+        def residual(q):
+            err = (self._points(q)[finite] - target).ravel()
+            return np.concatenate([err, regularization * (q - q_init)])
+
+        result = least_squares(
+            residual, q_init, bounds=(self.q_lower, self.q_upper), method="trf", x_scale=1.0,
+            xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200,
+        )
+        return result.x

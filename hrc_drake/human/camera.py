@@ -1,0 +1,190 @@
+"""A depth camera that measures the 8 skeletal points and loses the ones it cannot see (thesis Ch. 9).
+
+A point is lost (tracked False, NaN row) when the line of sight from the camera to it crosses
+an occluder box (slab test) or passes closer than a capsule's radius to one of the given
+capsules (segment-segment distance), or when it lies outside the view cone (FOV_HALF_ANGLE
+from the camera axis). Visible points get isotropic Gaussian noise. The gaze flag F of thesis
+3.1.2 is False when the face is hidden or turned away from the camera by more than
+`gaze_valid_angle`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hrc_drake.messages import HEAD, SkeletonFrame
+
+#: half-angle of the view cone around the camera axis (rad)
+FOV_HALF_ANGLE = np.deg2rad(60.0)
+_EPS = 1e-12
+
+
+def _vec3(value, what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"DepthCameraModel: {what} must be 3 finite numbers, got {value!r}")
+    return arr
+
+
+def segments_hit_boxes(origin: np.ndarray, points: np.ndarray, lower: np.ndarray,
+                       upper: np.ndarray) -> np.ndarray:
+    """Slab test: does the segment origin -> points[n] cross box b?  Returns (N, B) bool.
+
+    origin (3,), points (N, 3), lower/upper (B, 3) box corners. The point itself lying on
+    the box surface does not count as crossing.
+    """
+    d = points[:, None, :] - origin  # (N, 1, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t1 = (lower - origin) * inv  # (N, B, 3)
+        t2 = (upper - origin) * inv
+    parallel = d == 0.0
+    inside_slab = (origin >= lower) & (origin <= upper)  # (B, 3)
+    t_near = np.where(parallel, np.where(inside_slab, -np.inf, np.inf), np.minimum(t1, t2))
+    t_far = np.where(parallel, np.where(inside_slab, np.inf, -np.inf), np.maximum(t1, t2))
+    t_enter = t_near.max(axis=-1)
+    t_exit = t_far.min(axis=-1)
+    return (t_exit > np.maximum(t_enter, 0.0)) & (t_enter < 1.0 - 1e-9)
+
+
+def segment_segment_distance(p1, q1, p2, q2) -> np.ndarray:
+    """Distance between segments p1-q1 and p2-q2, broadcast over leading axes (closest points)."""
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = np.einsum("...i,...i->...", d1, d1)
+    e = np.einsum("...i,...i->...", d2, d2)
+    f = np.einsum("...i,...i->...", d2, r)
+    c = np.einsum("...i,...i->...", d1, r)
+    b = np.einsum("...i,...i->...", d1, d2)
+    a_safe = np.maximum(a, _EPS)
+    e_safe = np.maximum(e, _EPS)
+    denom = a * e - b * b
+    general = denom > _EPS * np.maximum(a * e, _EPS)
+    s = np.where(general, np.clip((b * f - c * e) / np.maximum(denom, _EPS), 0.0, 1.0), 0.0)
+    t = (b * s + f) / e_safe
+    s_at_t1 = np.clip((b - c) / a_safe, 0.0, 1.0)
+    s = np.where(t < 0.0, np.clip(-c / a_safe, 0.0, 1.0), np.where(t > 1.0, s_at_t1, s))
+    t = np.clip(t, 0.0, 1.0)
+    # degenerate second segment (a sphere): closest point on the first segment to p2
+    s = np.where(e <= _EPS, np.clip(-c / a_safe, 0.0, 1.0), s)
+    t = np.where(e <= _EPS, 0.0, t)
+    gap = (p1 + d1 * s[..., None]) - (p2 + d2 * t[..., None])
+    return np.sqrt(np.einsum("...i,...i->...", gap, gap))
+
+
+def _check_capsules(capsules):
+    start, end, radius = capsules
+    start = np.asarray(start, dtype=float).reshape(-1, 3)
+    end = np.asarray(end, dtype=float).reshape(-1, 3)
+    radius = np.broadcast_to(np.asarray(radius, dtype=float).reshape(-1), (start.shape[0],))
+    if end.shape != start.shape:
+        raise ValueError(f"capsules: start {start.shape} and end {end.shape} must have the same shape (K, 3)")
+    return start, end, radius
+
+
+class DepthCameraModel:
+    """Depth camera with occluder boxes, view cone and Gaussian noise (thesis Ch. 9, Fig. 9.2).
+
+    position, target: camera centre and a point on its optical axis (world, m).
+    occluders: list of (center (3,), size (3,)) axis-aligned boxes, or objects with
+    `center`/`size` attributes (schema `Occluder`). margin: boxes are grown by this much
+    on every side. noise_std: measurement noise per coordinate (m). rate: frames per second.
+    gaze_valid_angle: largest angle (rad) between gaze and the head-to-camera direction
+    for which the face is seen (flag F of Sec. 3.1.2).
+    """
+
+    def __init__(self, position, target, occluders=(), noise_std: float = 0.01, rate: float = 30.0,
+                 margin: float = 0.0, gaze_valid_angle: float = 1.2, fov_half_angle: float = FOV_HALF_ANGLE):
+        self.position = _vec3(position, "position")
+        self.target = _vec3(target, "target")
+        axis = self.target - self.position
+        if np.linalg.norm(axis) < 1e-9:
+            raise ValueError("DepthCameraModel: target must differ from position")
+        self.axis = axis / np.linalg.norm(axis)
+        for name, value in (("noise_std", noise_std), ("margin", margin)):
+            if not np.isfinite(value) or value < 0:
+                raise ValueError(f"DepthCameraModel: {name} must be >= 0, got {value!r}")
+        if not np.isfinite(rate) or rate <= 0:
+            raise ValueError(f"DepthCameraModel: rate must be > 0, got {rate!r}")
+        self.noise_std = float(noise_std)
+        self.rate = float(rate)
+        self.margin = float(margin)
+        self.gaze_valid_angle = float(gaze_valid_angle)
+        self.fov_half_angle = float(fov_half_angle)
+        centers, sizes = [], []
+        for i, box in enumerate(occluders):
+            if hasattr(box, "center"):
+                center, size = box.center, box.size
+            else:
+                center, size = box
+            center = _vec3(center, f"occluders[{i}].center")
+            size = _vec3(size, f"occluders[{i}].size")
+            if np.any(size < 0):
+                raise ValueError(f"DepthCameraModel: occluders[{i}].size must be >= 0, got {size}")
+            centers.append(center)
+            sizes.append(size)
+        centers = np.reshape(centers, (-1, 3))
+        half = 0.5 * np.reshape(sizes, (-1, 3)) + self.margin
+        self.box_lower = centers - half
+        self.box_upper = centers + half
+
+    def in_view(self, points) -> np.ndarray:
+        """(...,) True where the point lies inside the view cone."""
+        pts = np.asarray(points, dtype=float)
+        rel = pts - self.position
+        dist = np.linalg.norm(rel, axis=-1)
+        cos = np.einsum("...i,i->...", rel, self.axis) / np.maximum(dist, _EPS)
+        return cos >= np.cos(self.fov_half_angle)
+
+    def is_occluded(self, points, capsules=None) -> np.ndarray:
+        """(...,) True where the line of sight crosses an occluder box or a capsule."""
+        pts = np.asarray(points, dtype=float)
+        if pts.shape[-1] != 3:
+            raise ValueError(f"DepthCameraModel: points must end with size 3, got {pts.shape}")
+        flat = pts.reshape(-1, 3)
+        hidden = np.zeros(flat.shape[0], dtype=bool)
+        if self.box_lower.shape[0]:
+            hidden |= segments_hit_boxes(self.position, flat, self.box_lower, self.box_upper).any(axis=1)
+        if capsules is not None:
+            start, end, radius = _check_capsules(capsules)
+            if start.shape[0]:
+                dist = segment_segment_distance(self.position, flat[:, None, :], start, end)  # (N, K)
+                hidden |= (dist < radius).any(axis=1)
+        hidden |= ~np.all(np.isfinite(flat), axis=1)
+        return hidden.reshape(pts.shape[:-1])
+
+    def is_hidden(self, points, capsules=None) -> np.ndarray:
+        """(...,) True where the camera cannot measure the point: occluded or outside the view cone.
+
+        capsules: optional (start (K, 3), end (K, 3), radius (K,)), e.g. the robot links.
+        """
+        return self.is_occluded(points, capsules) | ~self.in_view(points)
+
+    def gaze_visible(self, head, gaze) -> bool:
+        """Flag F: the face is turned towards the camera within gaze_valid_angle."""
+        to_camera = self.position - np.asarray(head, dtype=float)
+        gaze = np.asarray(gaze, dtype=float)
+        norm = np.linalg.norm(to_camera) * np.linalg.norm(gaze)
+        if not np.isfinite(norm) or norm < _EPS:
+            return False
+        cos = float(np.dot(to_camera, gaze) / norm)
+        return bool(np.arccos(np.clip(cos, -1.0, 1.0)) <= self.gaze_valid_angle)
+
+    def measure(self, time: float, true_points, gaze, rng: np.random.Generator,
+                capsules=None) -> SkeletonFrame:
+        """One frame: noisy visible points, NaN rows and tracked False for hidden ones."""
+        pts = np.asarray(true_points, dtype=float)
+        if pts.shape != (8, 3):
+            raise ValueError(f"DepthCameraModel.measure: true_points must be (8, 3), got {pts.shape}")
+        gaze = np.asarray(gaze, dtype=float).reshape(-1)
+        if gaze.shape != (3,):
+            raise ValueError(f"DepthCameraModel.measure: gaze must be (3,), got {gaze.shape}")
+        hidden = self.is_hidden(pts, capsules)
+        noisy = pts + rng.normal(0.0, self.noise_std, size=pts.shape) if self.noise_std > 0 else pts.copy()
+        noisy[hidden] = np.nan
+        gnorm = np.linalg.norm(gaze)
+        unit_gaze = gaze / gnorm if gnorm > _EPS else np.array([1.0, 0.0, 0.0])
+        valid = bool(not hidden[HEAD] and gnorm > _EPS and self.gaze_visible(pts[HEAD], unit_gaze))
+        return SkeletonFrame(time=float(time), points=noisy, tracked=~hidden, gaze=unit_gaze,
+                             gaze_valid=valid)

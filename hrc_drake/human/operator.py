@@ -1,0 +1,405 @@
+"""A synthetic operator: repeats a cyclic pattern of actions, reaching goals with min-jerk motions.
+
+Each action (thesis Ch. 2: an action a reaches the goal regions G_a) has one goal per phase,
+reached in order (e.g. pick at a buffer, then place at a goal). Its duration D is drawn from
+the task's sampler and split evenly over the n phases; in each phase of length P = D / n the
+head first turns towards the goal (HEAD_LEAD s, gaze leads the hand as in thesis 3.1.2),
+then the wrist reaches it along a minimum-jerk joint-space motion (75 % of what is left),
+then dwells. Between actions, while the world says the action cannot start (parts missing),
+the operator waits with the wrists resting in front of the torso at table height.
+
+Arm configurations come from a small inverse kinematics on wrist position only (torso
+flexion + the arm(s) of the action, base fixed), solved once per goal and cached, so that
+`q(t)` is closed-form minimum-jerk interpolation between cached configurations.
+"""
+
+from __future__ import annotations
+
+import warnings
+from bisect import bisect_right
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from hrc_drake.human.body import ARM_DOFS, BodyModel
+from hrc_drake.human.trajectories import minimum_jerk
+from hrc_drake.messages import HEAD, HUMAN_AGENT, THORAX, WRIST_OF_HAND, HumanEvent
+
+#: the head starts turning towards a goal this long before the hand starts moving (s)
+HEAD_LEAD = 0.3
+#: fraction of a phase (after the head lead) spent reaching; the rest is a dwell
+REACH_FRACTION = 0.75
+#: time to bring the hands back to rest when the operator has to wait (s)
+RETURN_TIME = 1.0
+#: for two-handed actions each wrist goes this far (m) to its side of the goal
+BOTH_HANDS_OFFSET = 0.08
+#: where the resting wrists are: ahead of the hip and to each side of the body axis (m)
+REST_FORWARD = 0.25
+REST_LATERAL = 0.17
+MIN_DURATION = 0.05
+_HEAD_LOWER = np.array([-1.4, -0.6])
+_HEAD_UPPER = np.array([1.4, 1.1])
+_HANDS_OF = {"left": ("left",), "right": ("right",), "both": ("left", "right")}
+
+
+@dataclass
+class OperatorTask:
+    """One action of the operator: goals (3,) reached in order with `hand` (left|right|both).
+
+    duration_sampler(rng) -> float gives the whole action's duration (s).
+    """
+
+    name: str
+    goals: list = field(default_factory=list)
+    hand: str = "right"
+    duration_sampler: Callable[[np.random.Generator], float] | None = None
+
+
+def sampler_from_distribution(dist) -> Callable[[np.random.Generator], float]:
+    """A duration sampler from a `schema.Distribution` (kinds: fixed, normal, uniform,
+    triangular, lognormal, empirical), floored at MIN_DURATION."""
+    kind = dist.kind
+    mean, std, low, high, mode = (float(dist.mean), float(dist.std), float(dist.low), float(dist.high),
+                                  float(dist.mode))
+    if kind == "fixed":
+        if mean <= 0:
+            raise ValueError(f"duration distribution 'fixed': mean must be > 0, got {mean}")
+        return lambda rng: mean
+    if kind == "normal":
+        if std < 0:
+            raise ValueError(f"duration distribution 'normal': std must be >= 0, got {std}")
+        floor = max(low, MIN_DURATION)
+
+        def normal(rng):
+            for _ in range(100):  # truncation at `low` by rejection
+                value = rng.normal(mean, std)
+                if value >= floor:
+                    return float(value)
+            return floor
+
+        return normal
+    if kind == "uniform":
+        if not high > low:
+            raise ValueError(f"duration distribution 'uniform': need high > low, got low={low}, high={high}")
+        return lambda rng: max(float(rng.uniform(low, high)), MIN_DURATION)
+    if kind == "triangular":
+        if not low <= mode <= high or not high > low:
+            raise ValueError(f"duration distribution 'triangular': need low <= mode <= high, "
+                             f"got {low}, {mode}, {high}")
+        return lambda rng: max(float(rng.triangular(low, mode, high)), MIN_DURATION)
+    if kind == "lognormal":
+        if mean <= 0 or std < 0:
+            raise ValueError(f"duration distribution 'lognormal': need mean > 0, std >= 0, got {mean}, {std}")
+        sigma2 = np.log1p((std / mean) ** 2)
+        mu = np.log(mean) - 0.5 * sigma2
+        return lambda rng: max(float(rng.lognormal(mu, np.sqrt(sigma2))), MIN_DURATION)
+    if kind == "empirical":
+        samples = np.asarray(dist.samples, dtype=float)
+        if samples.size == 0 or not np.all(np.isfinite(samples)):
+            raise ValueError("duration distribution 'empirical': samples must be a non-empty list of numbers")
+        return lambda rng: max(float(rng.choice(samples)), MIN_DURATION)
+    raise ValueError(f"duration distribution: unknown kind {kind!r}")
+
+
+def tasks_from_schema(operator_schema, goal_positions: dict) -> dict:
+    """OperatorTask per `schema.OperatorAction`; goal_positions maps goal/buffer name -> (3,)."""
+    tasks = {}
+    for i, action in enumerate(operator_schema.actions):
+        goals = []
+        for name in action.goals:
+            if name not in goal_positions:
+                raise ValueError(f"operator.actions[{i}] ({action.name}): unknown goal {name!r}; "
+                                 f"known: {sorted(goal_positions)}")
+            goals.append(np.asarray(goal_positions[name], dtype=float))
+        sampler = sampler_from_distribution(action.duration)
+        tasks[action.name] = OperatorTask(action.name, goals, action.hand, sampler)
+    return tasks
+
+
+@dataclass
+class _Segment:
+    t0: float
+    duration: float
+    start: np.ndarray
+    end: np.ndarray
+
+
+class _Plan:
+    """Piecewise minimum-jerk trajectory: segments sorted by start time, holding between them."""
+
+    def __init__(self, value: np.ndarray, t0: float):
+        self.segments = [_Segment(t0, 1.0, value.copy(), value.copy())]
+        self._starts = [t0]
+
+    def reset(self, t: float, segments: list[_Segment]):
+        now = self.at(t)
+        self.segments = [_Segment(t, 1.0, now, now)] + segments
+        self._starts = [s.t0 for s in self.segments]
+
+    def last_value(self) -> np.ndarray:
+        return self.segments[-1].end
+
+    def at(self, t: float) -> np.ndarray:
+        i = bisect_right(self._starts, t) - 1
+        if i < 0:
+            return self.segments[0].start.copy()
+        seg = self.segments[i]
+        return minimum_jerk(seg.start, seg.end, seg.duration, t - seg.t0)[0]
+
+
+class SyntheticOperator:
+    """Simulated operator following a cyclic action pattern (see module docstring).
+
+    body: BodyModel; tasks: action name -> OperatorTask; pattern: cyclic list of action
+    names; rest_q (12,): base pose and torso flexion (its arm values are replaced by the
+    resting configuration); rng: numpy Generator; world: object with
+    `try_start(agent, action) -> bool` and `finish(agent, action)` (None: always starts);
+    rest_height: wrist height at rest (default: median goal height + 5 cm).
+    """
+
+    def __init__(self, body: BodyModel, tasks: dict, pattern, rest_q, rng: np.random.Generator,
+                 world=None, agent: str = HUMAN_AGENT, rest_height: float | None = None):
+        self.body = body
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.world = world
+        self.agent = agent
+        self.pattern = list(pattern)
+        if not self.pattern:
+            raise ValueError("SyntheticOperator: pattern must name at least one action")
+        self.tasks = {}
+        for name, task in tasks.items():
+            if task.hand not in _HANDS_OF:
+                raise ValueError(f"SyntheticOperator: task {name!r} hand must be left|right|both, "
+                                 f"got {task.hand!r}")
+            if not task.goals:
+                raise ValueError(f"SyntheticOperator: task {name!r} has no goals")
+            goals = []
+            for k, goal in enumerate(task.goals):
+                g = np.asarray(goal, dtype=float).reshape(-1)
+                if g.shape != (3,) or not np.all(np.isfinite(g)):
+                    raise ValueError(f"SyntheticOperator: task {name!r} goals[{k}] must be 3 finite numbers, "
+                                     f"got {goal!r}")
+                goals.append(g)
+            if task.duration_sampler is None:
+                raise ValueError(f"SyntheticOperator: task {name!r} has no duration_sampler")
+            self.tasks[name] = OperatorTask(task.name, goals, task.hand, task.duration_sampler)
+        missing = [name for name in self.pattern if name not in self.tasks]
+        if missing:
+            raise ValueError(f"SyntheticOperator: pattern names unknown actions {missing}; "
+                             f"known: {sorted(self.tasks)}")
+
+        q = np.asarray(rest_q, dtype=float).reshape(-1)
+        if q.shape != (12,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"SyntheticOperator: rest_q must be 12 finite numbers, got shape {q.shape}")
+        self._base_q = body._clip(q)
+        yaw = self._base_q[2]
+        self._forward = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        self._left = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+        if rest_height is None:
+            all_goals = np.array([g for t in self.tasks.values() for g in t.goals])
+            rest_height = float(np.median(all_goals[:, 2])) + 0.05
+        self.rest_height = float(rest_height)
+        self.unreachable: list[tuple[str, np.ndarray, float]] = []
+        self._cache: dict = {}
+        hip = np.array([self._base_q[0], self._base_q[1], 0.0])
+        self.rest_wrists = {
+            hand: hip + REST_FORWARD * self._forward + sign * REST_LATERAL * self._left
+            + np.array([0.0, 0.0, self.rest_height])
+            for hand, sign in (("left", 1.0), ("right", -1.0))
+        }
+        rest_targets = [self.rest_wrists["left"], self.rest_wrists["right"]]
+        self.rest_config = self._solve(("left", "right"), rest_targets, self._base_q)
+        self._rest_look = 0.5 * (self.rest_wrists["left"] + self.rest_wrists["right"])
+
+        self._time = None
+        self._seq = 0
+        self._index = 0
+        self._state = "idle"
+        self._action: str | None = None
+        self._action_end = 0.0
+        self._phase_starts: list[float] = []
+        self._phase_goals: list[dict] = []
+        self.events: list[HumanEvent] = []
+        self._joints = _Plan(self.rest_config, 0.0)
+        self._head = _Plan(self._head_angles(self.rest_config, self._rest_look), 0.0)
+
+    # ------------------------------------------------------------------ kinematics helpers
+    def _solve(self, hands, targets, q_start) -> np.ndarray:
+        """IK on wrist positions only: torso flexion + the hands' arms free, base fixed."""
+        free = [3] + [i for hand in hands for i in range(12)[ARM_DOFS[hand]]]
+        wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
+        target = np.asarray(targets, dtype=float)
+        reference = q_start[free].copy()
+        # leaning costs more than moving the arm: lean only when the arm alone cannot reach
+        weights = np.array([0.03] + [0.003] * (len(free) - 1))
+
+        def residual(x):
+            q = q_start.copy()
+            q[free] = x
+            err = (self.body._points(q)[wrist_rows] - target).ravel()
+            return np.concatenate([err, weights * (x - reference)])
+
+        lower, upper = self.body.q_lower[free], self.body.q_upper[free]
+        best = None
+        reach_arm = np.array([1.0, 0.2, 0.0, 1.2])
+        for guess_arm in (None, reach_arm):
+            x0 = reference.copy()
+            if guess_arm is not None:
+                x0[1:] = np.tile(guess_arm, len(hands))
+            x0 = np.clip(x0, lower + 1e-6, upper - 1e-6)
+            result = least_squares(residual, x0, bounds=(lower, upper), xtol=1e-10, ftol=1e-10, max_nfev=300)
+            if best is None or result.cost < best.cost:
+                best = result
+        q = q_start.copy()
+        q[free] = best.x
+        error = float(np.linalg.norm(self.body._points(q)[wrist_rows] - target, axis=1).max())
+        if error > 0.01:
+            self.unreachable.append((",".join(hands), target.copy(), error))
+            warnings.warn(f"SyntheticOperator: goal {target.tolist()} out of reach by {error:.3f} m",
+                          stacklevel=3)
+        return q
+
+    def _goal_config(self, hand: str, goal: np.ndarray) -> np.ndarray:
+        key = (hand, tuple(np.round(goal, 6)))
+        if key not in self._cache:
+            hands = _HANDS_OF[hand]
+            if hand == "both":
+                targets = [goal + BOTH_HANDS_OFFSET * self._left, goal - BOTH_HANDS_OFFSET * self._left]
+            else:
+                targets = [goal]
+            self._cache[key] = self._solve(hands, targets, self.rest_config)
+        return self._cache[key]
+
+    def _head_angles(self, q: np.ndarray, look_at: np.ndarray) -> np.ndarray:
+        """Head yaw (left +) and pitch (down +) relative to the torso that look at `look_at`."""
+        head = self.body._points(q)[HEAD]
+        yaw, lean = q[2], q[3]
+        c, s = np.cos(yaw), np.sin(yaw)
+        d = look_at - head
+        d_yawed = np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]])
+        cl, sl = np.cos(lean), np.sin(lean)
+        d_torso = np.array([cl * d_yawed[0] - sl * d_yawed[2], d_yawed[1], sl * d_yawed[0] + cl * d_yawed[2]])
+        yaw_to = np.arctan2(d_torso[1], d_torso[0])
+        angles = np.array([yaw_to, np.arctan2(-d_torso[2], np.hypot(d_torso[0], d_torso[1]))])
+        return np.clip(angles, _HEAD_LOWER, _HEAD_UPPER)
+
+    # ------------------------------------------------------------------ planning
+    def _plan_action(self, t0: float, task: OperatorTask, duration: float):
+        hands = _HANDS_OF[task.hand]
+        n = len(task.goals)
+        phase = duration / n
+        lead = min(HEAD_LEAD, 0.2 * phase)
+        reach = REACH_FRACTION * (phase - lead)
+        joint_segments, head_segments = [], []
+        q_prev = self._joints.at(t0)
+        head_prev = self._head.at(t0)
+        self._phase_starts, self._phase_goals = [], []
+        for k, goal in enumerate(task.goals):
+            start = t0 + k * phase
+            q_goal = self._goal_config(task.hand, goal)
+            head_goal = self._head_angles(q_goal, goal)
+            head_segments.append(_Segment(start, lead, head_prev, head_goal))
+            joint_segments.append(_Segment(start + lead, reach, q_prev, q_goal))
+            q_prev, head_prev = q_goal, head_goal
+            self._phase_starts.append(start)
+            self._phase_goals.append({hand: goal for hand in hands})
+        self._joints.reset(t0, joint_segments)
+        self._head.reset(t0, head_segments)
+
+    def _plan_rest(self, t0: float, look_at: np.ndarray):
+        q_now = self._joints.at(t0)
+        self._joints.reset(t0, [_Segment(t0, RETURN_TIME, q_now, self.rest_config)])
+        head_now = self._head.at(t0)
+        head_goal = self._head_angles(self.rest_config, look_at)
+        self._head.reset(t0, [_Segment(t0, HEAD_LEAD, head_now, head_goal)])
+
+    def _emit(self, time: float, action: str, kind: str, out: list):
+        self._seq += 1
+        event = HumanEvent(time=float(time), action=action, kind=kind, seq=self._seq, agent=self.agent)
+        self.events.append(event)
+        out.append(event)
+
+    # ------------------------------------------------------------------ logic
+    def update(self, t: float) -> list[HumanEvent]:
+        """Advance the operator to time t; returns the events emitted (begin/end/wait_begin/wait_end)."""
+        t = float(t)
+        if not np.isfinite(t):
+            raise ValueError(f"SyntheticOperator.update: time must be finite, got {t}")
+        if self._time is not None and t < self._time - 1e-12:
+            raise ValueError(f"SyntheticOperator.update: time went backwards ({t} < {self._time})")
+        out: list[HumanEvent] = []
+        start_time = t
+        while True:
+            if self._state == "busy":
+                if t < self._action_end:
+                    break
+                if self.world is not None:
+                    self.world.finish(self.agent, self._action)
+                self._emit(self._action_end, self._action, "end", out)
+                start_time = self._action_end
+                self._action = None
+                self._state = "idle"
+                self._index = (self._index + 1) % len(self.pattern)
+            name = self.pattern[self._index]
+            if self.world is None or self.world.try_start(self.agent, name):
+                if self._state == "waiting":
+                    self._emit(t, name, "wait_end", out)
+                    start_time = t
+                task = self.tasks[name]
+                duration = float(task.duration_sampler(self.rng))
+                if not np.isfinite(duration) or duration <= 0:
+                    raise ValueError(f"SyntheticOperator: duration sampler of {name!r} returned {duration!r}")
+                self._emit(start_time, name, "begin", out)
+                self._state = "busy"
+                self._action = name
+                self._action_end = start_time + duration
+                self._plan_action(start_time, task, duration)
+                continue
+            if self._state != "waiting":
+                self._emit(t, name, "wait_begin", out)
+                self._state = "waiting"
+                self._phase_starts, self._phase_goals = [], []
+                self._plan_rest(t, self.tasks[name].goals[0])
+            break
+        self._time = t
+        return out
+
+    # ------------------------------------------------------------------ pose
+    @property
+    def state(self) -> str:
+        """'idle' (before the first update), 'busy' or 'waiting'."""
+        return self._state
+
+    @property
+    def current_action(self) -> str | None:
+        return self._action
+
+    def current_goal(self, hand: str) -> np.ndarray | None:
+        """The goal the given hand is reaching in the current phase, or None."""
+        if hand not in ("left", "right"):
+            raise ValueError(f"current_goal: hand must be 'left' or 'right', got {hand!r}")
+        if self._action is None or not self._phase_starts:
+            return None
+        k = max(bisect_right(self._phase_starts, self._time) - 1, 0)
+        goal = self._phase_goals[k].get(hand)
+        return None if goal is None else goal.copy()
+
+    def q(self, t: float) -> np.ndarray:
+        """True configuration (12,) at time t (closed-form min-jerk, no IK)."""
+        return self._joints.at(float(t))
+
+    def head_yaw_pitch(self, t: float) -> np.ndarray:
+        return self._head.at(float(t))
+
+    def points(self, t: float) -> np.ndarray:
+        """True skeletal points (8, 3) at time t."""
+        return self.body._points(self.q(t))
+
+    def gaze(self, t: float) -> np.ndarray:
+        """True unit gaze direction (3,) at time t."""
+        return self.body.gaze(self.q(t), self.head_yaw_pitch(t))
+
+    def thorax(self, t: float) -> np.ndarray:
+        return self.points(t)[THORAX]

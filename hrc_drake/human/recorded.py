@@ -1,0 +1,109 @@
+"""Recorded skeleton streams as CSV: one row per camera frame (thesis Ch. 9 data format).
+
+Header: `time`, then `<point>_x,<point>_y,<point>_z` for the 8 points of
+`messages.SKELETON_POINTS` in order, then `<point>_tracked` (0/1) for the 8 points.
+Coordinates may be NaN (or empty) only where the point is untracked. Times strictly increase.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hrc_drake.messages import SKELETON_POINTS
+
+HEADER: tuple[str, ...] = (
+    ("time",)
+    + tuple(f"{name}_{axis}" for name in SKELETON_POINTS for axis in "xyz")
+    + tuple(f"{name}_tracked" for name in SKELETON_POINTS)
+)
+
+
+def _number(text: str, path, line: int, column: str) -> float:
+    text = text.strip()
+    if text == "" or text.lower() == "nan":
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{path}:{line}: column {column!r}: {text!r} is not a number") from None
+
+
+def load_skeleton_csv(path):
+    """Read a skeleton CSV -> times (T,), points (T, 8, 3) with NaN where untracked, tracked (T, 8) bool."""
+    path = Path(path)
+    with path.open(newline="") as handle:
+        reader = csv.reader(handle)
+        try:
+            header = [h.strip() for h in next(reader)]
+        except StopIteration:
+            raise ValueError(f"{path}: empty file, expected the header {','.join(HEADER[:4])},...") from None
+        if tuple(header) != HEADER:
+            missing = [h for h in HEADER if h not in header]
+            raise ValueError(f"{path}:1: bad header; expected {len(HEADER)} columns "
+                             f"'{','.join(HEADER[:4])},...' in order (missing: {missing[:5]})")
+        times, points, tracked = [], [], []
+        for line, row in enumerate(reader, start=2):
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            if len(row) != len(HEADER):
+                raise ValueError(f"{path}:{line}: expected {len(HEADER)} values, got {len(row)}")
+            values = [_number(cell, path, line, HEADER[i]) for i, cell in enumerate(row)]
+            time = values[0]
+            if not math.isfinite(time):
+                raise ValueError(f"{path}:{line}: time must be a finite number, got {row[0]!r}")
+            if times and time <= times[-1]:
+                raise ValueError(f"{path}:{line}: time {time} does not increase (previous {times[-1]})")
+            frame = np.array(values[1:25], dtype=float).reshape(8, 3)
+            flags = values[25:]
+            for k, flag in enumerate(flags):
+                if flag not in (0.0, 1.0):
+                    raise ValueError(f"{path}:{line}: column {HEADER[25 + k]!r} must be 0 or 1, "
+                                     f"got {row[25 + k]!r}")
+            flags = np.array(flags) == 1.0
+            bad = flags & ~np.all(np.isfinite(frame), axis=1)
+            if bad.any():
+                name = SKELETON_POINTS[int(np.argmax(bad))]
+                raise ValueError(f"{path}:{line}: point {name!r} is tracked but has a NaN or inf coordinate")
+            frame[~flags] = np.nan
+            times.append(time)
+            points.append(frame)
+            tracked.append(flags)
+    if not times:
+        raise ValueError(f"{path}: no data rows after the header")
+    return np.array(times), np.array(points), np.array(tracked, dtype=bool)
+
+
+def save_skeleton_csv(path, times, points, tracked=None) -> None:
+    """Write times (T,), points (T, 8, 3), tracked (T, 8) (default: finite rows) as a skeleton CSV."""
+    times = np.asarray(times, dtype=float).reshape(-1)
+    points = np.asarray(points, dtype=float)
+    if points.shape != (times.size, 8, 3):
+        raise ValueError(f"save_skeleton_csv: points must be ({times.size}, 8, 3), got {points.shape}")
+    if tracked is None:
+        tracked = np.all(np.isfinite(points), axis=2)
+    tracked = np.asarray(tracked, dtype=bool)
+    if tracked.shape != (times.size, 8):
+        raise ValueError(f"save_skeleton_csv: tracked must be ({times.size}, 8), got {tracked.shape}")
+    if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+        raise ValueError("save_skeleton_csv: times must be finite and strictly increasing")
+    bad = tracked & ~np.all(np.isfinite(points), axis=2)
+    if bad.any():
+        row, point = np.argwhere(bad)[0]
+        raise ValueError(f"save_skeleton_csv: row {row} point {SKELETON_POINTS[point]!r} is tracked "
+                         "but not finite")
+    with Path(path).open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(HEADER)
+        for t, frame, flags in zip(times, points, tracked, strict=True):
+            coords = ["nan" if not flag else repr(float(v))
+                      for flag, row in zip(flags, frame, strict=True) for v in row]
+            writer.writerow([repr(float(t))] + coords + [str(int(f)) for f in flags])
+
+
+def frame_at(times: np.ndarray, t: float) -> int:
+    """Index of the last sample with time <= t (0 before the first one)."""
+    return max(int(np.searchsorted(times, t, side="right")) - 1, 0)

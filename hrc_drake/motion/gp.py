@@ -1,0 +1,300 @@
+"""Gaussian-process human motion models h_GP, thesis 8.1.2 and App. E.
+
+The joint state of one step is phi_k (n_dof, 3) = [q, q', q''] per joint (the content of
+eq. 8.2 in the position-first order of `hrc_drake.perception.kalman`). A model is a set of
+joint groups; each group g is one multi-output GP (E.17)-(E.18) mapping its last P states
+(phi^g_{k-1}, ..., phi^g_{k-P}) to phi^g_k:
+
+    model A: 12 groups of one joint, eq. (8.11)-(8.13)
+    model B: one group of all joints, eq. (8.14)
+    model C: base, left arm, right arm, eq. (8.15)-(8.18)
+
+Kernel (8.7): k(x, x') = theta1 x^T x' + theta3 exp(-theta2/2 ||x - x'||^2) + theta4 delta,
+built from scikit-learn's DotProduct, RBF and WhiteKernel; hyperparameters maximise the
+marginal likelihood (E.8)/(E.16). Inputs and outputs are standardised with the training
+set's mean and standard deviation, so one RBF length fits features of different units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import cho_solve
+from scipy.optimize import minimize
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, DotProduct, WhiteKernel
+
+N_DOF = 12
+#: joint groups of the three models of 8.1.2 (indices of q, body-model order)
+MODEL_GROUPS: dict[str, tuple[tuple[int, ...], ...]] = {
+    "gp_a": tuple((j,) for j in range(N_DOF)),
+    "gp_b": (tuple(range(N_DOF)),),
+    "gp_c": ((0, 1, 2, 3), (4, 5, 6, 7), (8, 9, 10, 11)),
+}
+GROUP_NAMES: dict[str, tuple[str, ...]] = {
+    "gp_a": tuple(f"q{j}" for j in range(N_DOF)),
+    "gp_b": ("all",),
+    "gp_c": ("base", "left_arm", "right_arm"),
+}
+
+_THETA_BOUNDS = (1e-5, 1e3)
+
+
+def motion_kernel(theta1: float = 0.1, theta2: float = 0.1, theta3: float = 1.0, theta4: float = 0.01):
+    """The kernel of eq. (8.7) as a scikit-learn kernel.
+
+    theta1 X^T X' (ConstantKernel x DotProduct with sigma_0 = 0), theta3 exp(-theta2/2 d^2)
+    (ConstantKernel x RBF with length scale 1/sqrt(theta2)), theta4 delta (WhiteKernel).
+    """
+    for name, value in (("theta1", theta1), ("theta2", theta2), ("theta3", theta3), ("theta4", theta4)):
+        if not np.isfinite(value) or value <= 0:
+            raise ValueError(f"motion_kernel: {name} must be a positive number, got {value!r}")
+    linear = ConstantKernel(theta1, _THETA_BOUNDS) * DotProduct(sigma_0=0.0, sigma_0_bounds="fixed")
+    rbf = ConstantKernel(theta3, _THETA_BOUNDS) * RBF(length_scale=1.0 / np.sqrt(theta2),
+                                                       length_scale_bounds=(1e-2, 1e3))
+    return linear + rbf + WhiteKernel(theta4, _THETA_BOUNDS)
+
+
+def kernel_theta(kernel) -> np.ndarray:
+    """(theta1, theta2, theta3, theta4) of eq. (8.7) from a kernel built by `motion_kernel`."""
+    try:
+        theta1 = kernel.k1.k1.k1.constant_value
+        theta3 = kernel.k1.k2.k1.constant_value
+        length = kernel.k1.k2.k2.length_scale
+        theta4 = kernel.k2.noise_level
+    except AttributeError as err:
+        raise ValueError(f"kernel_theta: not a kernel built by motion_kernel: {kernel!r}") from err
+    return np.array([theta1, 1.0 / float(length) ** 2, theta3, theta4], dtype=float)
+
+
+def kernel_8_7(x_a, x_b, theta) -> np.ndarray:
+    """Eq. (8.7) without the white-noise term, between rows of x_a (..., A, D) and x_b (..., B, D)."""
+    theta1, theta2, theta3 = theta[..., 0], theta[..., 1], theta[..., 2]
+    dot = x_a @ np.swapaxes(x_b, -1, -2)
+    sq = (x_a**2).sum(-1)[..., :, None] + (x_b**2).sum(-1)[..., None, :] - 2.0 * dot
+    sq = np.maximum(sq, 0.0)
+    rbf = np.exp(-0.5 * theta2[..., None, None] * sq)
+    return theta1[..., None, None] * dot + theta3[..., None, None] * rbf
+
+
+def _limited_lbfgs(max_iter: int):
+    def optimizer(obj_func, initial_theta, bounds):
+        result = minimize(obj_func, initial_theta, method="L-BFGS-B", jac=True, bounds=bounds,
+                          options={"maxiter": max_iter})
+        return result.x, result.fun
+
+    return optimizer
+
+
+class GPMotionModel:
+    """h_GP of eq. (8.4)-(8.5): one multi-output GP per joint group, of order P.
+
+    groups: joint index tuples (or "gp_a" | "gp_b" | "gp_c", the models A, B, C of 8.1.2).
+    order: P, the number of past states a prediction looks at.
+    max_samples: fixed size of the training set (100 in 8.1.3).
+    max_iter: L-BFGS iterations per refit; the previous hyperparameters are the start point,
+        so a few iterations track a slowly changing optimum.
+    random_state: seed or Generator for choosing which samples to replace.
+
+    Learned attributes (after `fit`/`partial_fit`): X_ (N, P, n_dof, 3) inputs, Y_ (N, n_dof, 3)
+    targets of the training set, theta_ (G, 4) kernel hyperparameters per group.
+    """
+
+    def __init__(self, groups="gp_c", order: int = 4, n_dof: int = N_DOF, max_samples: int = 100,
+                 max_iter: int = 15, initial_theta=(0.1, 0.1, 1.0, 0.01), random_state=None):
+        if isinstance(groups, str):
+            if groups not in MODEL_GROUPS:
+                raise ValueError(f"GPMotionModel: unknown model {groups!r}; "
+                                 f"use one of {sorted(MODEL_GROUPS)}")
+            groups = MODEL_GROUPS[groups]
+        groups = tuple(tuple(int(j) for j in g) for g in groups)
+        used = [j for g in groups for j in g]
+        if not groups or any(len(g) == 0 for g in groups):
+            raise ValueError("GPMotionModel: groups must be non-empty tuples of joint indices")
+        if sorted(used) != list(range(n_dof)):
+            raise ValueError(f"GPMotionModel: groups {groups} must cover joints 0..{n_dof - 1} exactly once")
+        if int(order) != order or order < 1:
+            raise ValueError(f"GPMotionModel: order must be a positive integer, got {order!r}")
+        if int(max_samples) != max_samples or max_samples < 2:
+            raise ValueError(f"GPMotionModel: max_samples must be an integer >= 2, got {max_samples!r}")
+        self.groups = groups
+        self.order = int(order)
+        self.n_dof = int(n_dof)
+        self.max_samples = int(max_samples)
+        self.max_iter = int(max_iter)
+        self.initial_theta = tuple(float(v) for v in initial_theta)
+        motion_kernel(*self.initial_theta)  # validates
+        self.random_state = random_state
+
+    # ---------------------------------------------------------------- training
+    def _check_windows(self, windows) -> np.ndarray:
+        windows = np.asarray(windows, dtype=float)
+        expected = (self.order + 1, self.n_dof, 3)
+        if windows.ndim != 4 or windows.shape[1:] != expected:
+            raise ValueError(
+                f"GPMotionModel: windows must be (S, {expected[0]}, {expected[1]}, 3) (P + 1 consecutive "
+                f"states, oldest first), got {windows.shape}"
+            )
+        if not np.all(np.isfinite(windows)):
+            raise ValueError("GPMotionModel: windows contain NaN or inf")
+        return windows
+
+    def fit(self, windows) -> GPMotionModel:
+        """Train on sample windows (S, P+1, n_dof, 3): states k-P .. k, oldest first (eq. 8.13).
+
+        Keeps at most `max_samples` of them (a uniform random subset).
+        """
+        windows = self._check_windows(windows)
+        self._rng = np.random.default_rng(self.random_state)
+        if len(windows) > self.max_samples:
+            windows = windows[np.sort(self._rng.choice(len(windows), self.max_samples, replace=False))]
+        self.X_ = windows[:, :-1].copy()
+        self.Y_ = windows[:, -1].copy()
+        self.theta_ = np.tile(np.array(self.initial_theta), (len(self.groups), 1))
+        self._refit()
+        return self
+
+    def partial_fit(self, windows) -> GPMotionModel:
+        """Add new sample windows and refit (8.1.3): the set grows to `max_samples`, then each
+        new sample replaces a uniformly chosen old one (recent and remote past both stay)."""
+        windows = self._check_windows(windows)
+        if not hasattr(self, "X_"):
+            return self.fit(windows)
+        if len(windows) == 0:
+            return self
+        new_x, new_y = windows[:, :-1], windows[:, -1]
+        room = self.max_samples - len(self.X_)
+        if room > 0:
+            take = min(room, len(new_x))
+            self.X_ = np.concatenate([self.X_, new_x[:take]])
+            self.Y_ = np.concatenate([self.Y_, new_y[:take]])
+            new_x, new_y = new_x[take:], new_y[take:]
+        if len(new_x):
+            if len(new_x) > self.max_samples:
+                new_x, new_y = new_x[-self.max_samples:], new_y[-self.max_samples:]
+            slots = self._rng.choice(len(self.X_), len(new_x), replace=False)
+            self.X_[slots] = new_x
+            self.Y_[slots] = new_y
+        self._refit()
+        return self
+
+    def _group_data(self, g: int):
+        joints = list(self.groups[g])
+        n = len(self.X_)
+        x = self.X_[:, ::-1][:, :, joints, :].reshape(n, -1)  # phi_{k-1}, ..., phi_{k-P}
+        y = self.Y_[:, joints, :].reshape(n, -1)
+        return x, y
+
+    def _refit(self) -> None:
+        n = len(self.X_)
+        buckets: dict[int, list[int]] = {}
+        for g, joints in enumerate(self.groups):
+            buckets.setdefault(len(joints), []).append(g)
+        self.buckets_ = []
+        for size, members in buckets.items():
+            d_in, d_out = 3 * size * self.order, 3 * size
+            x_train = np.empty((len(members), n, d_in))
+            alpha = np.empty((len(members), n, d_out))
+            k_inv = np.empty((len(members), n, n))
+            x_mean = np.empty((len(members), d_in))
+            x_std = np.empty((len(members), d_in))
+            y_mean = np.empty((len(members), d_out))
+            y_std = np.empty((len(members), d_out))
+            for i, g in enumerate(members):
+                x, y = self._group_data(g)
+                x_mean[i], y_mean[i] = x.mean(0), y.mean(0)
+                # A constant feature (e.g. a still joint) keeps unit scale instead of dividing by 0.
+                x_std[i] = np.where(x.std(0) > 1e-9, x.std(0), 1.0)
+                y_std[i] = np.where(y.std(0) > 1e-9, y.std(0), 1.0)
+                xs = (x - x_mean[i]) / x_std[i]
+                ys = (y - y_mean[i]) / y_std[i]
+                regressor = GaussianProcessRegressor(
+                    kernel=motion_kernel(*self.theta_[g]), alpha=1e-8, normalize_y=False,
+                    optimizer=_limited_lbfgs(self.max_iter) if self.max_iter > 0 else None,
+                    copy_X_train=False,
+                )
+                regressor.fit(xs, ys)
+                self.theta_[g] = kernel_theta(regressor.kernel_)
+                x_train[i] = xs
+                alpha[i] = regressor.alpha_.reshape(n, d_out)
+                k_inv[i] = cho_solve((regressor.L_, True), np.eye(n))
+            self.buckets_.append({
+                "members": members, "joints": np.array([self.groups[g] for g in members]),
+                "x_train": x_train, "alpha": alpha, "k_inv": k_inv, "theta": self.theta_[members],
+                "x_mean": x_mean, "x_std": x_std, "y_mean": y_mean, "y_std": y_std,
+            })
+
+    @property
+    def n_samples_(self) -> int:
+        return len(self.X_)
+
+    def _check_fitted(self, where: str) -> None:
+        if not hasattr(self, "buckets_"):
+            raise ValueError(f"GPMotionModel.{where}: the model is not fitted yet (call fit or partial_fit)")
+
+    # ---------------------------------------------------------------- prediction
+    def _predict_bucket(self, bucket, inputs):
+        """Mean and variance (E.6) of the standardised outputs for raw inputs (G, T, d_in)."""
+        xs = (inputs - bucket["x_mean"][:, None]) / bucket["x_std"][:, None]
+        theta = bucket["theta"]
+        k_x = kernel_8_7(xs, bucket["x_train"], theta)  # (G, T, N)
+        mean = k_x @ bucket["alpha"]  # (G, T, d_out)
+        k_xx = theta[:, 0, None] * (xs**2).sum(-1) + theta[:, 2, None] + theta[:, 3, None]
+        explained = np.einsum("gtn,gnm,gtm->gt", k_x, bucket["k_inv"], k_x)
+        return mean, np.maximum(k_xx - explained, 0.0)
+
+    def predict(self, history, return_std: bool = False):
+        """Mean next state phi_k (n_dof, 3) from `history` (P, n_dof, 3), oldest first (E.18).
+
+        With return_std, also the predictive standard deviation (n_dof, 3) of (E.17).
+        """
+        self._check_fitted("predict")
+        history = np.asarray(history, dtype=float)
+        if history.shape != (self.order, self.n_dof, 3) or not np.all(np.isfinite(history)):
+            raise ValueError(f"GPMotionModel.predict: history must be finite "
+                             f"({self.order}, {self.n_dof}, 3), got {history.shape}")
+        out = np.empty((self.n_dof, 3))
+        std = np.empty((self.n_dof, 3))
+        for bucket in self.buckets_:
+            joints = bucket["joints"]  # (G, s)
+            inputs = history[::-1][:, joints, :]  # (P, G, s, 3)
+            inputs = inputs.transpose(1, 0, 2, 3).reshape(len(joints), 1, -1)
+            mean, var = self._predict_bucket(bucket, inputs)
+            y = mean[:, 0] * bucket["y_std"] + bucket["y_mean"]
+            out[joints] = y.reshape(joints.shape + (3,))
+            s = np.sqrt(var[:, 0, None]) * bucket["y_std"]
+            std[joints] = s.reshape(joints.shape + (3,))
+        return (out, std) if return_std else out
+
+    def sample_rollouts(self, history, steps: int, n_trials: int, rng) -> np.ndarray:
+        """Monte Carlo trials of eq. (8.8): T sampled futures of M steps from `history`.
+
+        history: (P, n_dof, 3) the last P filtered states, oldest first; each step draws
+        phi~_{k+l} from the predictive Gaussian (E.17) given the previous P (sampled) states.
+        Returns q~ (T, M, n_dof), the joint positions along every trial.
+        """
+        self._check_fitted("sample_rollouts")
+        history = np.asarray(history, dtype=float)
+        if history.shape != (self.order, self.n_dof, 3) or not np.all(np.isfinite(history)):
+            raise ValueError(f"sample_rollouts: history must be finite ({self.order}, {self.n_dof}, 3), "
+                             f"got {history.shape}")
+        if int(steps) != steps or steps < 1 or int(n_trials) != n_trials or n_trials < 1:
+            raise ValueError(f"sample_rollouts: steps and n_trials must be positive integers, "
+                             f"got {steps}, {n_trials}")
+        rng = np.random.default_rng(rng)
+        positions = np.empty((n_trials, steps, self.n_dof))
+        for bucket in self.buckets_:
+            joints = bucket["joints"]  # (G, s)
+            n_groups, size = joints.shape
+            # past: (G, T, P, 3 s), newest last
+            past = history[:, joints, :].transpose(1, 0, 2, 3).reshape(n_groups, 1, self.order, 3 * size)
+            past = np.repeat(past, n_trials, axis=1)
+            for step in range(steps):
+                inputs = past[:, :, ::-1].reshape(n_groups, n_trials, -1)
+                mean, var = self._predict_bucket(bucket, inputs)
+                noise = rng.standard_normal(mean.shape)
+                standardised = mean + np.sqrt(var)[..., None] * noise
+                nxt = standardised * bucket["y_std"][:, None] + bucket["y_mean"][:, None]
+                past = np.concatenate([past[:, :, 1:], nxt[:, :, None]], axis=2)
+                q = nxt.reshape(n_groups, n_trials, size, 3)[..., 0]  # (G, T, s)
+                positions[:, step, joints.reshape(-1)] = q.transpose(1, 0, 2).reshape(n_trials, -1)
+        return positions

@@ -1,0 +1,325 @@
+"""Reactive safety core, thesis 8.1: human joint state, excursions, swept volumes.
+
+Pipeline of Fig. 8.4, one `ReactiveMotionPredictor.update` per camera sample:
+skeleton points -> q (body-model IK) -> Kalman filter on the three-integrator chain (8.3)
+-> every `refresh_period` the RTS-smoothed window (8.6) refreshes the GP model (8.13)
+-> Monte Carlo excursions Delta+/- (8.8)-(8.10), or the worst-case bounds of [107]
+-> capsules bounding the body over the horizon (`SweptVolumes`).
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from hrc_drake.messages import SweptVolumes
+from hrc_drake.motion.geometry import bounding_capsules
+from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
+from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth
+
+MOTION_KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
+_BASE_TRANSLATION = (0, 1)
+
+
+def excursions_from_rollouts(q_now, rollouts, percentile=None) -> tuple[np.ndarray, np.ndarray]:
+    """Reachable excursions from Monte Carlo trials, eq. (8.8)-(8.10).
+
+    q_now: (n,) current joint values q_k|k; rollouts: (T, M, n) sampled futures.
+    Per trial, Delta~+ = max(0, max_l q~_{k+l} - q_k) and Delta~- = max(0, q_k - min_l q~_{k+l});
+    the result is their mean over trials (8.9)-(8.10), or the given percentile (0-100), the
+    risk trade-off of Fig. 8.3. Returns (delta_plus (n,), delta_minus (n,)).
+    """
+    q_now = np.asarray(q_now, dtype=float)
+    rollouts = np.asarray(rollouts, dtype=float)
+    if rollouts.ndim != 3 or rollouts.shape[2] != q_now.shape[-1] or q_now.ndim != 1:
+        raise ValueError(f"excursions_from_rollouts: need q_now (n,) and rollouts (T, M, n); "
+                         f"got {q_now.shape} and {rollouts.shape}")
+    if not (np.all(np.isfinite(q_now)) and np.all(np.isfinite(rollouts))):
+        raise ValueError("excursions_from_rollouts: q_now or rollouts contain NaN or inf")
+    plus = np.maximum(rollouts.max(axis=1) - q_now, 0.0)
+    minus = np.maximum(q_now - rollouts.min(axis=1), 0.0)
+    if percentile is None:
+        return plus.mean(axis=0), minus.mean(axis=0)
+    if not 0.0 <= percentile <= 100.0:
+        raise ValueError(f"excursions_from_rollouts: percentile must be in [0, 100], got {percentile!r}")
+    return np.percentile(plus, percentile, axis=0), np.percentile(minus, percentile, axis=0)
+
+
+def worst_case_excursions(qdot, horizon: float, v_max, a_max) -> tuple[np.ndarray, np.ndarray]:
+    """Worst-case reachable excursions of [107]: bounded velocity and acceleration, eq. (8.1).
+
+    From velocity qdot (n,), the joint accelerates at a_max until |qdot| reaches v_max; the
+    largest displacement within [0, horizon] is max(0, d(horizon)) because d(t) is convex
+    then linear with positive slope. Returns (delta_plus (n,), delta_minus (n,)).
+    """
+    qdot = np.asarray(qdot, dtype=float)
+    v_max = np.broadcast_to(np.asarray(v_max, dtype=float), qdot.shape)
+    a_max = np.broadcast_to(np.asarray(a_max, dtype=float), qdot.shape)
+    if not np.all(np.isfinite(qdot)):
+        raise ValueError("worst_case_excursions: qdot contains NaN or inf")
+    if np.any(v_max <= 0) or np.any(a_max <= 0) or not horizon >= 0:
+        raise ValueError("worst_case_excursions: v_max and a_max must be positive and horizon >= 0")
+
+    def reach(v0):
+        v0 = np.clip(v0, -v_max, v_max)
+        t_sat = np.minimum((v_max - v0) / a_max, horizon)
+        d = v0 * t_sat + 0.5 * a_max * t_sat**2 + v_max * (horizon - t_sat)
+        return np.maximum(d, 0.0)
+
+    return reach(qdot), reach(-qdot)
+
+
+def _rot_z(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    zero, one = np.zeros_like(angle), np.ones_like(angle)
+    return np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)], -2)
+
+
+class SweptVolumeBuilder:
+    """Capsules bounding each body capsule over the joint box [q - Delta-, q + Delta+] (8.1.1, Fig. 8.2c).
+
+    The box is sampled on a grid of `levels` values per rotation (torso flexion, the 8 arm
+    joints, base yaw) and the two ends of each base translation (a translation sweeps the
+    convex hull of its end positions). The two arms share a sample index (an arm capsule
+    does not depend on the other arm), so every combination a capsule depends on is visited.
+    Forward kinematics runs once per (flexion, arm) sample at the origin; base yaw and
+    translation are rigid motions of the whole body, applied to the capsule end points.
+    Each body capsule's instances are then bounded by one capsule
+    (`geometry.bounding_capsules`), inflated by `margin` plus the largest gap between the
+    arc a rotation sweeps and its chord between grid values, lever * (1 - cos(step / 2)),
+    summed over the rotations.
+    """
+
+    def __init__(self, body, levels: int = 3, margin: float = 0.0):
+        if int(levels) != levels or levels < 2:
+            raise ValueError(f"SweptVolumeBuilder: levels must be an integer >= 2, got {levels!r}")
+        if not margin >= 0:
+            raise ValueError(f"SweptVolumeBuilder: margin must be >= 0, got {margin!r}")
+        self.body = body
+        self.levels = int(levels)
+        self.margin = float(margin)
+        self.names = tuple(body.CAPSULE_NAMES)
+        self._arm_parts = np.array(["arm" in name for name in self.names])
+        axis = np.linspace(0.0, 1.0, self.levels)
+        arm = np.stack(np.meshgrid(axis, axis, axis, axis, indexing="ij"), -1).reshape(-1, 4)
+        flex_index, arm_index = np.meshgrid(np.arange(self.levels), np.arange(len(arm)), indexing="ij")
+        self._flex_fraction = axis[flex_index.ravel()]
+        self._arm_fraction = arm[arm_index.ravel()]
+        # the samples with the first arm value already visit every flexion value
+        self._base_only = arm_index.ravel() == 0
+        self._axis = axis
+        corners = np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0], [1.0, 1.0]])
+        self._corners = corners
+        reach = sum(getattr(body, name, 0.5) for name in ("upper_arm", "forearm", "hand_length"))
+        torso = getattr(body, "torso", 0.6)
+        half_width = 0.5 * getattr(body, "shoulder_width", 0.5)
+        head = getattr(body, "neck", 0.3) + 0.06
+        # distance of any capsule point from each rotation axis (conservative)
+        self._levers = np.concatenate([
+            [torso + half_width + reach, torso + head + half_width + reach], np.full(8, reach)])
+
+    def build(self, q, delta_plus, delta_minus) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Bounding capsules (start (K, 3), end (K, 3), radius (K,)) for the joint box around q."""
+        q = np.asarray(q, dtype=float)
+        delta_plus = np.asarray(delta_plus, dtype=float)
+        delta_minus = np.asarray(delta_minus, dtype=float)
+        if not (q.shape == delta_plus.shape == delta_minus.shape == (12,)):
+            raise ValueError(f"SweptVolumeBuilder.build: q, delta_plus, delta_minus must be (12,), got "
+                             f"{q.shape}, {delta_plus.shape}, {delta_minus.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(delta_plus)) and np.all(np.isfinite(delta_minus))):
+            raise ValueError("SweptVolumeBuilder.build: q or excursions contain NaN or inf")
+        if np.any(delta_plus < 0) or np.any(delta_minus < 0):
+            raise ValueError("SweptVolumeBuilder.build: excursions must be >= 0")
+        low = np.maximum(q - delta_minus, self.body.q_lower)
+        high = np.minimum(q + delta_plus, self.body.q_upper)
+        high = np.maximum(high, low)
+        span = high - low
+        local = np.zeros((len(self._flex_fraction), 12))
+        local[:, 3] = low[3] + self._flex_fraction * span[3]
+        local[:, 4:8] = low[4:8] + self._arm_fraction * span[4:8]
+        local[:, 8:12] = low[8:12] + self._arm_fraction * span[8:12]
+        starts, ends, radius = self.body.capsules(local)  # (F, K, 3) at the origin, yaw 0
+        rotations = _rot_z(low[2] + self._axis * span[2])  # (L, 3, 3)
+        shifts = np.zeros((4, 3))
+        shifts[:, :2] = low[:2] + self._corners * span[:2]
+
+        def place(points):  # (F, K, 3) -> (4 * L * F, K, 3)
+            turned = np.einsum("lij,fkj->lfki", rotations, points)
+            return (turned[None] + shifts[:, None, None, None]).reshape(-1, *points.shape[1:])
+
+        rotation_span = np.concatenate([[span[2], span[3]], span[4:]])
+        arc_gap = float(np.sum(self._levers * (1.0 - np.cos(0.5 * rotation_span / (self.levels - 1)))))
+        start = np.empty((len(self.names), 3))
+        end = np.empty((len(self.names), 3))
+        bound = np.empty(len(self.names))
+        for parts, rows in ((self._arm_parts, slice(None)), (~self._arm_parts, self._base_only)):
+            if np.any(parts):
+                start[parts], end[parts], bound[parts] = bounding_capsules(
+                    place(starts[rows][:, parts]), place(ends[rows][:, parts]), radius[parts],
+                    self.margin + arc_gap)
+        return start, end, bound
+
+
+class JointStateEstimator:
+    """Kalman filter on the three-integrator chain of eq. (8.3), one track per joint.
+
+    The state of joint j is [q_j, q'_j, q''_j] (position first). Keeps the last `window`
+    filtered means and covariances for the RTS smoother (8.6).
+    """
+
+    def __init__(self, n_dof: int = 12, dt: float = 0.05, process_std: float = 30.0,
+                 measurement_std: float = 0.02, window: int = 20):
+        self.model = ChainOfIntegrators(order=3, dt=dt, sigma=[0.0, 0.0, process_std], dim=1)
+        self.filter = KalmanFilter(self.model, n_tracks=n_dof, measurement_std=measurement_std,
+                                   initial_std=[measurement_std, 1.0, 5.0])
+        if int(window) != window or window < 2:
+            raise ValueError(f"JointStateEstimator: window must be an integer >= 2, got {window!r}")
+        self.window = int(window)
+        self.n_dof = int(n_dof)
+        self.reset()
+
+    def reset(self) -> None:
+        self.filter.reset()
+        self.means_: list[np.ndarray] = []
+        self.covs_: list[np.ndarray] = []
+
+    def step(self, q) -> np.ndarray:
+        """Filter one measurement q (n_dof,); returns phi_k|k (n_dof, 3)."""
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.n_dof,):
+            raise ValueError(f"JointStateEstimator.step: q must be ({self.n_dof},), got {q.shape}")
+        if np.any(self.filter.initialized_):
+            self.filter.predict()
+        self.filter.update(q[:, None])
+        self.means_.append(self.filter.x_.copy())
+        self.covs_.append(self.filter.P_.copy())
+        if len(self.means_) > self.window:
+            del self.means_[0], self.covs_[0]
+        return self.filter.x_.copy()
+
+    def smoothed_window(self) -> np.ndarray:
+        """phi_k|K (W, n_dof, 3) over the stored window, eq. (8.6)."""
+        means, _ = rts_smooth(self.model, np.array(self.means_), np.array(self.covs_))
+        return means
+
+
+class ReactiveMotionPredictor:
+    """Swept volumes of the human from skeleton estimates, thesis 8.1 (Fig. 8.4).
+
+    kind: gp_a | gp_b | gp_c (models A, B, C of 8.1.2) or worst_case ([107]).
+    order: P. dt: sample time (s). horizon: prediction time (s), M = round(horizon / dt).
+    n_trials: T Monte Carlo trials. percentile: None for the mean (8.9)-(8.10), else 0-100.
+    refresh_period: model update period (s, 0.5 in 8.1.3); each update adds the samples of
+        the RTS-smoothed window that arrived since the last one (10 at 20 Hz).
+    max_samples: training-set size (100). smoothing_window: RTS window length (steps).
+    process_std, measurement_std: KF noise (jerk density of eq. 8.3, rad or m).
+    joint_speed, joint_accel (rad/s, rad/s^2), base_speed, base_accel (m/s, m/s^2): the
+        worst-case limits of [107]; also the fallback before the first GP is trained.
+    levels, margin: swept-volume sampling, see `SweptVolumeBuilder`.
+    """
+
+    def __init__(self, body, kind: str = "gp_c", order: int = 4, dt: float = 0.05, horizon: float = 0.5,
+                 n_trials: int = 50, percentile: float | None = None, refresh_period: float = 0.5,
+                 max_samples: int = 100, smoothing_window: int = 20, process_std: float = 30.0,
+                 measurement_std: float = 0.02, max_iter: int = 15, joint_speed: float = 3.0,
+                 joint_accel: float = 15.0, base_speed: float = 1.6, base_accel: float = 3.0,
+                 levels: int = 3, margin: float = 0.0, rng=None):
+        if kind not in MOTION_KINDS:
+            raise ValueError(f"ReactiveMotionPredictor: unknown kind {kind!r}; use one of {MOTION_KINDS}")
+        if not (dt > 0 and horizon > 0 and refresh_period > 0):
+            raise ValueError("ReactiveMotionPredictor: dt, horizon and refresh_period must be positive")
+        if int(n_trials) != n_trials or n_trials < 1:
+            raise ValueError(f"ReactiveMotionPredictor: n_trials must be a positive integer, "
+                             f"got {n_trials!r}")
+        if percentile is not None and not 0 <= percentile <= 100:
+            raise ValueError(f"ReactiveMotionPredictor: percentile must be in [0, 100], got {percentile!r}")
+        self.body = body
+        self.kind = kind
+        self.order = int(order)
+        self.dt = float(dt)
+        self.steps = max(1, int(round(horizon / dt)))
+        self.horizon = self.steps * self.dt
+        self.n_trials = int(n_trials)
+        self.percentile = percentile
+        self.refresh_steps = max(1, int(round(refresh_period / dt)))
+        window = max(int(smoothing_window), self.refresh_steps + self.order + 1)
+        self.estimator = JointStateEstimator(12, dt, process_std, measurement_std, window)
+        self.max_samples = int(max_samples)
+        self.max_iter = int(max_iter)
+        self.v_max = np.full(12, float(joint_speed))
+        self.a_max = np.full(12, float(joint_accel))
+        self.v_max[list(_BASE_TRANSLATION)] = base_speed
+        self.a_max[list(_BASE_TRANSLATION)] = base_accel
+        self.builder = SweptVolumeBuilder(body, levels, margin)
+        self._seed = rng
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the operator: filter, history and model."""
+        self.rng = np.random.default_rng(self._seed)
+        self.estimator.reset()
+        self.model_ = None
+        if self.kind != "worst_case":
+            self.model_ = GPMotionModel(MODEL_GROUPS[self.kind], self.order, max_samples=self.max_samples,
+                                        max_iter=self.max_iter, random_state=self.rng)
+        self.q_ = None
+        self.phi_ = None
+        self._steps_seen = 0
+        self._history: list[np.ndarray] = []
+        self.fit_seconds_: list[float] = []
+        self.last_time_ = None
+
+    @property
+    def model_ready(self) -> bool:
+        return self.model_ is not None and hasattr(self.model_, "buckets_")
+
+    def _refresh_model(self) -> None:
+        smoothed = self.estimator.smoothed_window()
+        count = min(self.refresh_steps, len(smoothed) - self.order)
+        if count <= 0:
+            return
+        last = len(smoothed)
+        windows = np.stack([smoothed[k - self.order:k + 1] for k in range(last - count, last)])
+        start = _time.perf_counter()
+        self.model_.partial_fit(windows)
+        self.fit_seconds_.append(_time.perf_counter() - start)
+
+    def update_q(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """One step from a measured q (12,): filter, maybe refresh h_GP, excursions (Delta+, Delta-)."""
+        q = np.asarray(q, dtype=float)
+        if q.shape != (12,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"ReactiveMotionPredictor.update_q: q must be 12 finite values, got {q}")
+        phi = self.estimator.step(q)
+        self.phi_ = phi
+        self.q_ = phi[:, 0].copy()
+        self._history.append(phi)
+        if len(self._history) > self.order:
+            del self._history[0]
+        self._steps_seen += 1
+        if (self.model_ is not None and self._steps_seen % self.refresh_steps == 0
+                and self._steps_seen > self.order):
+            self._refresh_model()
+        if self.model_ready and len(self._history) == self.order:
+            history = np.array(self._history)
+            rollouts = self.model_.sample_rollouts(history, self.steps, self.n_trials, self.rng)
+            return excursions_from_rollouts(self.q_, rollouts, self.percentile)
+        return worst_case_excursions(phi[:, 1], self.horizon, self.v_max, self.a_max)
+
+    def update(self, time: float, points) -> SweptVolumes:
+        """Skeleton points (8, 3) (NaN rows ignored) at `time` -> swept volumes over the horizon."""
+        points = np.asarray(points, dtype=float)
+        if self.last_time_ is not None and time < self.last_time_:
+            self.reset()  # a new simulation started from an earlier time
+        self.last_time_ = float(time)
+        q = self.body.inverse(points, q0=self.q_)
+        delta_plus, delta_minus = self.update_q(q)
+        return self.swept_volumes(time, delta_plus, delta_minus)
+
+    def swept_volumes(self, time: float, delta_plus, delta_minus) -> SweptVolumes:
+        """The `SweptVolumes` message around the current filtered q for the given excursions."""
+        if self.q_ is None:
+            raise ValueError("ReactiveMotionPredictor.swept_volumes: no state yet (call update first)")
+        start, end, radius = self.builder.build(self.q_, delta_plus, delta_minus)
+        return SweptVolumes(time=float(time), names=self.builder.names, start=start, end=end, radius=radius,
+                            horizon=self.horizon)

@@ -1,0 +1,199 @@
+"""Shared machinery of the activity-sequence models of thesis Ch. 5.
+
+Every model predicts the next action A_{k+1} from the recent actions A_k, A_{k-1}, ...
+(eq. 5.1). Actions are ints 0..m-1 or arbitrary hashable labels; the model maps labels to
+column indices (`classes_`). Models learn from a FIFO buffer of recent actions (Fig. 5.1):
+`buffer_size=None` keeps everything observed.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Hashable, Iterable, Sequence
+
+import numpy as np
+from sklearn.exceptions import NotFittedError
+
+
+def _plain(label):
+    """numpy scalars hash like Python scalars only after conversion."""
+    return label.item() if isinstance(label, np.generic) else label
+
+
+class SequenceModel:
+    """Base of the next-action models: label mapping, FIFO buffer, multi-step prediction.
+
+    actions: the action set: an int m (actions 0..m-1), a sequence of labels, or None to
+        learn the labels at `fit` (non-negative ints give 0..max, other labels are sorted).
+    buffer_size: length of the FIFO buffer of past actions the model learns from (None:
+        unbounded).
+
+    Subclasses implement `_reset_state`, `_learn_newest`, `_forget_oldest`, `_update_fit`,
+    `_predict_codes` and `context_length_`.
+    """
+
+    def __init__(self, actions: int | Sequence[Hashable] | None = None, buffer_size: int | None = None):
+        self.actions = actions
+        self.buffer_size = buffer_size
+
+    # ---------------------------------------------------------------- label mapping
+    def _set_classes(self, classes: Sequence[Hashable]) -> None:
+        classes = [_plain(c) for c in classes]
+        if len(classes) < 1:
+            raise ValueError(f"{type(self).__name__}: the action set is empty")
+        if len(set(classes)) != len(classes):
+            raise ValueError(f"{type(self).__name__}: duplicate action labels in {classes!r}")
+        self.classes_ = list(classes)
+        self.n_actions_ = len(classes)
+        self._code_of = {c: i for i, c in enumerate(self.classes_)}
+
+    def _classes_from_actions(self, sequence: Sequence[Hashable] | None) -> list:
+        if self.actions is not None:
+            if isinstance(self.actions, (int, np.integer)):
+                if self.actions < 1:
+                    raise ValueError(f"{type(self).__name__}: actions={self.actions} must be >= 1")
+                return list(range(int(self.actions)))
+            return list(self.actions)
+        if sequence is None:
+            raise NotFittedError(
+                f"{type(self).__name__}: the action set is unknown; pass actions= or call fit first"
+            )
+        labels = {_plain(a) for a in sequence}
+        if all(isinstance(a, int) and not isinstance(a, bool) and a >= 0 for a in labels):
+            return list(range(max(labels) + 1)) if labels else []
+        try:
+            return sorted(labels)
+        except TypeError as err:
+            raise ValueError(f"{type(self).__name__}: action labels must be sortable or given as actions=") from err
+
+    def encode(self, labels: Iterable[Hashable]) -> tuple[int, ...]:
+        """Column indices of `labels`; ValueError naming the first unknown label."""
+        self._check_classes()
+        codes = []
+        for position, label in enumerate(labels):
+            try:
+                codes.append(self._code_of[_plain(label)])
+            except (KeyError, TypeError):
+                raise ValueError(
+                    f"{type(self).__name__}: unknown action {label!r} at position {position}; "
+                    f"known actions: {self.classes_!r}"
+                ) from None
+        return tuple(codes)
+
+    def _check_classes(self) -> None:
+        if not hasattr(self, "classes_"):
+            self._set_classes(self._classes_from_actions(None))
+            self._reset()
+
+    # ---------------------------------------------------------------- learning
+    def _reset(self) -> None:
+        if self.buffer_size is not None and int(self.buffer_size) < 1:
+            raise ValueError(f"{type(self).__name__}: buffer_size={self.buffer_size} must be >= 1 or None")
+        self.buffer_ = deque()
+        self.n_observed_ = 0
+        self._reset_state()
+
+    def _observe(self, code: int) -> None:
+        limit = self._buffer_limit()
+        if limit is not None and len(self.buffer_) >= limit:
+            self._forget_oldest()
+            self.buffer_.popleft()
+        self.buffer_.append(code)
+        self.n_observed_ += 1
+        self._learn_newest()
+
+    def _buffer_limit(self) -> int | None:
+        return None if self.buffer_size is None else int(self.buffer_size)
+
+    def fit(self, sequence: Sequence[Hashable]):
+        """Learn from a whole sequence of actions (oldest first); returns self."""
+        sequence = list(sequence)
+        self._set_classes(self._classes_from_actions(sequence))
+        self._reset()
+        for code in self.encode(sequence):
+            self._observe(code)
+        self._update_fit(final=True)
+        return self
+
+    def partial_fit(self, action: Hashable):
+        """Observe one more action and refit online; returns self."""
+        self._check_classes()
+        (code,) = self.encode([action])
+        self._observe(code)
+        self._update_fit(final=False)
+        return self
+
+    # ---------------------------------------------------------------- prediction
+    def predict_proba(self, history: Sequence[Hashable]) -> np.ndarray:
+        """P(A_{k+1} = a | history) over `classes_`; history is oldest first, ends with A_k.
+
+        Fallbacks (documented): with nothing observed yet but a known action set, the uniform
+        distribution; an empty history gives the model's marginal over the buffer.
+        """
+        codes = self.encode(history)
+        if self.n_observed_ == 0:
+            return np.full(self.n_actions_, 1.0 / self.n_actions_)
+        return self._predict_codes(codes[len(codes) - self.context_length_ :] if codes else ())
+
+    def predict_proba_steps(self, history: Sequence[Hashable], steps: int) -> np.ndarray:
+        """P(A_{k+steps} = a | history), summing over the intermediate actions, eqs. (5.14)-(5.15)."""
+        if int(steps) < 1:
+            raise ValueError(f"{type(self).__name__}: steps={steps} must be >= 1")
+        codes = self.encode(history)
+        if self.n_observed_ == 0:
+            return np.full(self.n_actions_, 1.0 / self.n_actions_)
+        width = self.context_length_
+        contexts = {codes[len(codes) - width :] if codes else (): 1.0}
+        out = np.zeros(self.n_actions_)
+        for step in range(int(steps)):
+            last = step == int(steps) - 1
+            following: dict[tuple, float] = {}
+            for context, weight in contexts.items():
+                probs = self._predict_codes(context)
+                if last:
+                    out += weight * probs
+                    continue
+                for action in np.flatnonzero(probs > 0.0):
+                    key = (context + (int(action),))[-width:]
+                    following[key] = following.get(key, 0.0) + weight * probs[action]
+            contexts = following
+        return out
+
+    def marginal_(self) -> np.ndarray:
+        """Relative frequency of each action in the buffer (uniform when empty)."""
+        if not self.buffer_:
+            return np.full(self.n_actions_, 1.0 / self.n_actions_)
+        counts = np.bincount(np.fromiter(self.buffer_, dtype=int), minlength=self.n_actions_)
+        return counts / counts.sum()
+
+    # ---------------------------------------------------------------- hooks
+    context_length_: int = 1
+
+    def _reset_state(self) -> None:
+        raise NotImplementedError
+
+    def _learn_newest(self) -> None:
+        raise NotImplementedError
+
+    def _forget_oldest(self) -> None:
+        raise NotImplementedError
+
+    def _update_fit(self, final: bool) -> None:
+        """Refit what depends on the whole buffer (weights); `final` after a batch `fit`."""
+
+    def _predict_codes(self, context: tuple[int, ...]) -> np.ndarray:
+        raise NotImplementedError
+
+    # ---------------------------------------------------------------- persistence
+    def to_dict(self) -> dict:
+        """JSON-ready description: parameters and the buffered actions (refit reproduces it)."""
+        self._check_classes()
+        return {
+            "model": type(self).__name__,
+            "params": self._params(),
+            "classes": list(self.classes_),
+            "buffer": [self.classes_[c] for c in self.buffer_],
+        }
+
+    def _params(self) -> dict:
+        return {"buffer_size": self.buffer_size}

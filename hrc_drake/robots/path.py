@@ -1,0 +1,116 @@
+"""Joint-space path following with velocity limits and a speed override (pure numpy core).
+
+Each arm follows a list of waypoints. A segment from q_a to q_b takes
+T = 1.875 * max_j |q_b,j - q_a,j| / (f * v_max,j) at full speed, where 1.875 is the peak of the
+minimum-jerk velocity profile s'(tau) = 30 tau^2 (1 - tau)^2, so the joint velocity limits
+hold for any override in [0, 1]. The override scales the rate of progress (thesis 8.1: the
+robot keeps its path and changes its speed). After each waypoint the arm dwells for the
+given time (its work at that station), also scaled by the override.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MIN_JERK_PEAK = 1.875
+MIN_SEGMENT_TIME = 0.2
+
+
+def min_jerk_profile(tau: np.ndarray | float) -> np.ndarray | float:
+    """Normalised minimum-jerk position s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, tau in [0, 1]."""
+    tau = np.clip(tau, 0.0, 1.0)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
+
+
+class ArmPath:
+    """The path one arm is following: waypoints (n, dof), dwell per waypoint, progress."""
+
+    def __init__(self, start: np.ndarray, waypoints: np.ndarray, dwells: np.ndarray, v_max: np.ndarray, fraction: float):
+        self.points = np.vstack([start[None, :], waypoints])
+        deltas = np.abs(np.diff(self.points, axis=0))
+        self.move_times = np.maximum(MIN_JERK_PEAK * np.max(deltas / (fraction * v_max), axis=1), MIN_SEGMENT_TIME)
+        self.dwells = np.asarray(dwells, dtype=float)
+        self.segment = 0
+        self.phase = 0.0  # progress in seconds at full speed within the segment's move + dwell
+        self.finished = len(waypoints) == 0
+
+    def advance(self, dt: float) -> np.ndarray:
+        """Advance by `dt` seconds of full-speed time; return the arm's joint positions."""
+        while dt > 0 and not self.finished:
+            total = self.move_times[self.segment] + self.dwells[self.segment]
+            step = min(dt, total - self.phase)
+            self.phase += step
+            dt -= step
+            if self.phase >= total - 1e-12:
+                self.segment += 1
+                self.phase = 0.0
+                if self.segment == len(self.move_times):
+                    self.finished = True
+        return self.position()
+
+    def position(self) -> np.ndarray:
+        if self.finished:
+            return self.points[-1].copy()
+        a, b = self.points[self.segment], self.points[self.segment + 1]
+        s = min_jerk_profile(self.phase / self.move_times[self.segment])
+        return a + (b - a) * s
+
+    def velocity(self) -> np.ndarray:
+        if self.finished:
+            return np.zeros(self.points.shape[1])
+        a, b = self.points[self.segment], self.points[self.segment + 1]
+        T = self.move_times[self.segment]
+        tau = self.phase / T
+        if tau >= 1.0:
+            return np.zeros_like(a)
+        return (b - a) * 30.0 * tau**2 * (1.0 - tau) ** 2 / T
+
+
+class JointPathFollower:
+    """Follows one path per arm over a robot (or cell) position vector.
+
+    arm_indices: for every arm, the indices of its joints in the position vector q.
+    v_max: for every arm, its joint velocity limits (rad/s).
+    """
+
+    def __init__(self, q0: np.ndarray, arm_indices: list[np.ndarray], v_max: list[np.ndarray], velocity_fraction: float = 0.8):
+        if not 0 < velocity_fraction <= 1:
+            raise ValueError(f"velocity_fraction must be in (0, 1], got {velocity_fraction}")
+        self.q = np.asarray(q0, dtype=float).copy()
+        self.arm_indices = [np.asarray(i, dtype=int) for i in arm_indices]
+        self.v_max = [np.asarray(v, dtype=float) for v in v_max]
+        for k, (idx, v) in enumerate(zip(self.arm_indices, self.v_max, strict=True)):
+            if idx.shape != v.shape or np.any(v <= 0):
+                raise ValueError(f"arm {k}: need one positive velocity limit per joint")
+        self.fraction = velocity_fraction
+        self.paths: list[ArmPath | None] = [None] * len(self.arm_indices)
+        self.requested_seq = [0] * len(self.arm_indices)
+        self.done_seq = [0] * len(self.arm_indices)
+
+    def request(self, arm: int, seq: int, waypoints: np.ndarray, dwells: np.ndarray) -> None:
+        """Start following `waypoints` (n, dof) from where the arm is; `seq` tags completion."""
+        waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
+        if waypoints.shape[1] != len(self.arm_indices[arm]):
+            raise ValueError(f"arm {arm}: waypoints have {waypoints.shape[1]} joints, expected {len(self.arm_indices[arm])}")
+        start = self.q[self.arm_indices[arm]]
+        self.paths[arm] = ArmPath(start, waypoints, np.broadcast_to(dwells, len(waypoints)), self.v_max[arm], self.fraction)
+        self.requested_seq[arm] = seq
+
+    def step(self, dt: float, override: float) -> np.ndarray:
+        """Advance every arm by `dt` seconds at speed `override` in [0, 1]; return q."""
+        override = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
+        for arm, path in enumerate(self.paths):
+            if path is None:
+                continue
+            self.q[self.arm_indices[arm]] = path.advance(dt * override)
+            if path.finished:
+                self.done_seq[arm] = self.requested_seq[arm]
+                self.paths[arm] = None
+        return self.q
+
+    def velocities(self, override: float) -> np.ndarray:
+        v = np.zeros_like(self.q)
+        for arm, path in enumerate(self.paths):
+            if path is not None:
+                v[self.arm_indices[arm]] = path.velocity() * override
+        return v

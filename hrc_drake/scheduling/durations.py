@@ -1,0 +1,118 @@
+"""Sampling of duration distributions (scenario `Distribution`), used by the pcTPN firing
+delays (thesis 6.2: delays as random variables) and by the cell simulators.
+
+Kinds (see `hrc_drake.cell.schema.Distribution`):
+fixed (mean) | normal (mean, std, truncated below at `low`) | uniform (low, high) |
+triangular (low, mode, high) | lognormal (mean, std of the duration itself) |
+empirical (samples, drawn with replacement).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.special import ndtr, ndtri
+
+from hrc_drake.cell.schema import Distribution
+
+KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
+
+
+def validate_distribution(dist: Distribution, where: str = "duration") -> None:
+    """Raise ValueError naming `where` when `dist` cannot be sampled as a duration."""
+    if not isinstance(dist, Distribution):
+        raise ValueError(f"{where}: expected a Distribution, got {type(dist).__name__}")
+    kind = dist.kind
+    if kind not in KINDS:
+        raise ValueError(f"{where}: unknown distribution kind {kind!r}; expected one of {KINDS}")
+    numbers = {"mean": dist.mean, "std": dist.std, "low": dist.low, "high": dist.high, "mode": dist.mode}
+    for name, value in numbers.items():
+        if not math.isfinite(float(value)):
+            raise ValueError(f"{where}: {name} = {value} is not finite")
+    if kind == "fixed":
+        if dist.mean < 0:
+            raise ValueError(f"{where}: fixed duration mean = {dist.mean} is negative")
+    elif kind == "normal":
+        if dist.std < 0:
+            raise ValueError(f"{where}: normal std = {dist.std} is negative")
+        if dist.low < 0:
+            raise ValueError(f"{where}: normal truncation low = {dist.low} is negative")
+        if dist.std == 0 and dist.mean < dist.low:
+            raise ValueError(f"{where}: normal with std 0 has mean {dist.mean} below low {dist.low}")
+    elif kind == "uniform":
+        if not 0 <= dist.low <= dist.high:
+            raise ValueError(f"{where}: uniform needs 0 <= low <= high, got low={dist.low}, high={dist.high}")
+    elif kind == "triangular":
+        if not (0 <= dist.low <= dist.mode <= dist.high) or dist.low == dist.high:
+            raise ValueError(
+                f"{where}: triangular needs 0 <= low <= mode <= high and low < high, "
+                f"got low={dist.low}, mode={dist.mode}, high={dist.high}"
+            )
+    elif kind == "lognormal":
+        if dist.mean <= 0 or dist.std < 0:
+            raise ValueError(f"{where}: lognormal needs mean > 0 and std >= 0, got {dist.mean}, {dist.std}")
+    elif kind == "empirical":
+        samples = np.asarray(dist.samples, dtype=float)
+        if samples.ndim != 1 or samples.size == 0:
+            raise ValueError(f"{where}: empirical distribution has no samples")
+        if not np.all(np.isfinite(samples)) or np.any(samples < 0):
+            raise ValueError(f"{where}: empirical samples must be finite and >= 0")
+
+
+def sample_duration(dist: Distribution, rng: np.random.Generator, size=None):
+    """Draw durations (s) from `dist`; a float when `size` is None, else an array of shape `size`.
+
+    Every draw is >= 0. The truncated normal is sampled by inverse CDF (one uniform per draw),
+    so the number of generator calls does not depend on the values drawn.
+    """
+    validate_distribution(dist)
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"sample_duration: rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    kind = dist.kind
+    if kind == "fixed":
+        out = np.full(() if size is None else size, float(dist.mean))
+    elif kind == "normal":
+        if dist.std == 0:
+            out = np.full(() if size is None else size, float(dist.mean))
+        else:
+            lower_cdf = ndtr((dist.low - dist.mean) / dist.std)
+            u = rng.uniform(lower_cdf, 1.0, size=size)
+            out = dist.mean + dist.std * ndtri(u)
+            out = np.maximum(out, dist.low)  # guards ndtri round-off at the bound
+    elif kind == "uniform":
+        out = rng.uniform(dist.low, dist.high, size=size)
+    elif kind == "triangular":
+        out = rng.triangular(dist.low, dist.mode, dist.high, size=size)
+    elif kind == "lognormal":
+        sigma2 = math.log1p((dist.std / dist.mean) ** 2)
+        mu = math.log(dist.mean) - 0.5 * sigma2
+        out = rng.lognormal(mu, math.sqrt(sigma2), size=size)
+    else:  # empirical
+        samples = np.asarray(dist.samples, dtype=float)
+        out = samples[rng.integers(0, samples.size, size=size)]
+    if size is None:
+        return float(out)
+    return np.asarray(out, dtype=float)
+
+
+def mean_duration(dist: Distribution) -> float:
+    """Expected value of `dist` (the truncated normal's mean includes the truncation)."""
+    validate_distribution(dist)
+    kind = dist.kind
+    if kind in ("fixed", "lognormal"):
+        return float(dist.mean)
+    if kind == "normal":
+        if dist.std == 0:
+            return float(dist.mean)
+        alpha = (dist.low - dist.mean) / dist.std
+        tail = 1.0 - ndtr(alpha)
+        if tail <= 0:
+            return float(dist.low)
+        pdf = math.exp(-0.5 * alpha * alpha) / math.sqrt(2 * math.pi)
+        return float(dist.mean + dist.std * pdf / tail)
+    if kind == "uniform":
+        return 0.5 * (dist.low + dist.high)
+    if kind == "triangular":
+        return (dist.low + dist.mode + dist.high) / 3.0
+    return float(np.mean(dist.samples))

@@ -1,0 +1,293 @@
+"""Monte Carlo receding-horizon scheduler on a pcTPN (thesis 7.3.1, Algorithm 4, 7.1).
+
+N trials are simulated in lockstep (one numpy step fires one transition in every trial):
+controllable conflicts are resolved uniformly at random, an uncontrollable conflict is won by
+the transition whose sampled unconditioned arrival time (eq. 6.4: enabling time + delay) comes
+first, and every trial stops at the horizon T_sch. Each trial's cost is
+C = c_R sum_i W_R,i + c_H W_H, the time-integral of the tokens in the cost places. The trials'
+transition sequences form the partial reachability tree; Algorithm 4 back-propagates the
+costs (union at uncontrollable branchings, the child with the lowest beta-percentile at
+controllable ones) and the root child with the lowest beta-percentile is fired now.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hrc_drake.scheduling.learning import DurationModel
+from hrc_drake.scheduling.petri import PcTPN
+
+
+def wait_tick_delay(time, quantum: float):
+    """Delay of a robot's explicit wait started at `time`: it ends on the next multiple of the
+    quantum t_w (6.3.1), so robots that wait meet on common ticks (needed by actions that
+    take several arms) instead of drifting apart."""
+    time = np.asarray(time, dtype=float)
+    delay = quantum - np.mod(time, quantum)
+    return np.where(delay < 1e-9 * quantum, quantum, delay)
+
+
+@dataclass
+class TrialBatch:
+    """Output of `simulate_trials`.
+
+    paths: (N, L) fired transition indices per trial, -1 after the trial reached the horizon.
+    costs: (N,) C of each trial; robot_wait, human_wait: (N,) the weighted W_R and W_H parts.
+    """
+
+    paths: np.ndarray
+    costs: np.ndarray
+    robot_wait: np.ndarray
+    human_wait: np.ndarray
+
+
+def _pool_depth(net: PcTPN, durations: DurationModel, horizon: float) -> int:
+    means = [durations.mean(j) for j in np.flatnonzero(~net.controllable) if not durations.is_deterministic(j)]
+    means = [m for m in means if m > 0]
+    if not means:
+        return 1
+    return int(np.clip(math.ceil(horizon / min(means)) + 2, 4, 64))
+
+
+def simulate_trials(
+    net: PcTPN,
+    marking,
+    durations: DurationModel,
+    rng: np.random.Generator,
+    n_trials: int,
+    horizon: float,
+    root_choices,
+    elapsed=None,
+    max_steps: int = 5000,
+    now: float = 0.0,
+) -> TrialBatch:
+    """Run `n_trials` Monte Carlo trajectories of the net from `marking` up to `horizon` s.
+
+    root_choices: the controllable transitions the first firing is chosen from; trials are
+    split evenly among those enabled (stratified, so every root child gets samples).
+    elapsed: (T,) seconds each currently enabled uncontrollable transition has already been
+    enabled; its delay is then drawn conditioned on exceeding it (6.2.1).
+    now: the absolute time of the root; robot waits end on the global t_w ticks
+    (`wait_tick_delay`), as in the cell simulator.
+    """
+    marking = np.asarray(marking, dtype=np.int64)
+    if marking.shape != (net.n_places,) or np.any(marking < 0):
+        raise ValueError(f"simulate_trials: marking must be ({net.n_places},) and >= 0")
+    if not horizon > 0:
+        raise ValueError(f"simulate_trials: horizon must be > 0, got {horizon}")
+    if n_trials < 1:
+        raise ValueError(f"simulate_trials: n_trials must be >= 1, got {n_trials}")
+    en0 = net.enabled(marking)
+    roots = np.array([j for j in np.atleast_1d(root_choices) if net.controllable[j] and en0[j]], dtype=int)
+    if roots.size == 0:
+        raise ValueError("simulate_trials: none of the root choices is an enabled controllable transition")
+    n_tr, unc = net.n_transitions, ~net.controllable
+    inc_t = net.incidence.T.copy()
+    human_agent = getattr(net, "human_agent", "human")
+    is_human_place = np.array([a == human_agent for a in net.idle_agent])
+    human_w = np.where(is_human_place, net.cost, 0.0)
+    robot_w = net.cost - human_w
+    depth = _pool_depth(net, durations, horizon)
+    pools = durations.sample_pools(rng, n_trials, depth)
+    count = np.zeros((n_trials, n_tr), dtype=np.int64)
+    fire_at = np.full((n_trials, n_tr), np.inf)
+    rows = np.arange(n_trials)
+    is_wait_end = np.array([r == "wait_end" for r in net.role], dtype=bool)
+    quantum = getattr(net, "wait_quantum", 0.0)
+
+    # Clocks of the transitions already enabled at the root, conditioned on their elapsed time.
+    for j in np.flatnonzero(en0 & unc):
+        e = 0.0 if elapsed is None else float(elapsed[j])
+        cand = pools[:, j, :]
+        if e <= 0:
+            fire_at[:, j] = cand[:, 0]
+            count[:, j] = 1
+            continue
+        later = cand > e
+        first = np.argmax(later, axis=1)
+        fire_at[:, j] = np.where(later.any(axis=1), cand[rows, first], e) - e
+        count[:, j] = first + 1
+    en_prev = np.broadcast_to(en0 & unc, (n_trials, n_tr)).copy()
+
+    m = np.repeat(marking[None, :], n_trials, axis=0)
+    t = np.zeros(n_trials)
+    cost_r = np.zeros(n_trials)
+    cost_h = np.zeros(n_trials)
+    first_j = roots[rows % roots.size]
+    rng.shuffle(first_j)
+    m += inc_t[first_j]
+    cols = [first_j]
+    alive = np.ones(n_trials, dtype=bool)
+    for _ in range(max_steps):
+        en = net.enabled_batch(m)
+        newly = en & unc & ~en_prev
+        if newly.any():
+            n_idx, j_idx = np.nonzero(newly)
+            k = count[n_idx, j_idx] % depth
+            delay = pools[n_idx, j_idx, k]
+            if quantum > 0:
+                delay = np.where(is_wait_end[j_idx], wait_tick_delay(now + t[n_idx], quantum), delay)
+            fire_at[n_idx, j_idx] = t[n_idx] + delay
+            count[n_idx, j_idx] += 1
+        fire_at[~en] = np.inf
+        en_prev = en & unc
+        ctrl_en = en & net.controllable
+        has_ctrl = ctrl_en.any(axis=1) & alive
+        keys = np.where(ctrl_en, rng.random((n_trials, n_tr)), -1.0)
+        j_ctrl = np.argmax(keys, axis=1)
+        j_unc = np.argmin(fire_at, axis=1)
+        t_unc = fire_at[rows, j_unc]
+        advance = alive & ~has_ctrl
+        t_next = np.where(advance, np.minimum(t_unc, horizon), t)
+        dt = t_next - t
+        cost_r += (m @ robot_w) * dt
+        cost_h += (m @ human_w) * dt
+        t = t_next
+        alive &= ~(advance & (t_unc > horizon))
+        j = np.where(has_ctrl, j_ctrl, j_unc)
+        if not alive.any():
+            break
+        m[alive] += inc_t[j[alive]]
+        fire_at[rows[alive], j[alive]] = np.inf
+        en_prev[rows[alive], j[alive]] = False
+        cols.append(np.where(alive, j, -1))
+    else:
+        raise RuntimeError(
+            f"simulate_trials: {max_steps} firings without reaching the horizon; the net has a loop of "
+            "zero-delay transitions"
+        )
+    return TrialBatch(np.stack(cols, axis=1), cost_r + cost_h, cost_r, cost_h)
+
+
+def evaluate_costs(paths: np.ndarray, costs: np.ndarray, controllable: np.ndarray, beta: float):
+    """Algorithm 4 (EVALUATECOSTS) on the reachability tree spanned by the trial paths.
+
+    Returns (best root transition, {root transition: beta-percentile of its propagated costs}).
+    A node's children are the distinct next transitions of the trials through it; a trial
+    that ends at a node (nothing fires before T_sch) is one more uncontrollable outcome.
+    """
+    if not 0 <= beta <= 1:
+        raise ValueError(f"evaluate_costs: beta must be in [0, 1], got {beta}")
+    paths = np.asarray(paths)
+    costs = np.asarray(costs, dtype=float)
+    n, length = paths.shape
+    q = 100.0 * beta
+
+    def node_costs(idx: np.ndarray, d: int) -> np.ndarray:
+        while True:
+            if idx.size == 1 or d >= length:
+                return costs[idx]
+            js = paths[idx, d]
+            ended = js < 0
+            if ended.all():
+                return costs[idx]
+            if not ended.any() and np.all(js == js[0]):
+                d += 1
+                continue
+            break
+        cont, jc = idx[~ended], js[~ended]
+        children = np.unique(jc)
+        if controllable[jc[0]]:
+            best, best_p = None, np.inf
+            for u in children:
+                c = node_costs(cont[jc == u], d + 1)
+                p = np.percentile(c, q)
+                if p < best_p:
+                    best, best_p = c, p
+            return best
+        parts = [costs[idx[ended]]] + [node_costs(cont[jc == u], d + 1) for u in children]
+        return np.concatenate(parts)
+
+    all_idx = np.arange(n)
+    percentiles = {}
+    for u in np.unique(paths[:, 0]):
+        percentiles[int(u)] = float(np.percentile(node_costs(all_idx[paths[:, 0] == u], 1), q))
+    best = min(percentiles, key=lambda u: (percentiles[u], u))
+    return best, percentiles
+
+
+@dataclass
+class CostNode:
+    """A reachability-tree node for Algorithm 4 built by hand: `controllable` says whether its
+    children are reached by controllable transitions; leaves carry cost samples."""
+
+    controllable: bool = False
+    children: dict = field(default_factory=dict)
+    costs: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def evaluate_cost_tree(node: CostNode, beta: float, is_root: bool = True):
+    """Algorithm 4 on an explicit tree. At the root returns (best child key, its costs)."""
+    if is_root or node.controllable:
+        best_key, best_c, best_p = None, np.zeros(0), np.inf
+        for key, child in node.children.items():
+            c = evaluate_cost_tree(child, beta, is_root=False)
+            p = np.percentile(c, 100.0 * beta)
+            if p < best_p:
+                best_key, best_c, best_p = key, c, p
+        return (best_key, best_c) if is_root else best_c
+    if not node.children:
+        return np.asarray(node.costs, dtype=float)
+    return np.concatenate(
+        [np.asarray(node.costs, dtype=float)] + [evaluate_cost_tree(c, beta, False) for c in node.children.values()]
+    )
+
+
+class MonteCarloScheduler:
+    """Receding-horizon Monte Carlo scheduler (7.1 + 7.3.1).
+
+    n_trials: N; horizon: T_sch (s); beta: percentile level of Algorithm 4 (0.5 = median).
+    window, min_samples: the online duration model (`DurationModel`). learn: update it
+    from `observe`.
+    """
+
+    def __init__(
+        self,
+        net: PcTPN,
+        n_trials: int = 100,
+        horizon: float = 20.0,
+        beta: float = 0.5,
+        window: int = 30,
+        min_samples: int = 3,
+        learn: bool = True,
+        random_state=None,
+    ):
+        if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
+            raise ValueError(
+                f"MonteCarloScheduler: need n_trials >= 1, horizon > 0, 0 <= beta <= 1; "
+                f"got {n_trials}, {horizon}, {beta}"
+            )
+        self.net = net
+        self.n_trials = int(n_trials)
+        self.horizon = float(horizon)
+        self.beta = float(beta)
+        self.learn = learn
+        self.durations_ = DurationModel(net, window=window, min_samples=min_samples)
+        self.rng = np.random.default_rng(random_state)
+        self.last_percentiles_: dict[str, float] = {}
+
+    def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
+        """The controllable transition to fire now for robot `agent` (an action, a
+        commitment to a collaboration, or its wait)."""
+        choices = self.net.agent_transitions(agent)
+        en = self.net.enabled(marking)
+        choices = choices[en[choices]]
+        if choices.size == 0:
+            raise ValueError(f"MonteCarloScheduler.decide: robot {agent!r} has no enabled transition (is it free?)")
+        if choices.size == 1:
+            self.last_percentiles_ = {}
+            return int(choices[0])
+        batch = simulate_trials(
+            self.net, marking, self.durations_, self.rng, self.n_trials, self.horizon, choices, elapsed, now=now
+        )
+        best, percentiles = evaluate_costs(batch.paths, batch.costs, self.net.controllable, self.beta)
+        self.last_percentiles_ = {self.net.transitions[j]: p for j, p in percentiles.items()}
+        return int(best)
+
+    def observe(self, transition, delay: float) -> None:
+        """An observed firing delay of an uncontrollable transition (7.1 online learning)."""
+        if self.learn:
+            self.durations_.partial_fit(transition, delay)

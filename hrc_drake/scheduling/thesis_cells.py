@@ -1,0 +1,136 @@
+"""Assembly flows of the thesis scheduling examples (figures are missing from the text, so the
+flows below are reconstructions from the captions and prose; each says what is assumed).
+
+Each function returns (flow, buffers, human_pattern, robot_agents) ready for `compile_flow`.
+"""
+
+from __future__ import annotations
+
+from hrc_drake.cell.schema import Buffer, Distribution, Flow, FlowAction
+
+
+def _u(low, high):
+    return Distribution(kind="uniform", low=low, high=high)
+
+
+def _n(mean, std):
+    return Distribution(kind="normal", mean=mean, std=std)
+
+
+def fig_7_6():
+    """Fig. 7.6 / Table 7.1: robot action 1 (U[3,3]), human action 2 (U[2,4]), collaborative
+    action 3 (U[5,7]); wait quantum U[1,1]. Assumed flow: 1 and 2 each feed a one-slot buffer
+    that the collaborative action 3 empties; the human alternates 2 and 3."""
+    buffers = [
+        Buffer("raw", kind="raw"),
+        Buffer("b1", capacity=1),
+        Buffer("b2", capacity=1),
+        Buffer("done", kind="product"),
+    ]
+    flow = Flow(
+        actions=[
+            FlowAction("action1", ["robot"], ["raw"], ["b1"], duration=Distribution("fixed", mean=3.0)),
+            FlowAction("action2", ["human"], ["raw"], ["b2"], duration=_u(2.0, 4.0)),
+            FlowAction("action3", ["human", "robot"], ["b1", "b2"], ["done"], duration=_u(5.0, 7.0)),
+        ]
+    )
+    return flow, buffers, ["action2", "action3"], ["robot"]
+
+
+def fig_7_11():
+    """Fig. 7.11: two sequential jobs A and B of three actions; each of R1, R2, H does one action
+    per job; durations N(15 s, 1.67 s); human pattern A, A, B, B. Assumed orders:
+    job A = R1 -> H -> R2, job B = R2 -> H -> R1, one-slot buffers in between."""
+    d = _n(15.0, 1.67)
+    buffers = [Buffer("raw", kind="raw"), Buffer("product", kind="product")]
+    buffers += [Buffer(name, capacity=1) for name in ("a1", "a2", "b1", "b2")]
+    flow = Flow(
+        actions=[
+            FlowAction("A1", ["r1"], ["raw"], ["a1"], duration=d),
+            FlowAction("A2", ["human"], ["a1"], ["a2"], duration=d),
+            FlowAction("A3", ["r2"], ["a2"], ["product"], duration=d),
+            FlowAction("B1", ["r2"], ["raw"], ["b1"], duration=d),
+            FlowAction("B2", ["human"], ["b1"], ["b2"], duration=d),
+            FlowAction("B3", ["r1"], ["b2"], ["product"], duration=d),
+        ]
+    )
+    return flow, buffers, ["A2", "A2", "B2", "B2"], ["r1", "r2"]
+
+
+def use_case_a(pattern: int = 1):
+    """Use case a (7.2.1, 7.5.1): fuse (YuMi left), IC (human), quality check (both arms),
+    collaborative macro-operation (human + both arms). Durations are not given in the text:
+    assumed N(6,1), N(12,1.5), N(6,1), N(14,1.5) s. Pattern 1: IC, collab; pattern 2:
+    IC, IC, collab, collab."""
+    buffers = [
+        Buffer("feeder", kind="raw"),
+        Buffer("fused", capacity=2),
+        Buffer("with_ic", capacity=2),
+        Buffer("checked", capacity=2),
+        Buffer("product", kind="product"),
+    ]
+    flow = Flow(
+        actions=[
+            FlowAction("fuse", ["yumi_left"], ["feeder"], ["fused"], duration=_n(6.0, 1.0)),
+            FlowAction("ic", ["human"], ["fused"], ["with_ic"], duration=_n(12.0, 1.5)),
+            FlowAction("check", ["yumi_left", "yumi_right"], ["with_ic"], ["checked"], duration=_n(6.0, 1.0)),
+            FlowAction(
+                "collab", ["human", "yumi_left", "yumi_right"], ["checked"], ["product"], duration=_n(14.0, 1.5)
+            ),
+        ]
+    )
+    if pattern == 1:
+        human = ["ic", "collab"]
+    elif pattern == 2:
+        human = ["ic", "ic", "collab", "collab"]
+    else:
+        raise ValueError(f"use_case_a: pattern must be 1 or 2, got {pattern}")
+    return flow, buffers, human, ["yumi_left", "yumi_right"]
+
+
+def use_case_b(pattern: int = 1):
+    """Reconstruction of use case b (7.5.2, Fig. 7.18; the net itself is not in the text).
+    Human: padding the box, trimming a label, labelling. IRB 140: functional test, storing.
+    YuMi: cap assembly, housing in two parts (part 1 needs cart 1 with the padded box, part 2
+    needs cart 2). Carts are robot agents that transport (cost 0, 6.3.4). Durations assumed.
+    Pattern 1: pad, trim, label; pattern 2: pad, pad, trim, trim, label, label."""
+    buffers = [
+        Buffer("boxes", kind="raw"),
+        Buffer("sheets", kind="raw"),
+        Buffer("adapters", kind="raw"),
+        Buffer("padded", capacity=1),
+        Buffer("box_at_yumi", capacity=1),
+        Buffer("tested", capacity=2),
+        Buffer("capped", capacity=2),
+        Buffer("half_housed", capacity=1),
+        Buffer("housed", capacity=1),
+        Buffer("at_human", capacity=1),
+        Buffer("labels", capacity=2),
+        Buffer("labelled", capacity=1),
+        Buffer("shipped", kind="product"),
+    ]
+    flow = Flow(
+        actions=[
+            FlowAction("pad", ["human"], ["boxes"], ["padded"], duration=_n(8.0, 1.5)),
+            FlowAction("cart1_move", ["cart1"], ["padded"], ["box_at_yumi"], duration=_n(4.0, 0.3)),
+            FlowAction("test", ["irb140"], ["adapters"], ["tested"], duration=_n(6.0, 0.8)),
+            FlowAction("cap", ["yumi"], ["tested"], ["capped"], duration=_n(6.0, 0.8)),
+            FlowAction("house1", ["yumi"], ["capped", "box_at_yumi"], ["half_housed"], duration=_n(5.0, 0.6)),
+            FlowAction("house2", ["yumi"], ["half_housed"], ["housed"], resources=["cart2"], duration=_n(5.0, 0.6)),
+            FlowAction("cart2_move", ["cart2"], ["housed"], ["at_human"], duration=_n(4.0, 0.3)),
+            FlowAction("trim", ["human"], ["sheets"], ["labels"], duration=_n(6.0, 1.0)),
+            FlowAction("label", ["human"], ["at_human", "labels"], ["labelled"], duration=_n(5.0, 1.0)),
+            FlowAction("store", ["irb140"], ["labelled"], ["shipped"], duration=_n(5.0, 0.6)),
+        ],
+        resources={"cart2": 1},
+    )
+    if pattern == 1:
+        human = ["pad", "trim", "label"]
+    elif pattern == 2:
+        human = ["pad", "pad", "trim", "trim", "label", "label"]
+    else:
+        raise ValueError(f"use_case_b: pattern must be 1 or 2, got {pattern}")
+    return flow, buffers, human, ["yumi", "irb140", "cart1", "cart2"]
+
+
+USE_CASE_B_AGENT_COSTS = {"cart1": 0.0, "cart2": 0.0}
