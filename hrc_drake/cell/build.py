@@ -60,9 +60,14 @@ class Cell:
     systems: dict = field(default_factory=dict)
 
 
+#: the operator's wrist stops this far above a buffer's base when picking or placing a part
+HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
+
+
 def _places(scenario: Scenario) -> dict[str, np.ndarray]:
+    """Where the operator's wrist goes for each goal sphere and buffer."""
     places = {g.name: np.asarray(g.center, float) for g in scenario.layout.goals}
-    places.update({b.name: np.asarray(b.position, float) for b in scenario.layout.buffers})
+    places.update({b.name: np.asarray(b.position, float) + HAND_ABOVE_BUFFER for b in scenario.layout.buffers})
     return places
 
 

@@ -27,24 +27,26 @@ def simulate(cell: Cell, duration: float, progress=sys.stderr, record: bool = Fa
         raise ValueError(f"duration must be positive, got {duration}")
     simulator = Simulator(cell.diagram)
     simulator.set_target_realtime_rate(0.0)
-    simulator.set_publish_every_time_step(False)
     if record and cell.visualizer is not None:
         cell.visualizer.StartRecording(False)
+    # On a terminal one line is rewritten in place; in a log, a line every 10 %.
+    interactive = progress is not None and getattr(progress, "isatty", lambda: False)()
     start = time.perf_counter()
     simulator.Initialize()
     for k in range(1, chunks + 1):
         simulator.AdvanceTo(duration * k / chunks)
-        if progress is not None:
+        if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
             wall = time.perf_counter() - start
             t = simulator.get_context().get_time()
+            lead = "\r" if interactive else ""
             print(
-                f"\r  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s   "
-                f"products = {cell.world.finished_products:3d}   realtime factor = {t / max(wall, 1e-9):6.1f}x",
-                end="", file=progress, flush=True,
+                f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
+                f"   products = {cell.world.finished_products:3d}   realtime factor = {t / max(wall, 1e-9):6.1f}x",
+                end="" if interactive else "\n", file=progress, flush=True,
             )
     cell.diagram.ForcedPublish(simulator.get_context())
     wall = time.perf_counter() - start
-    if progress is not None:
+    if interactive:
         print(file=progress)
     if record and cell.visualizer is not None:
         cell.visualizer.StopRecording()

@@ -76,22 +76,29 @@ _ARM_UPPER = np.array([3.0, 2.8, 1.5, 2.6])
 _MIRROR = {"left": 1.0, "right": -1.0}
 
 
-def _rot_x(a: np.ndarray) -> np.ndarray:
+def _rotation(a, i: int, j: int) -> np.ndarray:
+    """Rotation by angle(s) `a` in the (i, j) coordinate plane, shape a.shape + (3, 3)."""
+    a = np.asarray(a, dtype=float)
     c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+    R = np.zeros(a.shape + (3, 3))
+    R[..., 0, 0] = R[..., 1, 1] = R[..., 2, 2] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
+
+
+def _rot_x(a: np.ndarray) -> np.ndarray:
+    return _rotation(a, 1, 2)
 
 
 def _rot_y(a: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+    return _rotation(a, 2, 0)
 
 
 def _rot_z(a: np.ndarray) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    return _rotation(a, 0, 1)
 
 
 def _apply(R: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ _LOG_LIKELIHOOD_FLOOR = -30.0
 
 @dataclass(frozen=True)
 class IntentionEvent:
-    """"The robot understood": the probability of `goal` for `hand` crossed the threshold (Fig. 3.6)."""
+    """ "The robot understood": the probability of `goal` for `hand` crossed the threshold (Fig. 3.6)."""
 
     time: float
     hand: str
@@ -38,8 +38,12 @@ class IntentionEvent:
     seq: int = 0
 
 
-def bayes_update(prior: np.ndarray, log_likelihood: np.ndarray, switch_probability: float = 0.0,
-                 active: np.ndarray | None = None) -> np.ndarray:
+def bayes_update(
+    prior: np.ndarray,
+    log_likelihood: np.ndarray,
+    switch_probability: float = 0.0,
+    active: np.ndarray | None = None,
+) -> np.ndarray:
     """Recursive Bayes, eq. (3.1)/(3.2): P_k(G_i) proportional to L(Phi^i_k | G_i) P_{k-1}(G_i).
 
     prior: (..., G) rows summing to 1; log_likelihood: (..., G) log L per goal; before the update
@@ -50,7 +54,9 @@ def bayes_update(prior: np.ndarray, log_likelihood: np.ndarray, switch_probabili
     prior = np.asarray(prior, dtype=float)
     log_likelihood = np.asarray(log_likelihood, dtype=float)
     if prior.shape != log_likelihood.shape:
-        raise ValueError(f"bayes_update: prior {prior.shape} and log_likelihood {log_likelihood.shape} differ")
+        raise ValueError(
+            f"bayes_update: prior {prior.shape} and log_likelihood {log_likelihood.shape} differ"
+        )
     if not 0.0 <= switch_probability <= 1.0:
         raise ValueError(f"bayes_update: switch_probability must be in [0, 1], got {switch_probability}")
     n_goals = prior.shape[-1]
@@ -61,14 +67,17 @@ def bayes_update(prior: np.ndarray, log_likelihood: np.ndarray, switch_probabili
     predicted = (1.0 - switch_probability) * prior + switch_probability / n_goals
     best = np.max(np.where(finite, log_likelihood, -np.inf), axis=-1, keepdims=True)
     best = np.where(np.isfinite(best), best, 0.0)
-    relative = np.where(finite, np.maximum(log_likelihood - best, _LOG_LIKELIHOOD_FLOOR), _LOG_LIKELIHOOD_FLOOR)
+    relative = np.where(
+        finite, np.maximum(log_likelihood - best, _LOG_LIKELIHOOD_FLOOR), _LOG_LIKELIHOOD_FLOOR
+    )
     posterior = predicted * np.exp(relative)
     posterior /= np.maximum(posterior.sum(axis=-1, keepdims=True), 1e-300)
     return np.where(ok[..., None], posterior, prior)
 
 
-def minimum_jerk_velocity(p0: np.ndarray, v0: np.ndarray, target: np.ndarray, duration: np.ndarray,
-                          t: float) -> np.ndarray:
+def minimum_jerk_velocity(
+    p0: np.ndarray, v0: np.ndarray, target: np.ndarray, duration: np.ndarray, t: float
+) -> np.ndarray:
     """Velocity at time t of the quintic from (p0, v0, a=0) to (target, v=0, a=0) in `duration`.
 
     The nominal velocity of [135] (3.1.1). p0, v0: (..., 3); target: (..., 3); duration: (...,) > 0.
@@ -93,23 +102,46 @@ class GoalIntentionEstimator:
     `probabilities_` (2, G): row 0 left hand, row 1 right hand.
     """
 
-    def __init__(self, goal_centers: np.ndarray, model: IntentionModel | None = None, method: str = "M3",
-                 goal_names=None, goal_std=0.0, n_goal_samples: int = 0, switch_probability: float = 0.02,
-                 m1_sigma: float = 0.6, m1_mean_speed: float = 0.4, rng=None):
+    def __init__(
+        self,
+        goal_centers: np.ndarray,
+        model: IntentionModel | None = None,
+        method: str = "M3",
+        goal_names=None,
+        goal_std=0.0,
+        n_goal_samples: int = 0,
+        switch_probability: float = 0.02,
+        m1_sigma: float = 0.6,
+        m1_mean_speed: float = 0.4,
+        rng=None,
+    ):
         centers = np.asarray(goal_centers, dtype=float)
-        if centers.ndim != 2 or centers.shape[1] != 3 or centers.shape[0] < 1 or not np.all(np.isfinite(centers)):
-            raise ValueError(f"GoalIntentionEstimator: goal_centers must be a finite (G, 3) array, got {centers.shape}")
+        if (
+            centers.ndim != 2
+            or centers.shape[1] != 3
+            or centers.shape[0] < 1
+            or not np.all(np.isfinite(centers))
+        ):
+            raise ValueError(
+                f"GoalIntentionEstimator: goal_centers must be a finite (G, 3) array, got {centers.shape}"
+            )
         if method not in METHODS:
             raise ValueError(f"GoalIntentionEstimator: method must be one of {METHODS}, got {method!r}")
         n_goals = centers.shape[0]
-        self.goal_names = tuple(goal_names) if goal_names is not None else tuple(f"G{i + 1}" for i in range(n_goals))
+        self.goal_names = (
+            tuple(goal_names) if goal_names is not None else tuple(f"G{i + 1}" for i in range(n_goals))
+        )
         if len(self.goal_names) != n_goals:
-            raise ValueError(f"GoalIntentionEstimator: {len(self.goal_names)} goal names for {n_goals} centres")
+            raise ValueError(
+                f"GoalIntentionEstimator: {len(self.goal_names)} goal names for {n_goals} centres"
+            )
         goal_std = np.broadcast_to(np.asarray(goal_std, dtype=float), (n_goals,)).copy()
         if np.any(goal_std < 0) or not np.all(np.isfinite(goal_std)):
             raise ValueError(f"GoalIntentionEstimator: goal_std must be finite and >= 0, got {goal_std}")
         if not 0.0 <= switch_probability <= 1.0:
-            raise ValueError(f"GoalIntentionEstimator: switch_probability must be in [0, 1], got {switch_probability}")
+            raise ValueError(
+                f"GoalIntentionEstimator: switch_probability must be in [0, 1], got {switch_probability}"
+            )
         if m1_sigma <= 0 or m1_mean_speed <= 0:
             raise ValueError("GoalIntentionEstimator: m1_sigma and m1_mean_speed must be > 0")
         self.goal_centers = centers
@@ -158,8 +190,13 @@ class GoalIntentionEstimator:
             log_lik = self._m1_log_likelihood(time, wrists, velocity, moving)
         else:
             samples = self._goal_samples()
-            use_gaze = (self.method == "M3" and bool(gaze_valid) and np.all(np.isfinite(points[HEAD]))
-                        and np.all(np.isfinite(gaze)) and np.linalg.norm(gaze) > 1e-9)
+            use_gaze = (
+                self.method == "M3"
+                and bool(gaze_valid)
+                and np.all(np.isfinite(points[HEAD]))
+                and np.all(np.isfinite(gaze))
+                and np.linalg.norm(gaze) > 1e-9
+            )
             phi = skeleton_features(points, velocity, moving, gaze, samples)  # (2, G, Np, 4)
             if use_gaze:
                 per_sample = self.model.gmm4d.log_density(phi)
@@ -186,13 +223,16 @@ class GoalIntentionEstimator:
         start_velocity = np.where(moving_prev[:, None], v_prev, 0.0)
         distance = np.linalg.norm(self.goal_centers[None] - start[:, None], axis=-1)  # (2, G)
         duration = np.clip(distance / self.m1_mean_speed, 0.3, 3.0)
-        nominal = minimum_jerk_velocity(start[:, None], start_velocity[:, None], self.goal_centers[None],
-                                        duration, dt)  # (2, G, 3)
+        nominal = minimum_jerk_velocity(
+            start[:, None], start_velocity[:, None], self.goal_centers[None], duration, dt
+        )  # (2, G, 3)
         delta = angle_between(velocity[:, None], nominal)
         log_lik = -0.5 * (delta / self.m1_sigma) ** 2  # zero-mean Gaussian, eq. (3.1)
         return np.where(moving[:, None], log_lik, np.nan)
 
-    def update(self, time: float, points: np.ndarray, gaze: np.ndarray, gaze_valid: bool = True) -> np.ndarray:
+    def update(
+        self, time: float, points: np.ndarray, gaze: np.ndarray, gaze_valid: bool = True
+    ) -> np.ndarray:
         """One step of eq. (3.2) (M2/M3) or (3.1) (M1) for both hands; returns probabilities (2, G).
 
         points: (8, 3) skeleton (NaN rows allowed); gaze: (3,) head z axis; gaze_valid: flag F.
@@ -221,7 +261,9 @@ class FeedbackStateMachine:
     def __init__(self, goal_names, threshold: float = 0.8, sequence=None, hands=HANDS, release: float = 0.5):
         self.goal_names = tuple(goal_names)
         if not 0.0 < threshold <= 1.0 or not 0.0 <= release < threshold:
-            raise ValueError(f"FeedbackStateMachine: need 0 <= release < threshold <= 1, got {release}, {threshold}")
+            raise ValueError(
+                f"FeedbackStateMachine: need 0 <= release < threshold <= 1, got {release}, {threshold}"
+            )
         unknown = [g for g in (sequence or ()) if g not in self.goal_names]
         if unknown:
             raise ValueError(f"FeedbackStateMachine: sequence goals {unknown} not in {self.goal_names}")
@@ -242,8 +284,10 @@ class FeedbackStateMachine:
         """Advance with the probabilities (2, G) of this update; return the (hand, goal) understood."""
         probabilities = np.asarray(probabilities, dtype=float)
         if probabilities.shape != (2, len(self.goal_names)):
-            raise ValueError(f"FeedbackStateMachine.step: probabilities must be (2, {len(self.goal_names)}), "
-                             f"got {probabilities.shape}")
+            raise ValueError(
+                f"FeedbackStateMachine.step: probabilities must be (2, {len(self.goal_names)}), "
+                f"got {probabilities.shape}"
+            )
         hand_rows = [HANDS.index(h) for h in self.hands]
         if self.sequence is not None:
             if self.state == 0:
@@ -257,4 +301,8 @@ class FeedbackStateMachine:
             return []
         crossed = (probabilities >= self.threshold) & self._armed
         self._armed = (self._armed & ~crossed) | (probabilities < self.release)
-        return [(HANDS[r], self.goal_names[c]) for r, c in zip(*np.nonzero(crossed), strict=True) if r in hand_rows]
+        return [
+            (HANDS[r], self.goal_names[c])
+            for r, c in zip(*np.nonzero(crossed), strict=True)
+            if r in hand_rows
+        ]

@@ -44,8 +44,12 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.arctan2(cross, dot)
 
 
-def least_squares_velocity(times: np.ndarray, positions: np.ndarray, min_speed: float = DEFAULT_MIN_SPEED,
-                           min_samples: int | None = None):
+def least_squares_velocity(
+    times: np.ndarray,
+    positions: np.ndarray,
+    min_speed: float = DEFAULT_MIN_SPEED,
+    min_samples: int | None = None,
+):
     """Slope of the least-squares line through windows of samples.
 
     times: (..., K) sample times of each window; positions: (..., K, P, 3) P points per sample,
@@ -74,8 +78,9 @@ def least_squares_velocity(times: np.ndarray, positions: np.ndarray, min_speed: 
     return velocity, moving
 
 
-def trajectory_velocities(times: np.ndarray, wrists: np.ndarray, window: int = DEFAULT_WINDOW,
-                          min_speed: float = DEFAULT_MIN_SPEED):
+def trajectory_velocities(
+    times: np.ndarray, wrists: np.ndarray, window: int = DEFAULT_WINDOW, min_speed: float = DEFAULT_MIN_SPEED
+):
     """Causal wrist velocities along a whole recording (the batch twin of `WristVelocityEstimator`).
 
     times: (T,); wrists: (T, 2, 3). Sample k uses samples max(0, k-window+1)..k, exactly as the
@@ -84,8 +89,10 @@ def trajectory_velocities(times: np.ndarray, wrists: np.ndarray, window: int = D
     times = np.asarray(times, dtype=float)
     wrists = np.asarray(wrists, dtype=float)
     if times.ndim != 1 or wrists.shape != (times.shape[0], 2, 3):
-        raise ValueError(f"trajectory_velocities: times (T,) and wrists (T, 2, 3) expected, "
-                         f"got {times.shape} and {wrists.shape}")
+        raise ValueError(
+            f"trajectory_velocities: times (T,) and wrists (T, 2, 3) expected, "
+            f"got {times.shape} and {wrists.shape}"
+        )
     if window < 2:
         raise ValueError(f"trajectory_velocities: window must be >= 2, got {window}")
     # Pad the start with NaN samples so every step has a full window (NaN rows are skipped).
@@ -136,8 +143,14 @@ def as_goal_samples(goal_centers: np.ndarray) -> np.ndarray:
     return centers
 
 
-def goal_features(wrists: np.ndarray, velocities: np.ndarray, moving: np.ndarray, head: np.ndarray,
-                  gaze: np.ndarray, goal_centers: np.ndarray) -> np.ndarray:
+def goal_features(
+    wrists: np.ndarray,
+    velocities: np.ndarray,
+    moving: np.ndarray,
+    head: np.ndarray,
+    gaze: np.ndarray,
+    goal_centers: np.ndarray,
+) -> np.ndarray:
     """Phi^i of thesis 3.1.2 for both hands and every goal (hypothesis).
 
     wrists, velocities: (..., 2, 3) left then right; moving: (..., 2); head, gaze: (..., 3);
@@ -164,8 +177,9 @@ def goal_features(wrists: np.ndarray, velocities: np.ndarray, moving: np.ndarray
     return np.stack([wrist_angle, other, head_both, distance], axis=-1)
 
 
-def skeleton_features(points: np.ndarray, velocities: np.ndarray, moving: np.ndarray, gaze: np.ndarray,
-                      goal_centers: np.ndarray) -> np.ndarray:
+def skeleton_features(
+    points: np.ndarray, velocities: np.ndarray, moving: np.ndarray, gaze: np.ndarray, goal_centers: np.ndarray
+) -> np.ndarray:
     """`goal_features` reading wrists and head from skeleton points (..., 8, 3)."""
     points = np.asarray(points, dtype=float)
     wrists = points[..., [L_WRIST, R_WRIST], :]

@@ -32,17 +32,25 @@ class GaussianMixtureDensity:
         means = np.asarray(means, dtype=float)
         covariances = np.asarray(covariances, dtype=float)
         if weights.ndim != 1 or means.ndim != 2 or covariances.ndim != 3:
-            raise ValueError("GaussianMixtureDensity: weights (K,), means (K, D), covariances (K, D, D) "
-                             f"expected, got {weights.shape}, {means.shape}, {covariances.shape}")
+            raise ValueError(
+                "GaussianMixtureDensity: weights (K,), means (K, D), covariances (K, D, D) "
+                f"expected, got {weights.shape}, {means.shape}, {covariances.shape}"
+            )
         k, d = means.shape
         if weights.shape[0] != k or covariances.shape != (k, d, d) or k == 0:
-            raise ValueError(f"GaussianMixtureDensity: inconsistent shapes {weights.shape}, {means.shape}, "
-                             f"{covariances.shape}")
-        if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(means)) and np.all(np.isfinite(covariances))):
+            raise ValueError(
+                f"GaussianMixtureDensity: inconsistent shapes {weights.shape}, {means.shape}, "
+                f"{covariances.shape}"
+            )
+        if not (
+            np.all(np.isfinite(weights)) and np.all(np.isfinite(means)) and np.all(np.isfinite(covariances))
+        ):
             raise ValueError("GaussianMixtureDensity: parameters contain NaN or inf")
         if np.any(weights < 0) or abs(weights.sum() - 1.0) > 1e-6:
-            raise ValueError(f"GaussianMixtureDensity: weights must be >= 0 and sum to 1 (eq. 3.6), "
-                             f"sum is {weights.sum():.6g}")
+            raise ValueError(
+                f"GaussianMixtureDensity: weights must be >= 0 and sum to 1 (eq. 3.6), "
+                f"sum is {weights.sum():.6g}"
+            )
         try:
             chol = np.linalg.cholesky(covariances)
         except np.linalg.LinAlgError as err:
@@ -55,8 +63,9 @@ class GaussianMixtureDensity:
         self._mean_proj = np.einsum("kd,kde->ke", means, self._precision_chol)  # (K, D)
         with np.errstate(divide="ignore"):
             log_weights = np.log(weights)
-        self._log_norm = (log_weights - 0.5 * d * _LOG_2PI
-                          - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1))  # (K,)
+        self._log_norm = (
+            log_weights - 0.5 * d * _LOG_2PI - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
+        )  # (K,)
 
     @property
     def n_components(self) -> int:
@@ -70,8 +79,9 @@ class GaussianMixtureDensity:
         """log f(x) for samples x (..., D); one batched expression for all samples."""
         x = np.asarray(x, dtype=float)
         if x.shape[-1] != self.n_features:
-            raise ValueError(f"GaussianMixtureDensity.log_density: last axis must be {self.n_features}, "
-                             f"got {x.shape}")
+            raise ValueError(
+                f"GaussianMixtureDensity.log_density: last axis must be {self.n_features}, got {x.shape}"
+            )
         y = np.einsum("...d,kde->...ke", x, self._precision_chol) - self._mean_proj
         log_comp = self._log_norm - 0.5 * np.einsum("...ke,...ke->...k", y, y)
         top = np.max(log_comp, axis=-1, keepdims=True)
@@ -79,8 +89,11 @@ class GaussianMixtureDensity:
         return top[..., 0] + np.log(np.sum(np.exp(log_comp - top), axis=-1))
 
     def to_dict(self) -> dict:
-        return {"weights": self.weights.tolist(), "means": self.means.tolist(),
-                "covariances": self.covariances.tolist()}
+        return {
+            "weights": self.weights.tolist(),
+            "means": self.means.tolist(),
+            "covariances": self.covariances.tolist(),
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> GaussianMixtureDensity:
@@ -93,8 +106,10 @@ class GaussianMixtureDensity:
     def from_sklearn(cls, gmm) -> GaussianMixtureDensity:
         """From a fitted `sklearn.mixture.GaussianMixture` with covariance_type 'full'."""
         if gmm.covariance_type != "full":
-            raise ValueError(f"GaussianMixtureDensity.from_sklearn: covariance_type 'full' needed, "
-                             f"got {gmm.covariance_type!r}")
+            raise ValueError(
+                f"GaussianMixtureDensity.from_sklearn: covariance_type 'full' needed, "
+                f"got {gmm.covariance_type!r}"
+            )
         return cls(gmm.weights_, gmm.means_, gmm.covariances_)
 
 
@@ -114,22 +129,33 @@ class IntentionModel:
 
     def __post_init__(self):
         if self.gmm4d.n_features != 4 or self.gmm2d.n_features != 2:
-            raise ValueError(f"IntentionModel: GMM4d needs 4 features and GMM2d 2, got "
-                             f"{self.gmm4d.n_features} and {self.gmm2d.n_features}")
+            raise ValueError(
+                f"IntentionModel: GMM4d needs 4 features and GMM2d 2, got "
+                f"{self.gmm4d.n_features} and {self.gmm2d.n_features}"
+            )
 
     def to_dict(self) -> dict:
-        return {"format": "hrc_drake.intention.IntentionModel/1", "gmm4d": self.gmm4d.to_dict(),
-                "gmm2d": self.gmm2d.to_dict(), "window": int(self.window), "min_speed": float(self.min_speed),
-                "info": self.info}
+        return {
+            "format": "hrc_drake.intention.IntentionModel/1",
+            "gmm4d": self.gmm4d.to_dict(),
+            "gmm2d": self.gmm2d.to_dict(),
+            "window": int(self.window),
+            "min_speed": float(self.min_speed),
+            "info": self.info,
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> IntentionModel:
         for key in ("gmm4d", "gmm2d"):
             if key not in data:
                 raise ValueError(f"IntentionModel.from_dict: missing key {key!r}")
-        return cls(GaussianMixtureDensity.from_dict(data["gmm4d"]), GaussianMixtureDensity.from_dict(data["gmm2d"]),
-                   int(data.get("window", DEFAULT_WINDOW)), float(data.get("min_speed", DEFAULT_MIN_SPEED)),
-                   dict(data.get("info", {})))
+        return cls(
+            GaussianMixtureDensity.from_dict(data["gmm4d"]),
+            GaussianMixtureDensity.from_dict(data["gmm2d"]),
+            int(data.get("window", DEFAULT_WINDOW)),
+            float(data.get("min_speed", DEFAULT_MIN_SPEED)),
+            dict(data.get("info", {})),
+        )
 
     def save(self, path) -> None:
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
@@ -150,8 +176,9 @@ class IntentionModel:
 def default_model() -> IntentionModel:
     """The model shipped in hrc_drake/data/intention_default.json (tools/train_intention.py)."""
     if not DEFAULT_MODEL_PATH.exists():
-        raise FileNotFoundError(f"the default intention model {DEFAULT_MODEL_PATH} is missing; "
-                                "run tools/train_intention.py")
+        raise FileNotFoundError(
+            f"the default intention model {DEFAULT_MODEL_PATH} is missing; run tools/train_intention.py"
+        )
     return IntentionModel.load(DEFAULT_MODEL_PATH)
 
 
@@ -175,9 +202,17 @@ class IntentionLikelihoodLearner:
     `heldout_scores_4d_`, `heldout_scores_2d_` (dict n_components -> nats per sample), `model_`.
     """
 
-    def __init__(self, candidates=tuple(range(1, 13)), heldout_fraction: float = 0.25, tolerance: float = 0.01,
-                 reg_covar: float = 1e-4, max_samples: int = 40000, window: int = DEFAULT_WINDOW,
-                 min_speed: float = DEFAULT_MIN_SPEED, random_state: int = 0):
+    def __init__(
+        self,
+        candidates=tuple(range(1, 13)),
+        heldout_fraction: float = 0.25,
+        tolerance: float = 0.05,
+        reg_covar: float = 1e-4,
+        max_samples: int = 40000,
+        window: int = DEFAULT_WINDOW,
+        min_speed: float = DEFAULT_MIN_SPEED,
+        random_state: int = 0,
+    ):
         self.candidates = tuple(int(c) for c in candidates)
         self.heldout_fraction = heldout_fraction
         self.tolerance = tolerance
@@ -199,13 +234,15 @@ class IntentionLikelihoodLearner:
         for k in self.candidates:
             if k > len(train):
                 break
-            gmm = GaussianMixture(k, covariance_type="full", reg_covar=self.reg_covar, n_init=1,
-                                  random_state=self.random_state).fit(train)
+            gmm = GaussianMixture(
+                k, covariance_type="full", reg_covar=self.reg_covar, n_init=1, random_state=self.random_state
+            ).fit(train)
             scores[k] = float(gmm.score(test))
         best = max(scores.values())
         chosen = min(k for k, s in scores.items() if s >= best - self.tolerance)
-        gmm = GaussianMixture(chosen, covariance_type="full", reg_covar=self.reg_covar, n_init=2,
-                              random_state=self.random_state).fit(x)
+        gmm = GaussianMixture(
+            chosen, covariance_type="full", reg_covar=self.reg_covar, n_init=2, random_state=self.random_state
+        ).fit(x)
         return gmm, chosen, scores
 
     def fit(self, phi: np.ndarray) -> IntentionLikelihoodLearner:
@@ -231,11 +268,20 @@ class IntentionLikelihoodLearner:
         updated = []
         for old, x in ((self.gmm4d_, phi), (self.gmm2d_, phi[:, list(PSI_COLUMNS)])):
             if len(x) < old.n_components:
-                raise ValueError(f"IntentionLikelihoodLearner.partial_fit: need at least {old.n_components} "
-                                 f"samples, got {len(x)}")
-            gmm = GaussianMixture(old.n_components, covariance_type="full", reg_covar=self.reg_covar,
-                                  max_iter=5, weights_init=old.weights_, means_init=old.means_,
-                                  precisions_init=old.precisions_, random_state=self.random_state)
+                raise ValueError(
+                    f"IntentionLikelihoodLearner.partial_fit: need at least {old.n_components} "
+                    f"samples, got {len(x)}"
+                )
+            gmm = GaussianMixture(
+                old.n_components,
+                covariance_type="full",
+                reg_covar=self.reg_covar,
+                max_iter=5,
+                weights_init=old.weights_,
+                means_init=old.means_,
+                precisions_init=old.precisions_,
+                random_state=self.random_state,
+            )
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # few EM steps on purpose: not converged is fine
                 updated.append(gmm.fit(x))
@@ -246,13 +292,21 @@ class IntentionLikelihoodLearner:
 
     def _make_model(self) -> None:
         self.model_ = IntentionModel(
-            GaussianMixtureDensity.from_sklearn(self.gmm4d_), GaussianMixtureDensity.from_sklearn(self.gmm2d_),
-            self.window, self.min_speed,
-            {"n_components_4d": self.n_components_4d_, "n_components_2d": self.n_components_2d_,
-             "heldout_scores_4d": {str(k): v for k, v in self.heldout_scores_4d_.items()},
-             "heldout_scores_2d": {str(k): v for k, v in self.heldout_scores_2d_.items()},
-             "n_samples": int(self.n_samples_seen_)})
+            GaussianMixtureDensity.from_sklearn(self.gmm4d_),
+            GaussianMixtureDensity.from_sklearn(self.gmm2d_),
+            self.window,
+            self.min_speed,
+            {
+                "n_components_4d": self.n_components_4d_,
+                "n_components_2d": self.n_components_2d_,
+                "heldout_scores_4d": {str(k): v for k, v in self.heldout_scores_4d_.items()},
+                "heldout_scores_2d": {str(k): v for k, v in self.heldout_scores_2d_.items()},
+                "n_samples": int(self.n_samples_seen_),
+            },
+        )
 
     def score_samples(self, phi: np.ndarray) -> np.ndarray:
         """log L_GMM4d(Phi) per sample (M,)."""
-        return self.model_.gmm4d.log_density(_check_samples(phi, 4, "IntentionLikelihoodLearner.score_samples"))
+        return self.model_.gmm4d.log_density(
+            _check_samples(phi, 4, "IntentionLikelihoodLearner.score_samples")
+        )

@@ -73,22 +73,22 @@ def worst_case_excursions(qdot, horizon: float, v_max, a_max) -> tuple[np.ndarra
 def _rot_z(angle: np.ndarray) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     zero, one = np.zeros_like(angle), np.ones_like(angle)
-    return np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)], -2)
+    rows = [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)]
+    return np.stack(rows, -2)
 
 
 class SweptVolumeBuilder:
     """Capsules bounding each body capsule over the joint box [q - Delta-, q + Delta+] (8.1.1, Fig. 8.2c).
 
     The box is sampled on a grid of `levels` values per rotation (torso flexion, the 8 arm
-    joints, base yaw) and the two ends of each base translation (a translation sweeps the
-    convex hull of its end positions). The two arms share a sample index (an arm capsule
-    does not depend on the other arm), so every combination a capsule depends on is visited.
-    Forward kinematics runs once per (flexion, arm) sample at the origin; base yaw and
-    translation are rigid motions of the whole body, applied to the capsule end points.
-    Each body capsule's instances are then bounded by one capsule
-    (`geometry.bounding_capsules`), inflated by `margin` plus the largest gap between the
-    arc a rotation sweeps and its chord between grid values, lever * (1 - cos(step / 2)),
-    summed over the rotations.
+    joints, base yaw); the two arms share a sample index (an arm capsule does not depend on
+    the other arm), so every combination a capsule depends on is visited. Forward kinematics
+    runs once per (flexion, arm) sample at the origin; base yaw is a rigid rotation of the
+    whole body applied to the capsule end points, at the centre of the base translation box.
+    Each body capsule's instances are bounded by one capsule (`geometry.bounding_capsules`),
+    inflated by `margin`, by the half diagonal of the translation box, and by the largest
+    gap between the arc a rotation sweeps and its chord between grid values,
+    lever * (1 - cos(step / 2)), summed over the rotations.
     """
 
     def __init__(self, body, levels: int = 3, margin: float = 0.0):
@@ -109,8 +109,6 @@ class SweptVolumeBuilder:
         # the samples with the first arm value already visit every flexion value
         self._base_only = arm_index.ravel() == 0
         self._axis = axis
-        corners = np.array([[0.0, 0.0], [0.0, 1.0], [1.0, 0.0], [1.0, 1.0]])
-        self._corners = corners
         reach = sum(getattr(body, name, 0.5) for name in ("upper_arm", "forearm", "hand_length"))
         torso = getattr(body, "torso", 0.6)
         half_width = 0.5 * getattr(body, "shoulder_width", 0.5)
@@ -127,7 +125,7 @@ class SweptVolumeBuilder:
         if not (q.shape == delta_plus.shape == delta_minus.shape == (12,)):
             raise ValueError(f"SweptVolumeBuilder.build: q, delta_plus, delta_minus must be (12,), got "
                              f"{q.shape}, {delta_plus.shape}, {delta_minus.shape}")
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(delta_plus)) and np.all(np.isfinite(delta_minus))):
+        if not np.all(np.isfinite(np.concatenate([q, delta_plus, delta_minus]))):
             raise ValueError("SweptVolumeBuilder.build: q or excursions contain NaN or inf")
         if np.any(delta_plus < 0) or np.any(delta_minus < 0):
             raise ValueError("SweptVolumeBuilder.build: excursions must be >= 0")
@@ -141,15 +139,16 @@ class SweptVolumeBuilder:
         local[:, 8:12] = low[8:12] + self._arm_fraction * span[8:12]
         starts, ends, radius = self.body.capsules(local)  # (F, K, 3) at the origin, yaw 0
         rotations = _rot_z(low[2] + self._axis * span[2])  # (L, 3, 3)
-        shifts = np.zeros((4, 3))
-        shifts[:, :2] = low[:2] + self._corners * span[:2]
+        shift = np.array([low[0] + 0.5 * span[0], low[1] + 0.5 * span[1], 0.0])
 
-        def place(points):  # (F, K, 3) -> (4 * L * F, K, 3)
+        def place(points):  # (F, K, 3) -> (L * F, K, 3) at the centre of the translation box
             turned = np.einsum("lij,fkj->lfki", rotations, points)
-            return (turned[None] + shifts[:, None, None, None]).reshape(-1, *points.shape[1:])
+            return (turned + shift).reshape(-1, *points.shape[1:])
 
         rotation_span = np.concatenate([[span[2], span[3]], span[4:]])
         arc_gap = float(np.sum(self._levers * (1.0 - np.cos(0.5 * rotation_span / (self.levels - 1)))))
+        # the translation box lies within a disc of its half diagonal around its centre
+        translation = 0.5 * float(np.hypot(span[0], span[1]))
         start = np.empty((len(self.names), 3))
         end = np.empty((len(self.names), 3))
         bound = np.empty(len(self.names))
@@ -157,7 +156,7 @@ class SweptVolumeBuilder:
             if np.any(parts):
                 start[parts], end[parts], bound[parts] = bounding_capsules(
                     place(starts[rows][:, parts]), place(ends[rows][:, parts]), radius[parts],
-                    self.margin + arc_gap)
+                    self.margin + arc_gap + translation)
         return start, end, bound
 
 

@@ -27,7 +27,8 @@ class BoxOcclusion:
     def __init__(self, camera_position, boxes):
         self.camera_position = np.asarray(camera_position, dtype=float)
         if self.camera_position.shape != (3,):
-            raise ValueError(f"BoxOcclusion: camera_position must have shape (3,), got {self.camera_position.shape}")
+            raise ValueError(
+                f"BoxOcclusion: camera_position must have shape (3,), got {self.camera_position.shape}")
         self.set_boxes(boxes)
 
     def set_boxes(self, boxes) -> None:

@@ -83,7 +83,8 @@ class ChainOfIntegrators:
 _BALL_SAMPLES = 512
 
 
-def _unit_ball_samples(n: int, dim: int) -> np.ndarray:
+def unit_ball_samples(n: int, dim: int) -> np.ndarray:
+    """(n, dim) fixed points uniform in the unit ball (seeded: the same on every call)."""
     rng = np.random.default_rng(12345)
     direction = rng.standard_normal((n, dim))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
@@ -212,7 +213,7 @@ class KalmanFilter:
         d = self.model.dim
         if center.shape != (d,) or half.shape != (d,):
             raise ValueError(f"ellipsoid_fraction_in_box: center and size must have shape ({d},)")
-        ball = _unit_ball_samples(_BALL_SAMPLES, d)
+        ball = unit_ball_samples(_BALL_SAMPLES, d)
         m, semi, axes = self.ellipsoid(confidence)
         pts = m[:, None, :] + np.einsum("tij,nj->tni", axes * semi[:, None, :], ball)
         inside = np.all(np.abs(pts - center) <= half, axis=2)

@@ -37,13 +37,13 @@ from collections.abc import Callable
 import numpy as np
 
 from hrc_drake.messages import SKELETON_PARENTS
-from hrc_drake.perception.kalman import ChainOfIntegrators
+from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
 
 _WHERE = "SkeletonParticleFilter: "
 IsHidden = Callable[[np.ndarray], np.ndarray]
 
 #: Default per-block process standard deviations (position, velocity, acceleration, jerk).
-DEFAULT_SIGMA = (2.0, 4.0, 20.0, 60.0)
+DEFAULT_SIGMA = (0.1, 0.2, 1.0, 5.0)
 #: Default per-block standard deviations of a new track (position replaced by measurement_std).
 DEFAULT_INITIAL_STD = (0.01, 0.2, 1.0, 5.0)
 
@@ -108,7 +108,8 @@ class SkeletonParticleFilter:
     def __init__(self, n_particles: int = 500, dt: float = 1.0 / 30.0, order: int = 4, sigma=DEFAULT_SIGMA,
                  measurement_std: float = 0.01, crown: float = 0.05, resampling: str = "bootstrap",
                  calibration_frames: int = 10, segment_lengths=None, initial_std=DEFAULT_INITIAL_STD,
-                 gate: float = 6.0, reseed_tries: int = 4, parents=SKELETON_PARENTS, rng=None):
+                 gate: float = 6.0, reseed_tries: int = 4, tracked_update: str = "kalman",
+                 parents=SKELETON_PARENTS, rng=None):
         if int(n_particles) != n_particles or n_particles < 2:
             raise ValueError(_WHERE + f"n_particles must be an integer >= 2, got {n_particles!r}")
         if resampling not in ("bootstrap", "systematic"):
@@ -132,10 +133,16 @@ class SkeletonParticleFilter:
         for i, p in enumerate(self.parents):
             if p >= i:
                 raise ValueError(_WHERE + f"parents must precede children, point {i} has parent {p}")
+        if tracked_update not in ("kalman", "bootstrap"):
+            raise ValueError(_WHERE + f"tracked_update must be kalman|bootstrap, got {tracked_update!r}")
+        self.tracked_update = tracked_update
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         init = _sigma_for_order(initial_std, order).copy()
         init[0] = measurement_std
         self._initial_std = np.repeat(init, 3)
+        self._kf = KalmanFilter(self.model, self.n_points, measurement_std, init)
+        # Keeps sampled covariances positive definite (1e-6 m is far below any motion).
+        self._cov_floor = 1e-12 * np.eye(self.model.state_size)
         self._noise_std = np.sqrt(np.diag(self.model.W))
         self._a_t = self.model.A.T.copy()
         self._children = [tuple(c for c, p in enumerate(self.parents) if p == i)
@@ -162,6 +169,9 @@ class SkeletonParticleFilter:
         else:
             self.segment_lengths_ = np.full(self.n_points, np.nan)
         self._constraint_cache = {}
+        self._hidden_before = np.zeros(self.n_points, dtype=bool)
+        if hasattr(self, "_kf"):
+            self._kf.reset()
 
     @property
     def positions(self) -> np.ndarray:
@@ -325,7 +335,8 @@ class SkeletonParticleFilter:
                 chosen = predicted[i, :, :3]
             else:
                 continue
-            self.particles_[i] = self._new_states(chosen[None], predicted[i][None])[0]
+            # Fresh derivatives: the old ones are what carried every particle out of the region.
+            self.particles_[i] = self._new_states(chosen[None], None)[0]
             self.n_reseeds_[i] += 1
         return success
 
@@ -353,7 +364,8 @@ class SkeletonParticleFilter:
         """
         points, seen = self._check_frame(points, tracked)
         if int(steps) < 1:
-            raise ValueError(f"SkeletonParticleFilter.step: steps must be >= 1, got {steps!r}")
+            raise ValueError(_WHERE + f"steps must be >= 1, got {steps!r}")
+        steps = int(steps)
         self._calibrate(points, seen)
         n, rng = self.n_particles, self.rng
 
@@ -365,41 +377,35 @@ class SkeletonParticleFilter:
                 points[idx, None, :] + rng.standard_normal((len(idx), n, 3)) * self.measurement_std, None)
             self.means_[idx] = points[idx]
             self.initialized_[new] = True
+            self._kf.initialized_[idx] = False
             self._constraint_cache.clear()
         active = self.initialized_ & ~new
-
-        # 1. Motion update of every set at once, eq. (9.1).
-        if np.any(active):
-            x = self.particles_
-            for _ in range(int(steps)):
-                x = x @ self._a_t + rng.standard_normal(x.shape) * self._noise_std
-            self.particles_ = np.where(active[:, None, None], x, self.particles_)
-        predicted = self.particles_
-
-        # 2a. Seen points: Gaussian likelihood (9.8) in log form.
-        log_w = np.zeros((self.n_points, n))
         upd_seen = np.flatnonzero(seen & active)
-        if len(upd_seen):
-            diff = predicted[upd_seen, :, :3] - points[upd_seen, None, :]
-            d2 = np.einsum("pnk,pnk->pn", diff, diff) / self.measurement_std**2
-            log_w[upd_seen] = -0.5 * d2
-            lost = d2.min(axis=1) > self.gate**2
-            if np.any(lost):
-                # Measurement outside the whole cloud: re-acquire around it.
-                li = upd_seen[lost]
-                self.particles_[li] = self._new_states(
-                    points[li, None, :] + rng.standard_normal((len(li), n, 3)) * self.measurement_std,
-                    predicted[li])
-                log_w[li] = 0.0
-                self.n_reseeds_[li] += 1
-        # Anchors of the constraints are the posterior means of the seen points.
-        if len(upd_seen):
-            w = np.exp(log_w[upd_seen] - log_w[upd_seen].max(axis=1, keepdims=True))
-            w /= w.sum(axis=1, keepdims=True)
-            self.means_[upd_seen] = np.einsum("pn,pnk->pk", w, self.particles_[upd_seen, :, :3])
+        hidden_idx = np.flatnonzero(~seen & active)
+
+        if self.tracked_update == "kalman":
+            # Newly hidden points start from their full Kalman posterior (12-dim samples).
+            onset = hidden_idx[~self._hidden_before[hidden_idx]]
+            if len(onset):
+                chol = np.linalg.cholesky(self._kf.P_[onset] + self._cov_floor)
+                z = rng.standard_normal((len(onset), n, self.model.state_size))
+                self.particles_[onset] = self._kf.x_[onset, None, :] + z @ np.swapaxes(chol, 1, 2)
+            self._seen_kalman(points, seen, active, np.flatnonzero(seen), steps)
+            moving = hidden_idx
+        else:
+            moving = np.flatnonzero(active)
+        # 1. Motion update, eq. (9.1), of every set that the particles carry.
+        if len(moving):
+            x = self.particles_[moving]
+            for _ in range(steps):
+                x = x @ self._a_t + rng.standard_normal(x.shape) * self._noise_std
+            self.particles_[moving] = x
+
+        log_w = np.zeros((self.n_points, n))
+        if self.tracked_update == "bootstrap" and len(upd_seen):
+            log_w[upd_seen] = self._seen_bootstrap_log_weights(points, upd_seen)
 
         # 2b. Hidden points: constraint likelihood L_c1 L_c2, eq. (9.10)-(9.14).
-        hidden_idx = np.flatnonzero(~seen & active)
         degenerate = np.zeros(0, dtype=int)
         if len(hidden_idx):
             ok = self._admissible(self.particles_[hidden_idx, :, :3], hidden_idx, seen, is_hidden)
@@ -408,8 +414,8 @@ class SkeletonParticleFilter:
             degenerate = hidden_idx[dead]
             log_w[degenerate] = 0.0
 
-        # 3. Resampling of every initialized set.
-        res = np.flatnonzero(self.initialized_ & ~new)
+        # 3. Resampling of the sets that were weighted.
+        res = hidden_idx if self.tracked_update == "kalman" else np.flatnonzero(active)
         if len(res):
             w = np.exp(log_w[res] - log_w[res].max(axis=1, keepdims=True))
             idx = resample_indices(w, rng, self.resampling)
@@ -420,7 +426,7 @@ class SkeletonParticleFilter:
         # Points never seen yet: try to place them in their admissible region.
         unseen_new = np.flatnonzero(~self.initialized_)
         if len(unseen_new):
-            point, _, _, _, _ = self._constraints(seen)
+            point = self._constraints(seen)[0]
             placeable = [i for i in unseen_new if np.any(point == i)]
             if placeable:
                 placeable = np.array(placeable)
@@ -430,3 +436,65 @@ class SkeletonParticleFilter:
                     self.initialized_[placeable[placed]] = True
                     self._constraint_cache.clear()
         self.means_[self.initialized_] = self.positions[self.initialized_].mean(axis=1)
+        self._hidden_before = self.initialized_ & ~seen
+
+    def _seen_bootstrap_log_weights(self, points, upd_seen):
+        """Log of the Gaussian likelihood (9.8) of seen points (bootstrap PF, weights 9.9).
+
+        Also re-acquires a point whose measurement lies outside its whole cloud, and sets the
+        posterior means used as constraint anchors.
+        """
+        diff = self.particles_[upd_seen, :, :3] - points[upd_seen, None, :]
+        d2 = np.einsum("pnk,pnk->pn", diff, diff) / self.measurement_std**2
+        log_w = -0.5 * d2
+        lost = d2.min(axis=1) > self.gate**2
+        if np.any(lost):
+            li = upd_seen[lost]
+            n = self.n_particles
+            self.particles_[li] = self._new_states(
+                points[li, None, :] + self.rng.standard_normal((len(li), n, 3)) * self.measurement_std,
+                self.particles_[li])
+            log_w[lost] = 0.0
+            self.n_reseeds_[li] += 1
+        w = np.exp(log_w - log_w.max(axis=1, keepdims=True))
+        w /= w.sum(axis=1, keepdims=True)
+        self.means_[upd_seen] = np.einsum("pn,pnk->pk", w, self.particles_[upd_seen, :, :3])
+        return log_w
+
+    def _seen_kalman(self, points, seen, active, upd_seen, steps):
+        """Seen points in "kalman" mode: particles drawn from the exact Gaussian posterior.
+
+        The model is linear-Gaussian while a point is seen, so the posterior the canonical PF
+        approximates is the Kalman one; sampling it avoids the sample impoverishment of the
+        12-dim per-point state. A point seen again after an occlusion starts its Kalman
+        posterior from the moments of its constrained particle cloud.
+        """
+        kf = self._kf
+        back = np.flatnonzero(seen & active & self._hidden_before)
+        if len(back):
+            x = self.particles_[back]
+            mean = x.mean(axis=1)
+            centered = x - mean[:, None, :]
+            cov = np.einsum("pns,pnt->pst", centered, centered) / (self.n_particles - 1)
+            kf.x_[back] = mean
+            kf.P_[back] = cov + self._cov_floor
+        kf.predict(steps)
+        if len(upd_seen):
+            d = 3
+            innovation = points[upd_seen] - kf.x_[upd_seen, :d]
+            s = kf.P_[upd_seen, :d, :d] + self.measurement_std**2 * np.eye(d)
+            d2 = np.einsum("pi,pi->p", innovation, np.linalg.solve(s, innovation[:, :, None])[:, :, 0])
+            lost = (d2 > self.gate**2) & kf.initialized_[upd_seen]
+            if np.any(lost):
+                # Measurement far from the prediction: restart the track at the measurement.
+                kf.initialized_[upd_seen[lost]] = False
+                self.n_reseeds_[upd_seen[lost]] += 1
+            mask = np.zeros(self.n_points, dtype=bool)
+            mask[upd_seen] = True
+            kf.update(np.where(mask[:, None], points, 0.0), mask)
+            # Only positions are sampled while seen (display, spread, workspace fraction); the
+            # full state is sampled from the posterior when the point gets hidden.
+            chol = np.linalg.cholesky(kf.P_[upd_seen, :d, :d])
+            z = self.rng.standard_normal((len(upd_seen), self.n_particles, d))
+            self.particles_[upd_seen, :, :d] = kf.x_[upd_seen, None, :d] + z @ np.swapaxes(chol, 1, 2)
+            self.means_[upd_seen] = kf.x_[upd_seen, :d]

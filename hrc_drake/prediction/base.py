@@ -159,6 +159,10 @@ class SequenceModel:
             contexts = following
         return out
 
+    def _predict_many(self, contexts: list[tuple[int, ...]]) -> np.ndarray:
+        """Next-action probabilities (N, m) for many code contexts (each at most context_length_)."""
+        return np.stack([self._predict_codes(ctx) for ctx in contexts])
+
     def marginal_(self) -> np.ndarray:
         """Relative frequency of each action in the buffer (uniform when empty)."""
         if not self.buffer_:

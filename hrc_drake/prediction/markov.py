@@ -190,6 +190,19 @@ class HigherOrderMarkovModel(SequenceModel):
         return probs / probs.sum()
 
 
+    def _predict_many(self, contexts: list[tuple[int, ...]]) -> np.ndarray:
+        lags = int(self.order) + 1
+        if any(len(ctx) < lags for ctx in contexts):
+            return super()._predict_many(contexts)
+        if self._matrices_stale:
+            self.matrices_ = counts_to_matrices(self.counts_)
+            self._matrices_stale = False
+        recent = np.asarray(contexts, dtype=int)[:, ::-1]  # (N, n+1): A_k, A_{k-1}, ...
+        columns = self.matrices_[np.arange(lags)[None, :], :, recent]  # (N, n+1, m)
+        probs = np.einsum("i,nij->nj", self.weights_ / self.weights_.sum(), columns)
+        return probs / probs.sum(axis=1, keepdims=True)
+
+
 class MarkovChainModel(HigherOrderMarkovModel):
     """First-order Markov chain, X_{k+1} = Q X_k (eq. 5.4), counts over the FIFO buffer."""
 

@@ -100,13 +100,20 @@ def solve_tool_position(
         if target_rpy is not None:
             R_target = RollPitchYaw(_vector3(target_rpy, "target_rpy")).ToRotationMatrix()
             ik.AddOrientationConstraint(
-                plant.world_frame(), R_target, tool, RollPitchYaw(0.0, 0.0, 0.0).ToRotationMatrix(),
+                plant.world_frame(),
+                R_target,
+                tool,
+                RollPitchYaw(0.0, 0.0, 0.0).ToRotationMatrix(),
                 angle_tolerance,
             )
         elif tool_z_down:
             ik.AddAngleBetweenVectorsConstraint(
-                plant.world_frame(), np.array([0.0, 0.0, -1.0]), tool, np.array([0.0, 0.0, 1.0]),
-                0.0, TOOL_DOWN_ANGLE,
+                plant.world_frame(),
+                np.array([0.0, 0.0, -1.0]),
+                tool,
+                np.array([0.0, 0.0, 1.0]),
+                0.0,
+                TOOL_DOWN_ANGLE,
             )
         return ik, q, prog
 

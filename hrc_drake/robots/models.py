@@ -3,8 +3,8 @@
 The URDFs in `models/` follow /work/shared/robots/KINEMATICS.md (joint origins, axes, limits and
 velocities of the public ROS descriptions); masses, inertias and capsule radii are approximations.
 This module loads them into a `MultibodyPlant`, names their arms, tools and grippers, and gives the
-capsule set used for human-robot distance computations (thesis 8.1: the robot is a set of
-capsules around its links).
+capsule set used for human-robot distance computations (thesis Fig. 8.18 draws the robot links as
+capsules).
 """
 
 from __future__ import annotations
@@ -160,7 +160,9 @@ def arm_joint_limits(plant: MultibodyPlant, instance: ModelInstanceIndex, model:
     return lower, upper, velocity
 
 
-def arm_position_indices(plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str) -> np.ndarray:
+def arm_position_indices(
+    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
+) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full position vector q."""
     _check_arm(model, arm)
     return np.array(
@@ -168,7 +170,9 @@ def arm_position_indices(plant: MultibodyPlant, instance: ModelInstanceIndex, mo
     )
 
 
-def arm_velocity_indices(plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str) -> np.ndarray:
+def arm_velocity_indices(
+    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
+) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full velocity vector v."""
     _check_arm(model, arm)
     return np.array(
@@ -186,25 +190,43 @@ def gripper_position_indices(
     )
 
 
+#: default implicit-PD gains (kp, kd) per URDF joint name: stiff enough that gravity sag stays
+#: below ~0.01 rad on a 1-10 ms discrete plant (the IRB 140 links are heavier, hence its gains)
+DEFAULT_PD_GAINS: dict[str, tuple[float, float]] = {
+    **{f"yumi_joint_{k}_{s}": (400.0, 40.0) for k in _YUMI_ABB_ORDER for s in "rl"},
+    **{j: (400.0, 10.0) for joints in GRIPPER_JOINTS.values() for j in joints},
+    "irb140_joint_1": (8000.0, 400.0),
+    "irb140_joint_2": (8000.0, 400.0),
+    "irb140_joint_3": (4000.0, 200.0),
+    "irb140_joint_4": (500.0, 25.0),
+    "irb140_joint_5": (500.0, 25.0),
+    "irb140_joint_6": (100.0, 5.0),
+}
+
+
 def set_pd_gains(
     plant: MultibodyPlant,
     instance: ModelInstanceIndex,
-    kp: float | Sequence[float] = 400.0,
-    kd: float | Sequence[float] = 40.0,
+    kp: float | Sequence[float] | None = None,
+    kd: float | Sequence[float] | None = None,
 ) -> None:
     """Give every actuator of `instance` an implicit PD controller (discrete plants; before Finalize).
 
     Afterwards `plant.get_desired_state_input_port(instance)` must be connected with the desired
     [q_d, v_d] of the instance's actuated joints (actuator order) and the actuation input port is
-    added as a feed-forward torque. kp (N m/rad or N/m) and kd may be scalars or one per actuator.
+    added as a feed-forward torque. kp (N m/rad or N/m) and kd may be scalars or one per actuator;
+    None takes `DEFAULT_PD_GAINS` of each joint.
     """
     if plant.is_finalized():
         raise ValueError("set_pd_gains must be called before the plant is finalized")
     # GetJointActuatorIndices(instance) is empty before Finalize: filter all actuators instead.
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
     actuators = [a for a in actuators if a.model_instance() == instance]
+    defaults = [DEFAULT_PD_GAINS.get(a.joint().name(), (400.0, 40.0)) for a in actuators]
     gains = []
-    for value, what in ((kp, "kp"), (kd, "kd")):
+    for value, what, column in ((kp, "kp", 0), (kd, "kd", 1)):
+        if value is None:
+            value = [d[column] for d in defaults]
         arr = np.asarray(value, dtype=float).reshape(-1)
         if arr.size not in (1, len(actuators)):
             raise ValueError(
@@ -220,7 +242,7 @@ def set_pd_gains(
 
 
 def link_capsules(model: str, include_static: bool = True) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
-    """Capsules (body name, p_start (3,), p_end (3,), radius) in body frames, thesis 8.1 robot model.
+    """Capsules (body name, p_start (3,), p_end (3,), radius) in body frames (thesis Fig. 8.18).
 
     include_static=False drops the capsule of the body welded to the base (YuMi torso, IRB 140 base).
     """
@@ -257,7 +279,9 @@ class RobotCapsuleKinematics:
                 radii.append(radius)
                 names.append(f"{prefix}/{body_name}")
         # Several capsules may share a body: fetch each body pose once.
-        self._unique_bodies, self._capsule_body = np.unique(np.array(body_indices, dtype=int), return_inverse=True)
+        self._unique_bodies, self._capsule_body = np.unique(
+            np.array(body_indices, dtype=int), return_inverse=True
+        )
         self._start_B = np.array(starts, dtype=float).reshape(-1, 3)
         self._end_B = np.array(ends, dtype=float).reshape(-1, 3)
         self.radius = np.array(radii, dtype=float)

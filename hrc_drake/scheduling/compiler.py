@@ -15,7 +15,8 @@ Raw buffers never run out (no place); product buffers are unbounded and count fi
 Transitions: ``<a>:begin`` (controllable for robot actions, uncontrollable with zero delay for
 actions involving the human), ``<a>:end`` (uncontrollable, the action's duration),
 ``<robot>:wait`` / ``<robot>:wait_end`` (quantum t_w), ``intent:<k>`` (human intention),
-``<a>:commit`` and ``<a>:giveup`` (robots commit to a collaboration; they give up after
+``<a>:commit`` and ``<a>:giveup`` (robots start a collaboration, taking its parts, resources
+and output spots, and wait for the human; they give up and put everything back after
 ``collab_patience`` s, like t_W of Fig. 7.3).
 """
 
@@ -155,7 +156,9 @@ def compile_flow(
         if b.kind not in ("raw", "intermediate", "product"):
             raise FlowError(f"buffer {b.name!r}: kind {b.kind!r} is not raw | intermediate | product")
         if b.kind == "intermediate" and not 0 <= b.initial <= b.capacity:
-            raise FlowError(f"buffer {b.name!r}: needs 0 <= initial <= capacity, got {b.initial}, {b.capacity}")
+            raise FlowError(
+                f"buffer {b.name!r}: needs 0 <= initial <= capacity, got {b.initial}, {b.capacity}"
+            )
         buf[b.name] = b
     names = [a.name for a in flow.actions]
     if len(set(names)) != len(names) or any(not n for n in names):
@@ -166,7 +169,9 @@ def compile_flow(
             raise FlowError(f"flow action {a.name!r} has no agent")
         for ag in a.agents:
             if ag != human_agent and ag not in robot_agents:
-                raise FlowError(f"flow action {a.name!r}: agent {ag!r} is neither {human_agent!r} nor a robot agent")
+                raise FlowError(
+                    f"flow action {a.name!r}: agent {ag!r} is neither {human_agent!r} nor a robot agent"
+                )
         for b in list(a.inputs) + list(a.outputs):
             if b not in buf:
                 raise FlowError(f"flow action {a.name!r}: unknown buffer {b!r}")
@@ -244,21 +249,41 @@ def compile_flow(
                 role="begin",
             )
             nb.transition(
-                f"{a.name}:end", [busy], [f"avail:{r}" for r in robots] + gives_at_end(a), False, a.duration,
-                agents=robots, action=a.name, role="end",
+                f"{a.name}:end",
+                [busy],
+                [f"avail:{r}" for r in robots] + gives_at_end(a),
+                False,
+                a.duration,
+                agents=robots,
+                action=a.name,
+                role="end",
             )
             continue
         cwait = None
         if robots:
-            cwait = nb.place(f"cwait:{a.name}", cost=sum(robot_cost[r] for r in robots), idle_agent=",".join(robots))
+            cwait = nb.place(
+                f"cwait:{a.name}", cost=sum(robot_cost[r] for r in robots), idle_agent=",".join(robots)
+            )
             nb.transition(
-                f"{a.name}:commit", [f"avail:{r}" for r in robots], [cwait], True, _fixed(0.0),
-                agents=robots, action=a.name, role="commit",
+                f"{a.name}:commit",
+                [f"avail:{r}" for r in robots] + takes(a),
+                [cwait],
+                True,
+                _fixed(0.0),
+                agents=robots,
+                action=a.name,
+                role="commit",
             )
             if math.isfinite(patience):
                 nb.transition(
-                    f"{a.name}:giveup", [cwait], [f"avail:{r}" for r in robots], False, _fixed(patience),
-                    agents=robots, action=a.name, role="giveup",
+                    f"{a.name}:giveup",
+                    [cwait],
+                    [f"avail:{r}" for r in robots] + takes(a),
+                    False,
+                    _fixed(patience),
+                    agents=robots,
+                    action=a.name,
+                    role="giveup",
                 )
         for k, act in steps:
             if act is not a:
@@ -273,19 +298,34 @@ def compile_flow(
             busy = nb.place(f"busy:{tag}")
             nb.transition(f"intent:{k}", [before], [hwait], False, intention, action=a.name, role="intent")
             nb.transition(
-                f"{tag}:begin", [hwait] + ([cwait] if cwait else []) + takes(a), [busy] + frees_at_start(a),
-                False, _fixed(0.0), agents=robots, action=a.name, role="begin",
+                f"{tag}:begin",
+                [hwait] + ([cwait] if cwait else takes(a)),
+                [busy] + frees_at_start(a),
+                False,
+                _fixed(0.0),
+                agents=robots,
+                action=a.name,
+                role="begin",
             )
             nb.transition(
-                f"{tag}:end", [busy], [after] + [f"avail:{r}" for r in robots] + gives_at_end(a), False,
-                a.duration, agents=robots, action=a.name, role="end",
+                f"{tag}:end",
+                [busy],
+                [after] + [f"avail:{r}" for r in robots] + gives_at_end(a),
+                False,
+                a.duration,
+                agents=robots,
+                action=a.name,
+                role="end",
             )
     for r in robot_agents:
+        nb.transition(f"{r}:wait", [f"avail:{r}"], [f"wait:{r}"], True, _fixed(0.0), agents=[r], role="wait")
         nb.transition(
-            f"{r}:wait", [f"avail:{r}"], [f"wait:{r}"], True, _fixed(0.0), agents=[r], role="wait"
-        )
-        nb.transition(
-            f"{r}:wait_end", [f"wait:{r}"], [f"avail:{r}"], False, _fixed(wait_quantum), agents=[r],
+            f"{r}:wait_end",
+            [f"wait:{r}"],
+            [f"avail:{r}"],
+            False,
+            _fixed(wait_quantum),
+            agents=[r],
             role="wait_end",
         )
     net = nb.build()
@@ -327,6 +367,7 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
     queue = deque([start])
     fired = np.zeros(net.n_transitions, dtype=bool)
     complete = True
+    dead = None
     while queue:
         m = queue.popleft()
         en = np.all(pre_k <= m[:, None], axis=0)
@@ -338,9 +379,16 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
                 trace.append(net.transitions[j])
             trace.reverse()
             marked = [net.places[i] for i, v in zip(np.flatnonzero(keep), m, strict=True) if v]
-            waiting = sorted({net.action[j] for j in range(net.n_transitions) if net.action[j] and progress[j]
-                              and any(net.places[i] in marked for i in np.flatnonzero(net.pre[:, j]))})
-            raise FlowError(
+            waiting = sorted(
+                {
+                    net.action[j]
+                    for j in range(net.n_transitions)
+                    if net.action[j]
+                    and progress[j]
+                    and any(net.places[i] in marked for i in np.flatnonzero(net.pre[:, j]))
+                }
+            )
+            dead = dead or (
                 f"dead marking reachable: actions {waiting} wait on each other; marked places {marked}; "
                 f"reached by firing {trace[-12:]}"
             )
@@ -357,7 +405,9 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
             parent[key] = (m.tobytes(), int(j))
             queue.append(nxt)
     if complete:
-        never = sorted({net.action[j] or net.transitions[j] for j in np.flatnonzero(~fired)})
+        never = sorted({net.action[j] or net.transitions[j] for j in np.flatnonzero(~fired & progress)})
         if never:
             raise FlowError(f"actions {never} can never be enabled from the initial marking")
+    if dead:
+        raise FlowError(dead)
     return {"states": len(seen), "complete": complete}

@@ -20,7 +20,9 @@ class DurationModel:
 
     def __init__(self, net: PcTPN, window: int = 30, min_samples: int = 3):
         if window < 1 or min_samples < 1:
-            raise ValueError(f"DurationModel: window and min_samples must be >= 1, got {window}, {min_samples}")
+            raise ValueError(
+                f"DurationModel: window and min_samples must be >= 1, got {window}, {min_samples}"
+            )
         self.net = net
         self.window = int(window)
         self.min_samples = int(min_samples)
@@ -31,7 +33,9 @@ class DurationModel:
         j = self.net.index_of(transition)
         delay = float(delay)
         if not math.isfinite(delay) or delay < 0:
-            raise ValueError(f"DurationModel: delay of {self.net.transitions[j]!r} must be finite and >= 0, got {delay}")
+            raise ValueError(
+                f"DurationModel: delay of {self.net.transitions[j]!r} must be finite and >= 0, got {delay}"
+            )
         self.samples_[j].append(delay)
         return self
 
@@ -53,8 +57,10 @@ class DurationModel:
             s = self.samples_[j]
             return max(s) == min(s)
         d = self.net.delays[j]
-        return d.kind == "fixed" or (d.kind == "normal" and d.std == 0) or (
-            d.kind == "uniform" and d.low == d.high
+        return (
+            d.kind == "fixed"
+            or (d.kind == "normal" and d.std == 0)
+            or (d.kind == "uniform" and d.low == d.high)
         )
 
     def sample(self, j: int, rng: np.random.Generator, size) -> np.ndarray:

@@ -45,7 +45,9 @@ class TrialBatch:
 
 
 def _pool_depth(net: PcTPN, durations: DurationModel, horizon: float) -> int:
-    means = [durations.mean(j) for j in np.flatnonzero(~net.controllable) if not durations.is_deterministic(j)]
+    means = [
+        durations.mean(j) for j in np.flatnonzero(~net.controllable) if not durations.is_deterministic(j)
+    ]
     means = [m for m in means if m > 0]
     if not means:
         return 1
@@ -135,11 +137,12 @@ def simulate_trials(
         fire_at[~en] = np.inf
         en_prev = en & unc
         ctrl_en = en & net.controllable
-        has_ctrl = ctrl_en.any(axis=1) & alive
-        keys = np.where(ctrl_en, rng.random((n_trials, n_tr)), -1.0)
-        j_ctrl = np.argmax(keys, axis=1)
         j_unc = np.argmin(fire_at, axis=1)
         t_unc = fire_at[rows, j_unc]
+        # events due now fire first, so robots freed at the same instant decide together
+        has_ctrl = ctrl_en.any(axis=1) & alive & (t_unc > t)
+        keys = np.where(ctrl_en, rng.random((n_trials, n_tr)), -1.0)
+        j_ctrl = np.argmax(keys, axis=1)
         advance = alive & ~has_ctrl
         t_next = np.where(advance, np.minimum(t_unc, horizon), t)
         dt = t_next - t
@@ -232,7 +235,8 @@ def evaluate_cost_tree(node: CostNode, beta: float, is_root: bool = True):
     if not node.children:
         return np.asarray(node.costs, dtype=float)
     return np.concatenate(
-        [np.asarray(node.costs, dtype=float)] + [evaluate_cost_tree(c, beta, False) for c in node.children.values()]
+        [np.asarray(node.costs, dtype=float)]
+        + [evaluate_cost_tree(c, beta, False) for c in node.children.values()]
     )
 
 
@@ -276,12 +280,22 @@ class MonteCarloScheduler:
         en = self.net.enabled(marking)
         choices = choices[en[choices]]
         if choices.size == 0:
-            raise ValueError(f"MonteCarloScheduler.decide: robot {agent!r} has no enabled transition (is it free?)")
+            raise ValueError(
+                f"MonteCarloScheduler.decide: robot {agent!r} has no enabled transition (is it free?)"
+            )
         if choices.size == 1:
             self.last_percentiles_ = {}
             return int(choices[0])
         batch = simulate_trials(
-            self.net, marking, self.durations_, self.rng, self.n_trials, self.horizon, choices, elapsed, now=now
+            self.net,
+            marking,
+            self.durations_,
+            self.rng,
+            self.n_trials,
+            self.horizon,
+            choices,
+            elapsed,
+            now=now,
         )
         best, percentiles = evaluate_costs(batch.paths, batch.costs, self.net.controllable, self.beta)
         self.last_percentiles_ = {self.net.transitions[j]: p for j, p in percentiles.items()}

@@ -108,7 +108,9 @@ class PcTPN:
         m = np.asarray(marking, dtype=np.int64)
         if not np.all(self.pre[:, j] <= m):
             missing = [self.places[i] for i in np.flatnonzero(self.pre[:, j] > m)]
-            raise ValueError(f"transition {self.transitions[j]!r} is not enabled: places {missing} lack tokens")
+            raise ValueError(
+                f"transition {self.transitions[j]!r} is not enabled: places {missing} lack tokens"
+            )
         return m + self.incidence[:, j]
 
     def index_of(self, transition) -> int:
@@ -132,5 +134,6 @@ class PcTPN:
     def agent_transitions(self, agent: str) -> np.ndarray:
         """Indices of the controllable transitions that command robot agent `agent`."""
         return np.array(
-            [j for j in range(self.n_transitions) if self.controllable[j] and agent in self.agents[j]], dtype=int
+            [j for j in range(self.n_transitions) if self.controllable[j] and agent in self.agents[j]],
+            dtype=int,
         )

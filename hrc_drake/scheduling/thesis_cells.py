@@ -75,7 +75,11 @@ def use_case_a(pattern: int = 1):
             FlowAction("ic", ["human"], ["fused"], ["with_ic"], duration=_n(12.0, 1.5)),
             FlowAction("check", ["yumi_left", "yumi_right"], ["with_ic"], ["checked"], duration=_n(6.0, 1.0)),
             FlowAction(
-                "collab", ["human", "yumi_left", "yumi_right"], ["checked"], ["product"], duration=_n(14.0, 1.5)
+                "collab",
+                ["human", "yumi_left", "yumi_right"],
+                ["checked"],
+                ["product"],
+                duration=_n(14.0, 1.5),
             ),
         ]
     )
@@ -116,7 +120,9 @@ def use_case_b(pattern: int = 1):
             FlowAction("test", ["irb140"], ["adapters"], ["tested"], duration=_n(6.0, 0.8)),
             FlowAction("cap", ["yumi"], ["tested"], ["capped"], duration=_n(6.0, 0.8)),
             FlowAction("house1", ["yumi"], ["capped", "box_at_yumi"], ["half_housed"], duration=_n(5.0, 0.6)),
-            FlowAction("house2", ["yumi"], ["half_housed"], ["housed"], resources=["cart2"], duration=_n(5.0, 0.6)),
+            FlowAction(
+                "house2", ["yumi"], ["half_housed"], ["housed"], resources=["cart2"], duration=_n(5.0, 0.6)
+            ),
             FlowAction("cart2_move", ["cart2"], ["housed"], ["at_human"], duration=_n(4.0, 0.3)),
             FlowAction("trim", ["human"], ["sheets"], ["labels"], duration=_n(6.0, 1.0)),
             FlowAction("label", ["human"], ["at_human", "labels"], ["labelled"], duration=_n(5.0, 1.0)),

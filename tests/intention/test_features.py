@@ -72,7 +72,9 @@ def test_still_hand_and_goal_at_the_wrist_are_finite():
     wrists = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     velocities = np.zeros((2, 3))
     goals = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # goal 0 exactly at the right wrist
-    phi = goal_features(wrists, velocities, np.array([False, True]), np.zeros(3), np.array([1.0, 0, 0]), goals)
+    phi = goal_features(
+        wrists, velocities, np.array([False, True]), np.zeros(3), np.array([1.0, 0, 0]), goals
+    )
     assert np.all(np.isfinite(phi))
     assert np.all(phi[0, :, 0, 0] == NEUTRAL_ANGLE)  # still left hand
     assert phi[1, 0, 0, 0] == 0.0 and phi[1, 0, 0, 3] == 0.0  # right wrist at goal 0
@@ -81,15 +83,23 @@ def test_still_hand_and_goal_at_the_wrist_are_finite():
 def test_sampled_goal_centres_broadcast():
     samples = np.zeros((3, 7, 3))
     samples[..., 0] = np.arange(1, 8)
-    phi = goal_features(np.zeros((2, 3)), np.array([[1.0, 0, 0]] * 2), np.array([True, True]), np.zeros(3),
-                        np.array([1.0, 0, 0]), samples)
+    phi = goal_features(
+        np.zeros((2, 3)),
+        np.array([[1.0, 0, 0]] * 2),
+        np.array([True, True]),
+        np.zeros(3),
+        np.array([1.0, 0, 0]),
+        samples,
+    )
     assert phi.shape == (2, 3, 7, 4)
     np.testing.assert_allclose(phi[0, 0, :, 3], np.arange(1, 8))
 
 
 def test_bad_inputs_raise_clear_errors():
     with pytest.raises(ValueError, match="goal centres"):
-        goal_features(np.zeros((2, 3)), np.zeros((2, 3)), np.ones(2, bool), np.zeros(3), np.ones(3), np.zeros((2, 2)))
+        goal_features(
+            np.zeros((2, 3)), np.zeros((2, 3)), np.ones(2, bool), np.zeros(3), np.ones(3), np.zeros((2, 2))
+        )
     with pytest.raises(ValueError, match="window"):
         WristVelocityEstimator(window=1)
     with pytest.raises(ValueError, match=r"\(2, 3\)"):

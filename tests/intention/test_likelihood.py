@@ -13,9 +13,13 @@ def test_density_matches_scipy_and_sklearn():
     gmm = GaussianMixture(3, covariance_type="full", random_state=0).fit(x)
     density = GaussianMixtureDensity.from_sklearn(gmm)
     query = rng.normal(size=(5, 4, 3))
-    np.testing.assert_allclose(density.log_density(query), gmm.score_samples(query.reshape(-1, 3)).reshape(5, 4))
-    by_hand = sum(w * multivariate_normal(m, c).pdf(query[0]) for w, m, c in
-                  zip(gmm.weights_, gmm.means_, gmm.covariances_, strict=True))
+    np.testing.assert_allclose(
+        density.log_density(query), gmm.score_samples(query.reshape(-1, 3)).reshape(5, 4)
+    )
+    by_hand = sum(
+        w * multivariate_normal(m, c).pdf(query[0])
+        for w, m, c in zip(gmm.weights_, gmm.means_, gmm.covariances_, strict=True)
+    )
     np.testing.assert_allclose(np.exp(density.log_density(query[0])), by_hand)
 
 
@@ -45,8 +49,9 @@ def test_learner_selects_clusters_by_heldout_likelihood_and_round_trips_json(tmp
     learner.model_.save(path)
     loaded = IntentionModel.load(path)
     np.testing.assert_allclose(loaded.gmm4d.log_density(phi[:20]), learner.score_samples(phi[:20]))
-    np.testing.assert_allclose(loaded.gmm2d.log_density(phi[:20, [0, 3]]),
-                               learner.gmm2d_.score_samples(phi[:20, [0, 3]]))
+    np.testing.assert_allclose(
+        loaded.gmm2d.log_density(phi[:20, [0, 3]]), learner.gmm2d_.score_samples(phi[:20, [0, 3]])
+    )
     assert "pickle" not in path.read_text()
     before = learner.gmm4d_.means_.copy()
     learner.partial_fit(reach_samples(10, seed=2))
@@ -63,6 +68,6 @@ def test_learned_likelihood_prefers_the_true_direction(small_model):
 
 def test_load_reports_the_file(tmp_path):
     path = tmp_path / "broken.json"
-    path.write_text("{\"gmm4d\": {}}")
+    path.write_text('{"gmm4d": {}}')
     with pytest.raises(ValueError, match="broken.json"):
         IntentionModel.load(path)

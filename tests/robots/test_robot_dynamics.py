@@ -15,13 +15,21 @@ def _build(time_step):
     plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
     yumi = add_robot(plant, "yumi", "yumi", (0.0, 0.0, 0.75))
     irb = add_robot(plant, "irb140", "irb", (1.5, 0.0, 0.0))
-    set_pd_gains(plant, yumi, kp=400.0, kd=40.0)
-    set_pd_gains(plant, irb, kp=[8000, 8000, 4000, 500, 500, 100], kd=[400, 400, 200, 25, 25, 5])
+    set_pd_gains(plant, yumi)  # DEFAULT_PD_GAINS, as the cell builder uses them
+    set_pd_gains(plant, irb)
     plant.Finalize()
     # the pose held: YuMi arms bent in front of the body, IRB 140 elbow up
     q_desired = np.zeros(plant.num_positions())
     for arm, sign in (("right", 1.0), ("left", -1.0)):
-        q_desired[arm_position_indices(plant, yumi, "yumi", arm)] = [sign * 0.5, -0.6, 0.0, 0.3, 0.0, 0.6, 0.0]
+        q_desired[arm_position_indices(plant, yumi, "yumi", arm)] = [
+            sign * 0.5,
+            -0.6,
+            0.0,
+            0.3,
+            0.0,
+            0.6,
+            0.0,
+        ]
     q_desired[arm_position_indices(plant, irb, "irb140", "arm")] = [0.2, 0.3, -0.4, 0.0, 0.5, 0.0]
     for instance in (yumi, irb):
         actuated = [plant.get_joint_actuator(i).joint() for i in plant.GetJointActuatorIndices(instance)]
@@ -71,3 +79,19 @@ def test_without_control_the_arms_fall():
     q = plant.GetPositions(plant_context)
     assert np.all(np.isfinite(q))
     assert np.max(np.abs(q[arm_position_indices(plant, yumi, "yumi", "right")])) > 0.05
+
+
+def test_pd_gain_errors():
+    builder = DiagramBuilder()
+    plant, _ = AddMultibodyPlantSceneGraph(builder, 0.01)
+    irb = add_robot(plant, "irb140", "irb")
+    with pytest.raises(ValueError, match="needs 1 or 6 values"):
+        set_pd_gains(plant, irb, kp=[1.0, 2.0])
+    with pytest.raises(ValueError, match=">= 0"):
+        set_pd_gains(plant, irb, kp=-1.0)
+    set_pd_gains(plant, irb, kp=[1, 2, 3, 4, 5, 6], kd=0.5)
+    plant.Finalize()
+    gains = [plant.get_joint_actuator(i).get_controller_gains() for i in plant.GetJointActuatorIndices(irb)]
+    assert [g.p for g in gains] == [1, 2, 3, 4, 5, 6] and all(g.d == 0.5 for g in gains)
+    with pytest.raises(ValueError, match="finalized"):
+        set_pd_gains(plant, irb)

@@ -82,7 +82,10 @@ def test_irb140_reaches_floor_target(cell):
     context = plant.CreateDefaultContext()
     target = np.array([0.9, 0.1, 0.3])  # 0.6 m in front of the IRB 140 (its base faces -x)
     q_arm = solve_tool_position(plant, context, irb, "irb140", "arm", target, tool_z_down=True)
-    assert np.linalg.norm(_tool_after(plant, context, irb, "irb140", "arm", q_arm).translation() - target) <= 0.005
+    assert (
+        np.linalg.norm(_tool_after(plant, context, irb, "irb140", "arm", q_arm).translation() - target)
+        <= 0.005
+    )
 
 
 def test_bad_inputs(cell):

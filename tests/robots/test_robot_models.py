@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from pydrake.geometry import SceneGraph
 from pydrake.math import RigidTransform, RollPitchYaw
-from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from hrc_drake.robots.models import (
@@ -41,26 +41,52 @@ def zero_context(kinematic_plant):
     plant.SetPositions(context, np.zeros(plant.num_positions()))
     return context
 
+
 # KINEMATICS.md 1.2: zero-configuration joint origins in the YuMi body frame (computed there).
 YUMI_ORIGINS = {
     "r": {
-        "1": (0.0536, -0.0725, 0.4149), "2": (0.1178, -0.1253, 0.4780), "7": (0.2756, -0.1658, 0.5431),
-        "3": (0.3636, -0.1668, 0.5576), "4": (0.4905, -0.0787, 0.4880), "5": (0.5259, -0.0072, 0.4213),
-        "6": (0.5645, 0.0015, 0.4184), "gripper": (0.5685, 0.0059, 0.4146), "tip": (0.6461, 0.0901, 0.3415),
+        "1": (0.0536, -0.0725, 0.4149),
+        "2": (0.1178, -0.1253, 0.4780),
+        "7": (0.2756, -0.1658, 0.5431),
+        "3": (0.3636, -0.1668, 0.5576),
+        "4": (0.4905, -0.0787, 0.4880),
+        "5": (0.5259, -0.0072, 0.4213),
+        "6": (0.5645, 0.0015, 0.4184),
+        "gripper": (0.5685, 0.0059, 0.4146),
+        "tip": (0.6461, 0.0901, 0.3415),
     },
     "l": {
-        "1": (0.0536, 0.0725, 0.4149), "2": (0.1178, 0.1252, 0.4781), "7": (0.2756, 0.1658, 0.5431),
-        "3": (0.3636, 0.1669, 0.5574), "4": (0.4906, 0.0792, 0.4874), "5": (0.5260, 0.0080, 0.4204),
-        "6": (0.5646, -0.0006, 0.4174), "gripper": (0.5686, -0.0050, 0.4136), "tip": (0.6463, -0.0888, 0.3401),
+        "1": (0.0536, 0.0725, 0.4149),
+        "2": (0.1178, 0.1252, 0.4781),
+        "7": (0.2756, 0.1658, 0.5431),
+        "3": (0.3636, 0.1669, 0.5574),
+        "4": (0.4906, 0.0792, 0.4874),
+        "5": (0.5260, 0.0080, 0.4204),
+        "6": (0.5646, -0.0006, 0.4174),
+        "gripper": (0.5686, -0.0050, 0.4136),
+        "tip": (0.6463, -0.0888, 0.3401),
     },
 }
 BODY_IN_BASE = np.array([0.0, 0.0, 0.1])  # yumi_body is 0.1 m above the foot plane (yumi_base_link)
 
 # KINEMATICS.md 1.2 limits (deg) and velocities (deg/s) per ABB axis; 2.2 for the IRB 140.
-YUMI_LIMITS = {"1": (-168.5, 168.5, 180), "2": (-143.5, 43.5, 180), "7": (-168.5, 168.5, 180),
-               "3": (-123.5, 80, 180), "4": (-290, 290, 400), "5": (-88, 138, 400), "6": (-229, 229, 400)}
-IRB_LIMITS = [(-180, 180, 200), (-90, 110, 200), (-230, 50, 260), (-200, 200, 360), (-115, 115, 360),
-              (-400, 400, 450)]
+YUMI_LIMITS = {
+    "1": (-168.5, 168.5, 180),
+    "2": (-143.5, 43.5, 180),
+    "7": (-168.5, 168.5, 180),
+    "3": (-123.5, 80, 180),
+    "4": (-290, 290, 400),
+    "5": (-88, 138, 400),
+    "6": (-229, 229, 400),
+}
+IRB_LIMITS = [
+    (-180, 180, 200),
+    (-90, 110, 200),
+    (-230, 50, 260),
+    (-200, 200, 360),
+    (-115, 115, 360),
+    (-400, 400, 450),
+]
 
 
 def _world(point_in_base, base_xyz):
@@ -119,8 +145,12 @@ def test_irb140_limits_and_velocities(kinematic_plant):
 def test_irb140_zero_configuration(kinematic_plant, zero_context):
     plant, _, irb = kinematic_plant
     base = np.asarray(IRB_BASE)
-    expected = {"irb140_joint_2": (0.070, 0, 0.352), "irb140_joint_3": (0.070, 0, 0.712),
-                "irb140_joint_5": (0.450, 0, 0.712), "irb140_joint_6": (0.515, 0, 0.712)}
+    expected = {
+        "irb140_joint_2": (0.070, 0, 0.352),
+        "irb140_joint_3": (0.070, 0, 0.712),
+        "irb140_joint_5": (0.450, 0, 0.712),
+        "irb140_joint_6": (0.515, 0, 0.712),
+    }
     for name, p in expected.items():
         got = plant.GetJointByName(name, irb).frame_on_child().CalcPoseInWorld(zero_context).translation()
         np.testing.assert_allclose(got, base + p, atol=1e-6)
@@ -133,7 +163,9 @@ def test_irb140_zero_configuration(kinematic_plant, zero_context):
 def test_actuators_cover_arm_and_finger_joints(kinematic_plant):
     plant, yumi, irb = kinematic_plant
     for instance, model in ((yumi, "yumi"), (irb, "irb140")):
-        actuated = {plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(instance)}
+        actuated = {
+            plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(instance)
+        }
         for arm, joints in ROBOT_ARMS[model].items():
             assert set(joints) <= actuated
             assert set(GRIPPER_JOINTS[(model, arm)]) <= actuated
@@ -211,7 +243,9 @@ def test_capsules_follow_joint_origins_at_zero(kinematic_plant, zero_context, mo
     by_name = {name.split("/")[1]: k for k, name in enumerate(kin.names)}
 
     def origin(joint):
-        return plant.GetJointByName(joint, instance).frame_on_child().CalcPoseInWorld(zero_context).translation()
+        return (
+            plant.GetJointByName(joint, instance).frame_on_child().CalcPoseInWorld(zero_context).translation()
+        )
 
     for arm, joints in ROBOT_ARMS[model].items():
         links = [plant.GetJointByName(j, instance).child_body().name() for j in joints]
@@ -242,7 +276,11 @@ def test_capsules_move_with_the_joints(kinematic_plant):
     s1, e1, _ = kin.capsules(context)
     right = np.array([("_r" in n or "gripper_r" in n) for n in kin.names])
     assert right.sum() == 8
-    R = X_J1.rotation().matrix() @ RollPitchYaw(0, 0, 0.7).ToRotationMatrix().matrix() @ X_J1.rotation().matrix().T
+    R = (
+        X_J1.rotation().matrix()
+        @ RollPitchYaw(0, 0, 0.7).ToRotationMatrix().matrix()
+        @ X_J1.rotation().matrix().T
+    )
     expected = (s0[right] - X_J1.translation()) @ R.T + X_J1.translation()
     np.testing.assert_allclose(s1[right], expected, atol=1e-9)
     np.testing.assert_allclose(s1[~right], s0[~right], atol=1e-12)
@@ -266,13 +304,15 @@ def test_link_capsules_match_urdf_collision_capsules(model):
         if not capsules:
             assert body_name.startswith("gripper"), body_name  # grippers collide as boxes
             continue
-        (shape, X_BG), = capsules
+        ((shape, X_BG),) = capsules
         assert shape.radius() == pytest.approx(radius)
         length = np.linalg.norm(end - start)
         if type(shape).__name__ == "Capsule":
             half = X_BG.rotation().matrix()[:, 2] * shape.length() / 2
             ends = sorted([tuple(X_BG.translation() - half), tuple(X_BG.translation() + half)])
-            np.testing.assert_allclose(np.array(ends), np.array(sorted([tuple(start), tuple(end)])), atol=1e-6)
+            np.testing.assert_allclose(
+                np.array(ends), np.array(sorted([tuple(start), tuple(end)])), atol=1e-6
+            )
         else:
             assert length < 1e-9
             np.testing.assert_allclose(X_BG.translation(), start, atol=1e-9)

@@ -1,0 +1,180 @@
+"""Labelled reaches recorded from the synthetic operator, for learning L_GMM (thesis 3.1.2).
+
+"We can monitor some operators during the execution of predefined sequences of tasks, collecting
+p^R(t), p^L(t), h(t), z(t); knowing the intended goal locations, a population of samples Phi is
+extracted." Here the operator is `hrc_drake.human.SyntheticOperator`, seen by a
+`DepthCameraModel` (noisy points, gaze flag F); the gaze direction gets an extra angular noise
+(a face-plane fit is far noisier than the joints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hrc_drake.intention.features import (
+    DEFAULT_MIN_SPEED,
+    DEFAULT_WINDOW,
+    skeleton_features,
+    trajectory_velocities,
+)
+from hrc_drake.intention.layouts import CAMERA_POSITION, CAMERA_TARGET, OPERATOR_BASE, OPERATOR_YAW, GoalLayout
+from hrc_drake.messages import HANDS, L_WRIST, R_WRIST
+
+
+@dataclass
+class Recording:
+    """A measured run of the operator at the camera rate.
+
+    times (T,); points (T, 8, 3) measured (NaN where hidden); gaze (T, 3) measured unit gaze;
+    gaze_valid (T,) flag F; true_wrists (T, 2, 3); target (T, 2) index of the goal each hand
+    (left, right) is going to, -1 when none; layout: the goals.
+    """
+
+    times: np.ndarray
+    points: np.ndarray
+    gaze: np.ndarray
+    gaze_valid: np.ndarray
+    true_wrists: np.ndarray
+    target: np.ndarray
+    layout: GoalLayout
+
+
+def random_segments(rng: np.random.Generator):
+    """Anthropometrics of a random adult (+/- ~10 % around the schema defaults)."""
+    from hrc_drake.cell.schema import Segments
+
+    scale = rng.uniform(0.9, 1.1)
+    return Segments(
+        torso=0.50 * scale * rng.uniform(0.95, 1.05),
+        neck=0.25 * scale,
+        shoulder_width=0.40 * scale * rng.uniform(0.93, 1.07),
+        upper_arm=0.30 * scale * rng.uniform(0.95, 1.05),
+        forearm=0.27 * scale * rng.uniform(0.95, 1.05),
+    )
+
+
+def _noisy_gaze(gaze: np.ndarray, std: float, rng: np.random.Generator) -> np.ndarray:
+    noisy = gaze + std * rng.standard_normal(3)
+    return noisy / max(np.linalg.norm(noisy), 1e-9)
+
+
+def record_reaches(
+    layout: GoalLayout,
+    segments,
+    n_reaches: int,
+    rng: np.random.Generator,
+    noise_std: float = 0.01,
+    gaze_noise: float = 0.1,
+    rate: float = 30.0,
+    duration_range: tuple[float, float] = (1.2, 2.2),
+    pattern: list[int] | None = None,
+    hands: tuple[str, ...] | None = None,
+) -> Recording:
+    """Record `n_reaches` single-goal actions of a synthetic operator in `layout`.
+
+    pattern: goal indices in order (default: random, never the same goal twice in a row);
+    hands: the hand per goal (default: layout.hands). Durations are uniform in duration_range.
+    """
+    import warnings
+
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.human.camera import DepthCameraModel
+    from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+
+    n_goals = len(layout.goal_names)
+    hands = tuple(hands or layout.hands)
+    if pattern is None:
+        pattern = [int(rng.integers(n_goals))]
+        while len(pattern) < n_reaches:
+            step = int(rng.integers(1, n_goals))
+            pattern.append((pattern[-1] + step) % n_goals)
+    low, high = duration_range
+    tasks = {
+        f"reach_{i}": OperatorTask(
+            f"reach_{i}", [layout.centers[i]], hands[i], lambda r, lo=low, hi=high: float(r.uniform(lo, hi))
+        )
+        for i in range(n_goals)
+    }
+    body = BodyModel(segments)
+    rest_q = body.rest_q(OPERATOR_BASE, OPERATOR_YAW)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a goal slightly out of a short arm's reach is fine here
+        operator = SyntheticOperator(body, tasks, [f"reach_{i}" for i in pattern], rest_q, rng)
+    camera = DepthCameraModel(CAMERA_POSITION, CAMERA_TARGET, noise_std=noise_std, rate=rate)
+    total = high * len(pattern)
+    times = np.arange(0.0, total, 1.0 / rate)
+    count = len(times)
+    points = np.empty((count, 8, 3))
+    gaze = np.empty((count, 3))
+    gaze_valid = np.empty(count, dtype=bool)
+    true_wrists = np.empty((count, 2, 3))
+    target = np.full((count, 2), -1)
+    key = {tuple(np.round(c, 6)): i for i, c in enumerate(layout.centers)}
+    finished = 0
+    for k, t in enumerate(times):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            events = operator.update(t)
+        finished += sum(e.kind == "end" for e in events)
+        true_points = operator.points(t)
+        frame = camera.measure(t, true_points, _noisy_gaze(operator.gaze(t), gaze_noise, rng), rng)
+        points[k], gaze[k], gaze_valid[k] = frame.points, frame.gaze, frame.gaze_valid
+        true_wrists[k] = true_points[[L_WRIST, R_WRIST]]
+        for h, hand in enumerate(HANDS):
+            goal = operator.current_goal(hand)
+            if goal is not None:
+                target[k, h] = key.get(tuple(np.round(goal, 6)), -1)
+        if finished >= len(pattern):
+            count = k + 1
+            break
+    return Recording(
+        times[:count], points[:count], gaze[:count], gaze_valid[:count], true_wrists[:count], target[:count], layout
+    )
+
+
+def training_samples(
+    recording: Recording, window: int = DEFAULT_WINDOW, min_speed: float = DEFAULT_MIN_SPEED
+) -> np.ndarray:
+    """Phi (M, 4) for the true goal of every moving, labelled hand sample (thesis 3.1.2)."""
+    wrists = recording.points[:, [L_WRIST, R_WRIST]]
+    velocity, moving = trajectory_velocities(recording.times, wrists, window, min_speed)
+    phi = skeleton_features(recording.points, velocity, moving, recording.gaze, recording.layout.centers)
+    rows = []
+    for h in range(2):
+        labelled = (recording.target[:, h] >= 0) & moving[:, h] & np.all(np.isfinite(wrists[:, h]), axis=1)
+        steps = np.nonzero(labelled)[0]
+        rows.append(phi[steps, h, recording.target[steps, h], 0])
+    samples = np.concatenate(rows)
+    return samples[np.all(np.isfinite(samples), axis=1)]
+
+
+@dataclass(frozen=True)
+class Reach:
+    """One reach of a hand: from its start to its arrival at the goal (indices into a recording)."""
+
+    hand: int
+    goal: int
+    start: int
+    arrival: int
+
+
+def reaches_of(recording: Recording, arrival_distance: float = 0.03) -> list[Reach]:
+    """Runs of a constant target per hand; arrival = first sample with the true wrist near the goal."""
+    out = []
+    for h in range(2):
+        target = recording.target[:, h]
+        change = np.nonzero(np.diff(target) != 0)[0] + 1
+        starts = np.concatenate([[0], change])
+        ends = np.concatenate([change, [len(target)]])
+        for s, e in zip(starts, ends, strict=True):
+            goal = int(target[s])
+            if goal < 0:
+                continue
+            dist = np.linalg.norm(recording.true_wrists[s:e, h] - recording.layout.centers[goal], axis=1)
+            near = np.nonzero(dist < arrival_distance)[0]
+            if len(near) == 0 or near[0] < 3:
+                continue  # never arrived (out of reach) or already there
+            out.append(Reach(h, goal, int(s), int(s + near[0])))
+    return out

@@ -1,0 +1,248 @@
+"""Waiting time before an action begins, thesis 5.3 (Algorithm 1 and eq. 5.37).
+
+The reachability tree starts at the running action; each node is a possible next action with
+p_branch = product of the arc probabilities (from a sequence model) and a start time
+tau_branch = residual of the running action + durations of the actions in between. Durations
+are the empirical distributions of recent samples per action, discretised on a time grid;
+tails past the horizon are dropped. A node is not expanded when its least start time
+(sum of minimum durations) exceeds the horizon or p_branch < epsilon (Algorithm 1, line 16).
+P(tau^a <= t) = sum over branches ending at the first occurrence of a of
+p_branch P(tau_branch <= t)   (5.37).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Hashable, Mapping, Sequence
+
+import numpy as np
+from scipy import fft as sp_fft
+
+from .base import SequenceModel
+
+
+class WaitingTimePredictor:
+    """Distribution of the waiting time tau^a of every action, Algorithm 1 with eq. (5.37).
+
+    model: a fitted or online next-action model (`SequenceModel`), shared, not copied.
+    resolution: time step of the grid (s).
+    epsilon: branch probability below which a node is not expanded.
+    max_samples: durations remembered per action (the most recent ones).
+    min_durations: optional lower bounds T^a_min per action label (s); default: the least
+        recorded sample (at least one grid step).
+    default_duration: duration assumed for an action without samples (point mass, s).
+    max_nodes: safety cap on the tree size; expansion stops there (the CDF then undercounts).
+    """
+
+    def __init__(
+        self,
+        model: SequenceModel,
+        resolution: float = 0.2,
+        epsilon: float = 1e-3,
+        max_samples: int = 50,
+        min_durations: Mapping[Hashable, float] | None = None,
+        default_duration: float = 1.0,
+        max_nodes: int = 20000,
+    ):
+        if not isinstance(model, SequenceModel):
+            raise ValueError(f"WaitingTimePredictor: model must be a SequenceModel, got {type(model).__name__}")
+        for name, value in (("resolution", resolution), ("default_duration", default_duration)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"WaitingTimePredictor: {name}={value} must be a positive number")
+        if not 0 <= epsilon < 1:
+            raise ValueError(f"WaitingTimePredictor: epsilon={epsilon} must be in [0, 1)")
+        self.model = model
+        self.resolution = float(resolution)
+        self.epsilon = float(epsilon)
+        self.max_samples = int(max_samples)
+        self.min_durations = dict(min_durations or {})
+        self.default_duration = float(default_duration)
+        self.max_nodes = int(max_nodes)
+        self._samples: dict[int, deque] = {}
+
+    # ---------------------------------------------------------------- statistics
+    def observe_duration(self, action: Hashable, duration: float) -> WaitingTimePredictor:
+        """Record one measured duration T^a (s) of `action`; returns self."""
+        duration = float(duration)
+        if not np.isfinite(duration) or duration <= 0:
+            raise ValueError(f"WaitingTimePredictor: duration of {action!r} must be finite and > 0, got {duration}")
+        (code,) = self.model.encode([action])
+        self._samples.setdefault(code, deque(maxlen=self.max_samples)).append(duration)
+        return self
+
+    def durations(self, action: Hashable) -> np.ndarray:
+        """The remembered duration samples of `action` (s), oldest first."""
+        (code,) = self.model.encode([action])
+        return np.array(self._samples.get(code, ()), dtype=float)
+
+    def _duration_samples(self, code: int) -> np.ndarray:
+        samples = self._samples.get(code)
+        if not samples:
+            return np.array([self.default_duration])
+        return np.fromiter(samples, dtype=float)
+
+    def _min_duration(self, code: int) -> float:
+        label = self.model.classes_[code]
+        if label in self.min_durations:
+            return max(float(self.min_durations[label]), self.resolution)
+        return max(float(self._duration_samples(code).min()), self.resolution)
+
+    def _pmf(self, samples: np.ndarray, n_bins: int, at_least_one: bool) -> np.ndarray:
+        """Histogram of samples on the grid; mass past the horizon is dropped."""
+        bins = np.rint(samples / self.resolution).astype(int)
+        if at_least_one:
+            bins = np.maximum(bins, 1)
+        bins = bins[bins < n_bins]
+        return np.bincount(bins, minlength=n_bins)[:n_bins] / samples.size
+
+    # ---------------------------------------------------------------- tree
+    def distributions(
+        self, history: Sequence[Hashable], elapsed: float | None, horizon: float = 60.0, targets=None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """CDFs P(tau^a <= t) on the grid t = 0, dt, ..., horizon for every action, eq. (5.37).
+
+        history: past actions, oldest first; its last one is running now (or just ended).
+        elapsed: time since the last action began (s); None when it has already ended.
+        targets: labels whose first occurrence ends a branch (default: all actions); the tree
+            stops expanding a node once every target occurred on its branch.
+        Returns times (G,) and cdf (m, G) over `model.classes_`. An empty history means no
+        running action: the next action starts now with the model's marginal probabilities.
+        """
+        model = self.model
+        codes = model.encode(history)
+        m = model.n_actions_
+        if not (np.isfinite(horizon) and horizon > 0):
+            raise ValueError(f"WaitingTimePredictor: horizon={horizon} must be a positive number")
+        if elapsed is not None and not (np.isfinite(elapsed) and elapsed >= 0):
+            raise ValueError(f"WaitingTimePredictor: elapsed={elapsed} must be finite and >= 0 (or None)")
+        n_bins = int(np.floor(horizon / self.resolution + 1e-9)) + 1
+        times = np.arange(n_bins) * self.resolution
+        target_mask = np.ones(m, dtype=bool)
+        if targets is not None:
+            target_mask[:] = False
+            target_mask[list(model.encode(targets))] = True
+
+        # residual time of the running action: samples longer than the elapsed time, shifted
+        if codes and elapsed is not None:
+            samples = self._duration_samples(codes[-1])
+            residual = samples[samples > elapsed] - elapsed
+            if residual.size == 0:  # it already ran longer than ever seen: about to end
+                residual = np.zeros(1)
+            root_min = float(residual.min())
+        else:
+            residual = np.zeros(1)
+            root_min = 0.0
+        root_pmf = self._pmf(residual, n_bins, at_least_one=False)
+
+        duration_pmfs = np.stack([self._pmf(self._duration_samples(c), n_bins, True) for c in range(m)])
+        # a smooth FFT length: 2 * n_bins is often twice a prime (slow)
+        n_fft = sp_fft.next_fast_len(2 * n_bins - 1, real=True)
+        duration_spectra = sp_fft.rfft(duration_pmfs, n=n_fft, axis=1)
+        min_durations = np.array([self._min_duration(c) for c in range(m)])
+
+        width = max(int(model.context_length_), 1)
+        cache: dict[tuple, np.ndarray] = {}
+
+        def next_probs(contexts: list[tuple[int, ...]]) -> np.ndarray:
+            if model.n_observed_ == 0:
+                return np.full((len(contexts), m), 1.0 / m)
+            missing = [ctx for ctx in dict.fromkeys(contexts) if ctx not in cache]
+            if missing:
+                cache.update(zip(missing, model._predict_many(missing), strict=True))
+            return np.stack([cache[ctx] for ctx in contexts])
+
+        start_mass = np.zeros((m, n_bins))  # sum of p_branch * start-time pmf at first occurrence
+        # level 1: the children of the running action start when it ends
+        parents_ctx = [tuple(codes[len(codes) - width :]) if codes else ()]
+        parents_pmf = root_pmf[None, :]
+        parents_prob = np.ones(1)
+        parents_min = np.array([root_min])
+        parents_seen = np.zeros((1, m), dtype=bool)
+        n_nodes = 0
+        while parents_ctx and n_nodes < self.max_nodes:
+            probs = next_probs(parents_ctx)  # (P, m)
+            child_prob = parents_prob[:, None] * probs
+            parent_idx, child_action = np.nonzero(child_prob > 0.0)
+            if parent_idx.size == 0:
+                break
+            n_nodes += parent_idx.size
+            p = child_prob[parent_idx, child_action]
+            # eq. (5.37): a branch counts for action a at a's first occurrence
+            first_prob = np.where(parents_seen, 0.0, child_prob)  # (P, m)
+            start_mass += first_prob.T @ parents_pmf
+            seen = parents_seen[parent_idx].copy()
+            seen[np.arange(parent_idx.size), child_action] = True
+            end_min = parents_min[parent_idx] + min_durations[child_action]
+            expand = (p >= self.epsilon) & (end_min <= horizon) & ~(seen | ~target_mask[None, :]).all(axis=1)
+            if not expand.any():
+                break
+            keep = np.flatnonzero(expand)
+            # Branches with the same recent context and the same actions already seen have the
+            # same future: merge them (exact, as (5.37) is linear in p_branch * pmf).
+            groups: dict[tuple, int] = {}
+            group_of = np.empty(keep.size, dtype=int)
+            contexts = []
+            for row, i in enumerate(keep):
+                ctx = (parents_ctx[parent_idx[i]] + (int(child_action[i]),))[-width:]
+                key = (ctx, seen[i].tobytes())
+                group = groups.get(key)
+                if group is None:
+                    group = groups[key] = len(contexts)
+                    contexts.append(ctx)
+                group_of[row] = group
+            n_groups = len(contexts)
+            mixing = np.zeros((n_groups, parents_pmf.shape[0]))
+            np.add.at(mixing, (group_of, parent_idx[keep]), p[keep])
+            weighted = mixing @ parents_pmf
+            group_prob = mixing.sum(axis=1)
+            group_min = np.full(n_groups, np.inf)
+            np.minimum.at(group_min, group_of, end_min[keep])
+            group_seen = np.zeros((n_groups, m), dtype=bool)
+            group_seen[group_of] = seen[keep]
+            group_action = np.empty(n_groups, dtype=int)
+            group_action[group_of] = child_action[keep]
+            # start time of a grandchild: this child's start + its duration (convolution, truncated)
+            spectra = sp_fft.rfft(weighted, n=n_fft, axis=1) * duration_spectra[group_action]
+            end_pmf = np.clip(sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins], 0.0, None)
+            parents_ctx = contexts
+            parents_pmf = end_pmf / group_prob[:, None]
+            parents_prob = group_prob
+            parents_min = group_min
+            parents_seen = group_seen
+        cdf = np.cumsum(start_mass, axis=1)
+        return times, np.clip(cdf, 0.0, 1.0)
+
+    def distribution(
+        self,
+        history: Sequence[Hashable],
+        elapsed: float | None,
+        target: Hashable,
+        horizon: float = 60.0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """CDF P(tau^target <= t | history) on t = 0, dt, ..., horizon (Algorithm 1, eq. 5.37)."""
+        (code,) = self.model.encode([target])
+        times, cdf = self.distributions(history, elapsed, horizon, targets=[target])
+        return times, cdf[code]
+
+    def percentiles(
+        self,
+        history: Sequence[Hashable],
+        elapsed: float | None,
+        levels: Sequence[float] = (0.2, 0.5, 0.8),
+        horizon: float = 60.0,
+    ) -> np.ndarray:
+        """Waiting-time percentiles (m, P): least grid time with CDF >= level; inf if never."""
+        levels = np.asarray(levels, dtype=float)
+        if np.any(~np.isfinite(levels)) or np.any((levels <= 0) | (levels >= 1)):
+            raise ValueError(f"WaitingTimePredictor: percentile levels must be in (0, 1), got {levels}")
+        times, cdf = self.distributions(history, elapsed, horizon)
+        return percentiles_from_cdf(times, cdf, levels)
+
+
+def percentiles_from_cdf(times: np.ndarray, cdf: np.ndarray, levels: Sequence[float]) -> np.ndarray:
+    """First grid time where each CDF row reaches each level (inf when it never does)."""
+    cdf = np.atleast_2d(cdf)
+    levels = np.asarray(levels, dtype=float)
+    reached = cdf[:, None, :] >= levels[None, :, None] - 1e-9
+    first = reached.argmax(axis=2)
+    return np.where(reached.any(axis=2), times[first], np.inf)

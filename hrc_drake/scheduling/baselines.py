@@ -1,0 +1,183 @@
+"""Baseline robot schedulers on the same pcTPN (thesis 7.3.2 and 7.5.1).
+
+All share the policy interface of `MonteCarloScheduler`:
+``decide(marking, agent, now=0.0, elapsed=None) -> transition index`` and ``observe(j, delay)``.
+Collaborations with the human are joined reactively by all baselines: a robot commits to a
+human-robot action only when the human already waits for it (as the round robin of 7.5.1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hrc_drake.scheduling.learning import DurationModel
+from hrc_drake.scheduling.montecarlo import simulate_trials
+from hrc_drake.scheduling.petri import PcTPN
+
+_PROGRESS = ("end", "intent", "begin", "giveup")
+
+
+def is_deadlocked(net: PcTPN, marking) -> bool:
+    """True when no action is in progress and the human cannot start: only robots can move."""
+    en = net.enabled(marking)
+    return not any(
+        en[j] and not net.controllable[j] and net.role[j] in _PROGRESS for j in range(net.n_transitions)
+    )
+
+
+def _wait_of(net: PcTPN, agent: str) -> int:
+    return net.transition_index[f"{agent}:wait"]
+
+
+def _reactive_commit(net: PcTPN, marking, agent: str, en) -> int | None:
+    """The agent's commitment to a collaboration the human waits for and that can start at
+    once after the commitment (its parts are there)."""
+    for j in net.agent_transitions(agent):
+        if net.role[j] != "commit" or not en[j]:
+            continue
+        after = marking + net.incidence[:, j]
+        en_after = net.enabled(after)
+        for k in range(net.n_transitions):
+            if (
+                net.role[k] == "begin"
+                and not net.controllable[k]
+                and net.action[k] == net.action[j]
+                and en_after[k]
+            ):
+                return int(j)
+    return None
+
+
+def _work_choices(net: PcTPN, en, agent: str) -> np.ndarray:
+    js = net.agent_transitions(agent)
+    return np.array([j for j in js if en[j] and net.role[j] == "begin"], dtype=int)
+
+
+class _Policy:
+    def __init__(self, net: PcTPN, random_state=None):
+        self.net = net
+        self.rng = np.random.default_rng(random_state)
+
+    def observe(self, transition, delay: float) -> None:
+        """Baselines do not learn."""
+
+    def _repair(self, marking, agent: str, en) -> int:
+        """Random enabled robot action (no wait), as the deadlock repair of [93] (7.3.2)."""
+        choices = _work_choices(self.net, en, agent)
+        if choices.size:
+            return int(self.rng.choice(choices))
+        return _wait_of(self.net, agent)
+
+
+class GreedyScheduler(_Policy):
+    """Start whatever is enabled: a random enabled action of the agent, else its wait."""
+
+    def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
+        en = self.net.enabled(marking)
+        commit = _reactive_commit(self.net, marking, agent, en)
+        if commit is not None:
+            return commit
+        return self._repair(marking, agent, en)
+
+
+class RoundRobinScheduler(_Policy):
+    """Fixed cyclic program per robot agent (7.5.1): the next action of the program when it is
+    enabled, else the wait quantum; joins a collaboration as soon as the human waits for it.
+    On a deadlock the program skips to its next enabled action.
+
+    programs: agent -> list of action names; default: the agent's robot-only actions in flow order.
+    """
+
+    def __init__(self, net: PcTPN, programs: dict[str, list[str]] | None = None, random_state=None):
+        super().__init__(net, random_state)
+        programs = dict(programs or {})
+        self.programs: dict[str, list[int]] = {}
+        for agent in net.robot_agents:
+            names = programs.get(agent)
+            if names is None:
+                js = [j for j in net.agent_transitions(agent) if net.role[j] == "begin"]
+            else:
+                js = []
+                for name in names:
+                    key = f"{name}:begin"
+                    if key not in net.transition_index or agent not in net.agents[net.transition_index[key]]:
+                        raise ValueError(f"RoundRobinScheduler: {name!r} is not a robot action of {agent!r}")
+                    js.append(net.transition_index[key])
+            self.programs[agent] = js
+        self.pointer = {agent: 0 for agent in net.robot_agents}
+
+    def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
+        en = self.net.enabled(marking)
+        commit = _reactive_commit(self.net, marking, agent, en)
+        if commit is not None:
+            return commit
+        program = self.programs[agent]
+        if not program:
+            return _wait_of(self.net, agent)
+        k = self.pointer[agent]
+        if en[program[k]]:
+            self.pointer[agent] = (k + 1) % len(program)
+            return program[k]
+        if is_deadlocked(self.net, marking):
+            for step in range(1, len(program)):
+                k2 = (k + step) % len(program)
+                if en[program[k2]]:
+                    self.pointer[agent] = (k2 + 1) % len(program)
+                    return program[k2]
+            return self._repair(marking, agent, en)
+        return _wait_of(self.net, agent)
+
+
+class _MeanDurations(DurationModel):
+    def sample_pools(self, rng, n_trials, depth):
+        pools = np.zeros((n_trials, self.net.n_transitions, depth))
+        for j in np.flatnonzero(~self.net.controllable):
+            pools[:, j, :] = self.mean(j)
+        return pools
+
+
+class DeterministicPlanScheduler(_Policy):
+    """Long-horizon plan on mean durations with random repair on deadlock (like [93], 7.3.2).
+
+    Offline, `n_candidates` deterministic rollouts of the net (mean durations, the human
+    following its pattern) over `plan_horizon` s are drawn with random robot choices; the
+    cheapest (lowest idle cost) gives each robot its sequence of actions. Online each robot
+    starts its next planned action when enabled, else waits; on a deadlock a random enabled
+    action is executed while the plan is suspended.
+    """
+
+    def __init__(self, net: PcTPN, plan_horizon: float = 600.0, n_candidates: int = 64, random_state=None):
+        super().__init__(net, random_state)
+        durations = _MeanDurations(net)
+        roots = np.flatnonzero(net.controllable & net.enabled(net.m0))
+        batch = simulate_trials(
+            net, net.m0, durations, self.rng, n_candidates, plan_horizon, roots, max_steps=100000
+        )
+        products = np.zeros(n_candidates)
+        for n in range(n_candidates):
+            path = batch.paths[n][batch.paths[n] >= 0]
+            products[n] = net.post[net.product_places][:, path].sum() if net.product_places.size else 0
+        # most products first, then least idle cost
+        best = int(np.lexsort((batch.costs, -products))[0])
+        path = batch.paths[best][batch.paths[best] >= 0]
+        self.plan: dict[str, list[int]] = {a: [] for a in net.robot_agents}
+        for j in path:
+            if net.controllable[j] and net.role[j] == "begin":
+                for agent in net.agents[j]:
+                    self.plan[agent].append(int(j))
+        self.pointer = {a: 0 for a in net.robot_agents}
+
+    def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
+        en = self.net.enabled(marking)
+        commit = _reactive_commit(self.net, marking, agent, en)
+        if commit is not None:
+            return commit
+        plan, k = self.plan[agent], self.pointer[agent]
+        if k < len(plan) and en[plan[k]]:
+            j = plan[k]
+            for other in self.net.agents[j]:
+                self.pointer[other] += 1
+            return j
+        if k >= len(plan) or is_deadlocked(self.net, marking):
+            return self._repair(marking, agent, en)
+        return _wait_of(self.net, agent)

@@ -1,0 +1,133 @@
+"""The scheduler's belief of the cell's net, kept in step with observed events (thesis 7.1,
+Fig. 7.1: incoming events fire uncontrollable transitions, commands fire controllable ones,
+and the observed delays update the duration models)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hrc_drake.scheduling.petri import PcTPN
+
+
+class NetTracker:
+    """Belief marking of a compiled net plus the time each transition became enabled.
+
+    Events that do not match the belief (a human action out of pattern, a part the belief
+    thinks is missing) are applied anyway: the marking is forced (negative counts clipped to 0)
+    so the belief follows the real cell.
+    """
+
+    def __init__(self, net: PcTPN, policy=None):
+        self.net = net
+        self.policy = policy
+        self.m = net.m0.copy()
+        self.enabled_since = np.where(net.enabled(self.m), 0.0, np.nan)
+        self.now = 0.0
+
+    def _fire(self, j: int, t: float, observe: bool = True):
+        net = self.net
+        if (
+            observe
+            and self.policy is not None
+            and not net.controllable[j]
+            and net.role[j] in ("end", "intent")
+        ):
+            since = self.enabled_since[j]
+            if np.isfinite(since) and t >= since:
+                self.policy.observe(j, t - since)
+        before = net.enabled(self.m)
+        self.m = np.maximum(self.m + net.incidence[:, j], 0)
+        after = net.enabled(self.m)
+        self.enabled_since[after & ~before] = t
+        self.enabled_since[~after] = np.nan
+        self.enabled_since[j] = t if after[j] else np.nan
+        self.now = t
+
+    def elapsed(self, t: float) -> np.ndarray:
+        return np.where(np.isnan(self.enabled_since), 0.0, t - self.enabled_since)
+
+    def _find(self, role: str, action: str, pre_marked_prefix: str | None = None) -> int | None:
+        net = self.net
+        for j in range(net.n_transitions):
+            if net.role[j] != role or net.action[j] != action or net.controllable[j]:
+                continue
+            pres = np.flatnonzero(net.pre[:, j])
+            if pre_marked_prefix is None or any(
+                net.places[i].startswith(pre_marked_prefix) and self.m[i] > 0 for i in pres
+            ):
+                return j
+        return None
+
+    def _human_step_to(self, action: str, t: float):
+        """Move the human's token to a step of `action` (resynchronising the pattern)."""
+        net = self.net
+        marked = [
+            i for i in range(net.n_places) if self.m[i] > 0 and net.places[i].startswith(("step:", "hwait:"))
+        ]
+        for j in range(net.n_transitions):
+            if net.role[j] == "intent" and net.action[j] == action:
+                src = int(np.flatnonzero(net.pre[:, j])[0])
+                if self.m[src] > 0:
+                    return
+        for j in range(net.n_transitions):
+            if net.role[j] == "intent" and net.action[j] == action:
+                for i in marked:
+                    self.m[i] -= 1
+                self.m[int(np.flatnonzero(net.pre[:, j])[0])] += 1
+                self.enabled_since[j] = t
+                return
+
+    def human_event(self, action: str, kind: str, t: float):
+        """Apply a HumanEvent (begin | end | wait_begin | wait_end) to the belief."""
+        if kind in ("begin", "wait_begin"):
+            if self._find("begin", action, "hwait:") is None:
+                self._human_step_to(action, t)
+                j = self._find("intent", action, "step:") or self._find("intent", action, "human:idle")
+                if j is not None:
+                    self._fire(j, t)
+            if kind == "begin":
+                j = self._find("begin", action, "hwait:")
+                if j is not None:
+                    self._fire(j, t)
+        elif kind == "end":
+            j = self._find("end", action, "busy:")
+            if j is not None:
+                self._fire(j, t)
+
+    def robot_event(self, agent: str, action: str, kind: str, t: float):
+        """Apply a RobotEvent: "begin" of a collaboration starts it (human side included),
+        "end" ends the action, "ready" makes the agent available (ending whatever the belief
+        still has it doing)."""
+        net = self.net
+        if kind == "begin":
+            j = self._find("begin", action, "cwait:")
+            if j is not None:
+                if self._find("begin", action, "hwait:") is None:
+                    self.human_event(action, "wait_begin", t)
+                j = self._find("begin", action, "hwait:")
+                if j is not None:
+                    self._fire(j, t)
+        elif kind == "end":
+            for j in range(net.n_transitions):
+                if net.role[j] == "end" and net.action[j] == action and agent in net.agents[j]:
+                    if any(self.m[i] > 0 for i in np.flatnonzero(net.pre[:, j])):
+                        self._fire(j, t)
+                        return
+        elif kind == "ready":
+            avail = net.place_index[f"avail:{agent}"]
+            if self.m[avail] > 0:
+                return
+            for j in range(net.n_transitions):
+                if net.controllable[j] or agent not in net.agents[j]:
+                    continue
+                if net.role[j] in ("wait_end", "end", "giveup") and all(
+                    self.m[i] >= net.pre[i, j] for i in np.flatnonzero(net.pre[:, j])
+                ):
+                    self._fire(j, t, observe=net.role[j] == "end")
+                    if self.m[avail] > 0:
+                        return
+            self.m[avail] = 1
+
+    def command(self, j: int, t: float):
+        """Fire the controllable transition the scheduler commanded."""
+        self._fire(j, t)

@@ -1,0 +1,90 @@
+"""Drake adapters: OperatorSource + DepthCamera in a diagram, RecordedSkeletonSource."""
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantValueSource
+
+from hrc_drake.human.body import BodyModel
+from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+from hrc_drake.human.systems import DepthCamera, OperatorSource, RecordedSkeletonSource
+from hrc_drake.messages import EventLog, SkeletonFrame
+
+
+def build(capsules=None):
+    body = BodyModel()
+    tasks = {"pick": OperatorTask("pick", [np.array([0.65, 0.3, 0.8]), np.array([0.6, 0.0, 0.8])], "right",
+                                  lambda rng: 0.8)}
+    op = SyntheticOperator(body, tasks, ["pick"], body.rest_q((1.05, 0.0), np.pi), np.random.default_rng(0))
+    builder = DiagramBuilder()
+    source = builder.AddSystem(OperatorSource(op, rate=50.0))
+    camera = builder.AddSystem(DepthCamera(DepthCameraModel([-0.2, 0.0, 1.8], [1.0, 0.0, 1.0], [],
+                                                            noise_std=0.005, rate=30.0), rng_seed=3))
+    builder.Connect(source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
+    builder.Connect(source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
+    if capsules is not None:
+        const = builder.AddSystem(ConstantValueSource(AbstractValue.Make(capsules)))
+        builder.Connect(const.get_output_port(0), camera.GetInputPort("occluding_capsules"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    return op, source, camera, simulator
+
+
+def test_operator_and_camera_simulate_two_seconds():
+    op, source, camera, simulator = build()
+    context = simulator.get_mutable_context()
+    cam_context = camera.GetMyContextFromRoot(context)
+    before = camera.GetOutputPort("skeleton_frame").Eval(cam_context)
+    assert not before.tracked.any()  # nothing measured before the first camera tick
+    simulator.AdvanceTo(2.0)
+    src_context = source.GetMyContextFromRoot(context)
+    log = source.GetOutputPort("human_events").Eval(src_context)
+    assert isinstance(log, EventLog)
+    assert [(e.kind, e.time) for e in log.events[:3]] == [("begin", 0.0), ("end", 0.8), ("begin", 0.8)]
+    assert [e.seq for e in log.since(1)] == list(range(2, len(log.events) + 1))
+    skeleton = source.GetOutputPort("skeleton").Eval(src_context).reshape(8, 3)
+    np.testing.assert_allclose(skeleton, op.points(2.0))
+    np.testing.assert_allclose(source.GetOutputPort("q").Eval(src_context), op.q(2.0))
+    np.testing.assert_allclose(source.GetOutputPort("gaze").Eval(src_context), op.gaze(2.0))
+    frame = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(context))
+    assert isinstance(frame, SkeletonFrame)
+    assert frame.time == pytest.approx(59 / 30.0)  # Drake runs the events at t = 2 in the next step
+    assert frame.tracked.all()
+    assert np.abs(frame.points - op.points(frame.time)).max() < 0.03
+    head = op.points(frame.time)[1]
+    to_camera = (np.array([-0.2, 0.0, 1.8]) - head) / np.linalg.norm(np.array([-0.2, 0.0, 1.8]) - head)
+    assert frame.gaze_valid == (np.arccos(frame.gaze @ to_camera) <= 1.2)
+    np.testing.assert_allclose(frame.gaze, op.gaze(frame.time), atol=1e-12)
+
+
+def test_camera_capsule_input_hides_points():
+    # a fat capsule between camera and operator hides everything
+    capsules = (np.array([[0.2, -1.0, 1.2]]), np.array([[0.2, 1.0, 1.2]]), np.array([0.6]))
+    _, _, camera, simulator = build(capsules)
+    simulator.AdvanceTo(0.5)
+    frame = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(simulator.get_context()))
+    assert not frame.tracked.any() and np.all(np.isnan(frame.points))
+    assert not frame.gaze_valid
+
+
+def test_recorded_source():
+    times = np.array([0.0, 0.5, 1.0])
+    points = np.arange(72, dtype=float).reshape(3, 8, 3)
+    tracked = np.ones((3, 8), dtype=bool)
+    tracked[1, 2] = False
+    source = RecordedSkeletonSource(times, points, tracked)
+    context = source.CreateDefaultContext()
+    for t, index in ((0.2, 0), (0.5, 1), (0.7, 1), (3.0, 2)):
+        context.SetTime(t)
+        frame = source.GetOutputPort("skeleton_frame").Eval(context)
+        assert frame.time == times[index]
+        np.testing.assert_array_equal(frame.tracked, tracked[index])
+    context.SetTime(0.6)
+    assert np.all(np.isnan(source.GetOutputPort("skeleton_frame").Eval(context).points[2]))
+    with pytest.raises(ValueError, match="strictly increase"):
+        RecordedSkeletonSource(times[::-1], points, tracked)
+    with pytest.raises(ValueError, match="rate"):
+        OperatorSource(None, rate=100.0)

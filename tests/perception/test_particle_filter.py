@@ -1,0 +1,190 @@
+"""Occlusion-aware particle filter (thesis 9.1.1-9.1.2): resampling, cases 1-3, calibration,
+degeneracy, NaN and missing points."""
+
+import numpy as np
+import pytest
+
+from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_WRIST
+from hrc_drake.perception.particle_filter import SkeletonParticleFilter, resample_indices
+
+# A standing pose (m): thorax, head, shoulders, elbows, wrists; left forearm along +x.
+POSE = np.array([
+    [0.0, 0.0, 1.40], [0.0, 0.0, 1.65], [0.0, 0.2, 1.40], [0.0, -0.2, 1.40],
+    [0.0, 0.2, 1.10], [0.0, -0.2, 1.10], [0.27, 0.2, 1.10], [0.27, -0.2, 1.10],
+])
+D_SE, D_EH = 0.30, 0.27
+
+
+def settled_filter(n=300, seed=0, **kwargs):
+    pf = SkeletonParticleFilter(n_particles=n, rng=seed, calibration_frames=5, **kwargs)
+    for _ in range(10):
+        pf.step(POSE)
+    return pf
+
+
+def occluded(points, *idx):
+    pts = points.copy()
+    pts[list(idx)] = np.nan
+    return pts
+
+
+def test_resampling_never_picks_zero_weights_and_systematic_is_proportional():
+    rng = np.random.default_rng(0)
+    w = np.zeros((3, 100))
+    w[0, [5, 50]] = [1.0, 3.0]
+    w[1] = 1.0
+    w[2, -1] = 1.0
+    idx = resample_indices(w, rng, "bootstrap")
+    assert set(idx[0]) <= {5, 50} and set(idx[2]) == {99}
+    sys_idx = resample_indices(w, rng, "systematic")
+    assert abs(np.sum(sys_idx[0] == 50) - 75) <= 1
+    assert sorted(sys_idx[1]) == list(range(100))
+    with pytest.raises(ValueError, match="positive sum"):
+        resample_indices(np.zeros((1, 4)), rng)
+    with pytest.raises(ValueError, match="method"):
+        resample_indices(np.ones((1, 4)), rng, "stratified-ish")
+
+
+def test_segment_lengths_are_calibrated_then_frozen_and_reset():
+    pf = settled_filter()
+    assert pf.calibrated
+    np.testing.assert_allclose(pf.segment_lengths_[[L_ELBOW, L_WRIST]], [D_SE, D_EH], atol=1e-12)
+    assert np.isnan(pf.segment_lengths_[0])
+    stretched = POSE.copy()
+    stretched[L_WRIST, 0] = 0.50  # a later, different forearm must not change the calibration
+    pf.step(stretched)
+    assert pf.segment_lengths_[L_WRIST] == pytest.approx(D_EH)
+    pf.reset()
+    assert np.all(np.isnan(pf.segment_lengths_)) and not pf.calibrated
+    pf.step(stretched)
+    assert pf.segment_lengths_[L_WRIST] == pytest.approx(0.50 - 0.0, abs=1e-9) or True
+    np.testing.assert_allclose(pf.segment_lengths_[L_WRIST], np.hypot(0.5, 0.0), atol=1e-9)
+
+
+def test_given_segment_lengths_disable_calibration():
+    lengths = np.array([np.nan, 0.25, 0.2, 0.2, 0.3, 0.3, 0.27, 0.27])
+    pf = SkeletonParticleFilter(n_particles=50, segment_lengths=lengths, rng=0)
+    pf.step(POSE * 2)
+    np.testing.assert_array_equal(pf.segment_lengths_, lengths)
+
+
+def hidden_beyond(x0):
+    """Depth map: everything with x > x0 is hidden from the camera."""
+    return lambda p: p[..., 0] > x0
+
+
+def test_case1_hidden_wrist_stays_in_crown_around_elbow_and_behind_occluder():
+    pf = settled_filter()
+    is_hidden = hidden_beyond(0.15)
+    for _ in range(15):
+        pf.step(occluded(POSE, L_WRIST), is_hidden=is_hidden)
+        hand = pf.positions[L_WRIST]
+        dist = np.linalg.norm(hand - pf.means_[L_ELBOW], axis=1)
+        assert np.all(np.abs(dist - D_EH) <= pf.crown + 1e-9)
+        assert np.all(hand[:, 0] > 0.15)
+    assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.06
+    assert np.all(np.isfinite(pf.particles_))
+
+
+def test_case2_hidden_elbow_in_both_crowns():
+    pf = settled_filter()
+    is_hidden = lambda p: p[..., 2] < 1.2  # noqa: E731 - below the table edge
+    for _ in range(10):
+        pf.step(occluded(POSE, L_ELBOW), is_hidden=is_hidden)
+        elbow = pf.positions[L_ELBOW]
+        d_s = np.linalg.norm(elbow - pf.means_[L_SHOULDER], axis=1)
+        d_h = np.linalg.norm(elbow - pf.means_[L_WRIST], axis=1)
+        assert np.all(np.abs(d_s - D_SE) <= pf.crown + 1e-9)
+        assert np.all(np.abs(d_h - D_EH) <= pf.crown + 1e-9)
+        assert np.all(elbow[:, 2] < 1.2)
+    assert np.linalg.norm(pf.means_[L_ELBOW] - POSE[L_ELBOW]) < 0.06
+
+
+def test_case3_hidden_arm_elbow_in_crown_wrist_in_ball_around_shoulder():
+    pf = settled_filter()
+    is_hidden = lambda p: p[..., 2] < 1.3  # noqa: E731
+    for _ in range(10):
+        pf.step(occluded(POSE, L_ELBOW, L_WRIST), is_hidden=is_hidden)
+        shoulder = pf.means_[L_SHOULDER]
+        d_e = np.linalg.norm(pf.positions[L_ELBOW] - shoulder, axis=1)
+        d_w = np.linalg.norm(pf.positions[L_WRIST] - shoulder, axis=1)
+        assert np.all(np.abs(d_e - D_SE) <= pf.crown + 1e-9)
+        assert np.all(d_w <= D_SE + D_EH + pf.crown + 1e-9)
+        assert np.all(pf.positions[[L_ELBOW, L_WRIST], :, 2] < 1.3)
+    # The right arm, seen, is untouched by the left arm's constraints.
+    assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.01
+
+
+def test_degenerate_weights_reseed_inside_admissible_region():
+    pf = settled_filter()
+    # Hidden only on the far side of the elbow (x < -0.15): no propagated particle is there.
+    is_hidden = lambda p: p[..., 0] < -0.15  # noqa: E731
+    pf.step(occluded(POSE, L_WRIST), is_hidden=is_hidden)
+    assert pf.n_reseeds_[L_WRIST] == 1
+    hand = pf.positions[L_WRIST]
+    assert np.all(hand[:, 0] < -0.15)
+    assert np.all(np.abs(np.linalg.norm(hand - pf.means_[L_ELBOW], axis=1) - D_EH) <= pf.crown + 1e-9)
+    assert np.all(np.isfinite(pf.particles_))
+
+
+def test_no_admissible_region_at_all_keeps_prediction_without_nan():
+    pf = settled_filter()
+    never = lambda p: np.zeros(p.shape[:-1], dtype=bool)  # noqa: E731 - depth map sees everything
+    for _ in range(5):
+        pf.step(occluded(POSE, L_WRIST), is_hidden=never)
+    assert np.all(np.isfinite(pf.particles_)) and np.all(np.isfinite(pf.means_))
+    assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.1
+
+
+def test_nan_with_tracked_flag_and_missing_points_are_occlusions():
+    pf = settled_filter()
+    tracked = np.ones(8, dtype=bool)
+    pf.step(occluded(POSE, L_WRIST), tracked=tracked)  # NaN although flagged tracked
+    assert np.all(np.isfinite(pf.means_))
+    wrong = POSE.copy()
+    wrong[L_WRIST] = [5.0, 5.0, 5.0]  # a value the camera returns for a lost point
+    tracked[L_WRIST] = False
+    for _ in range(3):
+        pf.step(wrong, tracked=tracked)
+    assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.06
+
+
+def test_bad_inputs_raise_clear_errors():
+    pf = SkeletonParticleFilter(n_particles=10, rng=0)
+    with pytest.raises(ValueError, match="points must have shape"):
+        pf.step(np.zeros((7, 3)))
+    with pytest.raises(ValueError, match="is_hidden must return"):
+        pf.step(POSE)
+        pf.step(occluded(POSE, L_WRIST), is_hidden=lambda p: np.ones(3, dtype=bool))
+    with pytest.raises(ValueError, match="resampling"):
+        SkeletonParticleFilter(resampling="best")
+
+
+@pytest.mark.parametrize("mode", ["kalman", "bootstrap"])
+def test_seen_points_follow_a_moving_measurement(mode):
+    rng = np.random.default_rng(1)
+    pf = SkeletonParticleFilter(n_particles=300, rng=2, tracked_update=mode)
+    errors = []
+    for k in range(90):
+        truth = POSE + np.array([0.3 * np.sin(k / 15.0), 0.0, 0.0])
+        pf.step(truth + rng.normal(0.0, 0.01, truth.shape))
+        if k > 30:
+            errors.append(np.abs(pf.means_ - truth).max())
+    assert max(errors) < 0.05
+    assert np.sqrt(np.mean(np.square(errors))) < 0.03
+
+
+def test_same_seed_same_run():
+    runs = []
+    for _ in range(2):
+        pf = settled_filter(seed=7)
+        for _ in range(5):
+            pf.step(occluded(POSE, L_WRIST), is_hidden=hidden_beyond(0.15))
+        runs.append(pf.particles_.copy())
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_workspace_fraction_counts_particles_in_box():
+    pf = settled_filter()
+    frac = pf.fraction_in_box(POSE[L_WRIST], [0.2, 0.2, 0.2])
+    assert frac[L_WRIST] == 1.0 and frac[0] == 0.0
