@@ -20,8 +20,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
 from hrc_drake.intention.layouts import box_usb_layout, random_layout  # noqa: E402
+from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
 from hrc_drake.intention.recording import random_segments, record_reaches, training_samples  # noqa: E402
 
 NOISE_LEVELS = (0.005, 0.01, 0.02)
@@ -40,13 +40,18 @@ def collect(n_operators: int, n_reaches: int, seed: int, verbose: bool = True) -
         recording = record_reaches(layout, random_segments(rng), n_reaches, rng, noise, gaze_noise)
         rows.append(training_samples(recording))
         if verbose:
-            print(f"  operator {i + 1}/{n_operators}: {layout.name}, noise {noise:.3f} m, "
-                  f"gaze noise {gaze_noise:.2f}, {len(rows[-1])} samples", flush=True)
+            print(
+                f"  operator {i + 1}/{n_operators}: {layout.name}, noise {noise:.3f} m, "
+                f"gaze noise {gaze_noise:.2f}, {len(rows[-1])} samples",
+                flush=True,
+            )
     return np.concatenate(rows)
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--operators", type=int, default=24)
     parser.add_argument("--reaches", type=int, default=40)
     parser.add_argument("--seed", type=int, default=0)
@@ -59,17 +64,35 @@ def main(argv=None) -> int:
     print(f"{len(phi)} samples in {time.time() - start:.0f} s; fitting", flush=True)
     learner = IntentionLikelihoodLearner(candidates=range(1, args.max_components + 1), random_state=args.seed)
     learner.fit(phi)
-    learner.model_.info.update({"operators": args.operators, "reaches_per_operator": args.reaches,
-                                "seed": args.seed, "tool": "tools/train_intention.py"})
+    learner.model_.info.update(
+        {
+            "operators": args.operators,
+            "reaches_per_operator": args.reaches,
+            "seed": args.seed,
+            "tool": "tools/train_intention.py",
+        }
+    )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     learner.model_.save(args.out)
     print("held-out log-likelihood per sample (Fig. 3.8):")
     print(f"{'clusters':>8} {'GMM4d':>9} {'GMM2d':>9}")
     for k in learner.heldout_scores_4d_:
-        print(f"{k:>8} {learner.heldout_scores_4d_[k]:>9.3f} {learner.heldout_scores_2d_.get(k, float('nan')):>9.3f}")
-    print(f"chosen: GMM4d {learner.n_components_4d_} clusters, GMM2d {learner.n_components_2d_}; saved {args.out}")
-    print(json.dumps({"samples": len(phi), "n_components_4d": learner.n_components_4d_,
-                      "n_components_2d": learner.n_components_2d_, "seconds": round(time.time() - start, 1)}))
+        print(
+            f"{k:>8} {learner.heldout_scores_4d_[k]:>9.3f} {learner.heldout_scores_2d_.get(k, float('nan')):>9.3f}"
+        )
+    print(
+        f"chosen: GMM4d {learner.n_components_4d_} clusters, GMM2d {learner.n_components_2d_}; saved {args.out}"
+    )
+    print(
+        json.dumps(
+            {
+                "samples": len(phi),
+                "n_components_4d": learner.n_components_4d_,
+                "n_components_2d": learner.n_components_2d_,
+                "seconds": round(time.time() - start, 1),
+            }
+        )
+    )
     return 0
 
 

@@ -290,6 +290,10 @@ def build_cell(
 
     visualizer = None
     if meshcat is not None:
+        meshcat.Delete()
+        meshcat.SetProperty("/Axes", "visible", False)
+        center = np.array(scenario.layout.table.center[:2] + [scenario.layout.table.height])
+        meshcat.SetCameraPose(center + np.array([0.3, -2.2, 1.1]), center + np.array([0.0, 0.0, 0.15]))
         params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
         visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
         plugins.add_replay_markers(builder, scenario, meshcat, world, systems, replay_fps)

@@ -92,7 +92,7 @@ def register_scene(scene_graph, scenario: Scenario):
     for g in lay.goals:
         add(Sphere(g.radius), RigidTransform(g.center), f"goal_{g.name}", GOAL_COLOR)
     for b in lay.buffers:
-        add(Cylinder(0.06, 0.01), RigidTransform(b.position), f"buffer_{b.name}", BUFFER_COLOR)
+        add(Cylinder(0.035, 0.01), RigidTransform(b.position), f"buffer_{b.name}", BUFFER_COLOR)
     for o in lay.occluders:
         add(Box(*o.size), RigidTransform(o.center), f"occluder_{o.name}", OCCLUDER_COLOR)
     cam = lay.camera
@@ -177,13 +177,14 @@ class MetricsRecorder(LeafSystem):
         self._collect(self._human_events, "human", context)
         self._collect(self._robot_events, "robot", context)
         distance = np.inf
-        if self._human_q.HasValue(context) and self._robot_capsules.HasValue(context):
+        human_q = self._human_q.Eval(context).copy() if self._human_q.HasValue(context) else None
+        if human_q is not None and self._robot_capsules.HasValue(context):
             r_start, r_end, r_radius = self._robot_capsules.Eval(context)
             if len(r_radius):
-                h_start, h_end, h_radius = self.body.capsules(self._human_q.Eval(context))
+                h_start, h_end, h_radius = self.body.capsules(human_q)
                 d = segment_segment_distance(
                     h_start[:, None, :], h_end[:, None, :], r_start[None, :, :], r_end[None, :, :]
                 )
                 distance = float(np.min(d - h_radius[:, None] - r_radius[None, :]))
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
-        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products)
+        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products, human_q)

@@ -15,6 +15,7 @@ flexion + the arm(s) of the action, base fixed), solved once per goal and cached
 
 from __future__ import annotations
 
+import math
 import warnings
 from bisect import bisect_right
 from collections.abc import Callable
@@ -24,7 +25,6 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from hrc_drake.human.body import ARM_DOFS, BodyModel
-from hrc_drake.human.trajectories import minimum_jerk
 from hrc_drake.messages import HEAD, HUMAN_AGENT, THORAX, WRIST_OF_HAND, HumanEvent
 
 #: the head starts turning towards a goal this long before the hand starts moving (s)
@@ -146,7 +146,9 @@ class _Plan:
         if i < 0:
             return self.segments[0].start.copy()
         seg = self.segments[i]
-        return minimum_jerk(seg.start, seg.end, seg.duration, t - seg.t0)[0]
+        # the closed-form minimum-jerk position of `trajectories.minimum_jerk`, scalar time
+        u = min(max((t - seg.t0) / seg.duration, 0.0), 1.0)
+        return seg.start + (seg.end - seg.start) * (u * u * u * (10.0 + u * (-15.0 + 6.0 * u)))
 
 
 class SyntheticOperator:
@@ -387,7 +389,11 @@ class SyntheticOperator:
         return None if goal is None else goal.copy()
 
     def q(self, t: float) -> np.ndarray:
-        """True configuration (12,) at time t (closed-form min-jerk, no IK)."""
+        """True configuration (12,) at time t (closed-form min-jerk, no IK).
+
+        Only the current plan is kept: for t before the last replanning (an action start or
+        a wait start) it returns the pose at that replanning.
+        """
         return self._joints.at(float(t))
 
     def head_yaw_pitch(self, t: float) -> np.ndarray:
@@ -398,8 +404,15 @@ class SyntheticOperator:
         return self.body._points(self.q(t))
 
     def gaze(self, t: float) -> np.ndarray:
-        """True unit gaze direction (3,) at time t."""
-        return self.body.gaze(self.q(t), self.head_yaw_pitch(t))
+        """True unit gaze direction (3,) at time t: R_z(yaw) R_y(lean) R_z(head yaw) R_y(head pitch) e_x."""
+        q = self.q(t)
+        head_yaw, head_pitch = self.head_yaw_pitch(t)
+        cp = math.cos(head_pitch)
+        x, y, z = math.cos(head_yaw) * cp, math.sin(head_yaw) * cp, -math.sin(head_pitch)
+        cl, sl = math.cos(q[3]), math.sin(q[3])
+        x, z = cl * x + sl * z, -sl * x + cl * z
+        cy, sy = math.cos(q[2]), math.sin(q[2])
+        return np.array([cy * x - sy * y, sy * x + cy * y, z])
 
     def thorax(self, t: float) -> np.ndarray:
         return self.points(t)[THORAX]

@@ -69,7 +69,9 @@ _SECOND = (
 
 
 def _from_table(name: str, table) -> GoalLayout:
-    return GoalLayout(name, tuple(t[0] for t in table), np.array([t[1] for t in table]), tuple(t[2] for t in table))
+    return GoalLayout(
+        name, tuple(t[0] for t in table), np.array([t[1] for t in table]), tuple(t[2] for t in table)
+    )
 
 
 def layout_from_scenario(path) -> GoalLayout:

@@ -19,7 +19,13 @@ from hrc_drake.intention.features import (
     skeleton_features,
     trajectory_velocities,
 )
-from hrc_drake.intention.layouts import CAMERA_POSITION, CAMERA_TARGET, OPERATOR_BASE, OPERATOR_YAW, GoalLayout
+from hrc_drake.intention.layouts import (
+    CAMERA_POSITION,
+    CAMERA_TARGET,
+    OPERATOR_BASE,
+    OPERATOR_YAW,
+    GoalLayout,
+)
 from hrc_drake.messages import HANDS, L_WRIST, R_WRIST
 
 
@@ -130,7 +136,13 @@ def record_reaches(
             count = k + 1
             break
     return Recording(
-        times[:count], points[:count], gaze[:count], gaze_valid[:count], true_wrists[:count], target[:count], layout
+        times[:count],
+        points[:count],
+        gaze[:count],
+        gaze_valid[:count],
+        true_wrists[:count],
+        target[:count],
+        layout,
     )
 
 

@@ -219,6 +219,24 @@ class KalmanFilter:
         inside = np.all(np.abs(pts - center) <= half, axis=2)
         return inside.mean(axis=1)
 
+    def box_fraction_in_ellipsoid(self, center, size, confidence: float = 0.9) -> np.ndarray:
+        """(T,) fraction of an axis-aligned box's volume inside each confidence ellipsoid.
+
+        Complements `ellipsoid_fraction_in_box`: an ellipsoid grown far larger than the box
+        (long open loop) has a small share inside the box yet covers all of it.
+        """
+        center = np.asarray(center, dtype=float)
+        size = np.asarray(size, dtype=float)
+        d = self.model.dim
+        if center.shape != (d,) or size.shape != (d,):
+            raise ValueError(f"box_fraction_in_ellipsoid: center and size must have shape ({d},)")
+        grid = (np.stack(np.meshgrid(*[np.arange(8)] * d, indexing="ij"), -1).reshape(-1, d) + 0.5) / 8 - 0.5
+        pts = center + grid * size
+        offset = pts[None, :, :] - self.positions[:, None, :]
+        cov = self.position_covariances + 1e-15 * np.eye(d)
+        m2 = np.einsum("tnd,tnd->tn", offset, np.linalg.solve(cov, np.swapaxes(offset, 1, 2)).swapaxes(1, 2))
+        return (m2 <= chi2.ppf(confidence, d)).mean(axis=1)
+
     def filter_sequence(self, measurements, mask=None):
         """Filter a whole sequence from the current state.
 

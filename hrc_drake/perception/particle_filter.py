@@ -435,7 +435,9 @@ class SkeletonParticleFilter:
                 if np.any(placed):
                     self.initialized_[placeable[placed]] = True
                     self._constraint_cache.clear()
-        self.means_[self.initialized_] = self.positions[self.initialized_].mean(axis=1)
+        # Seen points keep their posterior means (the anchors used above); hidden ones average.
+        cloud = self.initialized_ & ~seen
+        self.means_[cloud] = self.positions[cloud].mean(axis=1)
         self._hidden_before = self.initialized_ & ~seen
 
     def _seen_bootstrap_log_weights(self, points, upd_seen):

@@ -7,7 +7,8 @@ kind:
 - "none": the measurement itself, a lost point held at its last seen position.
 
 The estimate's `workspace_fraction` is the share of each point's belief inside the robot
-workspace box (particles for the PF, ellipsoid volume for the KF, 0/1 for "none");
+workspace box (particles for the PF; for the KF the larger of the share of the 90 % ellipsoid
+inside the box and the share of the box inside the ellipsoid; 0/1 for "none");
 `speed_override` is the slow-down rule of 9.1.3 built on it. Outputs never hold NaN: a point
 never seen yet sits at its parent (or the origin) with spread UNKNOWN_SPREAD and workspace
 fraction 1 (unknown counts as possibly inside the workspace).
@@ -168,10 +169,13 @@ class SkeletonTracker:
         t = float(frame.time)
         if self._last_time is not None and t < self._last_time - 1e-9:
             self.reset()  # time went backwards: a new run
-        if self._last_time is not None and abs(t - self._last_time) < 1e-9:
-            return self.estimate_
+        if (self._last_time is not None and abs(t - self._last_time) < 1e-9
+                and np.array_equal(points, self._last_points, equal_nan=True)
+                and np.array_equal(seen, self._last_seen)):
+            return self.estimate_  # the same frame again: nothing new
         steps = 1 if self._last_time is None else max(1, int(round((t - self._last_time) / self.dt)))
         self._last_time = t
+        self._last_points, self._last_seen = points.copy(), seen.copy()
         self._ever_seen |= seen
         self._held[seen] = points[seen]
         if self.kind == "particle_filter":
@@ -221,8 +225,12 @@ class SkeletonTracker:
         positions = kf.positions
         cov = kf.position_covariances
         spread = np.sqrt(np.clip(np.trace(cov, axis1=1, axis2=2), 0.0, None) / 3.0)
-        fraction = kf.ellipsoid_fraction_in_box(self.workspace_center, self.workspace_size,
-                                                self.params["confidence"])
+        conf = self.params["confidence"]
+        # Share of the ellipsoid in the workspace, or of the workspace in the ellipsoid: a long
+        # open loop grows the ellipsoid past the box, which must still count as inside.
+        fraction = np.maximum(
+            kf.ellipsoid_fraction_in_box(self.workspace_center, self.workspace_size, conf),
+            kf.box_fraction_in_ellipsoid(self.workspace_center, self.workspace_size, conf))
         positions, spread, fraction = self._fill_unknown(positions, spread, fraction, kf.initialized_)
         # Display samples: fixed points of the confidence ellipsoid.
         k = self.params["display_particles"]

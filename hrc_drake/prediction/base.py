@@ -64,7 +64,9 @@ class SequenceModel:
         try:
             return sorted(labels)
         except TypeError as err:
-            raise ValueError(f"{type(self).__name__}: action labels must be sortable or given as actions=") from err
+            raise ValueError(
+                f"{type(self).__name__}: action labels must be sortable or given as actions="
+            ) from err
 
     def encode(self, labels: Iterable[Hashable]) -> tuple[int, ...]:
         """Column indices of `labels`; ValueError naming the first unknown label."""

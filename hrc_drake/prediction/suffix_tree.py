@@ -188,7 +188,8 @@ class SuffixTreeModel(SequenceModel):
         step = self.n_observed_  # k: 1-based index of the newest action
         newest = self.buffer_[-1]
         if len(self.buffer_) > sigma:
-            context = tuple(self.buffer_[i] for i in range(len(self.buffer_) - 1 - sigma, len(self.buffer_) - 1))
+            end = len(self.buffer_) - 1
+            context = tuple(self.buffer_[i] for i in range(end - sigma, end))
             self._store_training(self._features(context), newest)
             self._activation *= self._decay
             self._add_token(context + (newest,), step)
@@ -249,7 +250,8 @@ class SuffixTreeModel(SequenceModel):
     @property
     def branches_(self) -> list[tuple]:
         """Branches (labels, oldest first) that hold at least one token."""
-        return [tuple(self.classes_[c] for c in row) for row, n in zip(self._branches, self._n_tokens, strict=True) if n]
+        rows = self._branches[self._n_tokens > 0]
+        return [tuple(self.classes_[c] for c in row) for row in rows]
 
     @property
     def token_sets_(self) -> dict[tuple, list[int]]:
@@ -340,7 +342,8 @@ class SuffixTreeModel(SequenceModel):
         log_z = (top + np.log(norm))[:, 0]
         probs = exp_scores / norm
         chosen = features[np.arange(count), targets]  # (T, d)
-        value = float((scores[np.arange(count), targets] - log_z).mean()) - 0.5 * float(self.l2) * weights @ weights
+        ridge = 0.5 * float(self.l2) * weights @ weights
+        value = float((scores[np.arange(count), targets] - log_z).mean()) - ridge
         # gradient of eqs. (5.35)-(5.36), averaged over steps
         gradient = (chosen - np.einsum("tm,tmd->td", probs, features)).mean(axis=0) - float(self.l2) * weights
         return value, gradient

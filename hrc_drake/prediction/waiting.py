@@ -45,7 +45,7 @@ class WaitingTimePredictor:
         max_nodes: int = 20000,
     ):
         if not isinstance(model, SequenceModel):
-            raise ValueError(f"WaitingTimePredictor: model must be a SequenceModel, got {type(model).__name__}")
+            raise ValueError(f"WaitingTimePredictor: model must be a SequenceModel: {type(model).__name__}")
         for name, value in (("resolution", resolution), ("default_duration", default_duration)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"WaitingTimePredictor: {name}={value} must be a positive number")
@@ -65,7 +65,7 @@ class WaitingTimePredictor:
         """Record one measured duration T^a (s) of `action`; returns self."""
         duration = float(duration)
         if not np.isfinite(duration) or duration <= 0:
-            raise ValueError(f"WaitingTimePredictor: duration of {action!r} must be finite and > 0, got {duration}")
+            raise ValueError(f"WaitingTimePredictor: duration of {action!r} must be finite, > 0: {duration}")
         (code,) = self.model.encode([action])
         self._samples.setdefault(code, deque(maxlen=self.max_samples)).append(duration)
         return self
@@ -203,7 +203,8 @@ class WaitingTimePredictor:
             group_action[group_of] = child_action[keep]
             # start time of a grandchild: this child's start + its duration (convolution, truncated)
             spectra = sp_fft.rfft(weighted, n=n_fft, axis=1) * duration_spectra[group_action]
-            end_pmf = np.clip(sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins], 0.0, None)
+            end_pmf = sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins]
+            end_pmf[end_pmf < 1e-13] = 0.0  # FFT round-off, not probability mass
             parents_ctx = contexts
             parents_pmf = end_pmf / group_prob[:, None]
             parents_prob = group_prob

@@ -131,8 +131,8 @@ def simulate_cell(
                 run.decisions += 1
                 if not (net.controllable[j] and agent in net.agents[j] and net.enabled(m)[j]):
                     raise ValueError(
-                        f"simulate_cell: the policy chose {net.transitions[j]!r} for {agent!r}, which is not an "
-                        "enabled controllable transition of that agent"
+                        f"simulate_cell: the policy chose {net.transitions[j]!r} for {agent!r}, "
+                        "which is not an enabled controllable transition of that agent"
                     )
                 fire(j)
             update_clocks()

@@ -93,6 +93,13 @@ class NetTracker:
             j = self._find("end", action, "busy:")
             if j is not None:
                 self._fire(j, t)
+                # an intention with a fixed zero delay: the human wants the next step at once
+                en = self.net.enabled(self.m)
+                for k in range(self.net.n_transitions):
+                    d = self.net.delays[k]
+                    if en[k] and self.net.role[k] == "intent" and d.kind == "fixed" and d.mean == 0.0:
+                        self._fire(k, t, observe=False)
+                        break
 
     def robot_event(self, agent: str, action: str, kind: str, t: float):
         """Apply a RobotEvent: "begin" of a collaboration starts it (human side included),

@@ -168,6 +168,8 @@ def test_pose_is_continuous():
     assert np.all(np.isfinite(pts))
     g = np.array([op.gaze(x) for x in t])
     np.testing.assert_allclose(np.linalg.norm(g, axis=1), 1.0)
+    for x in (5.5, 9.1, 11.9):  # the operator's closed-form gaze agrees with the body model
+        np.testing.assert_allclose(op.gaze(x), op.body.gaze(op.q(x), op.head_yaw_pitch(x)), atol=1e-12)
 
 
 def test_errors():

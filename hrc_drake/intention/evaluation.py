@@ -1,0 +1,67 @@
+"""Table 3.1 and Fig. 3.9 figures from probability traces (thesis 3.1.3).
+
+False positive (for goal g): the probability of g rose above the threshold while the hand was
+going to another goal. True negative (the thesis' name for a missed goal): the hand went to g
+but the probability of g never rose above the threshold before arrival. Both are percentages of
+the number of reaches to g. Distance before recognition: path length of the true wrist from the
+instant g is recognised to the arrival at g.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hrc_drake.intention.bayes import GoalIntentionEstimator
+from hrc_drake.intention.recording import Recording, reaches_of
+
+
+def run_estimator(estimator: GoalIntentionEstimator, recording: Recording) -> np.ndarray:
+    """Probabilities (T, 2, G) after each frame of the recording."""
+    estimator.reset()
+    out = np.empty((len(recording.times), 2, estimator.n_goals))
+    for k, t in enumerate(recording.times):
+        out[k] = estimator.update(t, recording.points[k], recording.gaze[k], bool(recording.gaze_valid[k]))
+    return out
+
+
+def reach_outcomes(recording: Recording, probabilities: np.ndarray, threshold: float = 0.8) -> list[dict]:
+    """Per reach: hand, goal, recognised (bool), distance before recognition (m), goals falsely crossed."""
+    out = []
+    for reach in reaches_of(recording):
+        p = probabilities[reach.start : reach.arrival + 1, reach.hand]  # (n, G)
+        before = probabilities[max(reach.start - 1, 0), reach.hand]
+        above = p >= threshold
+        crossed = above & ~np.vstack([before[None] >= threshold, above[:-1]])
+        hits = np.nonzero(above[:, reach.goal])[0]
+        recognised = len(hits) > 0
+        distance = np.nan
+        if recognised:
+            path = recording.true_wrists[reach.start + hits[0] : reach.arrival + 1, reach.hand]
+            distance = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+        false_goals = sorted({int(g) for g in np.nonzero(crossed.any(axis=0))[0] if g != reach.goal})
+        out.append(
+            {
+                "hand": reach.hand,
+                "goal": reach.goal,
+                "recognised": recognised,
+                "distance": distance,
+                "false_goals": false_goals,
+            }
+        )
+    return out
+
+
+def table_3_1(outcomes: list[dict], goal: int) -> dict:
+    """% false positives and % true negatives for `goal` (Table 3.1), and its recognition distances."""
+    to_goal = [o for o in outcomes if o["goal"] == goal]
+    n = len(to_goal)
+    false_positives = sum(goal in o["false_goals"] for o in outcomes if o["goal"] != goal)
+    missed = sum(not o["recognised"] for o in to_goal)
+    distances = np.array([o["distance"] for o in to_goal if o["recognised"]])
+    return {
+        "reaches": n,
+        "false_positives_pct": 100.0 * false_positives / n if n else float("nan"),
+        "true_negatives_pct": 100.0 * missed / n if n else float("nan"),
+        "distance_median": float(np.median(distances)) if len(distances) else float("nan"),
+        "distances": distances,
+    }

@@ -1,0 +1,131 @@
+import copy
+
+import pytest
+import yaml
+
+from hrc_drake.cell.scenario import ScenarioError, load_scenario
+from hrc_drake.cli import main
+
+SCENARIOS = ["torch_clock.yaml", "box_usb.yaml", "pcb_occlusion.yaml"]
+
+
+@pytest.fixture(scope="module")
+def torch_raw(request):
+    from tests.conftest import DIAGRAMS
+
+    return yaml.safe_load((DIAGRAMS / "torch_clock.yaml").read_text())
+
+
+def write(tmp_path, raw, name="bad.yaml"):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_shipped_scenarios_load(diagrams_dir, name):
+    path = diagrams_dir / name
+    if not path.exists():
+        pytest.skip(f"{name} not in diagrams/")
+    scenario = load_scenario(path)
+    assert scenario.robots and scenario.flow.actions
+
+
+def mutate(raw, edit):
+    raw = copy.deepcopy(raw)
+    edit(raw)
+    return raw
+
+
+def _op_action(raw, name):
+    return next(a for a in raw["operator"]["actions"] if a["name"] == name)
+
+
+def _add_orphan_input(raw, action_name):
+    """A buffer nothing ever fills, made an input of `action_name`."""
+    raw["layout"]["buffers"].append({"name": "orphan", "capacity": 1, "position": [0.5, 0.0, 0.76]})
+    action = next(a for a in raw["flow"]["actions"] if a["name"] == action_name)
+    action["inputs"].append("orphan")
+
+
+BAD = {
+    "unknown key": (
+        lambda r: _op_action(r, "H1").update(duraton={"kind": "fixed", "mean": 1.0}),
+        "operator.actions[0].duraton", "unknown key",
+    ),
+    "unknown goal": (
+        lambda r: _op_action(r, "H2")["goals"].__setitem__(1, "nowhere"),
+        "operator.actions[1].goals[1]", "unknown goal or buffer 'nowhere'",
+    ),
+    "unknown buffer": (
+        lambda r: r["flow"]["actions"][0]["outputs"].__setitem__(0, "no_such_buffer"),
+        "flow.actions[0].outputs[0]", "unknown buffer 'no_such_buffer'",
+    ),
+    "unknown pose": (
+        lambda r: r["robots"][0]["actions"][0]["poses"].__setitem__(0, "r_nowhere"),
+        "robots[0].actions[0].poses[0]", "unknown pose 'r_nowhere'",
+    ),
+    "zero duration": (
+        lambda r: _op_action(r, "H3")["duration"].update(kind="fixed", mean=0.0),
+        "operator.actions[2].duration.mean", "must be positive",
+    ),
+    "negative duration": (
+        lambda r: r["flow"]["actions"][1]["duration"].update(kind="normal", mean=-3.0),
+        "flow.actions[1].duration.mean", "must be positive",
+    ),
+    "unsuppliable inputs": (
+        lambda r: _add_orphan_input(r, "R2"),
+        "flow.actions[4].inputs", "can never start",
+    ),
+    "wrong type": (
+        lambda r: r.update(seed="seven"),
+        "seed", "expected a number",
+    ),
+    "unknown scheduler": (
+        lambda r: r.update(scheduler={"kind": "psychic"}),
+        "scheduler.kind", "unknown kind 'psychic'",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_scenarios_name_file_field_and_reason(tmp_path, torch_raw, case):
+    edit, field, reason = BAD[case]
+    path = write(tmp_path, mutate(torch_raw, edit))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert str(path) in message
+    assert info.value.field == field
+    assert reason in message
+
+
+def test_target_out_of_reach_is_rejected(tmp_path, torch_raw):
+    def edit(raw):
+        pose = next(p for p in raw["robots"][0]["poses"] if p["name"] == "r_work")
+        pose["target"]["xyz"] = [2.5, 0.0, 0.9]
+
+    path = write(tmp_path, mutate(torch_raw, edit))
+    load_scenario(path)  # structure is fine; reachability needs the robot model
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path, check_reachability=True)
+    assert info.value.field.endswith(".target")
+    assert "out of reach" in str(info.value)
+
+
+def test_yaml_syntax_error_and_missing_file(tmp_path):
+    bad = tmp_path / "broken.yaml"
+    bad.write_text("seed: [1, 2\n")
+    with pytest.raises(ScenarioError, match="not valid YAML"):
+        load_scenario(bad)
+    with pytest.raises(ScenarioError, match="no such file"):
+        load_scenario(tmp_path / "missing.yaml")
+
+
+def test_validate_command(tmp_path, torch_raw, diagrams_dir, capsys):
+    assert main(["validate", str(diagrams_dir / "torch_clock.yaml")]) == 0
+    assert "OK" in capsys.readouterr().out
+    path = write(tmp_path, mutate(torch_raw, BAD["unknown goal"][0]))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "operator.actions[1].goals[1]" in err and "nowhere" in err

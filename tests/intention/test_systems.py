@@ -1,0 +1,86 @@
+"""IntentionEstimator in a small diagram fed by a scripted skeleton-estimate source."""
+
+import numpy as np
+import pytest
+from intention_reaches import GOALS, straight_reach
+
+pydrake = pytest.importorskip("pydrake")
+from pydrake.common.value import AbstractValue  # noqa: E402
+from pydrake.systems.analysis import Simulator  # noqa: E402
+from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
+
+from hrc_drake.intention.bayes import IntentionEvent  # noqa: E402
+from hrc_drake.intention.systems import IntentionEstimator  # noqa: E402
+from hrc_drake.messages import EventLog, GoalBelief, SkeletonEstimate  # noqa: E402
+
+
+class ScriptedEstimates(LeafSystem):
+    """Outputs the scripted SkeletonEstimate of the latest script time <= now."""
+
+    def __init__(self, times, points, gaze):
+        super().__init__()
+        self.times, self.points, self.gaze = times, points, gaze
+        self.DeclareAbstractOutputPort("estimate", lambda: AbstractValue.Make(SkeletonEstimate()), self._calc)
+
+    def _calc(self, context, output):
+        k = int(np.clip(np.searchsorted(self.times, context.get_time() + 1e-9) - 1, 0, len(self.times) - 1))
+        output.set_value(
+            SkeletonEstimate(
+                time=float(self.times[k]), points=self.points[k], gaze=self.gaze[k], gaze_valid=True
+            )
+        )
+
+
+def build(model, times, points, gaze, **kwargs):
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ScriptedEstimates(times, points, gaze))
+    estimator = builder.AddSystem(IntentionEstimator(["A", "B", "C"], GOALS, model=model, **kwargs))
+    builder.Connect(source.get_output_port(0), estimator.GetInputPort("skeleton_estimate"))
+    diagram = builder.Build()
+    return diagram, estimator
+
+
+def test_estimator_in_a_diagram_recognises_the_goal_and_logs_feedback(small_model):
+    times, points, gaze = straight_reach([0.85, 0.15, 0.9], GOALS[1], duration=0.9, noise=0.003, rng=2)
+    diagram, estimator = build(small_model, times, points, gaze)
+    simulator = Simulator(diagram)
+    context = estimator.GetMyContextFromRoot(simulator.get_mutable_context())
+    simulator.AdvanceTo(0.02)
+    belief = estimator.GetOutputPort("goal_belief").Eval(context)
+    assert isinstance(belief, GoalBelief) and belief.goals == ("A", "B", "C")
+    np.testing.assert_allclose(belief.probabilities, 1 / 3)
+    simulator.AdvanceTo(1.0)
+    belief = estimator.GetOutputPort("goal_belief").Eval(context)
+    np.testing.assert_allclose(belief.probabilities.sum(axis=1), 1.0)
+    assert belief.probabilities[1].argmax() == 1 and belief.probabilities[1, 1] > 0.8
+    log = estimator.GetOutputPort("intention_events").Eval(context)
+    assert isinstance(log, EventLog)
+    assert [(e.hand, e.goal, e.kind) for e in log.events] == [("right", "B", "understood")]
+    event = log.events[0]
+    assert isinstance(event, IntentionEvent) and event.seq == 1 and 0.0 < event.time < 0.9
+    assert log.since(1) == ()
+    # a fresh simulation of the same diagram starts over
+    simulator2 = Simulator(diagram)
+    simulator2.AdvanceTo(0.1)
+    log2 = estimator.GetOutputPort("intention_events").Eval(
+        estimator.GetMyContextFromRoot(simulator2.get_context())
+    )
+    assert log2.events == ()
+
+
+def test_understood_is_set_only_at_the_update_that_crossed(small_model):
+    times, points, gaze = straight_reach([0.85, 0.15, 0.9], GOALS[0], duration=0.9, noise=0.003, rng=4)
+    diagram, estimator = build(small_model, times, points, gaze, rate=30.0)
+    simulator = Simulator(diagram)
+    context = estimator.GetMyContextFromRoot(simulator.get_mutable_context())
+    seen = []
+    for k in range(1, 31):
+        simulator.AdvanceTo(k / 30.0 + 1e-6)
+        seen.append(estimator.GetOutputPort("goal_belief").Eval(context).understood)
+    assert sum(len(u) for u in seen) == 1
+    assert [u for u in seen if u] == [(("right", "A"),)]
+
+
+def test_bad_rate_raises(small_model):
+    with pytest.raises(ValueError, match="rate"):
+        IntentionEstimator(["A", "B", "C"], GOALS, model=small_model, rate=100.0)

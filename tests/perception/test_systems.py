@@ -1,0 +1,69 @@
+"""OcclusionTracker Drake system: ports, a short simulation, the speed override output."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pydrake")
+
+from pydrake.common.value import AbstractValue  # noqa: E402
+from pydrake.systems.analysis import Simulator  # noqa: E402
+from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
+
+from hrc_drake.messages import L_WRIST, SkeletonEstimate, SkeletonFrame  # noqa: E402
+from hrc_drake.perception.systems import OcclusionTracker  # noqa: E402
+
+POSE = np.array([
+    [0.0, 0.0, 1.40], [0.0, 0.0, 1.65], [0.0, 0.2, 1.40], [0.0, -0.2, 1.40],
+    [0.0, 0.2, 1.10], [0.0, -0.2, 1.10], [0.27, 0.2, 1.10], [0.27, -0.2, 1.10],
+])
+
+
+class FrameSource(LeafSystem):
+    """Frames stamped with the current time; the left wrist is lost after 0.3 s."""
+
+    def __init__(self):
+        super().__init__()
+        self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
+                                       self._calc)
+
+    def _calc(self, context, output):
+        t = round(context.get_time() * 30.0) / 30.0
+        pts = POSE.copy()
+        if t > 0.3:
+            pts[L_WRIST] = np.nan
+        output.set_value(SkeletonFrame(time=t, points=pts, tracked=np.all(np.isfinite(pts), axis=1)))
+
+
+@pytest.mark.parametrize("kind", ["particle_filter", "kalman"])
+def test_tracker_in_a_diagram(kind):
+    builder = DiagramBuilder()
+    source = builder.AddSystem(FrameSource())
+    calls = []
+
+    def is_hidden(points, capsules=None):
+        calls.append(capsules)
+        return points[..., 0] > 0.15
+
+    tracker = builder.AddSystem(OcclusionTracker(kind, {"particles": 100}, is_hidden, [0.6, 0.2, 1.1],
+                                                 [0.5, 0.6, 0.6], rate=30.0, seed=1))
+    builder.Connect(source.get_output_port(), tracker.GetInputPort("skeleton_frame"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    tracker_context = tracker.GetMyContextFromRoot(context)
+    tracker.GetInputPort("occluding_capsules").FixValue(
+        tracker_context, AbstractValue.Make((np.zeros((1, 3)), np.ones((1, 3)), np.array([0.05]))))
+    simulator.AdvanceTo(0.6)
+    est = tracker.GetOutputPort("skeleton_estimate").Eval(tracker_context)
+    assert isinstance(est, SkeletonEstimate)
+    assert est.time == pytest.approx(0.6, abs=1 / 30 + 1e-9)
+    assert not est.tracked[L_WRIST] and est.tracked[0]
+    assert np.all(np.isfinite(est.points))
+    assert est.particles.shape == (8, 50, 3) and np.all(np.isfinite(est.particles))
+    speed = tracker.GetOutputPort("speed_override").Eval(tracker_context)[0]
+    assert speed in (0.3, 1.0)
+    if kind == "particle_filter":
+        # The hidden wrist stays on the crown around the elbow, out of the workspace box.
+        assert speed == 1.0
+        assert np.linalg.norm(est.points[L_WRIST] - POSE[L_WRIST]) < 0.2
+        assert calls and calls[-1] is not None  # the capsules reached the depth query

@@ -1,0 +1,66 @@
+import numpy as np
+import pytest
+
+from hrc_drake.robots.path import JointPathFollower, min_jerk_profile
+
+
+def run(follower, dt, steps, override=1.0):
+    qs = []
+    for _ in range(steps):
+        qs.append(follower.step(dt, override).copy())
+    return np.array(qs)
+
+
+def test_min_jerk_profile_ends():
+    assert min_jerk_profile(0.0) == pytest.approx(0.0)
+    assert min_jerk_profile(1.0) == pytest.approx(1.0)
+    assert min_jerk_profile(0.5) == pytest.approx(0.5)
+
+
+def test_reaches_waypoints_within_velocity_limits():
+    v_max = np.array([1.0, 2.0])
+    follower = JointPathFollower(np.zeros(3), [np.array([0, 2])], [v_max], velocity_fraction=1.0)
+    follower.request(0, 1, np.array([[1.0, 1.0], [0.0, -1.0]]), np.array([0.0, 0.0]))
+    dt = 0.001
+    qs = run(follower, dt, 6000)
+    speeds = np.abs(np.diff(qs, axis=0)) / dt
+    assert np.all(speeds[:, 0] <= v_max[0] * 1.001)
+    assert np.all(speeds[:, 2] <= v_max[1] * 1.001)
+    assert np.all(qs[:, 1] == 0.0)
+    np.testing.assert_allclose(qs[-1], [0.0, 0.0, -1.0], atol=1e-12)
+    assert follower.done_seq == [1]
+    # The first segment is limited by joint 0: 1.875 * 1 rad / (1 rad/s).
+    np.testing.assert_allclose(qs[round(1.875 / dt) - 1][[0, 2]], [1.0, 1.0], atol=1e-9)
+    assert abs(qs[round(1.7 / dt)][0] - 1.0) > 1e-3
+
+
+def test_speed_override_scales_time_and_zero_stops():
+    def duration(override):
+        f = JointPathFollower(np.zeros(1), [np.array([0])], [np.array([1.0])])
+        f.request(0, 7, np.array([[1.0]]), np.array([0.5]))
+        steps = 0
+        while f.done_seq[0] != 7:
+            f.step(0.01, override)
+            steps += 1
+            assert steps < 10000
+        return steps * 0.01
+
+    assert duration(0.5) == pytest.approx(2 * duration(1.0), rel=0.02)
+    f = JointPathFollower(np.zeros(1), [np.array([0])], [np.array([1.0])])
+    f.request(0, 1, np.array([[1.0]]), np.array([0.0]))
+    f.step(0.5, 1.0)
+    q = f.q.copy()
+    run(f, 0.1, 20, override=0.0)
+    np.testing.assert_array_equal(f.q, q)
+    run(f, 0.1, 20, override=float("nan"))
+    np.testing.assert_array_equal(f.q, q)
+
+
+def test_bad_requests_are_refused():
+    with pytest.raises(ValueError, match="velocity_fraction"):
+        JointPathFollower(np.zeros(1), [np.array([0])], [np.array([1.0])], velocity_fraction=0.0)
+    with pytest.raises(ValueError, match="positive velocity limit"):
+        JointPathFollower(np.zeros(1), [np.array([0])], [np.array([0.0])])
+    f = JointPathFollower(np.zeros(2), [np.array([0, 1])], [np.ones(2)])
+    with pytest.raises(ValueError, match="expected 2"):
+        f.request(0, 1, np.zeros((1, 3)), np.zeros(1))

@@ -1,0 +1,308 @@
+"""Benchmark of the activity prediction (thesis Ch. 5): Fig. 5.4, Fig. 5.7, IKEA ASM data, speed.
+
+Usage: python tools/bench_prediction.py [--quick]
+Prints readable tables and, as its last line, one JSON object with the figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from hrc_drake.prediction import (  # noqa: E402
+    ChingHigherOrderModel,
+    HigherOrderMarkovModel,
+    MarkovChainModel,
+    SuffixTreeModel,
+    VariableOrderMarkovModel,
+    WaitingTimePredictor,
+)
+
+PATTERN_54 = [0, 1, 2, 0, 1, 3, 2, 4]  # a1 a2 a3 a1 a2 a4 a3 a5
+STAGES_58 = [[0, 1], [2], [3, 4, 5], [6, 7], [8, 9]]
+AFFINE_58 = [[0, 1], [3, 4, 5], [6, 7], [8, 9]]
+
+
+def log(msg: str) -> None:
+    print(msg, flush=True)
+
+
+# ------------------------------------------------------------------------------ Fig. 5.4
+def mutated_pattern(rng: np.random.Generator, repeats=75, rate=0.03, m=5) -> list[int]:
+    seq = np.array(PATTERN_54 * repeats)
+    mutate = rng.random(seq.size) < rate
+    seq[mutate] = rng.integers(0, m, size=mutate.sum())
+    return seq.tolist()
+
+
+def one_step_error(model, seq: list[int], skip: int) -> float:
+    """Fraction of steps whose most probable next action is wrong (Fig. 5.4 error)."""
+    wrong = total = 0
+    for k, action in enumerate(seq):
+        if k >= skip:
+            wrong += int(np.argmax(model.predict_proba(seq[max(0, k - 16) : k])) != action)
+            total += 1
+        model.partial_fit(action)
+    return wrong / total
+
+
+def bench_fig54(seeds: int, lengths: list[int]) -> dict:
+    makers = {
+        "homm_n7": lambda b: HigherOrderMarkovModel(order=7, buffer_size=b, actions=5),
+        "markov_chain": lambda b: MarkovChainModel(buffer_size=b, actions=5),
+        "ching_n7": lambda b: ChingHigherOrderModel(order=7, buffer_size=b, actions=5),
+        "vomm_ppm_d5": lambda b: VariableOrderMarkovModel(max_depth=5, buffer_size=b, actions=5),
+    }
+    errors = {name: {length: [] for length in lengths} for name in makers}
+    for seed in range(seeds):
+        seq = mutated_pattern(np.random.default_rng(seed))
+        for length in lengths:
+            for name, make in makers.items():
+                errors[name][length].append(one_step_error(make(length), seq, skip=len(PATTERN_54)))
+        log(f"  fig 5.4: seed {seed + 1}/{seeds} done")
+    table = {name: {str(k): float(np.mean(v)) for k, v in per.items()} for name, per in errors.items()}
+    log("\nFig. 5.4 - one-step prediction error (argmax wrong) vs FIFO length, mean over seeds")
+    log(f"{'model':<14}" + "".join(f"{length:>8}" for length in lengths))
+    for name, per in table.items():
+        log(f"{name:<14}" + "".join(f"{per[str(k)]:>8.3f}" for k in lengths))
+    longest = str(lengths[-1])
+    best = min(table, key=lambda n: table[n][longest])
+    log(f"lowest error at FIFO {longest}: {best}")
+    return {"error": table, "best_at_longest_fifo": best}
+
+
+# ------------------------------------------------------------------------------ Fig. 5.7
+def button_series(rng: np.random.Generator, cycles=20, noise=0.05, m=10) -> list[int]:
+    seq = []
+    for _ in range(cycles):
+        for stage in STAGES_58:
+            seq.extend(rng.permutation(stage).tolist())
+    seq = np.array(seq)
+    replace = rng.random(seq.size) < noise
+    seq[replace] = rng.integers(0, m, size=replace.sum())
+    return seq.tolist()
+
+
+def mean_squared_error(model, seq: list[int], m: int) -> float:
+    """Mean ||X_hat_{k+1} - X_{k+1}||^2 over the series (Fig. 5.7)."""
+    eye = np.eye(m)
+    errs = []
+    for k, action in enumerate(seq):
+        if k > 0:
+            errs.append(float(np.sum((model.predict_proba(seq[max(0, k - 12) : k]) - eye[action]) ** 2)))
+        model.partial_fit(action)
+    return float(np.mean(errs))
+
+
+def bench_fig57(n_series: int, orders: list[int]) -> dict:
+    makers = {
+        "st_no_priors": lambda s: SuffixTreeModel(order=s, actions=10),
+        "st_2_priors": lambda s: SuffixTreeModel(order=s, affine_sets=AFFINE_58[:2], actions=10),
+        "st_all_priors": lambda s: SuffixTreeModel(order=s, affine_sets=AFFINE_58, actions=10),
+        # HOMM order n uses n+1 past actions: n = sigma - 1 compares equal memories
+        "homm": lambda s: HigherOrderMarkovModel(order=s - 1, buffer_size=200, actions=10),
+    }
+    results = {name: {o: [] for o in orders} for name in makers}
+    for index in range(n_series):
+        seq = button_series(np.random.default_rng(1000 + index))
+        for order in orders:
+            for name, make in makers.items():
+                results[name][order].append(mean_squared_error(make(order), seq, 10))
+        if (index + 1) % max(1, n_series // 5) == 0:
+            log(f"  fig 5.7: series {index + 1}/{n_series} done")
+    log("\nFig. 5.7 - mean squared error ||X_hat - X||^2 vs model order (median [20th, 80th] over series)")
+    log(f"{'model':<15}" + "".join(f"{o:>22}" for o in orders))
+    table = {}
+    for name, per in results.items():
+        row = {}
+        cells = []
+        for order in orders:
+            q20, q50, q80 = np.percentile(per[order], [20, 50, 80])
+            row[str(order)] = {"mean": float(np.mean(per[order])), "p20": q20, "p50": q50, "p80": q80}
+            cells.append(f"{q50:.3f} [{q20:.3f},{q80:.3f}]")
+        table[name] = row
+        log(f"{name:<15}" + "".join(f"{c:>22}" for c in cells))
+    mean_over_orders = {n: float(np.mean([table[n][str(o)]["mean"] for o in orders])) for n in table}
+    ranking = sorted(mean_over_orders, key=mean_over_orders.get)
+    log(f"ranking by mean error over orders (best first): {ranking}")
+    return {"mse": table, "mean_over_orders": mean_over_orders, "ranking": ranking}
+
+
+# ------------------------------------------------------------------------------ IKEA ASM
+def data_dir() -> Path:
+    return Path(os.environ.get("HRC_DRAKE_DATA", REPO / ".." / "shared" / "data"))
+
+
+def load_ikea() -> dict[str, list[tuple[list[str], list[float]]]] | None:
+    """Furniture -> sequences of (actions, start times) from the no-NA ground truth."""
+    path = data_dir() / "ikea_asm_eventlog" / "ikea_asm_test_gt_segments_no_na.csv"
+    if not path.exists():
+        return None
+    traces: dict[str, list] = defaultdict(list)
+    furniture_of = {}
+    with open(path, newline="") as handle:
+        for row in csv.DictReader(handle):
+            traces[row["trace_id"]].append(
+                (int(row["event_index"]), row["activity"], float(row["start_s"]), float(row["end_s"]))
+            )
+            furniture_of[row["trace_id"]] = row["furniture"]
+    out: dict[str, list] = defaultdict(list)
+    for trace_id, events in traces.items():
+        events.sort()
+        out[furniture_of[trace_id]].append(
+            ([e[1] for e in events], [e[2] for e in events], events[-1][3])
+        )
+    return dict(out)
+
+
+def bench_ikea(max_held_out: int | None) -> dict:
+    data = load_ikea()
+    if data is None:
+        log("\nIKEA ASM data not found (set HRC_DRAKE_DATA): skipped")
+        return {"skipped": True}
+    makers = {
+        "markov_chain": lambda acts: MarkovChainModel(buffer_size=None, actions=acts),
+        "homm_n2": lambda acts: HigherOrderMarkovModel(order=2, buffer_size=None, actions=acts),
+        "vomm_ppm_d3": lambda acts: VariableOrderMarkovModel(max_depth=3, buffer_size=None, actions=acts),
+        "suffix_tree_s2": lambda acts: SuffixTreeModel(order=2, forgetting=0.005, actions=acts),
+    }
+    accuracy: dict[str, dict[str, float]] = {}
+    below_p80 = []
+    for furniture, sequences in sorted(data.items()):
+        actions = sorted({a for seq, _, _ in sequences for a in seq})
+        held = range(len(sequences)) if max_held_out is None else range(min(max_held_out, len(sequences)))
+        hits = defaultdict(int)
+        total = 0
+        for index in held:
+            train = [a for j, (seq, _, _) in enumerate(sequences) if j != index for a in seq]
+            test, starts, end = sequences[index]
+            total += len(test) - 1
+            for name, make in makers.items():
+                model = make(actions).fit(train)
+                waiting = None
+                if name == "homm_n2":
+                    waiting = WaitingTimePredictor(model, resolution=0.2, max_samples=200)
+                    for j, (seq, st, last_end) in enumerate(sequences):
+                        if j != index:
+                            stops = list(st[1:]) + [last_end]
+                            for a, t0, t1 in zip(seq, st, stops, strict=True):
+                                if t1 > t0:
+                                    waiting.observe_duration(a, t1 - t0)
+                for k in range(1, len(test)):
+                    history = test[:k]
+                    hits[name] += int(actions[int(np.argmax(model.predict_proba(history)))] == test[k])
+                    if waiting is not None:
+                        # at the begin of A_{k-1}: when will the true next action begin?
+                        pct = waiting.percentiles(history, 0.0, (0.8,), horizon=60.0)
+                        true_wait = starts[k] - starts[k - 1]
+                        below_p80.append(true_wait <= pct[actions.index(test[k]), 0])
+                    model.partial_fit(test[k - 1]) if False else None
+        accuracy[furniture] = {name: hits[name] / total for name in makers}
+        log(f"  ikea: {furniture} done ({len(held)} held-out sequences)")
+    log("\nIKEA ASM - one-step accuracy (argmax right), leave-one-sequence-out per furniture")
+    names = list(makers)
+    log(f"{'furniture':<22}" + "".join(f"{n:>16}" for n in names))
+    for furniture, row in accuracy.items():
+        log(f"{furniture:<22}" + "".join(f"{row[n]:>16.3f}" for n in names))
+    mean = {n: float(np.mean([row[n] for row in accuracy.values()])) for n in names}
+    log(f"{'mean':<22}" + "".join(f"{mean[n]:>16.3f}" for n in names))
+    fraction = float(np.mean(below_p80)) if below_p80 else float("nan")
+    log(f"waiting-time calibration (HOMM n=2): true wait <= predicted 80th percentile in {fraction:.3f} of steps")
+    return {"accuracy": accuracy, "mean_accuracy": mean, "fraction_below_p80": fraction, "n_calib": len(below_p80)}
+
+
+# ------------------------------------------------------------------------------ speed
+def bench_speed(repeats: int) -> dict:
+    rng = np.random.default_rng(7)
+    seq = button_series(rng, cycles=120)
+    model = SuffixTreeModel(order=3, affine_sets=AFFINE_58, actions=10)
+    for a in seq[:1000]:
+        model.partial_fit(a)
+    st_times = []
+    for k in range(1000, 1000 + repeats):
+        t0 = time.perf_counter()
+        model.partial_fit(seq[k])
+        model.predict_proba(seq[k - 3 : k + 1])
+        st_times.append(time.perf_counter() - t0)
+    homm = HigherOrderMarkovModel(order=7, buffer_size=200, actions=5)
+    seq54 = mutated_pattern(rng)
+    for a in seq54:
+        homm.partial_fit(a)
+    homm_times = []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        homm.partial_fit(seq54[k])
+        homm.predict_proba(seq54[k - 8 : k + 1] if k >= 8 else seq54[:8])
+        homm_times.append(time.perf_counter() - t0)
+    waiting_times = {}
+    for name, seq_model, history, m in (
+        ("homm_n7", homm, seq54[-20:], 5),
+        ("suffix_tree", model, seq[990:1000], 10),
+    ):
+        waiting = WaitingTimePredictor(seq_model)
+        for a in range(m):
+            for d in rng.uniform(2.0, 6.0, size=30):
+                waiting.observe_duration(a, d)
+        samples = []
+        for _ in range(max(5, repeats // 10)):
+            t0 = time.perf_counter()
+            waiting.distributions(history, 1.0, horizon=60.0)
+            samples.append(time.perf_counter() - t0)
+        waiting_times[name] = float(np.median(samples) * 1e3)
+    result = {
+        "suffix_tree_update_predict_ms": float(np.median(st_times) * 1e3),
+        "homm_update_predict_ms": float(np.median(homm_times) * 1e3),
+        "waiting_60s_ms": waiting_times,
+    }
+    log("\nSpeed (medians; targets: suffix tree <= 5 ms, waiting time <= 20 ms)")
+    log(f"  suffix tree partial_fit + predict_proba after 1000 actions: {result['suffix_tree_update_predict_ms']:.2f} ms")
+    log(f"  HOMM (n=7, FIFO 200) partial_fit + predict_proba:          {result['homm_update_predict_ms']:.2f} ms")
+    for name, value in waiting_times.items():
+        log(f"  waiting-time distributions, 60 s horizon, {name:<12}:     {value:.2f} ms")
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="fewer seeds and series (< 1 min)")
+    args = parser.parse_args()
+    start = time.perf_counter()
+    if args.quick:
+        fig54 = bench_fig54(seeds=1, lengths=[16, 64, 256])
+        fig57 = bench_fig57(n_series=2, orders=[1, 2, 3])
+        ikea = bench_ikea(max_held_out=2)
+        speed = bench_speed(repeats=30)
+    else:
+        fig54 = bench_fig54(seeds=5, lengths=[16, 32, 64, 128, 256, 512])
+        fig57 = bench_fig57(n_series=20, orders=[1, 2, 3, 4, 5])
+        ikea = bench_ikea(max_held_out=None)
+        speed = bench_speed(repeats=200)
+    elapsed = time.perf_counter() - start
+    log(f"\ntotal {elapsed:.1f} s")
+    summary = {
+        "quick": bool(args.quick),
+        "fig54_error_at_longest_fifo": {n: list(v.values())[-1] for n, v in fig54["error"].items()},
+        "fig54_best_at_longest_fifo": fig54["best_at_longest_fifo"],
+        "fig57_mean_mse_over_orders": fig57["mean_over_orders"],
+        "fig57_ranking": fig57["ranking"],
+        "ikea_mean_accuracy": ikea.get("mean_accuracy"),
+        "ikea_fraction_below_p80": ikea.get("fraction_below_p80"),
+        **speed,
+        "seconds": round(elapsed, 1),
+    }
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()

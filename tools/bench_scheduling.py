@@ -1,0 +1,136 @@
+"""Benchmark of hrc_drake.scheduling: Monte Carlo decision latency (thesis 7.3.1, 7.5.2), the
+Fig. 7.12 campaign on the Fig. 7.11 net, and use case a patterns 1 and 2 (7.5.1).
+
+Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from hrc_drake.scheduling import thesis_cells as tc
+from hrc_drake.scheduling.baselines import DeterministicPlanScheduler, GreedyScheduler, RoundRobinScheduler
+from hrc_drake.scheduling.cellsim import simulate_cell
+from hrc_drake.scheduling.compiler import compile_flow
+from hrc_drake.scheduling.montecarlo import MonteCarloScheduler
+
+
+def latency_ms(net, agent, n_trials, horizon, repeats, seed=0):
+    sched = MonteCarloScheduler(net, n_trials=n_trials, horizon=horizon, random_state=seed)
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sched.decide(net.m0, agent)
+        times.append(time.perf_counter() - t0)
+    return 1000 * float(np.median(times))
+
+
+def make_policy(kind, net, seed, horizon=30.0, n_trials=100):
+    if kind == "monte_carlo":
+        return MonteCarloScheduler(net, n_trials=n_trials, horizon=horizon, random_state=seed)
+    if kind == "round_robin":
+        return RoundRobinScheduler(net, random_state=seed)
+    if kind == "greedy":
+        return GreedyScheduler(net, random_state=seed)
+    return DeterministicPlanScheduler(net, random_state=seed)
+
+
+def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0):
+    out = {}
+    for kind in kinds:
+        cycles, per_product, t0 = [], [], time.perf_counter()
+        for seed in range(n_runs):
+            run = simulate_cell(
+                net,
+                make_policy(kind, net, seed, horizon),
+                np.random.default_rng(1000 + seed),
+                n_cycles=n_cycles,
+                max_time=50.0 * n_cycles * 60,
+            )
+            cycles.extend(run.cycle_times.tolist())
+            per_product.append(run.time_per_product)
+        out[kind] = {
+            "cycle_median": float(np.median(cycles)),
+            "cycle_mean": float(np.mean(cycles)),
+            "cycle_p90": float(np.percentile(cycles, 90)),
+            "time_per_product": float(np.mean(per_product)),
+        }
+        print(
+            f"  {label:10s} {kind:13s} cycle median {out[kind]['cycle_median']:7.2f} s  mean "
+            f"{out[kind]['cycle_mean']:7.2f} s  p90 {out[kind]['cycle_p90']:7.2f} s  per product "
+            f"{out[kind]['time_per_product']:6.2f} s  ({time.perf_counter() - t0:.1f} s)",
+            flush=True,
+        )
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="small campaigns, finishes in under a minute")
+    args = parser.parse_args()
+    quick = args.quick
+    result = {"quick": quick}
+
+    print("Decision latency of the Monte Carlo scheduler (median over repeats, ms)")
+    flow, buffers, pattern, robots = tc.fig_7_6()
+    net76 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0)
+    thesis = {10: 23.9, 20: 35.4, 30: 85.0}
+    for horizon in (10, 20, 30):
+        ms = latency_ms(net76, "robot", 100, float(horizon), 5 if quick else 20)
+        result[f"latency_fig7_6_T{horizon}_ms"] = ms
+        print(
+            f"  Fig. 7.6, N=100, T_sch={horizon:2d} s: {ms:7.1f} ms   (thesis {thesis[horizon]} ms)",
+            flush=True,
+        )
+    flow, buffers, pattern, robots = tc.use_case_b(1)
+    net_b = compile_flow(
+        flow,
+        buffers,
+        "human",
+        pattern,
+        robots,
+        wait_quantum=3.0,
+        cost_robot=0.5,
+        cost_human=1.0,
+        agent_costs=tc.USE_CASE_B_AGENT_COSTS,
+    )
+    ms = latency_ms(net_b, "yumi", 150, 30.0, 5 if quick else 20)
+    # the first decision has only the wait for yumi; take a marking with a real conflict
+    m = net_b.m0.copy()
+    m[net_b.place_index["buf:tested"]] = 1
+    m[net_b.place_index["space:tested"]] -= 1
+    sched = MonteCarloScheduler(net_b, n_trials=150, horizon=30.0, random_state=0)
+    times = []
+    for _ in range(5 if quick else 20):
+        t0 = time.perf_counter()
+        sched.decide(m, "yumi")
+        times.append(time.perf_counter() - t0)
+    ms = 1000 * float(np.median(times))
+    result["latency_use_case_b_N150_T30_ms"] = ms
+    print(f"  use case b (reconstruction), N=150, T_sch=30 s: {ms:7.1f} ms   (thesis 286 ms)", flush=True)
+
+    print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
+    flow, buffers, pattern, robots = tc.fig_7_11()
+    net711 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    runs, cycles = (3, 3) if quick else (20, 10)
+    result["fig7_12"] = campaign(
+        net711, ["monte_carlo", "deterministic", "greedy", "round_robin"], runs, cycles, "Fig 7.11"
+    )
+
+    print("Use case a (7.5.1), time per finished product (thesis: RR 35.80 -> 27.63 s, 33.35 -> 30.10 s)")
+    for pat in (1, 2):
+        flow, buffers, pattern, robots = tc.use_case_a(pat)
+        net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+        runs, cycles = (2, 4) if quick else (10, 10)
+        result[f"use_case_a_pattern{pat}"] = campaign(
+            net_a, ["monte_carlo", "round_robin"], runs, cycles, f"a, pat {pat}"
+        )
+    print(json.dumps(result))
+
+
+if __name__ == "__main__":
+    main()
