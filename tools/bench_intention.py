@@ -116,7 +116,8 @@ def main(argv=None) -> int:
                 thesis_s = f"{thesis[0]:.1f}/{thesis[1]:.1f}" if thesis else "-"
                 print(
                     f"{label:>6} {method:>6} {row['reaches']:>7} {row['false_positives_pct']:>11.1f} "
-                    f"{row['true_negatives_pct']:>10.1f} {row['distance_median']:>15.3f} {quart:>17} {thesis_s:>13}"
+                    f"{row['true_negatives_pct']:>10.1f} {row['distance_median']:>15.3f} {quart:>17} "
+                    f"{thesis_s:>13}"
                 )
                 layout_fig[f"{label.replace(' ', '')}_{method}"] = {
                     "fp_pct": round(row["false_positives_pct"], 2),

@@ -207,7 +207,6 @@ def bench_ikea(max_held_out: int | None) -> dict:
                         pct = waiting.percentiles(history, 0.0, (0.8,), horizon=60.0)
                         true_wait = starts[k] - starts[k - 1]
                         below_p80.append(true_wait <= pct[actions.index(test[k]), 0])
-                    model.partial_fit(test[k - 1]) if False else None
         accuracy[furniture] = {name: hits[name] / total for name in makers}
         log(f"  ikea: {furniture} done ({len(held)} held-out sequences)")
     log("\nIKEA ASM - one-step accuracy (argmax right), leave-one-sequence-out per furniture")

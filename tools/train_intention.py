@@ -78,10 +78,12 @@ def main(argv=None) -> int:
     print(f"{'clusters':>8} {'GMM4d':>9} {'GMM2d':>9}")
     for k in learner.heldout_scores_4d_:
         print(
-            f"{k:>8} {learner.heldout_scores_4d_[k]:>9.3f} {learner.heldout_scores_2d_.get(k, float('nan')):>9.3f}"
+            f"{k:>8} {learner.heldout_scores_4d_[k]:>9.3f} "
+            f"{learner.heldout_scores_2d_.get(k, float('nan')):>9.3f}"
         )
     print(
-        f"chosen: GMM4d {learner.n_components_4d_} clusters, GMM2d {learner.n_components_2d_}; saved {args.out}"
+        f"chosen: GMM4d {learner.n_components_4d_} clusters, GMM2d {learner.n_components_2d_}; "
+        f"saved {args.out}"
     )
     print(
         json.dumps(
