@@ -14,12 +14,14 @@ import numpy as np
 from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role, SceneGraph
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, MatrixGain
+from pydrake.common.value import AbstractValue
+from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
 from hrc_drake.cell.scenario import ScenarioError
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
+    HumanCapsules,
     HumanGeometry,
     MetricsRecorder,
     MinOverride,
@@ -28,6 +30,9 @@ from hrc_drake.cell.systems import (
 )
 from hrc_drake.cell.world import CellWorld
 from hrc_drake.human.body import BodyModel
+from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.systems import DepthCamera
+from hrc_drake.messages import EventLog
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
     RobotCapsuleKinematics,
@@ -148,6 +153,22 @@ def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng,
     return OperatorSource(operator), operator
 
 
+def _recorded_source(scenario: Scenario, scenario_path):
+    """The recorded skeleton file of the scenario, relative to the scenario's folder."""
+    from hrc_drake.human.recorded import load_skeleton_csv
+    from hrc_drake.human.systems import RecordedSkeletonSource
+
+    base = Path(scenario_path).parent if str(scenario_path) != "<scenario>" else Path.cwd()
+    path = (base / scenario.operator.recorded).resolve()
+    if not path.is_file():
+        raise ScenarioError(scenario_path, "operator.recorded", f"no such file: {path}")
+    try:
+        times, points, tracked = load_skeleton_csv(path)
+    except ValueError as err:
+        raise ScenarioError(scenario_path, "operator.recorded", str(err)) from err
+    return RecordedSkeletonSource(times, points, tracked)
+
+
 def build_cell(
     scenario: Scenario,
     scenario_path: str | Path = "<scenario>",
@@ -198,7 +219,7 @@ def build_cell(
     def make_executor(request_path):
         return TaskExecutor(agents, moves, world, request_path, use_commands=use_scheduler)
 
-    executor = builder.AddSystem(RobotTaskExecutor(make_executor))
+    executor = builder.AddSystem(RobotTaskExecutor(make_executor, period=0.1))
     executor.set_name("robot_task_executor")
     builder.Connect(executor.GetOutputPort("path_requests"), follower.GetInputPort("path_requests"))
     builder.Connect(follower.GetOutputPort("path_done"), executor.GetInputPort("path_done"))
@@ -229,45 +250,54 @@ def build_cell(
     robot_capsules.set_name("robot_capsules")
     builder.Connect(plant_positions_port, robot_capsules.get_input_port())
 
-    # The operator and the camera.
+    # The operator and the camera (or a recorded skeleton, which is already a measurement).
     body = BodyModel(scenario.operator.segments)
     systems: dict = {}
-    if scenario.operator.recorded:
-        raise ScenarioError(scenario_path, "operator.recorded", "recorded skeletons are read by `build_recorded_cell`")
-    operator_source, operator = _operator_system(scenario, body, world, rngs[0], scenario_path)
-    builder.AddSystem(operator_source)
-    operator_source.set_name("operator")
-    systems["operator"] = operator_source
-    human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body))
-    builder.Connect(operator_source.GetOutputPort("q"), human_geometry.get_input_port())
-    builder.Connect(human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id))
-    register_scene(scene_graph, scenario)
-
-    from hrc_drake.human.camera import DepthCameraModel
-    from hrc_drake.human.systems import DepthCamera
-
     cam = scenario.layout.camera
     camera_model = DepthCameraModel(
         cam.position, cam.target,
         [(np.asarray(o.center, float), np.asarray(o.size, float)) for o in scenario.layout.occluders],
         noise_std=cam.noise_std, rate=cam.rate, margin=cam.margin, gaze_valid_angle=cam.gaze_valid_angle,
     )
-    camera = builder.AddSystem(DepthCamera(camera_model, int(rngs[1].integers(2**31))))
-    camera.set_name("depth_camera")
-    builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
-    builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
-    builder.Connect(robot_capsules.get_output_port(), camera.GetInputPort("occluding_capsules"))
-    systems["camera"] = camera
     systems["camera_model"] = camera_model
+    if scenario.operator.recorded:
+        camera = builder.AddSystem(_recorded_source(scenario, scenario_path))
+        camera.set_name("recorded_skeleton")
+        human_capsules = builder.AddSystem(HumanCapsules(body, source="frame"))
+        builder.Connect(camera.GetOutputPort("skeleton_frame"), human_capsules.get_input_port())
+        no_events = builder.AddSystem(ConstantValueSource(AbstractValue.Make(EventLog())))
+        human_events_port = no_events.get_output_port()
+    else:
+        operator_source, operator = _operator_system(scenario, body, world, rngs[0], scenario_path)
+        builder.AddSystem(operator_source)
+        operator_source.set_name("operator")
+        systems["operator"] = operator_source
+        human_events_port = operator_source.GetOutputPort("human_events")
+        human_capsules = builder.AddSystem(HumanCapsules(body, source="q"))
+        builder.Connect(operator_source.GetOutputPort("q"), human_capsules.get_input_port())
+        camera = builder.AddSystem(DepthCamera(camera_model, int(rngs[1].integers(2**31))))
+        camera.set_name("depth_camera")
+        builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
+        builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
+        builder.Connect(robot_capsules.get_output_port(), camera.GetInputPort("occluding_capsules"))
+    human_capsules.set_name("human_capsules")
+    systems["camera"] = camera
+    systems["human_events"] = human_events_port
+    # A translucent body lets the replay show the tracker's markers inside it.
+    color = [0.95, 0.65, 0.45, 0.45] if scenario.tracker.kind != "none" else [0.95, 0.65, 0.45, 1.0]
+    human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body, color=color))
+    builder.Connect(human_capsules.GetOutputPort("capsules"), human_geometry.get_input_port())
+    builder.Connect(human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id))
+    register_scene(scene_graph, scenario)
 
     overrides = []
     from hrc_drake.cell import plugins
 
-    estimate_port = plugins.add_tracker(builder, scenario, camera, camera_model, capsule_kin, systems, overrides,
+    estimate_port = plugins.add_tracker(builder, scenario, camera, camera_model, robot_capsules, systems, overrides,
                                         int(rngs[2].integers(2**31)))
     plugins.add_intention(builder, scenario, estimate_port, systems)
-    plugins.add_predictor(builder, scenario, operator_source, systems)
-    plugins.add_scheduler(builder, scenario, operator_source, executor, systems, int(rngs[3].integers(2**31)))
+    plugins.add_predictor(builder, scenario, human_events_port, systems)
+    plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, int(rngs[3].integers(2**31)))
     plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides,
                        int(rngs[4].integers(2**31)))
 
@@ -280,11 +310,12 @@ def build_cell(
         builder.Connect(one.get_output_port(), min_override.get_input_port(0))
     builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
 
-    recorder = builder.AddSystem(MetricsRecorder(body, world))
+    recorder = builder.AddSystem(MetricsRecorder(world))
     recorder.set_name("metrics")
-    builder.Connect(operator_source.GetOutputPort("human_events"), recorder.GetInputPort("human_events"))
+    builder.Connect(human_events_port, recorder.GetInputPort("human_events"))
     builder.Connect(executor.GetOutputPort("robot_events"), recorder.GetInputPort("robot_events"))
-    builder.Connect(operator_source.GetOutputPort("q"), recorder.GetInputPort("human_q"))
+    builder.Connect(human_capsules.GetOutputPort("points"), recorder.GetInputPort("human_points"))
+    builder.Connect(human_capsules.GetOutputPort("capsules"), recorder.GetInputPort("human_capsules"))
     builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
     builder.Connect(follower.GetOutputPort("speed_override_applied"), recorder.GetInputPort("speed_override"))
 

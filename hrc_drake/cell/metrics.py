@@ -32,12 +32,12 @@ class MetricsLog:
     overrides: list[float] = field(default_factory=list)
     buffers: list[dict] = field(default_factory=list)
     products: list[int] = field(default_factory=list)
-    human_q: list = field(default_factory=list)
+    human_points: list = field(default_factory=list)
 
     def record(self, time: float, distance: float, override: float, buffers: dict, products: int,
-               human_q=None) -> None:
+               human_points=None) -> None:
         self.times.append(time)
-        self.human_q.append(human_q)
+        self.human_points.append(human_points)
         self.distances.append(distance)
         self.overrides.append(override)
         self.buffers.append(buffers)

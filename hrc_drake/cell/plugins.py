@@ -41,7 +41,7 @@ class MeasurementAsEstimate(LeafSystem):
         ))
 
 
-def add_tracker(builder, scenario: Scenario, camera, camera_model, capsule_kin, systems, overrides, seed):
+def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
     """The skeleton tracker of Ch. 9 (or the measurement itself); returns the estimate port."""
     lay = scenario.layout
     kind = scenario.tracker.kind
@@ -50,13 +50,11 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, capsule_kin, 
     else:
         from hrc_drake.perception.systems import OcclusionTracker
 
-        def is_hidden(points):
-            return camera_model.is_hidden(points, getattr(camera, "last_capsules", None))
-
         tracker = builder.AddSystem(OcclusionTracker(
-            kind, dict(scenario.tracker.params), is_hidden, lay.workspace_center, lay.workspace_size,
+            kind, dict(scenario.tracker.params), camera_model.is_hidden, lay.workspace_center, lay.workspace_size,
             rate=lay.camera.rate, seed=seed,
         ))
+        builder.Connect(robot_capsules.get_output_port(), tracker.GetInputPort("occluding_capsules"))
         overrides.append(tracker.GetOutputPort("speed_override"))
     tracker.set_name("tracker")
     builder.Connect(camera.GetOutputPort("skeleton_frame"), tracker.GetInputPort("skeleton_frame"))
@@ -80,7 +78,7 @@ def add_intention(builder, scenario: Scenario, estimate_port, systems):
     systems["intention"] = estimator
 
 
-def add_predictor(builder, scenario: Scenario, operator_source, systems):
+def add_predictor(builder, scenario: Scenario, human_events_port, systems):
     if scenario.predictor.kind == "none":
         return
     from hrc_drake.prediction.systems import ActivityPredictor
@@ -89,18 +87,21 @@ def add_predictor(builder, scenario: Scenario, operator_source, systems):
     predictor = builder.AddSystem(ActivityPredictor(actions, kind=scenario.predictor.kind,
                                                     params=dict(scenario.predictor.params)))
     predictor.set_name("activity_predictor")
-    builder.Connect(operator_source.GetOutputPort("human_events"), predictor.GetInputPort("human_events"))
+    builder.Connect(human_events_port, predictor.GetInputPort("human_events"))
     systems["predictor"] = predictor
 
 
-def add_scheduler(builder, scenario: Scenario, operator_source, executor, systems, seed):
+def add_scheduler(builder, scenario: Scenario, human_events_port, executor, systems, seed):
     if scenario.scheduler.kind == "none":
         return
-    from hrc_drake.scheduling.systems import make_scheduler
+    from hrc_drake.scheduling.systems import Scheduler, net_from_scenario
 
-    scheduler = builder.AddSystem(make_scheduler(scenario, seed=seed))
+    net_keys = ("wait_quantum", "cost_robot", "cost_human")
+    params = {k: v for k, v in scenario.scheduler.params.items() if k not in net_keys}
+    robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
+    scheduler = builder.AddSystem(Scheduler(net_from_scenario(scenario), scenario.scheduler.kind, params, robots, seed))
     scheduler.set_name("scheduler")
-    builder.Connect(operator_source.GetOutputPort("human_events"), scheduler.GetInputPort("human_events"))
+    builder.Connect(human_events_port, scheduler.GetInputPort("human_events"))
     builder.Connect(executor.GetOutputPort("robot_events"), scheduler.GetInputPort("robot_events"))
     builder.Connect(scheduler.GetOutputPort("robot_commands"), executor.GetInputPort("robot_commands"))
     systems["scheduler"] = scheduler
@@ -148,7 +149,14 @@ class ReplayMarkers(LeafSystem):
         if self._show_skeleton:
             for name, color in (("measured", Rgba(0.1, 0.4, 1.0, 1.0)), ("estimated", Rgba(1.0, 0.2, 0.2, 1.0))):
                 for k in range(8):
-                    meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.02), color)
+                    meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
+                    self._visible[f"/markers/skeleton/{name}/{k}"] = True
+            # The belief's spread around a lost point: a unit sphere scaled to 2 standard deviations.
+            for k in range(8):
+                path = f"/markers/skeleton/spread/{k}"
+                meshcat.SetObject(path, Sphere(1.0), Rgba(1.0, 0.3, 0.3, 0.25))
+                meshcat.SetProperty(path, "visible", False)
+                self._visible[path] = False
         self._frame_port = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
         self._estimate_port = self.DeclareAbstractInputPort(
             "skeleton_estimate", AbstractValue.Make(SkeletonEstimate())
@@ -186,6 +194,14 @@ class ReplayMarkers(LeafSystem):
                 if shown:
                     self.meshcat.SetTransform(path, RigidTransform(p), t)
                 self._set_visible(path, shown, t)
+                if name == "estimated":
+                    spread_path = f"/markers/skeleton/spread/{k}"
+                    lost = shown and not bool(value.tracked[k]) and np.isfinite(value.spread[k])
+                    if lost:
+                        radius = float(np.clip(2.0 * value.spread[k], 0.03, 0.6))
+                        self.meshcat.SetTransform(spread_path, RigidTransform(p), t)
+                        self.meshcat.SetProperty(spread_path, "scale", [radius] * 3, t)
+                    self._set_visible(spread_path, lost, t)
         if self._intention_port.HasValue(context):
             for event in self._intention_port.Eval(context).since(self._last_intention):
                 self._last_intention = event.seq

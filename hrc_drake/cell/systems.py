@@ -20,7 +20,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from hrc_drake.cell.metrics import MetricsLog
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.human.camera import segment_segment_distance
-from hrc_drake.messages import EventLog
+from hrc_drake.messages import EventLog, SkeletonFrame
 
 HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
 GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]
@@ -41,20 +41,62 @@ def segment_pose(start: np.ndarray, end: np.ndarray) -> RigidTransform:
     return RigidTransform(R, 0.5 * (start + end))
 
 
-class HumanGeometry(LeafSystem):
-    """Registers the operator's body capsules in SceneGraph and poses them from q (12,).
+EMPTY_CAPSULES = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
 
-    Input "q" (12,); output "geometry_pose" (FramePoseVector) for SceneGraph.
+
+class HumanCapsules(LeafSystem):
+    """The operator's body capsules (start, end, radius) in the world.
+
+    source "q": input "q" (12,), capsules of the body model at q.
+    source "frame": input "skeleton_frame" (SkeletonFrame), capsules through its points
+    (points it lost keep their last value). Output "capsules" (abstract), "points" (24,).
+    """
+
+    def __init__(self, body_model, source: str = "q"):
+        super().__init__()
+        if source not in ("q", "frame"):
+            raise ValueError(f"HumanCapsules: source must be 'q' or 'frame', got {source!r}")
+        self.body = body_model
+        self.source = source
+        if source == "q":
+            self._input = self.DeclareVectorInputPort("q", 12)
+        else:
+            self._input = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
+            self._last = body_model.points(body_model.rest_q())
+        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc_capsules)
+        self.DeclareVectorOutputPort("points", 24, self._calc_points)
+
+    def _points(self, context) -> np.ndarray:
+        if self.source == "q":
+            return self.body.points(self._input.Eval(context))
+        frame = self._input.Eval(context)
+        self._last = np.where(np.isfinite(frame.points), frame.points, self._last)
+        return self._last
+
+    def _calc_capsules(self, context, output):
+        if self.source == "q":
+            output.set_value(self.body.capsules(self._input.Eval(context)))
+        else:
+            output.set_value(self.body.capsules_from_points(self._points(context)))
+
+    def _calc_points(self, context, output: BasicVector):
+        output.SetFromVector(self._points(context).ravel())
+
+
+class HumanGeometry(LeafSystem):
+    """Registers the operator's body capsules in SceneGraph and poses them.
+
+    Input "capsules" (from `HumanCapsules`); output "geometry_pose" (FramePoseVector). The
+    capsule lengths are the body model's; each is centred on its segment.
     """
 
     def __init__(self, scene_graph, body_model, name: str = "human", color=HUMAN_COLOR):
         super().__init__()
-        self.body = body_model
+        from hrc_drake.human.body import CAPSULE_NAMES
+
         self.source_id = scene_graph.RegisterSource(name)
         start, end, radius = body_model.capsules(body_model.rest_q())
         lengths = np.linalg.norm(end - start, axis=-1)
-        from hrc_drake.human.body import CAPSULE_NAMES
-
         self.frame_ids = []
         for k, cap_name in enumerate(CAPSULE_NAMES):
             frame_id = scene_graph.RegisterFrame(self.source_id, GeometryFrame(f"{name}_{cap_name}"))
@@ -62,13 +104,13 @@ class HumanGeometry(LeafSystem):
             instance.set_illustration_properties(MakePhongIllustrationProperties(color))
             scene_graph.RegisterGeometry(self.source_id, frame_id, instance)
             self.frame_ids.append(frame_id)
-        self._q = self.DeclareVectorInputPort("q", 12)
+        self._capsules = self.DeclareAbstractInputPort("capsules", AbstractValue.Make(EMPTY_CAPSULES))
         self.DeclareAbstractOutputPort(
             "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc_poses
         )
 
     def _calc_poses(self, context, output):
-        start, end, _ = self.body.capsules(self._q.Eval(context))
+        start, end, _ = self._capsules.Eval(context)
         poses = output.get_mutable_value()
         for k, frame_id in enumerate(self.frame_ids):
             poses.set_value(frame_id, segment_pose(start[k], end[k]))
@@ -143,20 +185,20 @@ class MinOverride(LeafSystem):
 class MetricsRecorder(LeafSystem):
     """Collects events, buffer contents and the true human-robot distance (periodic, `period` s).
 
-    Inputs "human_events", "robot_events" (EventLog), "human_q" (12,), "robot_capsules",
-    "speed_override" (1,). The `log` attribute (`MetricsLog`) holds what was recorded.
+    Inputs "human_events", "robot_events" (EventLog), "human_points" (24,), "human_capsules",
+    "robot_capsules", "speed_override" (1,). The `log` attribute (`MetricsLog`) holds what was
+    recorded.
     """
 
-    def __init__(self, body_model, world, period: float = 0.1):
+    def __init__(self, world, period: float = 0.1):
         super().__init__()
-        self.body = body_model
         self.world = world
         self.log = MetricsLog()
         self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
-        self._human_q = self.DeclareVectorInputPort("human_q", 12)
-        empty = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
-        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(empty))
+        self._human_points = self.DeclareVectorInputPort("human_points", 24)
+        self._human_capsules = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(EMPTY_CAPSULES))
+        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(EMPTY_CAPSULES))
         self._override = self.DeclareVectorInputPort("speed_override", 1)
         self._last_seq = {"human": 0, "robot": 0}
         self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
@@ -177,14 +219,14 @@ class MetricsRecorder(LeafSystem):
         self._collect(self._human_events, "human", context)
         self._collect(self._robot_events, "robot", context)
         distance = np.inf
-        human_q = self._human_q.Eval(context).copy() if self._human_q.HasValue(context) else None
-        if human_q is not None and self._robot_capsules.HasValue(context):
+        points = self._human_points.Eval(context).copy() if self._human_points.HasValue(context) else None
+        if self._human_capsules.HasValue(context) and self._robot_capsules.HasValue(context):
             r_start, r_end, r_radius = self._robot_capsules.Eval(context)
-            if len(r_radius):
-                h_start, h_end, h_radius = self.body.capsules(human_q)
+            h_start, h_end, h_radius = self._human_capsules.Eval(context)
+            if len(r_radius) and len(h_radius):
                 d = segment_segment_distance(
                     h_start[:, None, :], h_end[:, None, :], r_start[None, :, :], r_end[None, :, :]
                 )
                 distance = float(np.min(d - h_radius[:, None] - r_radius[None, :]))
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
-        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products, human_q)
+        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products, points)

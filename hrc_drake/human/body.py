@@ -313,6 +313,24 @@ class BodyModel:
         )
         return start, end, self.capsule_radius.copy()
 
+    def capsules_from_points(self, points):
+        """Body capsules (CAPSULE_NAMES order) from the 8 skeleton points, e.g. of a recorded frame.
+
+        The torso hangs `torso` m below the thorax along world -z; the head capsule lies along
+        thorax -> head; forearms are extended beyond the wrist by a hand length.
+        """
+        pts = np.asarray(points, dtype=float).reshape(8, 3)
+        up = np.array([0.0, 0.0, 1.0])
+        neck = pts[HEAD] - pts[THORAX]
+        neck_dir = neck / max(np.linalg.norm(neck), 1e-9)
+        fore = pts[[L_WRIST, R_WRIST]] - pts[[L_ELBOW, R_ELBOW]]
+        fore_dir = fore / np.maximum(np.linalg.norm(fore, axis=1, keepdims=True), 1e-9)
+        start = np.stack([pts[THORAX] - self.torso * up, pts[HEAD] - 0.06 * neck_dir, pts[L_SHOULDER],
+                          pts[R_SHOULDER], pts[L_ELBOW], pts[R_ELBOW]])
+        end = np.stack([pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW],
+                        pts[L_WRIST] + self.hand_length * fore_dir[0], pts[R_WRIST] + self.hand_length * fore_dir[1]])
+        return start, end, self.capsule_radius.copy()
+
     # ------------------------------------------------------------------ inverse kinematics
     def _clip(self, q: np.ndarray) -> np.ndarray:
         span = self.q_upper - self.q_lower

@@ -6,6 +6,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
+from hrc_drake.cell.ticked import TickedSystem
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.operator import SyntheticOperator
 from hrc_drake.human.recorded import frame_at, load_skeleton_csv
@@ -111,34 +112,33 @@ class RecordedSkeletonSource(LeafSystem):
         output.set_value(self.frames[frame_at(self.times, context.get_time())])
 
 
-class DepthCamera(LeafSystem):
+class DepthCamera(TickedSystem):
     """Samples the skeleton at the camera rate (thesis Ch. 9 measurement model, see `DepthCameraModel`).
 
     Inputs: "skeleton" (24, true points), "gaze" (3), optional abstract "occluding_capsules"
     ((start (K, 3), end (K, 3), radius (K,)), e.g. robot links; unconnected = none).
     Output: "skeleton_frame" (SkeletonFrame), the last measurement (nothing tracked before the first).
+    `last_capsules` holds the occluding capsules of the last frame, for trackers' hidden-point queries.
     """
 
     def __init__(self, camera_model: DepthCameraModel, rng_seed=0):
-        super().__init__()
+        super().__init__(1.0 / camera_model.rate)
         self.camera = camera_model
         self.rng = np.random.default_rng(rng_seed)
+        self.frame = empty_skeleton_frame()
+        self.last_capsules = None
         self._skeleton = self.DeclareVectorInputPort("skeleton", 24)
         self._gaze = self.DeclareVectorInputPort("gaze", 3)
         self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
                                                        AbstractValue.Make(no_capsules()))
-        self._frame_index = self.DeclareAbstractState(AbstractValue.Make(empty_skeleton_frame()))
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / camera_model.rate, 0.0, self._update)
         self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame)
+                                       self._calc_frame, prerequisites_of_calc=self.ticket())
 
-    def _update(self, context, state):
+    def tick(self, context) -> None:
         points = self._skeleton.Eval(context).reshape(8, 3)
         gaze = self._gaze.Eval(context)
-        capsules = self._capsules.Eval(context) if self._capsules.HasValue(context) else None
-        frame = self.camera.measure(context.get_time(), points, gaze, self.rng, capsules)
-        state.get_mutable_abstract_state(int(self._frame_index)).set_value(frame)
-        return EventStatus.Succeeded()
+        self.last_capsules = self._capsules.Eval(context) if self._capsules.HasValue(context) else None
+        self.frame = self.camera.measure(context.get_time(), points, gaze, self.rng, self.last_capsules)
 
     def _calc_frame(self, context, output):
-        output.set_value(context.get_abstract_state(int(self._frame_index)).get_value())
+        output.set_value(self.frame)

@@ -10,18 +10,20 @@ joint groups; each group g is one multi-output GP (E.17)-(E.18) mapping its last
     model C: base, left arm, right arm, eq. (8.15)-(8.18)
 
 Kernel (8.7): k(x, x') = theta1 x^T x' + theta3 exp(-theta2/2 ||x - x'||^2) + theta4 delta,
-built from scikit-learn's DotProduct, RBF and WhiteKernel; hyperparameters maximise the
-marginal likelihood (E.8)/(E.16). Inputs and outputs are standardised with the training
+equal to scikit-learn's DotProduct, RBF and WhiteKernel composed by `motion_kernel`;
+hyperparameters maximise the multi-output marginal likelihood (E.16) with its gradient
+(E.9), in plain numpy (scikit-learn's optimiser loop costs ~10x more per evaluation).
+Inputs and outputs are centred and scaled with the training
 set's mean and standard deviation, so one RBF length fits features of different units.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_solve
+from scipy.linalg import cho_solve, cholesky
 from scipy.optimize import minimize
-from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, DotProduct, WhiteKernel
+from threadpoolctl import ThreadpoolController
 
 N_DOF = 12
 #: joint groups of the three models of 8.1.2 (indices of q, body-model order)
@@ -37,6 +39,16 @@ GROUP_NAMES: dict[str, tuple[str, ...]] = {
 }
 
 _THETA_BOUNDS = (1e-5, 1e3)
+_THREADS = None
+
+
+def _single_thread():
+    """BLAS limited to one thread: on 100 x 100 matrices threads only add contention (10x slower
+    on a loaded 2-core machine)."""
+    global _THREADS
+    if _THREADS is None:
+        _THREADS = ThreadpoolController()
+    return _THREADS.limit(limits=1, user_api="blas")
 
 
 def motion_kernel(theta1: float = 0.1, theta2: float = 0.1, theta3: float = 1.0, theta4: float = 0.01):
@@ -76,13 +88,67 @@ def kernel_8_7(x_a, x_b, theta) -> np.ndarray:
     return theta1[..., None, None] * dot + theta3[..., None, None] * rbf
 
 
-def _limited_lbfgs(max_iter: int):
-    def optimizer(obj_func, initial_theta, bounds):
-        result = minimize(obj_func, initial_theta, method="L-BFGS-B", jac=True, bounds=bounds,
-                          options={"maxiter": max_iter})
-        return result.x, result.fun
+#: bounds of (theta1, theta2, theta3, theta4) on standardised data; the noise floor theta4 >= 1e-3
+#: acts as the hyperparameter prior of (E.8): it keeps the linear part from over-fitting 100
+#: samples with up to 144 inputs, which would make rollouts diverge.
+THETA_BOUNDS = np.array([[1e-5, 1e2], [1e-4, 1e2], [1e-5, 1e2], [1e-3, 1e1]])
 
-    return optimizer
+
+def log_marginal_likelihood(log_theta, gram, sq_dist, y) -> tuple[float, np.ndarray]:
+    """Multi-output log marginal likelihood (E.15)-(E.16) and its gradient w.r.t. log theta (E.9).
+
+    gram: (N, N) X X^T; sq_dist: (N, N) squared distances; y: (N, m) targets.
+    """
+    theta1, theta2, theta3, theta4 = np.exp(log_theta)
+    n, m = y.shape
+    rbf = np.exp(-0.5 * theta2 * sq_dist)
+    k = theta1 * gram + theta3 * rbf
+    k[np.diag_indices(n)] += theta4 + 1e-8
+    try:
+        chol = cholesky(k, lower=True)
+    except np.linalg.LinAlgError:
+        return -1e25, np.zeros(4)
+    alpha = cho_solve((chol, True), y)
+    value = -0.5 * np.sum(y * alpha) - m * np.log(np.diag(chol)).sum() - 0.5 * n * m * np.log(2 * np.pi)
+    inner = alpha @ alpha.T - m * cho_solve((chol, True), np.eye(n))
+    gradient = 0.5 * np.array([
+        np.sum(inner * gram) * theta1,
+        np.sum(inner * rbf * sq_dist) * (-0.5 * theta2 * theta3),
+        np.sum(inner * rbf) * theta3,
+        np.trace(inner) * theta4,
+    ])
+    return value, gradient
+
+
+def fit_hyperparameters(x, y, initial_theta, max_iter: int = 15) -> np.ndarray:
+    """Hyperparameters of (8.7) maximising (E.16) by L-BFGS-B in log space, from initial_theta."""
+    gram = x @ x.T
+    sq_norm = np.einsum("ij,ij->i", x, x)
+    sq_dist = np.maximum(sq_norm[:, None] + sq_norm[None, :] - 2.0 * gram, 0.0)
+    start = np.log(np.clip(initial_theta, THETA_BOUNDS[:, 0], THETA_BOUNDS[:, 1]))
+    if max_iter <= 0:
+        return np.exp(start)
+
+    def objective(log_theta):
+        value, gradient = log_marginal_likelihood(log_theta, gram, sq_dist, y)
+        return -value, -gradient
+
+    result = minimize(objective, start, method="L-BFGS-B", jac=True, bounds=np.log(THETA_BOUNDS),
+                      options={"maxiter": int(max_iter)})
+    return np.exp(result.x)
+
+
+def _derivative_scale(values: np.ndarray) -> np.ndarray:
+    """One scale per derivative order (q, q', q'') over all joints and lags of a group.
+
+    values: (N, F) with features ordered (..., joint, derivative). A per-feature scale would
+    blow the noise of a still joint up to the size of a moving one.
+    """
+    by_order = values.reshape(len(values), -1, 3)
+    spread = by_order.std(axis=0)  # (F / 3, 3)
+    scale = np.sqrt((spread**2).mean(axis=0))  # rms over joints and lags
+    scale = np.where(scale > 1e-9, scale, 1.0)
+    return np.tile(scale, by_order.shape[1])
 
 
 class GPMotionModel:
@@ -185,6 +251,10 @@ class GPMotionModel:
         return x, y
 
     def _refit(self) -> None:
+        with _single_thread():
+            self._refit_groups()
+
+    def _refit_groups(self) -> None:
         n = len(self.X_)
         buckets: dict[int, list[int]] = {}
         for g, joints in enumerate(self.groups):
@@ -202,21 +272,18 @@ class GPMotionModel:
             for i, g in enumerate(members):
                 x, y = self._group_data(g)
                 x_mean[i], y_mean[i] = x.mean(0), y.mean(0)
-                # A constant feature (e.g. a still joint) keeps unit scale instead of dividing by 0.
-                x_std[i] = np.where(x.std(0) > 1e-9, x.std(0), 1.0)
-                y_std[i] = np.where(y.std(0) > 1e-9, y.std(0), 1.0)
+                x_std[i] = _derivative_scale(x)
+                y_std[i] = _derivative_scale(y)
                 xs = (x - x_mean[i]) / x_std[i]
                 ys = (y - y_mean[i]) / y_std[i]
-                regressor = GaussianProcessRegressor(
-                    kernel=motion_kernel(*self.theta_[g]), alpha=1e-8, normalize_y=False,
-                    optimizer=_limited_lbfgs(self.max_iter) if self.max_iter > 0 else None,
-                    copy_X_train=False,
-                )
-                regressor.fit(xs, ys)
-                self.theta_[g] = kernel_theta(regressor.kernel_)
+                theta = fit_hyperparameters(xs, ys, self.theta_[g], self.max_iter)
+                self.theta_[g] = theta
+                k = kernel_8_7(xs, xs, theta)
+                k[np.diag_indices(n)] += theta[3] + 1e-8
+                chol = cholesky(k, lower=True)
                 x_train[i] = xs
-                alpha[i] = regressor.alpha_.reshape(n, d_out)
-                k_inv[i] = cho_solve((regressor.L_, True), np.eye(n))
+                alpha[i] = cho_solve((chol, True), ys)
+                k_inv[i] = cho_solve((chol, True), np.eye(n))
             self.buckets_.append({
                 "members": members, "joints": np.array([self.groups[g] for g in members]),
                 "x_train": x_train, "alpha": alpha, "k_inv": k_inv, "theta": self.theta_[members],
@@ -239,7 +306,7 @@ class GPMotionModel:
         k_x = kernel_8_7(xs, bucket["x_train"], theta)  # (G, T, N)
         mean = k_x @ bucket["alpha"]  # (G, T, d_out)
         k_xx = theta[:, 0, None] * (xs**2).sum(-1) + theta[:, 2, None] + theta[:, 3, None]
-        explained = np.einsum("gtn,gnm,gtm->gt", k_x, bucket["k_inv"], k_x)
+        explained = ((k_x @ bucket["k_inv"]) * k_x).sum(-1)
         return mean, np.maximum(k_xx - explained, 0.0)
 
     def predict(self, history, return_std: bool = False):
@@ -281,6 +348,10 @@ class GPMotionModel:
             raise ValueError(f"sample_rollouts: steps and n_trials must be positive integers, "
                              f"got {steps}, {n_trials}")
         rng = np.random.default_rng(rng)
+        with _single_thread():
+            return self._rollouts(history, int(steps), int(n_trials), rng)
+
+    def _rollouts(self, history, steps, n_trials, rng):
         positions = np.empty((n_trials, steps, self.n_dof))
         for bucket in self.buckets_:
             joints = bucket["joints"]  # (G, s)

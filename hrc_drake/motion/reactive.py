@@ -197,9 +197,10 @@ class JointStateEstimator:
             del self.means_[0], self.covs_[0]
         return self.filter.x_.copy()
 
-    def smoothed_window(self) -> np.ndarray:
-        """phi_k|K (W, n_dof, 3) over the stored window, eq. (8.6)."""
-        means, _ = rts_smooth(self.model, np.array(self.means_), np.array(self.covs_))
+    def smoothed_window(self, length: int | None = None) -> np.ndarray:
+        """phi_k|K (W, n_dof, 3) over the last `length` stored steps (all by default), eq. (8.6)."""
+        start = 0 if length is None else max(0, len(self.means_) - int(length))
+        means, _ = rts_smooth(self.model, np.array(self.means_[start:]), np.array(self.covs_[start:]))
         return means
 
 
@@ -300,7 +301,9 @@ class ReactiveMotionPredictor:
                 and self._steps_seen > self.order):
             self._refresh_model()
         if self.model_ready and len(self._history) == self.order:
-            history = np.array(self._history)
+            # Start from phi_{k-P+1|k} .. phi_{k|k}: smoothed like the training samples (8.13),
+            # the newest one equal to the filtered state of (8.8).
+            history = self.estimator.smoothed_window(self.order + 2)[-self.order:]
             rollouts = self.model_.sample_rollouts(history, self.steps, self.n_trials, self.rng)
             return excursions_from_rollouts(self.q_, rollouts, self.percentile)
         return worst_case_excursions(phi[:, 1], self.horizon, self.v_max, self.a_max)

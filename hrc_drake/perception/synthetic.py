@@ -41,9 +41,8 @@ def reaching_sequence(goals, durations, rate: float = 30.0, hand: str = "right",
     """True skeleton (T, 8, 3) and times (T,) of a wrist visiting `goals` in order.
 
     goals: (G, 3) wrist targets, the first one is the start; durations: (G - 1,) move times (s);
-    the wrist dwells `dwell` s at each goal. torso_dir: the operator's left-to-right... lateral
-    axis is built from it as z x torso_dir (torso_dir = the direction the chest faces).
-    The other arm hangs still.
+    the wrist dwells `dwell` s at each goal. torso_dir: the direction the chest faces (the
+    operator's left is z x torso_dir). The other arm hangs still.
     """
     goals = np.asarray(goals, dtype=float)
     if goals.ndim != 2 or goals.shape[1] != 3 or len(goals) < 2:

@@ -9,35 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector
 
+from hrc_drake.cell.ticked import TickedSystem
 from hrc_drake.messages import EventLog
 from hrc_drake.robots.executor import TaskExecutor
 from hrc_drake.robots.path import JointPathFollower
 
 EVENT_WINDOW = 400
-
-
-class TickedSystem(LeafSystem):
-    """A LeafSystem around a mutable core ticked at `period`; outputs depend on the tick count.
-
-    Subclasses define `tick(context)`, which advances the core to the context's time.
-    """
-
-    def __init__(self, period: float, offset: float = 0.0):
-        super().__init__()
-        self._tick_index = self.DeclareDiscreteState(1)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, offset, self._on_tick)
-        self.period = period
-
-    def _on_tick(self, context, discrete_state):
-        self.tick(context)
-        discrete_state.get_mutable_vector(self._tick_index).SetAtIndex(
-            0, context.get_discrete_state(self._tick_index).GetAtIndex(0) + 1
-        )
-
-    def ticket(self):
-        return {self.xd_ticket()}
 
 
 class PathFollower(TickedSystem):

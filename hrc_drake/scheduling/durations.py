@@ -116,3 +116,51 @@ def mean_duration(dist: Distribution) -> float:
     if kind == "triangular":
         return (dist.low + dist.mode + dist.high) / 3.0
     return float(np.mean(dist.samples))
+
+
+def duration_support(dist: Distribution) -> tuple[float, float]:
+    """Support [d_low, d_high] of `dist` (the interval Algorithm 3 and 6.2.1 propagate);
+    the upper end is inf for the normal and lognormal kinds."""
+    validate_distribution(dist)
+    kind = dist.kind
+    if kind == "fixed" or (kind == "normal" and dist.std == 0):
+        value = float(max(dist.mean, dist.low)) if kind == "normal" else float(dist.mean)
+        return value, value
+    if kind == "normal":
+        return float(dist.low), math.inf
+    if kind in ("uniform", "triangular"):
+        return float(dist.low), float(dist.high)
+    if kind == "lognormal":
+        return (float(dist.mean), float(dist.mean)) if dist.std == 0 else (0.0, math.inf)
+    samples = np.asarray(dist.samples, dtype=float)
+    return float(samples.min()), float(samples.max())
+
+
+def duration_cdf(dist: Distribution, x) -> np.ndarray:
+    """P(d <= x) for an array of x (s), used to discretise firing delays (6.2.1 arrival times)."""
+    validate_distribution(dist)
+    x = np.asarray(x, dtype=float)
+    kind = dist.kind
+    lo, hi = duration_support(dist)
+    if lo == hi:
+        return (x >= lo).astype(float)
+    if kind == "normal":
+        lower = ndtr((dist.low - dist.mean) / dist.std)
+        z = ndtr((np.maximum(x, dist.low) - dist.mean) / dist.std)
+        return np.where(x < dist.low, 0.0, (z - lower) / (1.0 - lower))
+    if kind == "uniform":
+        return np.clip((x - lo) / (hi - lo), 0.0, 1.0)
+    if kind == "triangular":
+        c = dist.mode
+        left = (x - lo) ** 2 / ((hi - lo) * (c - lo)) if c > lo else np.zeros_like(x)
+        right = 1.0 - (hi - x) ** 2 / ((hi - lo) * (hi - c)) if hi > c else np.ones_like(x)
+        out = np.where(x <= c, left, right)
+        return np.where(x <= lo, 0.0, np.where(x >= hi, 1.0, out))
+    if kind == "lognormal":
+        sigma2 = math.log1p((dist.std / dist.mean) ** 2)
+        mu = math.log(dist.mean) - 0.5 * sigma2
+        with np.errstate(divide="ignore"):
+            z = (np.log(np.maximum(x, 0.0)) - mu) / math.sqrt(sigma2)
+        return np.where(x <= 0, 0.0, ndtr(z))
+    samples = np.sort(np.asarray(dist.samples, dtype=float))
+    return np.searchsorted(samples, x, side="right") / samples.size

@@ -1,12 +1,16 @@
 """Assembly flows of the thesis scheduling examples (figures are missing from the text, so the
 flows below are reconstructions from the captions and prose; each says what is assumed).
 
-Each function returns (flow, buffers, human_pattern, robot_agents) ready for `compile_flow`.
+The `fig_*` / `use_case_*` functions return (flow, buffers, human_pattern, robot_agents) ready
+for `compile_flow`; `fig_6_5_example_a` and `fig_6_5_example_b` return small PcTPN directly.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from hrc_drake.cell.schema import Buffer, Distribution, Flow, FlowAction
+from hrc_drake.scheduling.petri import PcTPN
 
 
 def _u(low, high):
@@ -15,6 +19,39 @@ def _u(low, high):
 
 def _n(mean, std):
     return Distribution(kind="normal", mean=mean, std=std)
+
+
+def fig_6_5_example_a() -> PcTPN:
+    """Fig. 6.5, Example A (reconstructed from 6.2.1; the figure is missing): transitions 1 and 2,
+    uncontrollable, U[0, 1] and U[0, 0.75], both enabled in m0 and in conflict for the token of
+    place p0 (firing one disables the other). Expected: alpha_bar_1 in [0, 1], alpha_bar_2 in
+    [0, 0.75]; the real support of alpha_1 is [0, 0.75]."""
+    pre = np.array([[1, 1], [0, 0], [0, 0]])
+    post = np.array([[0, 0], [1, 0], [0, 1]])
+    return PcTPN(
+        ["p0", "p1", "p2"], ["t1", "t2"], pre, post, [False, False], [_u(0.0, 1.0), _u(0.0, 0.75)],
+        [1, 0, 0], [0.0, 0.0, 0.0],
+    )
+
+
+def fig_6_5_example_b() -> PcTPN:
+    """Fig. 6.5, Example B (reconstructed from 6.2.1; the figure is missing): transitions 1 and 2
+    as in Example A, each preceded by a deterministic transition, 3 before 1 and 4 before 2, and
+    in conflict for the token of place r. The delays of 3 and 4 are not given; 0 s and 0.5 s are
+    the values that give the unconditioned supports the text states, alpha_bar_1 in [0, 1] and
+    alpha_bar_2 in [0.5, 1.25], with real support of alpha_2 [0.5, 1]."""
+    places = ["p3", "p4", "q1", "q2", "r", "p1", "p2"]
+    names = ["t1", "t2", "t3", "t4"]
+    pre = np.zeros((7, 4), dtype=int)
+    post = np.zeros((7, 4), dtype=int)
+    pre[[2, 4], 0] = 1  # t1: q1 + r -> p1
+    post[5, 0] = 1
+    pre[[3, 4], 1] = 1  # t2: q2 + r -> p2
+    post[6, 1] = 1
+    pre[0, 2], post[2, 2] = 1, 1  # t3: p3 -> q1
+    pre[1, 3], post[3, 3] = 1, 1  # t4: p4 -> q2
+    delays = [_u(0.0, 1.0), _u(0.0, 0.75), Distribution("fixed", mean=0.0), Distribution("fixed", mean=0.5)]
+    return PcTPN(places, names, pre, post, [False] * 4, delays, [1, 1, 0, 0, 1, 0, 0], np.zeros(7))
 
 
 def fig_7_6():

@@ -43,8 +43,8 @@ def test_agents_work_and_wait(torch_run):
 
 def test_operator_reaches_its_goals(torch_run):
     cell, _ = torch_run
-    q = np.array([x for x in cell.recorder.log.human_q if x is not None])
-    wrists = cell.body.points(q)[:, [L_WRIST, R_WRIST], :]
+    points = np.array([x for x in cell.recorder.log.human_points if x is not None]).reshape(-1, 8, 3)
+    wrists = points[:, [L_WRIST, R_WRIST], :]
     goals = {b.name: np.asarray(b.position) + [0, 0, 0.06] for b in cell.scenario.layout.buffers}
     # Sampled at 10 Hz, the wrist passes within a few cm of every place it reaches in H1.
     for place in ("torch_front", "body_feeder", "torch_body"):
