@@ -295,7 +295,7 @@ def build_cell(
 
     estimate_port = plugins.add_tracker(builder, scenario, camera, camera_model, robot_capsules, systems, overrides,
                                         int(rngs[2].integers(2**31)))
-    plugins.add_intention(builder, scenario, estimate_port, systems)
+    plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
     plugins.add_predictor(builder, scenario, human_events_port, systems)
     plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, int(rngs[3].integers(2**31)))
     plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides,
@@ -318,6 +318,8 @@ def build_cell(
     builder.Connect(human_capsules.GetOutputPort("capsules"), recorder.GetInputPort("human_capsules"))
     builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
     builder.Connect(follower.GetOutputPort("speed_override_applied"), recorder.GetInputPort("speed_override"))
+    if "intention" in systems:
+        builder.Connect(systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events"))
 
     visualizer = None
     if meshcat is not None:

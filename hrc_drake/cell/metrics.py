@@ -22,6 +22,17 @@ class Interval:
     end: float
 
 
+@dataclass(frozen=True)
+class LoggedEvent:
+    """An event of another source (e.g. "robot understood" of the intention estimator) in the log."""
+
+    time: float
+    agent: str
+    action: str
+    kind: str
+    seq: int
+
+
 @dataclass
 class MetricsLog:
     """What a run recorded: events of every agent and periodic samples."""

@@ -62,16 +62,28 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsule
     return tracker.GetOutputPort("skeleton_estimate")
 
 
-def add_intention(builder, scenario: Scenario, estimate_port, systems):
+def _relative(scenario_path, name: str):
+    from pathlib import Path
+
+    base = Path(scenario_path).parent if str(scenario_path) != "<scenario>" else Path.cwd()
+    return base / name
+
+
+def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, systems):
     if scenario.intention.kind == "none":
         return
     from hrc_drake.intention.systems import IntentionEstimator
 
     goals = scenario.layout.goals
     params = dict(scenario.intention.params)
+    model = None
+    if scenario.intention.model:
+        from hrc_drake.intention.likelihood import IntentionModel
+
+        model = IntentionModel.load(_relative(scenario_path, scenario.intention.model))
     estimator = builder.AddSystem(IntentionEstimator(
-        [g.name for g in goals], np.array([g.center for g in goals], float),
-        threshold=params.get("threshold", 0.8),
+        [g.name for g in goals], np.array([g.center for g in goals], float), model=model,
+        threshold=params.get("threshold", 0.8), feedback_sequence=tuple(scenario.intention.names) or None,
     ))
     estimator.set_name("intention")
     builder.Connect(estimate_port, estimator.GetInputPort("skeleton_estimate"))
@@ -84,8 +96,10 @@ def add_predictor(builder, scenario: Scenario, human_events_port, systems):
     from hrc_drake.prediction.systems import ActivityPredictor
 
     actions = [a.name for a in scenario.operator.actions]
-    predictor = builder.AddSystem(ActivityPredictor(actions, kind=scenario.predictor.kind,
-                                                    params=dict(scenario.predictor.params)))
+    params = dict(scenario.predictor.params)
+    # A forecast per half second is plenty for actions lasting seconds; each costs a waiting-time tree.
+    rate = params.pop("rate", 2.0)
+    predictor = builder.AddSystem(ActivityPredictor(actions, kind=scenario.predictor.kind, params=params, rate=rate))
     predictor.set_name("activity_predictor")
     builder.Connect(human_events_port, predictor.GetInputPort("human_events"))
     systems["predictor"] = predictor

@@ -274,6 +274,10 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _check_flow(sc, file, agents, buffers)
     _kind(file, "tracker.kind", sc.tracker.kind, TRACKER_KINDS)
     _kind(file, "intention.kind", sc.intention.kind, INTENTION_KINDS)
+    goal_names = {g.name for g in sc.layout.goals}
+    for k, name in enumerate(sc.intention.names):
+        if name not in goal_names:
+            raise ScenarioError(file, f"intention.names[{k}]", f"unknown goal '{name}'")
     _kind(file, "predictor.kind", sc.predictor.kind, PREDICTOR_KINDS)
     _kind(file, "scheduler.kind", sc.scheduler.kind, SCHEDULER_KINDS)
     _kind(file, "motion_model.kind", sc.motion_model.kind, MOTION_KINDS)

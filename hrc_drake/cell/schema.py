@@ -229,6 +229,8 @@ class SystemOptions:
     params: dict[str, float] = field(default_factory=dict)
     #: optional data file (model weights, training data) relative to the scenario
     model: str = ""
+    #: names the system needs, e.g. the goal sequence of the intention feedback (Fig. 3.6)
+    names: list[str] = field(default_factory=list)
 
 
 @dataclass

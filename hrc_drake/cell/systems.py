@@ -17,7 +17,7 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from hrc_drake.cell.metrics import MetricsLog
+from hrc_drake.cell.metrics import LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.human.camera import segment_segment_distance
 from hrc_drake.messages import EventLog, SkeletonFrame
@@ -200,7 +200,8 @@ class MetricsRecorder(LeafSystem):
         self._human_capsules = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(EMPTY_CAPSULES))
         self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(EMPTY_CAPSULES))
         self._override = self.DeclareVectorInputPort("speed_override", 1)
-        self._last_seq = {"human": 0, "robot": 0}
+        self._intention_events = self.DeclareAbstractInputPort("intention_events", AbstractValue.Make(EventLog()))
+        self._last_seq = {"human": 0, "robot": 0, "intention": 0}
         self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
         self.DeclareForcedPublishEvent(self._record)
 
@@ -218,6 +219,13 @@ class MetricsRecorder(LeafSystem):
             return
         self._collect(self._human_events, "human", context)
         self._collect(self._robot_events, "robot", context)
+        if self._intention_events.HasValue(context):
+            new = self._intention_events.Eval(context).since(self._last_seq["intention"])
+            if new:
+                self._last_seq["intention"] = new[-1].seq
+                self.log.events.extend(
+                    LoggedEvent(e.time, "intention", f"{e.goal} ({e.hand} hand)", e.kind, e.seq) for e in new
+                )
         distance = np.inf
         points = self._human_points.Eval(context).copy() if self._human_points.HasValue(context) else None
         if self._human_capsules.HasValue(context) and self._robot_capsules.HasValue(context):

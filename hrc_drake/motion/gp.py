@@ -210,6 +210,8 @@ class GPMotionModel:
         Keeps at most `max_samples` of them (a uniform random subset).
         """
         windows = self._check_windows(windows)
+        if len(windows) < 2:
+            raise ValueError(f"GPMotionModel.fit: need at least 2 sample windows, got {len(windows)}")
         self._rng = np.random.default_rng(self.random_state)
         if len(windows) > self.max_samples:
             windows = windows[np.sort(self._rng.choice(len(windows), self.max_samples, replace=False))]
@@ -229,15 +231,16 @@ class GPMotionModel:
             return self
         new_x, new_y = windows[:, :-1], windows[:, -1]
         room = self.max_samples - len(self.X_)
+        old = len(self.X_)
         if room > 0:
             take = min(room, len(new_x))
             self.X_ = np.concatenate([self.X_, new_x[:take]])
             self.Y_ = np.concatenate([self.Y_, new_y[:take]])
             new_x, new_y = new_x[take:], new_y[take:]
         if len(new_x):
-            if len(new_x) > self.max_samples:
-                new_x, new_y = new_x[-self.max_samples:], new_y[-self.max_samples:]
-            slots = self._rng.choice(len(self.X_), len(new_x), replace=False)
+            if len(new_x) > old:
+                new_x, new_y = new_x[-old:], new_y[-old:]
+            slots = self._rng.choice(old, len(new_x), replace=False)  # only samples older than this call
             self.X_[slots] = new_x
             self.Y_[slots] = new_y
         self._refit()

@@ -165,15 +165,25 @@ def simulate_trials(
     return TrialBatch(np.stack(cols, axis=1), cost_r + cost_h, cost_r, cost_h)
 
 
-def evaluate_costs(paths: np.ndarray, costs: np.ndarray, controllable: np.ndarray, beta: float):
+def evaluate_costs(
+    paths: np.ndarray, costs: np.ndarray, controllable: np.ndarray, beta: float, min_branch_samples: int = 1
+):
     """Algorithm 4 (EVALUATECOSTS) on the reachability tree spanned by the trial paths.
 
     Returns (best root transition, {root transition: beta-percentile of its propagated costs}).
     A node's children are the distinct next transitions of the trials through it; a trial
     that ends at a node (nothing fires before T_sch) is one more uncontrollable outcome.
+    min_branch_samples: below the root, rule (b) (inherit the child with the lowest
+    percentile) is applied only when every child holds at least this many trials; otherwise
+    the children are united as in rule (a). With few samples per child the minimum of their
+    percentiles is biased low (the lowest of noisy estimates), and the bias grows with the
+    number of later decisions, so a wait, which brings a decision every t_w, looks cheaper
+    than work. 1 gives Algorithm 4 exactly.
     """
     if not 0 <= beta <= 1:
         raise ValueError(f"evaluate_costs: beta must be in [0, 1], got {beta}")
+    if min_branch_samples < 1:
+        raise ValueError(f"evaluate_costs: min_branch_samples must be >= 1, got {min_branch_samples}")
     paths = np.asarray(paths)
     costs = np.asarray(costs, dtype=float)
     n, length = paths.shape
@@ -192,8 +202,8 @@ def evaluate_costs(paths: np.ndarray, costs: np.ndarray, controllable: np.ndarra
                 continue
             break
         cont, jc = idx[~ended], js[~ended]
-        children = np.unique(jc)
-        if controllable[jc[0]]:
+        children, sizes = np.unique(jc, return_counts=True)
+        if controllable[jc[0]] and sizes.min() >= min_branch_samples:
             best, best_p = None, np.inf
             for u in children:
                 c = node_costs(cont[jc == u], d + 1)
@@ -201,6 +211,7 @@ def evaluate_costs(paths: np.ndarray, costs: np.ndarray, controllable: np.ndarra
                 if p < best_p:
                     best, best_p = c, p
             return best
+        # rule (a), also for controllable branchings with too few trials per child
         parts = [costs[idx[ended]]] + [node_costs(cont[jc == u], d + 1) for u in children]
         return np.concatenate(parts)
 
@@ -245,7 +256,8 @@ class MonteCarloScheduler:
 
     n_trials: N; horizon: T_sch (s); beta: percentile level of Algorithm 4 (0.5 = median).
     window, min_samples: the online duration model (`DurationModel`). learn: update it
-    from `observe`.
+    from `observe`. min_branch_samples: trials each child of a controllable branching below
+    the root needs before rule (b) of Algorithm 4 applies (see `evaluate_costs`).
     """
 
     def __init__(
@@ -258,6 +270,7 @@ class MonteCarloScheduler:
         min_samples: int = 3,
         learn: bool = True,
         random_state=None,
+        min_branch_samples: int = 1,
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
@@ -269,6 +282,7 @@ class MonteCarloScheduler:
         self.horizon = float(horizon)
         self.beta = float(beta)
         self.learn = learn
+        self.min_branch_samples = int(min_branch_samples)
         self.durations_ = DurationModel(net, window=window, min_samples=min_samples)
         self.rng = np.random.default_rng(random_state)
         self.last_percentiles_: dict[str, float] = {}
@@ -297,7 +311,9 @@ class MonteCarloScheduler:
             elapsed,
             now=now,
         )
-        best, percentiles = evaluate_costs(batch.paths, batch.costs, self.net.controllable, self.beta)
+        best, percentiles = evaluate_costs(
+            batch.paths, batch.costs, self.net.controllable, self.beta, self.min_branch_samples
+        )
         self.last_percentiles_ = {self.net.transitions[j]: p for j, p in percentiles.items()}
         return int(best)
 
