@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-
 import sys
 from pathlib import Path
 
@@ -36,10 +35,16 @@ def _simulate(args) -> int:
     print(f"realtime factor   {m['realtime_factor']:.1f}x")
     print(f"products finished {m['products_finished']}")
     mean_cycle = m["mean_cycle_time"]
-    print(f"mean cycle time   {mean_cycle:.2f} s" if mean_cycle is not None else "mean cycle time   n/a (no product)")
+    print(
+        f"mean cycle time   {mean_cycle:.2f} s"
+        if mean_cycle is not None
+        else "mean cycle time   n/a (no product)"
+    )
     for agent, a in m["agents"].items():
-        print(f"  {agent:14s} busy {a['busy_time']:7.1f} s   waiting {a['wait_time']:7.1f} s   "
-              f"actions {a['actions_finished']}")
+        print(
+            f"  {agent:14s} busy {a['busy_time']:7.1f} s   waiting {a['wait_time']:7.1f} s   "
+            f"actions {a['actions_finished']}"
+        )
     if m["min_human_robot_distance"] is not None:
         print(f"min human-robot distance {m['min_human_robot_distance']:.3f} m")
     if args.replay:
@@ -75,14 +80,20 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     sim = sub.add_parser("simulate", help="simulate a scenario and report its metrics")
     sim.add_argument("scenario", help="scenario YAML file")
-    sim.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the scenario's)")
+    sim.add_argument(
+        "--duration", type=float, default=None, help="simulated seconds (default: the scenario's)"
+    )
     sim.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     sim.add_argument("--replay", default=None, help="write a self-contained HTML replay to this file")
-    sim.add_argument("--replay-fps", type=float, default=10.0, help="frames per second of the replay (default 10)")
+    sim.add_argument(
+        "--replay-fps", type=float, default=10.0, help="frames per second of the replay (default 10)"
+    )
     sim.add_argument("--meshcat", action="store_true", help="serve a live Meshcat view on localhost")
     sim.add_argument("--out", default=None, help="folder for metrics.json, events.csv and gantt.png")
     sim.set_defaults(func=_simulate)
-    val = sub.add_parser("validate", help="load and check a scenario (names, durations, flow, IK reachability)")
+    val = sub.add_parser(
+        "validate", help="load and check a scenario (names, durations, flow, IK reachability)"
+    )
     val.add_argument("scenario")
     val.set_defaults(func=_validate)
     args = parser.parse_args(argv)
@@ -95,5 +106,3 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-
-

@@ -54,13 +54,21 @@ def main() -> None:
     rows = []
     for mode in ("kinematic", "dynamic"):
         for record in (False, True):
-            print(f"running {mode:9s} record={record!s:5s} for {duration:.0f} s of simulated time ...", flush=True)
+            print(
+                f"running {mode:9s} record={record!s:5s} for {duration:.0f} s of simulated time ...",
+                flush=True,
+            )
             rows.append(run_once(Path(args.scenario), duration, mode, record))
     print()
-    print(f"{'mode':10s} {'replay':>6s} {'build s':>8s} {'wall s':>8s} {'RTF':>7s} {'products':>8s} {'replay MB':>9s}")
+    print(
+        f"{'mode':10s} {'replay':>6s} {'build s':>8s} {'wall s':>8s} {'RTF':>7s} "
+        f"{'products':>8s} {'replay MB':>9s}"
+    )
     for r in rows:
-        print(f"{r['mode']:10s} {('on' if r['record'] else 'off'):>6s} {r['build_s']:8.2f} {r['wall_s']:8.2f} "
-              f"{r['realtime_factor']:7.1f} {r['products']:8d} {r['replay_mb']:9.1f}")
+        print(
+            f"{r['mode']:10s} {('on' if r['record'] else 'off'):>6s} {r['build_s']:8.2f} {r['wall_s']:8.2f} "
+            f"{r['realtime_factor']:7.1f} {r['products']:8d} {r['replay_mb']:9.1f}"
+        )
     figures = {"scenario": Path(args.scenario).name, "simulated_s": duration}
     for r in rows:
         key = f"rtf_{r['mode']}_{'replay' if r['record'] else 'noreplay'}"

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role, SceneGraph
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.common.value import AbstractValue
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
@@ -65,6 +65,9 @@ class Cell:
     systems: dict = field(default_factory=dict)
 
 
+#: rate (Hz) of the operator's logic and the path follower: the camera's 30 Hz, so that their
+#: updates share the simulator's steps (each distinct event time costs a step)
+CELL_RATE = 30.0
 #: the operator's wrist stops this far above a buffer's base when picking or placing a part
 HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
 
@@ -72,7 +75,9 @@ HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
 def _places(scenario: Scenario) -> dict[str, np.ndarray]:
     """Where the operator's wrist goes for each goal sphere and buffer."""
     places = {g.name: np.asarray(g.center, float) for g in scenario.layout.goals}
-    places.update({b.name: np.asarray(b.position, float) + HAND_ABOVE_BUFFER for b in scenario.layout.buffers})
+    places.update(
+        {b.name: np.asarray(b.position, float) + HAND_ABOVE_BUFFER for b in scenario.layout.buffers}
+    )
     return places
 
 
@@ -80,7 +85,9 @@ def _add_robots(plant, scenario: Scenario):
     return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in scenario.robots]
 
 
-def solve_named_poses(scenario: Scenario, file: str | Path = "<scenario>") -> dict[tuple[str, str], np.ndarray]:
+def solve_named_poses(
+    scenario: Scenario, file: str | Path = "<scenario>"
+) -> dict[tuple[str, str], np.ndarray]:
     """Joint vectors of every named pose; Cartesian targets by Drake InverseKinematics.
 
     Raises `ScenarioError` naming the pose when a target is out of reach.
@@ -105,19 +112,31 @@ def solve_named_poses(scenario: Scenario, file: str | Path = "<scenario>") -> di
                 if len(bad):
                     k = int(bad[0])
                     raise ScenarioError(
-                        file, f"{field_path}.joints[{k}]",
+                        file,
+                        f"{field_path}.joints[{k}]",
                         f"{q[k]:.4f} rad is outside the joint's limits [{lower[k]:.4f}, {upper[k]:.4f}]",
                     )
             else:
                 seed_q = next(
-                    (solved[(robot.name, p.name)] for p in reversed(robot.poses[:j])
-                     if p.arm == pose.arm and (robot.name, p.name) in solved), None,
+                    (
+                        solved[(robot.name, p.name)]
+                        for p in reversed(robot.poses[:j])
+                        if p.arm == pose.arm and (robot.name, p.name) in solved
+                    ),
+                    None,
                 )
                 try:
                     q = solve_tool_position(
-                        plant, context, instance, robot.model, pose.arm, pose.target.xyz,
-                        target_rpy=pose.target.rpy if pose.orient else None, q_seed=seed_q,
-                        tolerance=pose.tolerance, tool_z_down=not pose.orient,
+                        plant,
+                        context,
+                        instance,
+                        robot.model,
+                        pose.arm,
+                        pose.target.xyz,
+                        target_rpy=pose.target.rpy if pose.orient else None,
+                        q_seed=seed_q,
+                        tolerance=pose.tolerance,
+                        tool_z_down=not pose.orient,
                     )
                 except InfeasibleTarget as err:
                     raise ScenarioError(file, f"{field_path}.target", f"out of reach: {err}") from err
@@ -143,6 +162,7 @@ def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng,
     places = _places(scenario)
     tasks = {}
     for a in op.actions:
+
         def sampler(generator, dist=a.duration):
             return float(sample_duration(dist, generator))
 
@@ -150,7 +170,7 @@ def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng,
     base = op.base
     rest_q = body.rest_q(base_xy=base.xyz[:2], yaw=base.rpy[2])
     operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, world=world, agent=op.name)
-    return OperatorSource(operator), operator
+    return OperatorSource(operator, rate=CELL_RATE), operator
 
 
 def _recorded_source(scenario: Scenario, scenario_path):
@@ -212,7 +232,9 @@ def build_cell(
         for action in robot.actions:
             waypoints = np.array([named_poses[(robot.name, p)] for p in action.poses])
             moves[action.name] = RobotMove(waypoints, np.full(len(waypoints), action.dwell))
-    follower = builder.AddSystem(PathFollower(JointPathFollower(q0, arm_indices, v_max)))
+    follower = builder.AddSystem(
+        PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE)
+    )
     follower.set_name("path_follower")
     use_scheduler = scenario.scheduler.kind not in ("none",)
 
@@ -255,9 +277,13 @@ def build_cell(
     systems: dict = {}
     cam = scenario.layout.camera
     camera_model = DepthCameraModel(
-        cam.position, cam.target,
+        cam.position,
+        cam.target,
         [(np.asarray(o.center, float), np.asarray(o.size, float)) for o in scenario.layout.occluders],
-        noise_std=cam.noise_std, rate=cam.rate, margin=cam.margin, gaze_valid_angle=cam.gaze_valid_angle,
+        noise_std=cam.noise_std,
+        rate=cam.rate,
+        margin=cam.margin,
+        gaze_valid_angle=cam.gaze_valid_angle,
     )
     systems["camera_model"] = camera_model
     if scenario.operator.recorded:
@@ -287,19 +313,39 @@ def build_cell(
     color = [0.95, 0.65, 0.45, 0.45] if scenario.tracker.kind != "none" else [0.95, 0.65, 0.45, 1.0]
     human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body, color=color))
     builder.Connect(human_capsules.GetOutputPort("capsules"), human_geometry.get_input_port())
-    builder.Connect(human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id))
+    builder.Connect(
+        human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id)
+    )
     register_scene(scene_graph, scenario)
 
     overrides = []
     from hrc_drake.cell import plugins
 
-    estimate_port = plugins.add_tracker(builder, scenario, camera, camera_model, robot_capsules, systems, overrides,
-                                        int(rngs[2].integers(2**31)))
+    estimate_port = plugins.add_tracker(
+        builder,
+        scenario,
+        camera,
+        camera_model,
+        robot_capsules,
+        systems,
+        overrides,
+        int(rngs[2].integers(2**31)),
+    )
     plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
     plugins.add_predictor(builder, scenario, human_events_port, systems)
-    plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, int(rngs[3].integers(2**31)))
-    plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides,
-                       int(rngs[4].integers(2**31)))
+    plugins.add_scheduler(
+        builder, scenario, human_events_port, executor, systems, int(rngs[3].integers(2**31))
+    )
+    plugins.add_motion(
+        builder,
+        scenario,
+        body,
+        estimate_port,
+        robot_capsules,
+        systems,
+        overrides,
+        int(rngs[4].integers(2**31)),
+    )
 
     min_override = builder.AddSystem(MinOverride(max(len(overrides), 1)))
     min_override.set_name("speed_override")
@@ -319,7 +365,9 @@ def build_cell(
     builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
     builder.Connect(follower.GetOutputPort("speed_override_applied"), recorder.GetInputPort("speed_override"))
     if "intention" in systems:
-        builder.Connect(systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events"))
+        builder.Connect(
+            systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events")
+        )
 
     visualizer = None
     if meshcat is not None:
@@ -334,14 +382,31 @@ def build_cell(
     diagram = builder.Build()
     agent_names = [scenario.operator.name] + [a.agent for a in agents]
     return Cell(
-        diagram=diagram, scenario=scenario, world=world, plant=plant, scene_graph=scene_graph, body=body,
-        recorder=recorder, executor=executor, agents=agent_names, product_actions=_product_actions(scenario),
-        meshcat=meshcat, visualizer=visualizer, systems=systems,
+        diagram=diagram,
+        scenario=scenario,
+        world=world,
+        plant=plant,
+        scene_graph=scene_graph,
+        body=body,
+        recorder=recorder,
+        executor=executor,
+        agents=agent_names,
+        product_actions=_product_actions(scenario),
+        meshcat=meshcat,
+        visualizer=visualizer,
+        systems=systems,
     )
 
 
 def _instance_position_indices(plant, instance) -> np.ndarray:
     """Indices into the plant's q of `instance`'s positions, in the instance's own order."""
-    return np.sort(np.array([plant.get_joint(j).position_start() + k
-                             for j in plant.GetJointIndices(instance)
-                             for k in range(plant.get_joint(j).num_positions())], dtype=int))
+    return np.sort(
+        np.array(
+            [
+                plant.get_joint(j).position_start() + k
+                for j in plant.GetJointIndices(instance)
+                for k in range(plant.get_joint(j).num_positions())
+            ],
+            dtype=int,
+        )
+    )

@@ -45,8 +45,9 @@ class MetricsLog:
     products: list[int] = field(default_factory=list)
     human_points: list = field(default_factory=list)
 
-    def record(self, time: float, distance: float, override: float, buffers: dict, products: int,
-               human_points=None) -> None:
+    def record(
+        self, time: float, distance: float, override: float, buffers: dict, products: int, human_points=None
+    ) -> None:
         self.times.append(time)
         self.human_points.append(human_points)
         self.distances.append(distance)
@@ -92,8 +93,13 @@ def product_times(events, product_actions: dict[str, int]) -> list[float]:
     return sorted(times)
 
 
-def summarize(log: MetricsLog, end_time: float, agents: list[str], product_actions: dict[str, int],
-              wall_time: float | None = None) -> dict:
+def summarize(
+    log: MetricsLog,
+    end_time: float,
+    agents: list[str],
+    product_actions: dict[str, int],
+    wall_time: float | None = None,
+) -> dict:
     """Figures of a run: products, cycle times, idle and busy time per agent, minimum distance."""
     spans = intervals(log.events, end_time)
     done = product_times(log.events, product_actions)
@@ -116,7 +122,9 @@ def summarize(log: MetricsLog, end_time: float, agents: list[str], product_actio
         "products_finished": len(done),
         "product_times": [round(t, 3) for t in done],
         "cycle_times": [round(float(c), 3) for c in cycle],
-        "mean_cycle_time": round(float(np.mean(cycle[1:] if len(cycle) > 1 else cycle)), 3) if len(cycle) else None,
+        "mean_cycle_time": round(float(np.mean(cycle[1:] if len(cycle) > 1 else cycle)), 3)
+        if len(cycle)
+        else None,
         "agents": per_agent,
         "min_human_robot_distance": round(min(finite), 4) if finite else None,
         "mean_speed_override": round(float(np.mean(log.overrides)), 4) if log.overrides else None,
@@ -148,7 +156,10 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
     cmap = plt.get_cmap("tab20")
     colors = {a: cmap(k % 20) for k, a in enumerate(actions)}
     fig, (ax, ax2) = plt.subplots(
-        2, 1, figsize=(12, 1.2 + 0.7 * len(agents) + 1.6), sharex=True,
+        2,
+        1,
+        figsize=(12, 1.2 + 0.7 * len(agents) + 1.6),
+        sharex=True,
         gridspec_kw={"height_ratios": [max(len(agents), 1), 1.4]},
     )
     for row, agent in enumerate(agents):
@@ -156,12 +167,28 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
             if i.agent != agent:
                 continue
             if i.kind == "work":
-                ax.barh(row, i.end - i.start, left=i.start, height=0.6, color=colors[i.action], edgecolor="black", lw=0.3)
+                ax.barh(
+                    row,
+                    i.end - i.start,
+                    left=i.start,
+                    height=0.6,
+                    color=colors[i.action],
+                    edgecolor="black",
+                    lw=0.3,
+                )
                 if i.end - i.start > 0.03 * end_time:
                     ax.text((i.start + i.end) / 2, row, i.action, ha="center", va="center", fontsize=7)
             else:
-                ax.barh(row, i.end - i.start, left=i.start, height=0.35, color="lightgrey", hatch="////",
-                        edgecolor="grey", lw=0.3)
+                ax.barh(
+                    row,
+                    i.end - i.start,
+                    left=i.start,
+                    height=0.35,
+                    color="lightgrey",
+                    hatch="////",
+                    edgecolor="grey",
+                    lw=0.3,
+                )
     ax.set_yticks(range(len(agents)))
     ax.set_yticklabels(agents)
     ax.invert_yaxis()
@@ -171,7 +198,13 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
     ax.set_title(title or "Agents' activities")
     if log.times:
         d = np.array(log.distances, dtype=float)
-        ax2.plot(log.times, np.where(np.isfinite(d), d, np.nan), color="tab:red", lw=0.8, label="min human-robot distance")
+        ax2.plot(
+            log.times,
+            np.where(np.isfinite(d), d, np.nan),
+            color="tab:red",
+            lw=0.8,
+            label="min human-robot distance",
+        )
         ax2.set_ylabel("distance [m]")
         ax3 = ax2.twinx()
         ax3.plot(log.times, log.overrides, color="tab:blue", lw=0.8, label="speed override")

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.geometry import Rgba, Sphere
 from pydrake.geometry import Box as MeshcatBox
+from pydrake.geometry import Rgba, Sphere
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 
@@ -34,11 +34,17 @@ class MeasurementAsEstimate(LeafSystem):
         points = np.where(frame.tracked[:, None], frame.points, self._last)
         self._last = np.where(np.isfinite(points), points, self._last)
         inside = np.all((points >= self._lo) & (points <= self._hi), axis=1)
-        output.set_value(SkeletonEstimate(
-            time=frame.time, points=np.nan_to_num(points), spread=np.where(frame.tracked, 0.0, np.inf),
-            tracked=frame.tracked.copy(), workspace_fraction=inside.astype(float), gaze=frame.gaze,
-            gaze_valid=frame.gaze_valid,
-        ))
+        output.set_value(
+            SkeletonEstimate(
+                time=frame.time,
+                points=np.nan_to_num(points),
+                spread=np.where(frame.tracked, 0.0, np.inf),
+                tracked=frame.tracked.copy(),
+                workspace_fraction=inside.astype(float),
+                gaze=frame.gaze,
+                gaze_valid=frame.gaze_valid,
+            )
+        )
 
 
 def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
@@ -50,10 +56,17 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsule
     else:
         from hrc_drake.perception.systems import OcclusionTracker
 
-        tracker = builder.AddSystem(OcclusionTracker(
-            kind, dict(scenario.tracker.params), camera_model.is_hidden, lay.workspace_center, lay.workspace_size,
-            rate=lay.camera.rate, seed=seed,
-        ))
+        tracker = builder.AddSystem(
+            OcclusionTracker(
+                kind,
+                dict(scenario.tracker.params),
+                camera_model.is_hidden,
+                lay.workspace_center,
+                lay.workspace_size,
+                rate=lay.camera.rate,
+                seed=seed,
+            )
+        )
         builder.Connect(robot_capsules.get_output_port(), tracker.GetInputPort("occluding_capsules"))
         overrides.append(tracker.GetOutputPort("speed_override"))
     tracker.set_name("tracker")
@@ -81,10 +94,15 @@ def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, sys
         from hrc_drake.intention.likelihood import IntentionModel
 
         model = IntentionModel.load(_relative(scenario_path, scenario.intention.model))
-    estimator = builder.AddSystem(IntentionEstimator(
-        [g.name for g in goals], np.array([g.center for g in goals], float), model=model,
-        threshold=params.get("threshold", 0.8), feedback_sequence=tuple(scenario.intention.names) or None,
-    ))
+    estimator = builder.AddSystem(
+        IntentionEstimator(
+            [g.name for g in goals],
+            np.array([g.center for g in goals], float),
+            model=model,
+            threshold=params.get("threshold", 0.8),
+            feedback_sequence=tuple(scenario.intention.names) or None,
+        )
+    )
     estimator.set_name("intention")
     builder.Connect(estimate_port, estimator.GetInputPort("skeleton_estimate"))
     systems["intention"] = estimator
@@ -99,7 +117,9 @@ def add_predictor(builder, scenario: Scenario, human_events_port, systems):
     params = dict(scenario.predictor.params)
     # A forecast per half second is plenty for actions lasting seconds; each costs a waiting-time tree.
     rate = params.pop("rate", 2.0)
-    predictor = builder.AddSystem(ActivityPredictor(actions, kind=scenario.predictor.kind, params=params, rate=rate))
+    predictor = builder.AddSystem(
+        ActivityPredictor(actions, kind=scenario.predictor.kind, params=params, rate=rate)
+    )
     predictor.set_name("activity_predictor")
     builder.Connect(human_events_port, predictor.GetInputPort("human_events"))
     systems["predictor"] = predictor
@@ -113,7 +133,9 @@ def add_scheduler(builder, scenario: Scenario, human_events_port, executor, syst
     net_keys = ("wait_quantum", "cost_robot", "cost_human")
     params = {k: v for k, v in scenario.scheduler.params.items() if k not in net_keys}
     robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
-    scheduler = builder.AddSystem(Scheduler(net_from_scenario(scenario), scenario.scheduler.kind, params, robots, seed))
+    scheduler = builder.AddSystem(
+        Scheduler(net_from_scenario(scenario), scenario.scheduler.kind, params, robots, seed)
+    )
     scheduler.set_name("scheduler")
     builder.Connect(human_events_port, scheduler.GetInputPort("human_events"))
     builder.Connect(executor.GetOutputPort("robot_events"), scheduler.GetInputPort("robot_events"))
@@ -161,7 +183,10 @@ class ReplayMarkers(LeafSystem):
         # Skeleton markers cost ~2 kB per replay frame: only where a tracker makes them worth it.
         self._show_skeleton = scenario.tracker.kind != "none"
         if self._show_skeleton:
-            for name, color in (("measured", Rgba(0.1, 0.4, 1.0, 1.0)), ("estimated", Rgba(1.0, 0.2, 0.2, 1.0))):
+            for name, color in (
+                ("measured", Rgba(0.1, 0.4, 1.0, 1.0)),
+                ("estimated", Rgba(1.0, 0.2, 0.2, 1.0)),
+            ):
                 for k in range(8):
                     meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
                     self._visible[f"/markers/skeleton/{name}/{k}"] = True
@@ -171,7 +196,9 @@ class ReplayMarkers(LeafSystem):
                 meshcat.SetObject(path, Sphere(1.0), Rgba(1.0, 0.3, 0.3, 0.25))
                 meshcat.SetProperty(path, "visible", False)
                 self._visible[path] = False
-        self._frame_port = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
+        self._frame_port = self.DeclareAbstractInputPort(
+            "skeleton_frame", AbstractValue.Make(SkeletonFrame())
+        )
         self._estimate_port = self.DeclareAbstractInputPort(
             "skeleton_estimate", AbstractValue.Make(SkeletonEstimate())
         )
@@ -181,7 +208,9 @@ class ReplayMarkers(LeafSystem):
             meshcat.SetTransform(f"/markers/flash/{g.name}", RigidTransform(np.asarray(g.center, float)))
             meshcat.SetProperty(f"/markers/flash/{g.name}", "visible", False)
             self._visible[f"/markers/flash/{g.name}"] = False
-        self._intention_port = self.DeclareAbstractInputPort("intention_events", AbstractValue.Make(EventLog()))
+        self._intention_port = self.DeclareAbstractInputPort(
+            "intention_events", AbstractValue.Make(EventLog())
+        )
         self._flash_until: dict[str, float] = {}
         self._last_intention = 0
         self.DeclarePeriodicPublishEvent(1.0 / fps, 0.0, self._publish)
@@ -228,7 +257,11 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, world, systems, fps
     markers = builder.AddSystem(ReplayMarkers(scenario, meshcat, world, systems, fps))
     markers.set_name("replay_markers")
     builder.Connect(systems["camera"].GetOutputPort("skeleton_frame"), markers.GetInputPort("skeleton_frame"))
-    builder.Connect(systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate"))
+    builder.Connect(
+        systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate")
+    )
     if "intention" in systems:
-        builder.Connect(systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events"))
+        builder.Connect(
+            systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events")
+        )
     return markers

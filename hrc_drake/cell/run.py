@@ -21,7 +21,9 @@ class RunResult:
     simulated_time: float
 
 
-def simulate(cell: Cell, duration: float, progress=sys.stderr, record: bool = False, chunks: int = 50) -> RunResult:
+def simulate(
+    cell: Cell, duration: float, progress=sys.stderr, record: bool = False, chunks: int = 50
+) -> RunResult:
     """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent)."""
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
@@ -41,8 +43,11 @@ def simulate(cell: Cell, duration: float, progress=sys.stderr, record: bool = Fa
             lead = "\r" if interactive else ""
             print(
                 f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
-                f"   products = {cell.world.finished_products:3d}   realtime factor = {t / max(wall, 1e-9):6.1f}x",
-                end="" if interactive else "\n", file=progress, flush=True,
+                f"   products = {cell.world.finished_products:3d}"
+                f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
+                end="" if interactive else "\n",
+                file=progress,
+                flush=True,
             )
     cell.diagram.ForcedPublish(simulator.get_context())
     wall = time.perf_counter() - start

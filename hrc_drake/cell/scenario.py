@@ -127,13 +127,17 @@ def _check_vec(file, field, values, n=3):
 def check_distribution(file, field: str, dist: Distribution) -> None:
     """A duration distribution must have a known kind and only positive durations."""
     if dist.kind not in DISTRIBUTION_KINDS:
-        raise ScenarioError(file, f"{field}.kind", f"unknown distribution '{dist.kind}' (one of {DISTRIBUTION_KINDS})")
+        raise ScenarioError(
+            file, f"{field}.kind", f"unknown distribution '{dist.kind}' (one of {DISTRIBUTION_KINDS})"
+        )
     if dist.kind in ("fixed", "normal", "lognormal") and dist.mean <= 0:
         raise ScenarioError(file, f"{field}.mean", f"a duration must be positive, got {dist.mean}")
     if dist.kind in ("normal", "lognormal") and dist.std < 0:
         raise ScenarioError(file, f"{field}.std", f"must be >= 0, got {dist.std}")
     if dist.kind == "uniform" and not (0 < dist.low < dist.high):
-        raise ScenarioError(file, field, f"uniform needs 0 < low < high, got low={dist.low}, high={dist.high}")
+        raise ScenarioError(
+            file, field, f"uniform needs 0 < low < high, got low={dist.low}, high={dist.high}"
+        )
     if dist.kind == "triangular" and not (0 < dist.low <= dist.mode <= dist.high and dist.low < dist.high):
         raise ScenarioError(
             file, field, f"triangular needs 0 < low <= mode <= high, got {dist.low}, {dist.mode}, {dist.high}"
@@ -178,7 +182,9 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         if b.kind == "intermediate" and b.capacity < 1:
             raise ScenarioError(file, f"layout.buffers[{i}].capacity", f"must be >= 1, got {b.capacity}")
         if b.initial < 0 or (b.kind == "intermediate" and b.initial > b.capacity):
-            raise ScenarioError(file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}")
+            raise ScenarioError(
+                file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}"
+            )
     places = goals | buffers
     for i, o in enumerate(lay.occluders):
         _check_vec(file, f"layout.occluders[{i}].center", o.center)
@@ -206,13 +212,17 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         for j, pose in enumerate(robot.poses):
             pf = f"{field}.poses[{j}]"
             if pose.arm not in arm_names:
-                raise ScenarioError(file, f"{pf}.arm", f"unknown arm '{pose.arm}' of {robot.model} ({arm_names})")
+                raise ScenarioError(
+                    file, f"{pf}.arm", f"unknown arm '{pose.arm}' of {robot.model} ({arm_names})"
+                )
             if bool(pose.joints) == (pose.target is not None):
                 raise ScenarioError(file, pf, "give exactly one of 'joints' or 'target'")
             if pose.joints:
                 n = 7 if robot.model == "yumi" else 6
                 if len(pose.joints) != n:
-                    raise ScenarioError(file, f"{pf}.joints", f"expected {n} joint values, got {len(pose.joints)}")
+                    raise ScenarioError(
+                        file, f"{pf}.joints", f"expected {n} joint values, got {len(pose.joints)}"
+                    )
             else:
                 _check_vec(file, f"{pf}.target.xyz", pose.target.xyz)
                 _check_vec(file, f"{pf}.target.rpy", pose.target.rpy)
@@ -228,7 +238,9 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                 if pose_name not in poses:
                     raise ScenarioError(file, f"{af}.poses[{k}]", f"unknown pose '{pose_name}'")
                 if pose_arm[pose_name] != action.arm:
-                    raise ScenarioError(file, f"{af}.poses[{k}]", f"pose '{pose_name}' belongs to another arm")
+                    raise ScenarioError(
+                        file, f"{af}.poses[{k}]", f"pose '{pose_name}' belongs to another arm"
+                    )
             if action.dwell < 0:
                 raise ScenarioError(file, f"{af}.dwell", "must be >= 0")
         for j, arm in enumerate(robot.arms):
@@ -300,7 +312,9 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
                     raise ScenarioError(file, f"{af}.{key}[{k}]", f"unknown buffer '{b}'")
         for k, b in enumerate(action.outputs):
             if kinds[b] == "raw":
-                raise ScenarioError(file, f"{af}.outputs[{k}]", f"'{b}' is a raw buffer: nothing can be put in it")
+                raise ScenarioError(
+                    file, f"{af}.outputs[{k}]", f"'{b}' is a raw buffer: nothing can be put in it"
+                )
         for k, r in enumerate(action.resources):
             if r not in flow.resources:
                 raise ScenarioError(file, f"{af}.resources[{k}]", f"unknown resource '{r}'")
@@ -344,7 +358,9 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
             spec = next(a for a in flow.actions if a.name == name)
             if sc.operator.name not in spec.agents:
                 raise ScenarioError(
-                    file, f"operator.pattern[{k}]", f"flow action '{name}' is not assigned to '{sc.operator.name}'"
+                    file,
+                    f"operator.pattern[{k}]",
+                    f"flow action '{name}' is not assigned to '{sc.operator.name}'",
                 )
 
 

@@ -7,7 +7,6 @@ Plain dataclasses (no pydrake import) so that algorithm cores, e.g. the flow com
 `hrc_drake.scheduling`, can use them. `hrc_drake.cell.scenario` loads and validates them.
 """
 
-
 from dataclasses import dataclass, field
 
 

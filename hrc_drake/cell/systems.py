@@ -63,7 +63,9 @@ class HumanCapsules(LeafSystem):
         else:
             self._input = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
             self._last = body_model.points(body_model.rest_q())
-        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc_capsules)
+        self.DeclareAbstractOutputPort(
+            "capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc_capsules
+        )
         self.DeclareVectorOutputPort("points", 24, self._calc_points)
 
     def _points(self, context) -> np.ndarray:
@@ -100,7 +102,9 @@ class HumanGeometry(LeafSystem):
         self.frame_ids = []
         for k, cap_name in enumerate(CAPSULE_NAMES):
             frame_id = scene_graph.RegisterFrame(self.source_id, GeometryFrame(f"{name}_{cap_name}"))
-            instance = GeometryInstance(RigidTransform(), Capsule(float(radius[k]), float(lengths[k])), cap_name)
+            instance = GeometryInstance(
+                RigidTransform(), Capsule(float(radius[k]), float(lengths[k])), cap_name
+            )
             instance.set_illustration_properties(MakePhongIllustrationProperties(color))
             scene_graph.RegisterGeometry(self.source_id, frame_id, instance)
             self.frame_ids.append(frame_id)
@@ -130,7 +134,12 @@ def register_scene(scene_graph, scenario: Scenario):
         scene_graph.RegisterAnchoredGeometry(source_id, instance)
 
     t = lay.table
-    add(Box(*t.size), RigidTransform([t.center[0], t.center[1], t.height - t.size[2] / 2]), "table", TABLE_COLOR)
+    add(
+        Box(*t.size),
+        RigidTransform([t.center[0], t.center[1], t.height - t.size[2] / 2]),
+        "table",
+        TABLE_COLOR,
+    )
     for g in lay.goals:
         add(Sphere(g.radius), RigidTransform(g.center), f"goal_{g.name}", GOAL_COLOR)
     for b in lay.buffers:
@@ -139,8 +148,12 @@ def register_scene(scene_graph, scenario: Scenario):
         add(Box(*o.size), RigidTransform(o.center), f"occluder_{o.name}", OCCLUDER_COLOR)
     cam = lay.camera
     direction = np.asarray(cam.target, float) - np.asarray(cam.position, float)
-    add(Box(0.06, 0.06, 0.12), segment_pose(np.asarray(cam.position), np.asarray(cam.position) + direction), "camera",
-        CAMERA_COLOR)
+    add(
+        Box(0.06, 0.06, 0.12),
+        segment_pose(np.asarray(cam.position), np.asarray(cam.position) + direction),
+        "camera",
+        CAMERA_COLOR,
+    )
     return source_id
 
 
@@ -197,10 +210,16 @@ class MetricsRecorder(LeafSystem):
         self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
         self._human_points = self.DeclareVectorInputPort("human_points", 24)
-        self._human_capsules = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(EMPTY_CAPSULES))
-        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(EMPTY_CAPSULES))
+        self._human_capsules = self.DeclareAbstractInputPort(
+            "human_capsules", AbstractValue.Make(EMPTY_CAPSULES)
+        )
+        self._robot_capsules = self.DeclareAbstractInputPort(
+            "robot_capsules", AbstractValue.Make(EMPTY_CAPSULES)
+        )
         self._override = self.DeclareVectorInputPort("speed_override", 1)
-        self._intention_events = self.DeclareAbstractInputPort("intention_events", AbstractValue.Make(EventLog()))
+        self._intention_events = self.DeclareAbstractInputPort(
+            "intention_events", AbstractValue.Make(EventLog())
+        )
         self._last_seq = {"human": 0, "robot": 0, "intention": 0}
         self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
         self.DeclareForcedPublishEvent(self._record)

@@ -27,7 +27,9 @@ class Completion:
 class CellWorld:
     """Parts in buffers, reservations of output room, and finished products."""
 
-    def __init__(self, buffers: list[Buffer], actions: list[FlowAction], resources: dict[str, int] | None = None):
+    def __init__(
+        self, buffers: list[Buffer], actions: list[FlowAction], resources: dict[str, int] | None = None
+    ):
         self.buffers = {b.name: b for b in buffers}
         self.parts = {b.name: int(b.initial) for b in buffers}
         self.actions = {a.name: a for a in actions}

@@ -327,8 +327,8 @@ class BodyModel:
         fore_dir = fore / np.maximum(np.linalg.norm(fore, axis=1, keepdims=True), 1e-9)
         start = np.stack([pts[THORAX] - self.torso * up, pts[HEAD] - 0.06 * neck_dir, pts[L_SHOULDER],
                           pts[R_SHOULDER], pts[L_ELBOW], pts[R_ELBOW]])
-        end = np.stack([pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW],
-                        pts[L_WRIST] + self.hand_length * fore_dir[0], pts[R_WRIST] + self.hand_length * fore_dir[1]])
+        hands = pts[[L_WRIST, R_WRIST]] + self.hand_length * fore_dir
+        end = np.stack([pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW], hands[0], hands[1]])
         return start, end, self.capsule_radius.copy()
 
     # ------------------------------------------------------------------ inverse kinematics

@@ -40,6 +40,8 @@ GROUP_NAMES: dict[str, tuple[str, ...]] = {
 
 _THETA_BOUNDS = (1e-5, 1e3)
 _THREADS = None
+#: smallest scale of a feature (rad, m, per s, per s^2)
+_SCALE_FLOOR = 1e-3
 
 
 def _single_thread():
@@ -147,7 +149,8 @@ def _derivative_scale(values: np.ndarray) -> np.ndarray:
     by_order = values.reshape(len(values), -1, 3)
     spread = by_order.std(axis=0)  # (F / 3, 3)
     scale = np.sqrt((spread**2).mean(axis=0))  # rms over joints and lags
-    scale = np.where(scale > 1e-9, scale, 1.0)
+    # Floor at a measurement-noise size: a still group keeps still rollouts, not unit noise.
+    scale = np.maximum(scale, _SCALE_FLOOR)
     return np.tile(scale, by_order.shape[1])
 
 

@@ -277,7 +277,7 @@ class ReactiveMotionPredictor:
     def _refresh_model(self) -> None:
         smoothed = self.estimator.smoothed_window()
         count = min(self.refresh_steps, len(smoothed) - self.order)
-        if count <= 0:
+        if count <= 0 or (count < 2 and not self.model_ready):
             return
         last = len(smoothed)
         windows = np.stack([smoothed[k - self.order:k + 1] for k in range(last - count, last)])

@@ -50,7 +50,14 @@ class TaskExecutor:
     request_path: callback (channel, seq, waypoints, dwells) that starts a motion.
     """
 
-    def __init__(self, agents: list[ArmAgent], moves: dict[str, RobotMove], world, request_path, use_commands: bool = False):
+    def __init__(
+        self,
+        agents: list[ArmAgent],
+        moves: dict[str, RobotMove],
+        world,
+        request_path,
+        use_commands: bool = False,
+    ):
         for a in agents:
             if not use_commands and not a.program:
                 raise ValueError(f"agent '{a.agent}' has an empty program")

@@ -25,10 +25,14 @@ def min_jerk_profile(tau: np.ndarray | float) -> np.ndarray | float:
 class ArmPath:
     """The path one arm is following: waypoints (n, dof), dwell per waypoint, progress."""
 
-    def __init__(self, start: np.ndarray, waypoints: np.ndarray, dwells: np.ndarray, v_max: np.ndarray, fraction: float):
+    def __init__(
+        self, start: np.ndarray, waypoints: np.ndarray, dwells: np.ndarray, v_max: np.ndarray, fraction: float
+    ):
         self.points = np.vstack([start[None, :], waypoints])
         deltas = np.abs(np.diff(self.points, axis=0))
-        self.move_times = np.maximum(MIN_JERK_PEAK * np.max(deltas / (fraction * v_max), axis=1), MIN_SEGMENT_TIME)
+        self.move_times = np.maximum(
+            MIN_JERK_PEAK * np.max(deltas / (fraction * v_max), axis=1), MIN_SEGMENT_TIME
+        )
         self.dwells = np.asarray(dwells, dtype=float)
         self.segment = 0
         self.phase = 0.0  # progress in seconds at full speed within the segment's move + dwell
@@ -49,10 +53,18 @@ class ArmPath:
         return self.position()
 
     def position(self) -> np.ndarray:
-        if self.finished:
+        return self.position_ahead(0.0)
+
+    def position_ahead(self, dt: float) -> np.ndarray:
+        """Joint positions `dt` seconds of full-speed time ahead, without advancing."""
+        segment, phase = self.segment, self.phase + dt
+        while segment < len(self.move_times) and phase >= self.move_times[segment] + self.dwells[segment]:
+            phase -= self.move_times[segment] + self.dwells[segment]
+            segment += 1
+        if self.finished or segment == len(self.move_times):
             return self.points[-1].copy()
-        a, b = self.points[self.segment], self.points[self.segment + 1]
-        s = min_jerk_profile(self.phase / self.move_times[self.segment])
+        a, b = self.points[segment], self.points[segment + 1]
+        s = min_jerk_profile(phase / self.move_times[segment])
         return a + (b - a) * s
 
     def velocity(self) -> np.ndarray:
@@ -73,7 +85,13 @@ class JointPathFollower:
     v_max: for every arm, its joint velocity limits (rad/s).
     """
 
-    def __init__(self, q0: np.ndarray, arm_indices: list[np.ndarray], v_max: list[np.ndarray], velocity_fraction: float = 0.8):
+    def __init__(
+        self,
+        q0: np.ndarray,
+        arm_indices: list[np.ndarray],
+        v_max: list[np.ndarray],
+        velocity_fraction: float = 0.8,
+    ):
         if not 0 < velocity_fraction <= 1:
             raise ValueError(f"velocity_fraction must be in (0, 1], got {velocity_fraction}")
         self.q = np.asarray(q0, dtype=float).copy()
@@ -91,9 +109,14 @@ class JointPathFollower:
         """Start following `waypoints` (n, dof) from where the arm is; `seq` tags completion."""
         waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
         if waypoints.shape[1] != len(self.arm_indices[arm]):
-            raise ValueError(f"arm {arm}: waypoints have {waypoints.shape[1]} joints, expected {len(self.arm_indices[arm])}")
+            raise ValueError(
+                f"arm {arm}: waypoints have {waypoints.shape[1]} joints, "
+                f"expected {len(self.arm_indices[arm])}"
+            )
         start = self.q[self.arm_indices[arm]]
-        self.paths[arm] = ArmPath(start, waypoints, np.broadcast_to(dwells, len(waypoints)), self.v_max[arm], self.fraction)
+        self.paths[arm] = ArmPath(
+            start, waypoints, np.broadcast_to(dwells, len(waypoints)), self.v_max[arm], self.fraction
+        )
         self.requested_seq[arm] = seq
 
     def step(self, dt: float, override: float) -> np.ndarray:
@@ -107,6 +130,14 @@ class JointPathFollower:
                 self.done_seq[arm] = self.requested_seq[arm]
                 self.paths[arm] = None
         return self.q
+
+    def positions_ahead(self, dt: float, override: float) -> np.ndarray:
+        """q after `dt` more seconds at speed `override`, without advancing (smooth output between ticks)."""
+        q = self.q.copy()
+        for arm, path in enumerate(self.paths):
+            if path is not None:
+                q[self.arm_indices[arm]] = path.position_ahead(dt * override)
+        return q
 
     def velocities(self, override: float) -> np.ndarray:
         v = np.zeros_like(self.q)

@@ -25,7 +25,8 @@ class PathFollower(TickedSystem):
     Input "path_requests": abstract tuple of (channel, seq, waypoints, dwells) requests.
     Input "speed_override": vector (1,) in [0, 1]; unconnected means 1.
     Outputs "positions" (nq,), "velocities" (nq,), "path_done" (abstract tuple of seq per channel),
-    "speed_override_applied" (1,).
+    "speed_override_applied" (1,). Positions are evaluated at the context time, extrapolated from
+    the last tick with the override then applied, so they stay smooth between ticks.
     """
 
     def __init__(self, follower: JointPathFollower, period: float = 0.02):
@@ -36,8 +37,13 @@ class PathFollower(TickedSystem):
         self._override = self.DeclareVectorInputPort("speed_override", 1)
         self._seen = [0] * len(follower.arm_indices)
         self._applied = 1.0
-        self.DeclareVectorOutputPort("positions", self._nq, self._calc_q, prerequisites_of_calc=self.ticket())
-        self.DeclareVectorOutputPort("velocities", self._nq, self._calc_v, prerequisites_of_calc=self.ticket())
+        self._last_tick_time = 0.0
+        self.DeclareVectorOutputPort(
+            "positions", self._nq, self._calc_q, prerequisites_of_calc={self.time_ticket(), self.xd_ticket()}
+        )
+        self.DeclareVectorOutputPort(
+            "velocities", self._nq, self._calc_v, prerequisites_of_calc=self.ticket()
+        )
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(()), self._calc_done, prerequisites_of_calc=self.ticket()
         )
@@ -46,16 +52,23 @@ class PathFollower(TickedSystem):
         )
 
     def tick(self, context) -> None:
-        for channel, seq, waypoints, dwells in self._requests.Eval(context) if self._requests.HasValue(context) else ():
+        for channel, seq, waypoints, dwells in (
+            self._requests.Eval(context) if self._requests.HasValue(context) else ()
+        ):
             if seq > self._seen[channel]:
                 self._seen[channel] = seq
                 self.follower.request(channel, seq, waypoints, dwells)
         override = self._override.Eval(context)[0] if self._override.HasValue(context) else 1.0
         self._applied = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
         self.follower.step(self.period, self._applied)
+        self._last_tick_time = context.get_time()
 
     def _calc_q(self, context, output: BasicVector):
-        output.SetFromVector(self.follower.q)
+        ahead = context.get_time() - self._last_tick_time
+        if ahead <= 0.0:
+            output.SetFromVector(self.follower.q)
+        else:
+            output.SetFromVector(self.follower.positions_ahead(ahead, self._applied))
 
     def _calc_v(self, context, output: BasicVector):
         output.SetFromVector(self.follower.velocities(self._applied))
@@ -83,13 +96,22 @@ class RobotTaskExecutor(TickedSystem):
         self._commands = self.DeclareAbstractInputPort("robot_commands", AbstractValue.Make(EventLog()))
         self._last_command = 0
         self.DeclareAbstractOutputPort(
-            "path_requests", lambda: AbstractValue.Make(()), self._calc_requests, prerequisites_of_calc=self.ticket()
+            "path_requests",
+            lambda: AbstractValue.Make(()),
+            self._calc_requests,
+            prerequisites_of_calc=self.ticket(),
         )
         self.DeclareAbstractOutputPort(
-            "robot_events", lambda: AbstractValue.Make(EventLog()), self._calc_events, prerequisites_of_calc=self.ticket()
+            "robot_events",
+            lambda: AbstractValue.Make(EventLog()),
+            self._calc_events,
+            prerequisites_of_calc=self.ticket(),
         )
         self.DeclareAbstractOutputPort(
-            "activity", lambda: AbstractValue.Make({}), self._calc_activity, prerequisites_of_calc=self.ticket()
+            "activity",
+            lambda: AbstractValue.Make({}),
+            self._calc_activity,
+            prerequisites_of_calc=self.ticket(),
         )
 
     def _request_path(self, channel, seq, waypoints, dwells):

@@ -103,7 +103,7 @@ def use_case_a(pattern: int = 1):
         Buffer("feeder", kind="raw"),
         Buffer("fused", capacity=2),
         Buffer("with_ic", capacity=2),
-        Buffer("checked", capacity=2),
+        Buffer("checked", capacity=2, initial=1),
         Buffer("product", kind="product"),
     ]
     flow = Flow(

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from hrc_drake.cell.build import build_cell
-from hrc_drake.cell.scenario import load_scenario
 from hrc_drake.cell.run import simulate
+from hrc_drake.cell.scenario import load_scenario
 from hrc_drake.cli import main
 from hrc_drake.messages import L_WRIST, R_WRIST
 
@@ -89,8 +89,20 @@ def test_simulate_command_writes_report_and_replay(tmp_path, diagrams_dir, capsy
     replay = tmp_path / "replay.html"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        code = main(["simulate", str(diagrams_dir / "torch_clock.yaml"), "--duration", "12", "--seed", "3",
-                     "--out", str(out), "--replay", str(replay)])
+        code = main(
+            [
+                "simulate",
+                str(diagrams_dir / "torch_clock.yaml"),
+                "--duration",
+                "12",
+                "--seed",
+                "3",
+                "--out",
+                str(out),
+                "--replay",
+                str(replay),
+            ]
+        )
     assert code == 0
     printed = capsys.readouterr().out
     for line in ("simulated time", "wall time", "realtime factor", "products finished", "mean cycle time"):

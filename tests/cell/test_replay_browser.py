@@ -14,11 +14,24 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 
 def screenshot(html, png, profile, virtual_ms):
     cmd = [
-        CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-        "--use-angle=swiftshader", "--disable-quic", "--no-first-run", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--proxy-server=127.0.0.1:9",
-        "--proxy-bypass-list=<-loopback>", f"--user-data-dir={profile}", "--window-size=900,700",
-        f"--virtual-time-budget={virtual_ms}", f"--screenshot={png}", html.as_uri(),
+        CHROMIUM,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--enable-unsafe-swiftshader",
+        "--use-angle=swiftshader",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--proxy-server=127.0.0.1:9",
+        "--proxy-bypass-list=<-loopback>",
+        f"--user-data-dir={profile}",
+        "--window-size=900,700",
+        f"--virtual-time-budget={virtual_ms}",
+        f"--screenshot={png}",
+        html.as_uri(),
     ]
     subprocess.run(cmd, check=True, capture_output=True, timeout=180)
     import matplotlib.image
@@ -31,8 +44,19 @@ def test_replay_renders_and_moves(tmp_path, diagrams_dir):
     replay = tmp_path / "replay.html"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        assert main(["simulate", str(diagrams_dir / "torch_clock.yaml"), "--duration", "14",
-                     "--replay", str(replay)]) == 0
+        assert (
+            main(
+                [
+                    "simulate",
+                    str(diagrams_dir / "torch_clock.yaml"),
+                    "--duration",
+                    "14",
+                    "--replay",
+                    str(replay),
+                ]
+            )
+            == 0
+        )
     early = screenshot(replay, tmp_path / "early.png", tmp_path / "p1", 1500)
     late = screenshot(replay, tmp_path / "late.png", tmp_path / "p2", 11000)
     for image in (early, late):

@@ -51,39 +51,48 @@ def _add_orphan_input(raw, action_name):
 BAD = {
     "unknown key": (
         lambda r: _op_action(r, "H1").update(duraton={"kind": "fixed", "mean": 1.0}),
-        "operator.actions[0].duraton", "unknown key",
+        "operator.actions[0].duraton",
+        "unknown key",
     ),
     "unknown goal": (
         lambda r: _op_action(r, "H2")["goals"].__setitem__(1, "nowhere"),
-        "operator.actions[1].goals[1]", "unknown goal or buffer 'nowhere'",
+        "operator.actions[1].goals[1]",
+        "unknown goal or buffer 'nowhere'",
     ),
     "unknown buffer": (
         lambda r: r["flow"]["actions"][0]["outputs"].__setitem__(0, "no_such_buffer"),
-        "flow.actions[0].outputs[0]", "unknown buffer 'no_such_buffer'",
+        "flow.actions[0].outputs[0]",
+        "unknown buffer 'no_such_buffer'",
     ),
     "unknown pose": (
         lambda r: r["robots"][0]["actions"][0]["poses"].__setitem__(0, "r_nowhere"),
-        "robots[0].actions[0].poses[0]", "unknown pose 'r_nowhere'",
+        "robots[0].actions[0].poses[0]",
+        "unknown pose 'r_nowhere'",
     ),
     "zero duration": (
         lambda r: _op_action(r, "H3")["duration"].update(kind="fixed", mean=0.0),
-        "operator.actions[2].duration.mean", "must be positive",
+        "operator.actions[2].duration.mean",
+        "must be positive",
     ),
     "negative duration": (
         lambda r: r["flow"]["actions"][1]["duration"].update(kind="normal", mean=-3.0),
-        "flow.actions[1].duration.mean", "must be positive",
+        "flow.actions[1].duration.mean",
+        "must be positive",
     ),
     "unsuppliable inputs": (
         lambda r: _add_orphan_input(r, "R2"),
-        "flow.actions[4].inputs", "can never start",
+        "flow.actions[4].inputs",
+        "can never start",
     ),
     "wrong type": (
         lambda r: r.update(seed="seven"),
-        "seed", "expected a number",
+        "seed",
+        "expected a number",
     ),
     "unknown scheduler": (
         lambda r: r.update(scheduler={"kind": "psychic"}),
-        "scheduler.kind", "unknown kind 'psychic'",
+        "scheduler.kind",
+        "unknown kind 'psychic'",
     ),
 }
 

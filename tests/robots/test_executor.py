@@ -10,14 +10,17 @@ from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 def make(use_commands=False):
     world = CellWorld(
         [Buffer(name="raw", kind="raw"), Buffer(name="a", capacity=1), Buffer(name="out", kind="product")],
-        [FlowAction(name="A", agents=["arm"], inputs=["raw"], outputs=["a"]),
-         FlowAction(name="B", agents=["arm"], inputs=["a"], outputs=["out"])],
+        [
+            FlowAction(name="A", agents=["arm"], inputs=["raw"], outputs=["a"]),
+            FlowAction(name="B", agents=["arm"], inputs=["a"], outputs=["out"]),
+        ],
     )
     requests = []
     moves = {n: RobotMove(np.zeros((1, 2)), np.zeros(1)) for n in ("A", "B")}
     program = [] if use_commands else ["B", "A"]
-    ex = TaskExecutor([ArmAgent("arm", 0, program)], moves, world,
-                      lambda *r: requests.append(r), use_commands=use_commands)
+    ex = TaskExecutor(
+        [ArmAgent("arm", 0, program)], moves, world, lambda *r: requests.append(r), use_commands=use_commands
+    )
     return ex, world, requests
 
 

@@ -1,3 +1,5 @@
+import copy
+
 import numpy as np
 import pytest
 
@@ -64,3 +66,16 @@ def test_bad_requests_are_refused():
     f = JointPathFollower(np.zeros(2), [np.array([0, 1])], [np.ones(2)])
     with pytest.raises(ValueError, match="expected 2"):
         f.request(0, 1, np.zeros((1, 3)), np.zeros(1))
+
+
+def test_positions_ahead_match_stepping():
+    follower = JointPathFollower(np.zeros(2), [np.array([0, 1])], [np.ones(2)])
+    follower.request(0, 1, np.array([[1.0, -0.5], [0.2, 0.3]]), np.array([0.3, 0.0]))
+    for _ in range(40):
+        follower.step(0.1, 0.7)
+        q = follower.q.copy()
+        probe = copy.deepcopy(follower)
+        probe.step(0.04, 0.7)
+        np.testing.assert_allclose(follower.positions_ahead(0.04, 0.7), probe.q, atol=1e-12)
+        np.testing.assert_array_equal(follower.q, q)
+    np.testing.assert_allclose(follower.positions_ahead(100.0, 1.0), [0.2, 0.3])

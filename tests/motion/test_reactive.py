@@ -1,0 +1,120 @@
+import numpy as np
+import pytest
+
+from hrc_drake.human.body import BodyModel
+from hrc_drake.messages import SweptVolumes
+from hrc_drake.motion.geometry import point_segment_distance
+from hrc_drake.motion.reactive import (
+    JointStateEstimator,
+    ReactiveMotionPredictor,
+    SweptVolumeBuilder,
+    excursions_from_rollouts,
+    worst_case_excursions,
+)
+
+
+def test_excursions_hand_computed():
+    q_now = np.array([0.0, 1.0])
+    rollouts = np.array([
+        [[0.1, 1.0], [0.3, 0.8]],   # trial 1: joint 0 up 0.3; joint 1 down 0.2
+        [[-0.2, 1.1], [0.1, 1.4]],  # trial 2: joint 0 up 0.1 down 0.2; joint 1 up 0.4
+    ])
+    plus, minus = excursions_from_rollouts(q_now, rollouts)  # means (8.9)-(8.10)
+    np.testing.assert_allclose(plus, [0.2, 0.2])
+    np.testing.assert_allclose(minus, [0.1, 0.1])
+    plus, minus = excursions_from_rollouts(q_now, rollouts, percentile=100)
+    np.testing.assert_allclose(plus, [0.3, 0.4])
+    np.testing.assert_allclose(minus, [0.2, 0.2])
+    with pytest.raises(ValueError, match="percentile"):
+        excursions_from_rollouts(q_now, rollouts, percentile=120)
+
+
+def test_worst_case_hand_computed():
+    # from rest, a = 2, v_max = 1, horizon 1: 0.5 s accelerating (0.25) + 0.5 s at v_max (0.5)
+    plus, minus = worst_case_excursions(np.array([0.0, 1.0, -1.0]), 1.0, 1.0, 2.0)
+    np.testing.assert_allclose(plus, [0.75, 1.0, 0.0])
+    # moving at -1: decelerate 1 s to 0 -> displacement -1 + 1 = 0, never positive within 1 s
+    np.testing.assert_allclose(minus, [0.75, 0.0, 1.0])
+
+
+def test_kalman_and_rts_on_constant_acceleration():
+    dt = 0.05
+    estimator = JointStateEstimator(n_dof=2, dt=dt, process_std=1.0, measurement_std=0.01, window=40)
+    rng = np.random.default_rng(0)
+    t = np.arange(80) * dt
+    truth = np.stack([0.5 * 0.8 * t**2, 0.3 * t], -1)  # q'' = 0.8, and a constant velocity 0.3
+    filtered = np.array([estimator.step(q + rng.normal(0, 0.002, 2)) for q in truth])
+    np.testing.assert_allclose(filtered[-1, :, 1], [0.8 * t[-1], 0.3], atol=0.1)
+    np.testing.assert_allclose(filtered[-1, :, 2], [0.8, 0.0], atol=0.5)
+    smoothed = estimator.smoothed_window()
+    assert smoothed.shape == (40, 2, 3)
+    np.testing.assert_allclose(smoothed[-1], filtered[-1])  # the last smoothed state is the filtered one
+    window_truth = truth[-40:]
+    err_filtered = np.abs(filtered[-40:-1, :, 0] - window_truth[:-1]).mean()
+    err_smoothed = np.abs(smoothed[:-1, :, 0] - window_truth[:-1]).mean()
+    assert err_smoothed < err_filtered
+
+
+@pytest.fixture(scope="module")
+def body():
+    return BodyModel()
+
+
+def test_swept_volumes_hold_the_body_over_the_joint_box(body):
+    builder = SweptVolumeBuilder(body, levels=3)
+    q = body.rest_q((1.0, 0.2), np.pi)
+    q[8] = 0.8
+    rng = np.random.default_rng(4)
+    for delta in (0.0, 0.1, 0.4):
+        start, end, radius = builder.build(q, np.full(12, delta), np.full(12, delta))
+        samples = np.clip(q + rng.uniform(-delta, delta, (3000, 12)), body.q_lower, body.q_upper)
+        s, e, r = body.capsules(samples)
+        reach = np.maximum(point_segment_distance(s, start, end), point_segment_distance(e, start, end)) + r
+        assert np.all(reach <= radius + 1e-9)
+    # zero excursions give back the body capsules themselves
+    s0, e0, r0 = body.capsules(q)
+    start, end, radius = builder.build(q, np.zeros(12), np.zeros(12))
+    np.testing.assert_allclose(radius, r0, atol=1e-9)
+    assert np.allclose(np.sort(np.stack([start, end], 1), axis=1), np.sort(np.stack([s0, e0], 1), axis=1))
+
+
+def test_bigger_excursions_give_bigger_volumes(body):
+    builder = SweptVolumeBuilder(body)
+    q = body.rest_q()
+    _, _, small = builder.build(q, np.full(12, 0.05), np.full(12, 0.05))
+    _, _, large = builder.build(q, np.full(12, 0.3), np.full(12, 0.3))
+    assert np.all(large > small)
+
+
+def test_constant_velocity_joint_excursions(body):
+    """A joint moving at constant speed v: Delta+ ~ v * horizon, Delta- ~ 0 once the GP is trained."""
+    dt, velocity = 0.05, 0.4
+    predictor = ReactiveMotionPredictor(body, "gp_c", order=2, dt=dt, horizon=0.5, n_trials=40, rng=0)
+    worst = ReactiveMotionPredictor(body, "worst_case", dt=dt, horizon=0.5, rng=0)
+    q = body.rest_q((1.0, 0.0), np.pi)
+    for k in range(120):
+        q_k = q.copy()
+        # right shoulder flexion sweeps back and forth at constant speed (triangle wave)
+        phase = (k * dt * velocity) % 1.2
+        q_k[8] = 0.2 + (phase if phase < 0.6 else 1.2 - phase)
+        plus, minus = predictor.update_q(q_k)
+        w_plus, w_minus = worst.update_q(q_k)
+    assert predictor.model_ready
+    rising = (k * dt * velocity) % 1.2 < 0.6
+    moving = plus[8] if rising else minus[8]
+    assert moving == pytest.approx(velocity * 0.5, abs=0.08)
+    # the worst case of [107] is far more conservative than the GP on the still joints
+    still = [0, 1, 4, 5, 6, 7]
+    assert np.all(w_plus[still] > plus[still])
+    assert w_plus[8] > plus[8] and w_minus[8] > minus[8]
+
+
+def test_update_from_points_gives_swept_volumes(body):
+    predictor = ReactiveMotionPredictor(body, "worst_case", dt=0.05, horizon=0.3, rng=0)
+    q = body.rest_q((1.0, 0.0), np.pi)
+    out = predictor.update(0.0, body.points(q))
+    assert isinstance(out, SweptVolumes)
+    assert out.names == body.CAPSULE_NAMES and out.start.shape == (6, 3) and out.horizon == pytest.approx(0.3)
+    np.testing.assert_allclose(body.points(predictor.q_), body.points(q), atol=1e-3)
+    with pytest.raises(ValueError, match="unknown kind"):
+        ReactiveMotionPredictor(body, "gp_z")
