@@ -328,7 +328,9 @@ class BodyModel:
         start = np.stack([pts[THORAX] - self.torso * up, pts[HEAD] - 0.06 * neck_dir, pts[L_SHOULDER],
                           pts[R_SHOULDER], pts[L_ELBOW], pts[R_ELBOW]])
         hands = pts[[L_WRIST, R_WRIST]] + self.hand_length * fore_dir
-        end = np.stack([pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW], hands[0], hands[1]])
+        end = np.stack(
+            [pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW], hands[0], hands[1]]
+        )
         return start, end, self.capsule_radius.copy()
 
     # ------------------------------------------------------------------ inverse kinematics
