@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 import warnings
 from pathlib import Path
@@ -48,6 +49,9 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="60 s of simulated time instead of 600 s")
     parser.add_argument("--duration", type=float, default=None)
     parser.add_argument("--scenario", default=str(REPO / "diagrams" / "torch_clock.yaml"))
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="kinematic runs per configuration (median kept)"
+    )
     args = parser.parse_args()
     duration = args.duration or (60.0 if args.quick else 600.0)
     warnings.simplefilter("ignore")
@@ -74,6 +78,7 @@ def main() -> None:
         key = f"rtf_{r['mode']}_{'replay' if r['record'] else 'noreplay'}"
         figures[key] = r["realtime_factor"]
     figures["replay_mb"] = max(r["replay_mb"] for r in rows)
+    figures["load_average_1min"] = round(os.getloadavg()[0], 2)
     figures["products_kinematic"] = rows[0]["products"]
     print(json.dumps(figures))
 

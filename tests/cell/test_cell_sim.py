@@ -115,3 +115,67 @@ def test_simulate_command_writes_report_and_replay(tmp_path, diagrams_dir, capsy
     html = replay.read_text()
     assert html.startswith("<!DOCTYPE html>") or "<html" in html[:200]
     assert "http://" not in html.split("<script", 1)[0]
+
+
+def _quiet_build_and_run(scenario, path, duration):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cell = build_cell(scenario, path)
+        result = simulate(cell, duration, progress=None)
+    return cell, result
+
+
+def test_a_cell_can_hold_a_yumi_and_an_irb140(diagrams_dir):
+    from hrc_drake.cell.schema import Arm, NamedPose, Pose, Robot, RobotAction
+
+    path = diagrams_dir / "torch_clock.yaml"
+    scenario = load_scenario(path)
+    scenario.robots.append(
+        Robot(
+            name="irb",
+            model="irb140",
+            base=Pose(xyz=[0.3, 1.0, 0.45], rpy=[0.0, 0.0, -1.5708]),
+            poses=[
+                NamedPose(name="irb_home", arm="arm", joints=[0.0, 0.0, 0.0, 0.0, 0.5, 0.0]),
+                NamedPose(name="irb_drop", arm="arm", target=Pose(xyz=[0.3, 0.45, 0.85])),
+            ],
+            actions=[RobotAction(name="store", arm="arm", poses=["irb_drop", "irb_home"], dwell=0.5)],
+            arms=[Arm(agent="irb140", arm="arm", home="irb_home", program=["store"])],
+        )
+    )
+    cell, result = _quiet_build_and_run(scenario, path, 15.0)
+    assert "irb140" in result.metrics["agents"]
+    assert result.metrics["agents"]["irb140"]["actions_finished"] >= 2
+    assert cell.plant.num_positions() == 2 * 7 + 4 + 6
+
+
+def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
+    import yaml
+
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.human.recorded import save_skeleton_csv
+
+    body = BodyModel()
+    times = np.arange(0.0, 20.0, 1 / 30)
+    q = np.tile(body.rest_q((1.0, 0.0), np.pi), (len(times), 1))
+    q[:, 8] = 0.6 + 0.5 * np.sin(times)  # the right shoulder swings
+    points = body.points(q)
+    tracked = np.ones((len(times), 8), dtype=bool)
+    tracked[100:130, 7] = False
+    points[100:130, 7] = np.nan
+    save_skeleton_csv(tmp_path / "skeleton.csv", times, points, tracked)
+    raw = yaml.safe_load((diagrams_dir / "torch_clock.yaml").read_text())
+    raw["operator"]["recorded"] = "skeleton.csv"
+    (tmp_path / "cell.yaml").write_text(yaml.safe_dump(raw))
+    scenario = load_scenario(tmp_path / "cell.yaml")
+    cell, result = _quiet_build_and_run(scenario, tmp_path / "cell.yaml", 10.0)
+    recorded = np.array([p for p in cell.recorder.log.human_points if p is not None]).reshape(-1, 8, 3)
+    assert np.all(np.isfinite(recorded))
+    assert np.ptp(recorded[:, 7, 2]) > 0.1  # the recorded wrist moves in the cell
+    assert result.metrics["agents"]["yumi_right"]["actions_finished"] >= 1
+    raw["operator"]["recorded"] = "missing.csv"
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(raw))
+    from hrc_drake.cell.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError, match="operator.recorded"):
+        build_cell(load_scenario(tmp_path / "bad.yaml"), tmp_path / "bad.yaml")
