@@ -79,7 +79,6 @@ class HumanMotionPredictor(LeafSystem):
         if points.shape != (8, 3) or np.sum(np.all(np.isfinite(points), axis=1)) < 3:
             return EventStatus.DidNothing()
         swept = self.core.update(context.get_time(), points)
-        k = self._k
         vector = np.concatenate([[1.0, swept.time, swept.horizon], swept.start.ravel(), swept.end.ravel(),
                                  swept.radius])
         discrete_state.get_mutable_vector(self._state_index).SetFromVector(vector)

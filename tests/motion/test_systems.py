@@ -67,7 +67,7 @@ def test_predictor_and_scaler_in_a_diagram(kind):
     finite = np.isfinite(distances)
     assert finite.sum() > 20
     # the operator walks in: the clearance shrinks and the robot slows down, never above 1
-    assert distances[finite][-1] < distances[finite][0]
+    assert distances[finite][-1] < distances[finite].max() - 0.2
     assert np.all((overrides >= 0) & (overrides <= 1))
     assert overrides[-1] < 1.0
     # the override follows the rule applied to the logged clearance, one update later at most
