@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from intention_reaches import reach_samples
 
 from hrc_drake.intention.likelihood import IntentionLikelihoodLearner
+from tests.intention.intention_reaches import reach_samples
 
 
 @pytest.fixture(scope="session")

@@ -1,6 +1,5 @@
 import numpy as np
 import pytest
-from intention_reaches import GOALS, straight_reach
 from scipy.special import logsumexp
 
 from hrc_drake.intention.bayes import (
@@ -11,6 +10,7 @@ from hrc_drake.intention.bayes import (
 )
 from hrc_drake.intention.features import skeleton_features, trajectory_velocities
 from hrc_drake.messages import HEAD, L_WRIST, R_WRIST
+from tests.intention.intention_reaches import GOALS, straight_reach
 
 
 def test_bayes_update_hand_computed():

@@ -1,11 +1,11 @@
 import numpy as np
-from intention_reaches import GOALS, straight_reach
 
 from hrc_drake.intention.bayes import GoalIntentionEstimator
 from hrc_drake.intention.evaluation import reach_outcomes, run_estimator, table_3_1
 from hrc_drake.intention.layouts import box_usb_layout, random_layout
 from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, default_model
 from hrc_drake.intention.recording import reaches_of, record_reaches, training_samples
+from tests.intention.intention_reaches import GOALS, straight_reach
 
 
 def test_shipped_model_loads_from_json_and_recognises_a_reach():

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
-from intention_reaches import reach_samples
 from scipy.stats import multivariate_normal
 from sklearn.mixture import GaussianMixture
 
 from hrc_drake.intention.likelihood import GaussianMixtureDensity, IntentionLikelihoodLearner, IntentionModel
+from tests.intention.intention_reaches import reach_samples
 
 
 def test_density_matches_scipy_and_sklearn():

@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from intention_reaches import GOALS, straight_reach
+
+from tests.intention.intention_reaches import GOALS, straight_reach
 
 pydrake = pytest.importorskip("pydrake")
 from pydrake.common.value import AbstractValue  # noqa: E402
