@@ -1,9 +1,11 @@
 """Record labelled reaches from synthetic operators and learn GMM4d / GMM2d (thesis 3.1.2, Fig. 3.8).
 
-Operators vary in anthropometrics, camera noise, gaze noise and goal layout (random layouts and
-the box-with-USB-pen cell of 3.1.3); the second benchmark layout is never used here. The model
-is saved as JSON (weights, means, covariances), by default as the shipped
-hrc_drake/data/intention_default.json.
+Operators vary in anthropometrics, camera noise, gaze noise, where exactly they put the hand
+at each goal, and the cell: random layouts (single-goal reaches, one hand or both) and the
+box-with-USB-pen cell of 3.1.3 (cycles of its fill, foam, bring, tape actions); the second
+benchmark layout is never used here. GMM4d learns from the samples whose gaze flag F is valid,
+GMM2d from all. The model is saved as JSON (weights, means, covariances), by default as the
+shipped hrc_drake/data/intention_default.json.
 
     python tools/train_intention.py [--operators 24] [--reaches 40] [--out PATH] [--seed 0]
 """
@@ -22,7 +24,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from hrc_drake.intention.layouts import box_usb_layout, random_layout  # noqa: E402
 from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
-from hrc_drake.intention.recording import random_segments, record_reaches, training_samples  # noqa: E402
+from hrc_drake.intention.recording import (  # noqa: E402
+    random_segments,
+    record_reaches,
+    record_task_cycles,
+    training_samples,
+)
 
 NOISE_LEVELS = (0.005, 0.01, 0.02)
 GAZE_NOISE_LEVELS = (0.05, 0.1, 0.2)
@@ -30,22 +37,43 @@ GAZE_NOISE_LEVELS = (0.05, 0.1, 0.2)
 TRAIN_SEED_OFFSET = 0
 
 
-def collect(n_operators: int, n_reaches: int, seed: int, verbose: bool = True) -> np.ndarray:
-    """Phi samples (M, 4) of `n_operators` synthetic operators."""
-    rows = []
+#: std (m) of an operator's personal offset from each goal centre
+SCATTER_RANGE = (0.0, 0.04)
+#: share of the random layouts' goals reached with both hands
+BOTH_HANDS_SHARE = 0.25
+
+
+def collect(n_operators: int, n_reaches: int, seed: int, verbose: bool = True):
+    """Phi samples (M, 4) of `n_operators` synthetic operators and their gaze flags F (M,)."""
+    rows, flags = [], []
     for i in range(n_operators):
         rng = np.random.default_rng([seed, TRAIN_SEED_OFFSET + i])
-        layout = box_usb_layout() if i % 3 == 2 else random_layout(rng)
         noise, gaze_noise = rng.choice(NOISE_LEVELS), rng.choice(GAZE_NOISE_LEVELS)
-        recording = record_reaches(layout, random_segments(rng), n_reaches, rng, noise, gaze_noise)
-        rows.append(training_samples(recording))
+        scatter = rng.uniform(*SCATTER_RANGE)
+        segments = random_segments(rng)
+        if i % 3 == 2:
+            layout = box_usb_layout()
+            n_cycles = max(1, n_reaches // 12)  # a cycle of the box cell is 10-12 reaches
+            recording = record_task_cycles(
+                layout, segments, n_cycles, rng, noise, gaze_noise, target_scatter=scatter
+            )
+        else:
+            layout = random_layout(rng)
+            hands = tuple("both" if rng.random() < BOTH_HANDS_SHARE else h for h in layout.hands)
+            recording = record_reaches(
+                layout, segments, n_reaches, rng, noise, gaze_noise, hands=hands, target_scatter=scatter
+            )
+        phi, flag = training_samples(recording, with_gaze_flag=True)
+        rows.append(phi)
+        flags.append(flag)
         if verbose:
             print(
                 f"  operator {i + 1}/{n_operators}: {layout.name}, noise {noise:.3f} m, "
-                f"gaze noise {gaze_noise:.2f}, {len(rows[-1])} samples",
+                f"gaze noise {gaze_noise:.2f}, scatter {scatter:.3f} m, {len(phi)} samples "
+                f"({100 * flag.mean():.0f} % with a valid gaze flag)",
                 flush=True,
             )
-    return np.concatenate(rows)
+    return np.concatenate(rows), np.concatenate(flags)
 
 
 def main(argv=None) -> int:
@@ -60,15 +88,16 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     start = time.time()
     print(f"recording {args.operators} operators x {args.reaches} reaches", flush=True)
-    phi = collect(args.operators, args.reaches, args.seed)
+    phi, gaze_valid = collect(args.operators, args.reaches, args.seed)
     print(f"{len(phi)} samples in {time.time() - start:.0f} s; fitting", flush=True)
     learner = IntentionLikelihoodLearner(candidates=range(1, args.max_components + 1), random_state=args.seed)
-    learner.fit(phi)
+    learner.fit(phi, gaze_valid)
     learner.model_.info.update(
         {
             "operators": args.operators,
             "reaches_per_operator": args.reaches,
             "seed": args.seed,
+            "samples_gaze_valid": int(gaze_valid.sum()),
             "tool": "tools/train_intention.py",
         }
     )
@@ -89,6 +118,7 @@ def main(argv=None) -> int:
         json.dumps(
             {
                 "samples": len(phi),
+                "samples_gaze_valid": int(gaze_valid.sum()),
                 "n_components_4d": learner.n_components_4d_,
                 "n_components_2d": learner.n_components_2d_,
                 "seconds": round(time.time() - start, 1),

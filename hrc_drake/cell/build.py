@@ -18,7 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
-from hrc_drake.cell.scenario import ScenarioError
+from hrc_drake.cell.scenario import ScenarioError, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
     HumanCapsules,
@@ -43,7 +43,6 @@ from hrc_drake.robots.models import (
 )
 from hrc_drake.robots.path import JointPathFollower
 from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
-from hrc_drake.scheduling.durations import sample_duration
 
 
 @dataclass
@@ -154,21 +153,13 @@ def _product_actions(scenario: Scenario) -> dict[str, int]:
     return out
 
 
-def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng, file):
-    from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng):
+    from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
     from hrc_drake.human.systems import OperatorSource
 
     op = scenario.operator
-    places = _places(scenario)
-    tasks = {}
-    for a in op.actions:
-
-        def sampler(generator, dist=a.duration):
-            return float(sample_duration(dist, generator))
-
-        tasks[a.name] = OperatorTask(a.name, [places[g] for g in a.goals], a.hand, sampler)
-    base = op.base
-    rest_q = body.rest_q(base_xy=base.xyz[:2], yaw=base.rpy[2])
+    tasks = tasks_from_schema(op, _places(scenario))
+    rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
     operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, world=world, agent=op.name)
     return OperatorSource(operator, rate=CELL_RATE), operator
 
@@ -178,8 +169,7 @@ def _recorded_source(scenario: Scenario, scenario_path):
     from hrc_drake.human.recorded import load_skeleton_csv
     from hrc_drake.human.systems import RecordedSkeletonSource
 
-    base = Path(scenario_path).parent if str(scenario_path) != "<scenario>" else Path.cwd()
-    path = (base / scenario.operator.recorded).resolve()
+    path = scenario_relative(scenario_path, scenario.operator.recorded)
     if not path.is_file():
         raise ScenarioError(scenario_path, "operator.recorded", f"no such file: {path}")
     try:
@@ -294,7 +284,7 @@ def build_cell(
         no_events = builder.AddSystem(ConstantValueSource(AbstractValue.Make(EventLog())))
         human_events_port = no_events.get_output_port()
     else:
-        operator_source, operator = _operator_system(scenario, body, world, rngs[0], scenario_path)
+        operator_source, operator = _operator_system(scenario, body, world, rngs[0])
         builder.AddSystem(operator_source)
         operator_source.set_name("operator")
         systems["operator"] = operator_source

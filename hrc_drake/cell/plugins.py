@@ -12,6 +12,7 @@ from pydrake.geometry import Rgba, Sphere
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 
+from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame
 
@@ -75,13 +76,6 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsule
     return tracker.GetOutputPort("skeleton_estimate")
 
 
-def _relative(scenario_path, name: str):
-    from pathlib import Path
-
-    base = Path(scenario_path).parent if str(scenario_path) != "<scenario>" else Path.cwd()
-    return base / name
-
-
 def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, systems):
     if scenario.intention.kind == "none":
         return
@@ -93,7 +87,7 @@ def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, sys
     if scenario.intention.model:
         from hrc_drake.intention.likelihood import IntentionModel
 
-        model = IntentionModel.load(_relative(scenario_path, scenario.intention.model))
+        model = IntentionModel.load(scenario_relative(scenario_path, scenario.intention.model))
     estimator = builder.AddSystem(
         IntentionEstimator(
             [g.name for g in goals],

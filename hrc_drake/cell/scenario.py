@@ -42,6 +42,13 @@ class ScenarioError(ValueError):
         super().__init__(f"{where}: {reason}")
 
 
+def scenario_relative(scenario_path: str | Path, name: str) -> Path:
+    """A file named in a scenario: relative to the scenario's folder (the working folder for a
+    scenario built in code)."""
+    base = Path(scenario_path).parent if str(scenario_path) != "<scenario>" else Path.cwd()
+    return (base / name).resolve()
+
+
 def _unwrap_optional(tp):
     if typing.get_origin(tp) in (typing.Union, types.UnionType):
         args = [a for a in typing.get_args(tp) if a is not type(None)]

@@ -26,6 +26,7 @@ from scipy.optimize import least_squares
 
 from hrc_drake.human.body import ARM_DOFS, BodyModel
 from hrc_drake.messages import HEAD, HUMAN_AGENT, THORAX, WRIST_OF_HAND, HumanEvent
+from hrc_drake.scheduling.durations import sample_duration, validate_distribution
 
 #: the head starts turning towards a goal this long before the hand starts moving (s)
 HEAD_LEAD = 0.3
@@ -58,49 +59,10 @@ class OperatorTask:
 
 
 def sampler_from_distribution(dist) -> Callable[[np.random.Generator], float]:
-    """A duration sampler from a `schema.Distribution` (kinds: fixed, normal, uniform,
-    triangular, lognormal, empirical), floored at MIN_DURATION."""
-    kind = dist.kind
-    mean, std, low, high, mode = (float(dist.mean), float(dist.std), float(dist.low), float(dist.high),
-                                  float(dist.mode))
-    if kind == "fixed":
-        if mean <= 0:
-            raise ValueError(f"duration distribution 'fixed': mean must be > 0, got {mean}")
-        return lambda rng: mean
-    if kind == "normal":
-        if std < 0:
-            raise ValueError(f"duration distribution 'normal': std must be >= 0, got {std}")
-        floor = max(low, MIN_DURATION)
-
-        def normal(rng):
-            for _ in range(100):  # truncation at `low` by rejection
-                value = rng.normal(mean, std)
-                if value >= floor:
-                    return float(value)
-            return floor
-
-        return normal
-    if kind == "uniform":
-        if not high > low:
-            raise ValueError(f"duration distribution 'uniform': need high > low, got low={low}, high={high}")
-        return lambda rng: max(float(rng.uniform(low, high)), MIN_DURATION)
-    if kind == "triangular":
-        if not low <= mode <= high or not high > low:
-            raise ValueError(f"duration distribution 'triangular': need low <= mode <= high, "
-                             f"got {low}, {mode}, {high}")
-        return lambda rng: max(float(rng.triangular(low, mode, high)), MIN_DURATION)
-    if kind == "lognormal":
-        if mean <= 0 or std < 0:
-            raise ValueError(f"duration distribution 'lognormal': need mean > 0, std >= 0, got {mean}, {std}")
-        sigma2 = np.log1p((std / mean) ** 2)
-        mu = np.log(mean) - 0.5 * sigma2
-        return lambda rng: max(float(rng.lognormal(mu, np.sqrt(sigma2))), MIN_DURATION)
-    if kind == "empirical":
-        samples = np.asarray(dist.samples, dtype=float)
-        if samples.size == 0 or not np.all(np.isfinite(samples)):
-            raise ValueError("duration distribution 'empirical': samples must be a non-empty list of numbers")
-        return lambda rng: max(float(rng.choice(samples)), MIN_DURATION)
-    raise ValueError(f"duration distribution: unknown kind {kind!r}")
+    """A duration sampler from a `schema.Distribution` (see `hrc_drake.scheduling.durations`),
+    floored at MIN_DURATION. Raises ValueError for a distribution that cannot be sampled."""
+    validate_distribution(dist)
+    return lambda rng: max(sample_duration(dist, rng), MIN_DURATION)
 
 
 def tasks_from_schema(operator_schema, goal_positions: dict) -> dict:

@@ -76,13 +76,15 @@ def bayes_update(
 
 
 def minimum_jerk_velocity(
-    p0: np.ndarray, v0: np.ndarray, target: np.ndarray, duration: np.ndarray, t: float
+    p0: np.ndarray, v0: np.ndarray, target: np.ndarray, duration: np.ndarray, t
 ) -> np.ndarray:
     """Velocity at time t of the quintic from (p0, v0, a=0) to (target, v=0, a=0) in `duration`.
 
-    The nominal velocity of [135] (3.1.1). p0, v0: (..., 3); target: (..., 3); duration: (...,) > 0.
+    The nominal velocity of [135] (3.1.1). p0, v0: (..., 3); target: (..., 3); duration and
+    t: (...,) or scalars, duration > 0.
     """
     duration = np.asarray(duration, dtype=float)[..., None]
+    t = np.asarray(t, dtype=float)[..., None]
     delta = np.asarray(target, dtype=float) - np.asarray(p0, dtype=float)
     v0 = np.asarray(v0, dtype=float)
     a3 = (10.0 * delta - 6.0 * v0 * duration) / duration**3
@@ -166,7 +168,10 @@ class GoalIntentionEstimator:
         """Back to uniform probabilities and an empty velocity history."""
         self._velocity.reset()
         self.probabilities_ = np.full((2, self.n_goals), 1.0 / self.n_goals)
-        self._previous = None  # (time, wrists, velocity) for M1's nominal trajectory
+        # M1: where and when each hand's current motion started, and its velocity then
+        self._anchor_time = np.full(2, np.nan)
+        self._anchor_position = np.full((2, 3), np.nan)
+        self._anchor_velocity = np.zeros((2, 3))
         self.last_active_ = np.zeros(2, dtype=bool)
 
     def _goal_samples(self) -> np.ndarray:
@@ -210,25 +215,38 @@ class GoalIntentionEstimator:
         return log_lik, active
 
     def _m1_log_likelihood(self, time, wrists, velocity, moving):
-        log_lik = np.full((2, self.n_goals), np.nan)
-        previous = self._previous
-        self._previous = (time, wrists.copy(), velocity.copy(), moving.copy())
-        if previous is None:
-            return log_lik
-        t_prev, p_prev, v_prev, moving_prev = previous
-        dt = time - t_prev
-        if not dt > 0:
-            return log_lik
-        start = np.where(np.isfinite(p_prev), p_prev, wrists)
-        start_velocity = np.where(moving_prev[:, None], v_prev, 0.0)
+        """log L(delta^i | G_i) of [135], eq. (3.1): zero-mean Gaussian of the angle to the nominal velocity.
+
+        The nominal velocity of goal i is that of the minimum-jerk reach (quintic, zero end
+        velocity and accelerations) from where this hand's motion started, p_s with v_s, to C_i
+        in D_i = |C_i - p_s| / m1_mean_speed, at the time elapsed since the start. Re-planned from
+        p_{k-1} at every step, the quintic's velocity one step later is v_{k-1} + O(dt^2)
+        whatever the goal, and the angles could not tell the goals apart.
+        """
+        finite = np.all(np.isfinite(wrists), axis=1)
+        # A still (or lost) hand re-anchors: its next motion starts here, at rest.
+        rest = ~moving & finite
+        self._anchor_time = np.where(rest, time, self._anchor_time)
+        self._anchor_position = np.where(rest[:, None], wrists, self._anchor_position)
+        self._anchor_velocity = np.where(rest[:, None], 0.0, self._anchor_velocity)
+        fresh = moving & finite & ~np.isfinite(self._anchor_time)  # moving since the first frame
+        self._anchor_time = np.where(fresh, time, self._anchor_time)
+        self._anchor_position = np.where(fresh[:, None], wrists, self._anchor_position)
+        self._anchor_velocity = np.where(fresh[:, None], velocity, self._anchor_velocity)
+        start = self._anchor_position  # (2, 3)
         distance = np.linalg.norm(self.goal_centers[None] - start[:, None], axis=-1)  # (2, G)
         duration = np.clip(distance / self.m1_mean_speed, 0.3, 3.0)
+        # past the nominal end the quintic's velocity vanishes: keep its direction just before
+        elapsed = np.clip(np.nan_to_num(time - self._anchor_time)[:, None], 0.0, 0.95 * duration)
         nominal = minimum_jerk_velocity(
-            start[:, None], start_velocity[:, None], self.goal_centers[None], duration, dt
+            start[:, None], self._anchor_velocity[:, None], self.goal_centers[None], duration, elapsed
         )  # (2, G, 3)
+        at_start = np.linalg.norm(nominal, axis=-1) < 1e-9
+        # at the very start of a reach from rest the nominal direction is that of C_i - p_s
+        nominal = np.where(at_start[..., None], self.goal_centers[None] - start[:, None], nominal)
         delta = angle_between(velocity[:, None], nominal)
-        log_lik = -0.5 * (delta / self.m1_sigma) ** 2  # zero-mean Gaussian, eq. (3.1)
-        return np.where(moving[:, None], log_lik, np.nan)
+        log_lik = -0.5 * (delta / self.m1_sigma) ** 2
+        return np.where((moving & finite)[:, None], log_lik, np.nan)
 
     def update(
         self, time: float, points: np.ndarray, gaze: np.ndarray, gaze_valid: bool = True

@@ -207,7 +207,7 @@ class IntentionLikelihoodLearner:
         candidates=tuple(range(1, 13)),
         heldout_fraction: float = 0.25,
         tolerance: float = 0.05,
-        reg_covar: float = 1e-4,
+        reg_covar: float = 1e-3,
         max_samples: int = 40000,
         window: int = DEFAULT_WINDOW,
         min_speed: float = DEFAULT_MIN_SPEED,
@@ -245,13 +245,26 @@ class IntentionLikelihoodLearner:
         ).fit(x)
         return gmm, chosen, scores
 
-    def fit(self, phi: np.ndarray) -> IntentionLikelihoodLearner:
-        """Fit both mixtures to samples Phi (M, 4) of the true goals."""
+    def fit(self, phi: np.ndarray, gaze_valid: np.ndarray | None = None) -> IntentionLikelihoodLearner:
+        """Fit GMM4d to the samples Phi (M, 4) of the true goals whose gaze flag F is valid, GMM2d to all.
+
+        gaze_valid (M,) bool: flag F of each sample (default: all valid). GMM4d is used on line
+        only when F is valid (3.1.2), so it learns delta_H only from trustworthy gaze estimates.
+        """
         phi = _check_samples(phi, 4, "IntentionLikelihoodLearner.fit")
-        if len(phi) < 2 * max(self.candidates[0], 2):
-            raise ValueError(f"IntentionLikelihoodLearner.fit: too few samples ({len(phi)})")
+        valid = np.ones(len(phi), dtype=bool) if gaze_valid is None else np.asarray(gaze_valid, dtype=bool)
+        if valid.shape != (len(phi),):
+            raise ValueError(
+                f"IntentionLikelihoodLearner.fit: gaze_valid must be ({len(phi)},), got {valid.shape}"
+            )
+        minimum = 2 * max(self.candidates[0], 2)
+        if len(phi) < minimum or valid.sum() < minimum:
+            raise ValueError(
+                f"IntentionLikelihoodLearner.fit: too few samples ({len(phi)}, {int(valid.sum())} with a "
+                f"valid gaze flag; at least {minimum} each)"
+            )
         rng = np.random.default_rng(self.random_state)
-        self.gmm4d_, self.n_components_4d_, self.heldout_scores_4d_ = self._select_and_fit(phi, rng)
+        self.gmm4d_, self.n_components_4d_, self.heldout_scores_4d_ = self._select_and_fit(phi[valid], rng)
         psi = phi[:, list(PSI_COLUMNS)]
         self.gmm2d_, self.n_components_2d_, self.heldout_scores_2d_ = self._select_and_fit(psi, rng)
         self.n_samples_seen_ = len(phi)

@@ -19,13 +19,7 @@ from hrc_drake.intention.features import (
     skeleton_features,
     trajectory_velocities,
 )
-from hrc_drake.intention.layouts import (
-    CAMERA_POSITION,
-    CAMERA_TARGET,
-    OPERATOR_BASE,
-    OPERATOR_YAW,
-    GoalLayout,
-)
+from hrc_drake.intention.layouts import GoalLayout
 from hrc_drake.messages import HANDS, L_WRIST, R_WRIST
 
 
@@ -66,6 +60,11 @@ def _noisy_gaze(gaze: np.ndarray, std: float, rng: np.random.Generator) -> np.nd
     return noisy / max(np.linalg.norm(noisy), 1e-9)
 
 
+def _scattered(point: np.ndarray, scatter: float, rng: np.random.Generator) -> np.ndarray:
+    """Where this operator really puts the hand for a goal: the centre plus a personal offset."""
+    return np.asarray(point, dtype=float) + (scatter * rng.standard_normal(3) if scatter > 0 else 0.0)
+
+
 def record_reaches(
     layout: GoalLayout,
     segments,
@@ -77,39 +76,91 @@ def record_reaches(
     duration_range: tuple[float, float] = (1.2, 2.2),
     pattern: list[int] | None = None,
     hands: tuple[str, ...] | None = None,
+    target_scatter: float = 0.0,
 ) -> Recording:
     """Record `n_reaches` single-goal actions of a synthetic operator in `layout`.
 
     pattern: goal indices in order (default: random, never the same goal twice in a row);
-    hands: the hand per goal (default: layout.hands). Durations are uniform in duration_range.
+    hands: the hand per goal, left|right|both (default: layout.hands). Durations are uniform in
+    duration_range. target_scatter (m): std of this operator's personal offset from each centre.
     """
-    import warnings
-
-    from hrc_drake.human.body import BodyModel
-    from hrc_drake.human.camera import DepthCameraModel
-    from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+    from hrc_drake.human.operator import OperatorTask
 
     n_goals = len(layout.goal_names)
     hands = tuple(hands or layout.hands)
+    if len(hands) != n_goals:
+        raise ValueError(f"record_reaches: {len(hands)} hands for {n_goals} goals")
     if pattern is None:
         pattern = [int(rng.integers(n_goals))]
         while len(pattern) < n_reaches:
             step = int(rng.integers(1, n_goals))
             pattern.append((pattern[-1] + step) % n_goals)
     low, high = duration_range
-    tasks = {
-        f"reach_{i}": OperatorTask(
-            f"reach_{i}", [layout.centers[i]], hands[i], lambda r, lo=low, hi=high: float(r.uniform(lo, hi))
+    tasks, labels = {}, {}
+    for i in range(n_goals):
+        target = _scattered(layout.centers[i], target_scatter, rng)
+        tasks[f"reach_{i}"] = OperatorTask(
+            f"reach_{i}", [target], hands[i], lambda r, lo=low, hi=high: float(r.uniform(lo, hi))
         )
-        for i in range(n_goals)
-    }
+        labels[tuple(np.round(target, 6))] = i
+    names = [f"reach_{i}" for i in pattern]
+    total = high * len(names)
+    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate)
+
+
+def record_task_cycles(
+    layout: GoalLayout,
+    segments,
+    n_cycles: int,
+    rng: np.random.Generator,
+    noise_std: float = 0.01,
+    gaze_noise: float = 0.1,
+    rate: float = 30.0,
+    target_scatter: float = 0.0,
+) -> Recording:
+    """Record `n_cycles` of the scenario's operator pattern (layout.tasks, e.g. fill, foam, bring, tape).
+
+    Each action reaches its targets with its hand(s) as in the cell (thesis 3.1.3); durations
+    are normal (mean, std) truncated at `low`; the world never makes the operator wait.
+    """
+    from hrc_drake.human.operator import OperatorTask
+
+    if not layout.tasks or not layout.pattern:
+        raise ValueError(f"record_task_cycles: layout {layout.name!r} has no operator tasks")
+    tasks, labels = {}, {}
+    longest = 0.0
+    for task in layout.tasks:
+        targets = [_scattered(t, target_scatter, rng) for t in task.targets]
+        mean, std, low = task.duration
+        floor = max(low, 0.3)
+
+        def sampler(r, mean=mean, std=std, low=floor):
+            return float(max(r.normal(mean, std), low))
+
+        tasks[task.name] = OperatorTask(task.name, targets, task.hand, sampler)
+        for target, label in zip(targets, task.labels, strict=True):
+            if label >= 0:
+                labels[tuple(np.round(target, 6))] = label
+        longest = max(longest, mean + 4 * std)
+    names = list(layout.pattern) * int(n_cycles)
+    total = longest * len(names)
+    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate)
+
+
+def _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate) -> Recording:
+    import warnings
+
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.human.camera import DepthCameraModel
+    from hrc_drake.human.operator import SyntheticOperator
+
+    x, y, yaw = layout.operator_base
     body = BodyModel(segments)
-    rest_q = body.rest_q(OPERATOR_BASE, OPERATOR_YAW)
+    rest_q = body.rest_q((x, y), yaw)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a goal slightly out of a short arm's reach is fine here
-        operator = SyntheticOperator(body, tasks, [f"reach_{i}" for i in pattern], rest_q, rng)
-    camera = DepthCameraModel(CAMERA_POSITION, CAMERA_TARGET, noise_std=noise_std, rate=rate)
-    total = high * len(pattern)
+        operator = SyntheticOperator(body, tasks, names, rest_q, rng)
+    camera = DepthCameraModel(layout.camera_position, layout.camera_target, noise_std=noise_std, rate=rate)
     times = np.arange(0.0, total, 1.0 / rate)
     count = len(times)
     points = np.empty((count, 8, 3))
@@ -117,7 +168,6 @@ def record_reaches(
     gaze_valid = np.empty(count, dtype=bool)
     true_wrists = np.empty((count, 2, 3))
     target = np.full((count, 2), -1)
-    key = {tuple(np.round(c, 6)): i for i, c in enumerate(layout.centers)}
     finished = 0
     for k, t in enumerate(times):
         with warnings.catch_warnings():
@@ -131,8 +181,8 @@ def record_reaches(
         for h, hand in enumerate(HANDS):
             goal = operator.current_goal(hand)
             if goal is not None:
-                target[k, h] = key.get(tuple(np.round(goal, 6)), -1)
-        if finished >= len(pattern):
+                target[k, h] = labels.get(tuple(np.round(goal, 6)), -1)
+        if finished >= len(names):
             count = k + 1
             break
     return Recording(
@@ -147,19 +197,30 @@ def record_reaches(
 
 
 def training_samples(
-    recording: Recording, window: int = DEFAULT_WINDOW, min_speed: float = DEFAULT_MIN_SPEED
-) -> np.ndarray:
-    """Phi (M, 4) for the true goal of every moving, labelled hand sample (thesis 3.1.2)."""
+    recording: Recording,
+    window: int = DEFAULT_WINDOW,
+    min_speed: float = DEFAULT_MIN_SPEED,
+    with_gaze_flag: bool = False,
+):
+    """Phi (M, 4) for the true goal of every moving, labelled hand sample (thesis 3.1.2).
+
+    With `with_gaze_flag` also the flag F (M,) of each sample: (phi, gaze_valid).
+    """
     wrists = recording.points[:, [L_WRIST, R_WRIST]]
     velocity, moving = trajectory_velocities(recording.times, wrists, window, min_speed)
     phi = skeleton_features(recording.points, velocity, moving, recording.gaze, recording.layout.centers)
-    rows = []
+    rows, flags = [], []
     for h in range(2):
         labelled = (recording.target[:, h] >= 0) & moving[:, h] & np.all(np.isfinite(wrists[:, h]), axis=1)
         steps = np.nonzero(labelled)[0]
         rows.append(phi[steps, h, recording.target[steps, h], 0])
+        flags.append(recording.gaze_valid[steps])
     samples = np.concatenate(rows)
-    return samples[np.all(np.isfinite(samples), axis=1)]
+    flag = np.concatenate(flags).astype(bool)
+    finite = np.all(np.isfinite(samples), axis=1)
+    if with_gaze_flag:
+        return samples[finite], flag[finite]
+    return samples[finite]
 
 
 @dataclass(frozen=True)
@@ -172,8 +233,13 @@ class Reach:
     arrival: int
 
 
-def reaches_of(recording: Recording, arrival_distance: float = 0.03) -> list[Reach]:
-    """Runs of a constant target per hand; arrival = first sample with the true wrist near the goal."""
+def reaches_of(recording: Recording, arrival_margin: float = 0.03, max_offset: float = 0.2) -> list[Reach]:
+    """Runs of a constant target per hand, from the start of the run to the arrival at the goal.
+
+    Arrival: the first sample whose true wrist is within `arrival_margin` of its closest approach
+    to the centre (hands of two-handed actions stop beside the centre). Runs whose closest
+    approach is farther than `max_offset` (goal out of reach) or that start at the goal are skipped.
+    """
     out = []
     for h in range(2):
         target = recording.target[:, h]
@@ -185,8 +251,11 @@ def reaches_of(recording: Recording, arrival_distance: float = 0.03) -> list[Rea
             if goal < 0:
                 continue
             dist = np.linalg.norm(recording.true_wrists[s:e, h] - recording.layout.centers[goal], axis=1)
-            near = np.nonzero(dist < arrival_distance)[0]
-            if len(near) == 0 or near[0] < 3:
-                continue  # never arrived (out of reach) or already there
-            out.append(Reach(h, goal, int(s), int(s + near[0])))
+            closest = float(dist.min())
+            if closest > max_offset:
+                continue
+            arrival = int(np.nonzero(dist <= closest + arrival_margin)[0][0])
+            if arrival < 3:
+                continue  # already there
+            out.append(Reach(h, goal, int(s), int(s + arrival)))
     return out

@@ -30,6 +30,9 @@ def wait_tick_delay(time, quantum: float):
     return np.where(delay < 1e-9 * quantum, quantum, delay)
 
 
+ROLLOUTS = ("uniform", "work_first")
+
+
 @dataclass
 class TrialBatch:
     """Output of `simulate_trials`.
@@ -65,6 +68,7 @@ def simulate_trials(
     elapsed=None,
     max_steps: int = 5000,
     now: float = 0.0,
+    rollout: str = "uniform",
 ) -> TrialBatch:
     """Run `n_trials` Monte Carlo trajectories of the net from `marking` up to `horizon` s.
 
@@ -74,7 +78,12 @@ def simulate_trials(
     enabled; its delay is then drawn conditioned on exceeding it (6.2.1).
     now: the absolute time of the root; robot waits end on the global t_w ticks
     (`wait_tick_delay`), as in the cell simulator.
+    rollout: how controllable conflicts after the root are resolved. "uniform" (7.3.1): any
+    enabled controllable transition with equal probability. "work_first": uniformly among the
+    robots' actions and commitments, an explicit wait only when none is enabled.
     """
+    if rollout not in ROLLOUTS:
+        raise ValueError(f"simulate_trials: rollout must be one of {ROLLOUTS}, got {rollout!r}")
     marking = np.asarray(marking, dtype=np.int64)
     if marking.shape != (net.n_places,) or np.any(marking < 0):
         raise ValueError(f"simulate_trials: marking must be ({net.n_places},) and >= 0")
@@ -93,11 +102,20 @@ def simulate_trials(
     human_w = np.where(is_human_place, net.cost, 0.0)
     robot_w = net.cost - human_w
     depth = _pool_depth(net, durations, horizon)
-    pools = durations.sample_pools(rng, n_trials, depth)
+    # Common random numbers: the root choices are compared on the same futures. Trial n belongs
+    # to group n // R (R root choices) and takes root choice n % R; the trials of a group share
+    # their firing delays and the random keys of their later controllable choices, so the
+    # difference between root children is not drowned by the spread of the delays.
+    n_groups = -(-n_trials // roots.size)
+    group = np.arange(n_trials) // roots.size
+    pools = durations.sample_pools(rng, n_groups, depth)[group]
     count = np.zeros((n_trials, n_tr), dtype=np.int64)
     fire_at = np.full((n_trials, n_tr), np.inf)
     rows = np.arange(n_trials)
     is_wait_end = np.array([r == "wait_end" for r in net.role], dtype=bool)
+    key_bonus = np.zeros(n_tr)
+    if rollout == "work_first":
+        key_bonus[net.controllable & np.array([r != "wait" for r in net.role])] = 1.0
     quantum = getattr(net, "wait_quantum", 0.0)
 
     # Clocks of the transitions already enabled at the root, conditioned on their elapsed time.
@@ -119,7 +137,6 @@ def simulate_trials(
     cost_r = np.zeros(n_trials)
     cost_h = np.zeros(n_trials)
     first_j = roots[rows % roots.size]
-    rng.shuffle(first_j)
     m += inc_t[first_j]
     cols = [first_j]
     alive = np.ones(n_trials, dtype=bool)
@@ -141,7 +158,7 @@ def simulate_trials(
         t_unc = fire_at[rows, j_unc]
         # events due now fire first, so robots freed at the same instant decide together
         has_ctrl = ctrl_en.any(axis=1) & alive & (t_unc > t)
-        keys = np.where(ctrl_en, rng.random((n_trials, n_tr)), -1.0)
+        keys = np.where(ctrl_en, rng.random((n_groups, n_tr))[group] + key_bonus, -1.0)
         j_ctrl = np.argmax(keys, axis=1)
         advance = alive & ~has_ctrl
         t_next = np.where(advance, np.minimum(t_unc, horizon), t)
@@ -270,7 +287,8 @@ class MonteCarloScheduler:
         min_samples: int = 3,
         learn: bool = True,
         random_state=None,
-        min_branch_samples: int = 1,
+        min_branch_samples: int = 20,
+        rollout: str = "uniform",
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
@@ -283,6 +301,9 @@ class MonteCarloScheduler:
         self.beta = float(beta)
         self.learn = learn
         self.min_branch_samples = int(min_branch_samples)
+        if rollout not in ROLLOUTS:
+            raise ValueError(f"MonteCarloScheduler: rollout must be one of {ROLLOUTS}, got {rollout!r}")
+        self.rollout = rollout
         self.durations_ = DurationModel(net, window=window, min_samples=min_samples)
         self.rng = np.random.default_rng(random_state)
         self.last_percentiles_: dict[str, float] = {}
@@ -310,6 +331,7 @@ class MonteCarloScheduler:
             choices,
             elapsed,
             now=now,
+            rollout=self.rollout,
         )
         best, percentiles = evaluate_costs(
             batch.paths, batch.costs, self.net.controllable, self.beta, self.min_branch_samples

@@ -24,7 +24,8 @@ KINDS = ("monte_carlo", "round_robin", "greedy", "deterministic")
 def make_policy(net: PcTPN, kind: str, params: dict, seed: int):
     """Scheduler core for a scenario option ``scheduler: {kind, params}``.
 
-    monte_carlo params: n_trials (100), horizon (20), beta (0.5), window (30), min_samples (3).
+    monte_carlo params: n_trials (100), horizon (20), beta (0.5), window (30), min_samples (3),
+    min_branch_samples (20), rollout ("uniform").
     deterministic params: plan_horizon (600), n_candidates (64).
     """
     params = dict(params or {})
@@ -36,6 +37,8 @@ def make_policy(net: PcTPN, kind: str, params: dict, seed: int):
             beta=float(params.get("beta", 0.5)),
             window=int(params.get("window", 30)),
             min_samples=int(params.get("min_samples", 3)),
+            min_branch_samples=int(params.get("min_branch_samples", 20)),
+            rollout=str(params.get("rollout", "uniform")),
             random_state=seed,
         )
     if kind == "round_robin":
