@@ -28,7 +28,10 @@ def _simulate(args) -> int:
             print(f"Meshcat live view: {meshcat.web_url()}", flush=True)
     print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
     cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=args.replay_fps)
-    result = simulate(cell, duration, progress=sys.stderr, record=bool(args.replay))
+    realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)
+    result = simulate(
+        cell, duration, progress=sys.stderr, record=bool(args.replay), realtime_rate=realtime_rate
+    )
     m = result.metrics
     print(f"simulated time    {m['simulated_time']:.1f} s")
     print(f"wall time         {m['wall_time']:.2f} s")
@@ -89,6 +92,12 @@ def main(argv: list[str] | None = None) -> int:
         "--replay-fps", type=float, default=10.0, help="frames per second of the replay (default 10)"
     )
     sim.add_argument("--meshcat", action="store_true", help="serve a live Meshcat view on localhost")
+    sim.add_argument(
+        "--realtime-rate",
+        type=float,
+        default=None,
+        help="pace the run: 1 = wall-clock speed (default with --meshcat), 0 = as fast as possible",
+    )
     sim.add_argument("--out", default=None, help="folder for metrics.json, events.csv and gantt.png")
     sim.set_defaults(func=_simulate)
     val = sub.add_parser(

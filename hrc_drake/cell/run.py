@@ -22,13 +22,21 @@ class RunResult:
 
 
 def simulate(
-    cell: Cell, duration: float, progress=sys.stderr, record: bool = False, chunks: int = 50
+    cell: Cell,
+    duration: float,
+    progress=sys.stderr,
+    record: bool = False,
+    chunks: int = 50,
+    realtime_rate: float = 0.0,
 ) -> RunResult:
-    """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent)."""
+    """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent).
+
+    realtime_rate: 0 runs as fast as possible; 1 paces the run with the wall clock (live view).
+    """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
     simulator = Simulator(cell.diagram)
-    simulator.set_target_realtime_rate(0.0)
+    simulator.set_target_realtime_rate(realtime_rate)
     if record and cell.visualizer is not None:
         cell.visualizer.StartRecording(False)
     # On a terminal one line is rewritten in place; in a log, a line every 10 %.

@@ -3,8 +3,11 @@
 False positive (for goal g): the probability of g rose above the threshold while the hand was
 going to another goal. True negative (the thesis' name for a missed goal): the hand went to g
 but the probability of g never rose above the threshold before arrival. Both are percentages of
-the number of reaches to g. Distance before recognition: path length of the true wrist from the
-instant g is recognised to the arrival at g.
+the number of reaches to g. A rise counts only if the probability had fallen below `release`
+since it was last above the threshold (the re-arming of the feedback machine), so a belief
+that stays high from the previous reach and wobbles around 0.8 is not a new rise. Distance
+before recognition: path length of the true wrist from the instant g is recognised to the
+arrival at g (Fig. 3.9).
 """
 
 from __future__ import annotations
@@ -24,20 +27,35 @@ def run_estimator(estimator: GoalIntentionEstimator, recording: Recording) -> np
     return out
 
 
-def reach_outcomes(recording: Recording, probabilities: np.ndarray, threshold: float = 0.8) -> list[dict]:
-    """Per reach: hand, goal, recognised (bool), distance before recognition (m), goals falsely crossed."""
+def rises(probabilities: np.ndarray, threshold: float = 0.8, release: float = 0.5) -> np.ndarray:
+    """Rising edges (T, ...) bool: p reaches `threshold`, having been below `release` since it last did.
+
+    probabilities: (T, ...) along time; the first sample rises if it is above the threshold.
+    """
+    probabilities = np.asarray(probabilities, dtype=float)
+    armed = np.ones(probabilities.shape[1:], dtype=bool)
+    out = np.zeros(probabilities.shape, dtype=bool)
+    for k, p in enumerate(probabilities):
+        out[k] = armed & (p >= threshold)
+        armed = (armed & ~out[k]) | (p < release)
+    return out
+
+
+def reach_outcomes(
+    recording: Recording, probabilities: np.ndarray, threshold: float = 0.8, release: float = 0.5
+) -> list[dict]:
+    """Per reach: hand, goal, recognised (bool), distance before recognition (m), goals falsely risen."""
+    rising = rises(probabilities, threshold, release)  # (T, 2, G), over the whole recording
     out = []
     for reach in reaches_of(recording):
         p = probabilities[reach.start : reach.arrival + 1, reach.hand]  # (n, G)
-        before = probabilities[max(reach.start - 1, 0), reach.hand]
-        above = p >= threshold
-        crossed = above & ~np.vstack([before[None] >= threshold, above[:-1]])
-        hits = np.nonzero(above[:, reach.goal])[0]
+        hits = np.nonzero(p[:, reach.goal] >= threshold)[0]
         recognised = len(hits) > 0
         distance = np.nan
         if recognised:
             path = recording.true_wrists[reach.start + hits[0] : reach.arrival + 1, reach.hand]
             distance = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+        crossed = rising[reach.start : reach.arrival + 1, reach.hand]
         false_goals = sorted({int(g) for g in np.nonzero(crossed.any(axis=0))[0] if g != reach.goal})
         out.append(
             {

@@ -10,7 +10,7 @@ from hrc_drake.motion.geometry import (
 )
 
 
-def _brute_segment_distance(p0, p1, q0, q1, samples=801):
+def _brute_segment_distance(p0, p1, q0, q1, samples=301):
     u = np.linspace(0.0, 1.0, samples)
     a = p0[:, None] + u[None, :, None] * (p1 - p0)[:, None]
     b = q0[:, None] + u[None, :, None] * (q1 - q0)[:, None]
@@ -19,12 +19,12 @@ def _brute_segment_distance(p0, p1, q0, q1, samples=801):
 
 def test_segment_distance_matches_brute_force():
     rng = np.random.default_rng(0)
-    p0, p1, q0, q1 = rng.normal(size=(4, 200, 3))
+    p0, p1, q0, q1 = rng.normal(size=(4, 40, 3))
     distance, s, t = segment_segment_closest(p0, p1, q0, q1)
     brute = _brute_segment_distance(p0, p1, q0, q1)
     # the analytic minimum is never above the sampled one, and within the sampling step of it
     assert np.all(distance <= brute + 1e-12)
-    step = np.maximum(np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(q1 - q0, axis=1)) / 800
+    step = np.maximum(np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(q1 - q0, axis=1)) / 300
     assert np.all(brute - distance <= step + 1e-9)
     assert np.all((s >= 0) & (s <= 1) & (t >= 0) & (t <= 1))
     closest = np.linalg.norm(p0 + s[:, None] * (p1 - p0) - q0 - t[:, None] * (q1 - q0), axis=1)

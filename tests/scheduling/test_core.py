@@ -173,3 +173,17 @@ def test_algorithm_4_on_a_hand_built_tree():
     costs = np.array([5, 6, 7, 1, 9, 10, 2, 3, 8], dtype=float)
     best, pct = evaluate_costs(paths, costs, ctrl, 0.5)
     assert best == 1 and pct == {0: 6.0, 1: 3.0}
+
+
+def test_algorithm_4_min_branch_samples_unites_thin_branchings():
+    # root 0 leads to a controllable branching with one trial per child (costs 1 and 9);
+    # root 1 to three trials of cost 4 through an uncontrollable transition
+    ctrl = np.array([True, True, True, True, False])
+    paths = np.array([[0, 2], [0, 3], [1, 4], [1, 4], [1, 4]])
+    costs = np.array([1.0, 9.0, 4.0, 4.0, 4.0])
+    best, pct = evaluate_costs(paths, costs, ctrl, 0.5)  # Algorithm 4: the lucky 1 wins
+    assert best == 0 and pct == {0: 1.0, 1: 4.0}
+    best, pct = evaluate_costs(paths, costs, ctrl, 0.5, min_branch_samples=2)
+    assert best == 1 and pct == {0: 5.0, 1: 4.0}  # {1, 9} united: median 5
+    with pytest.raises(ValueError, match="min_branch_samples"):
+        evaluate_costs(paths, costs, ctrl, 0.5, min_branch_samples=0)
