@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 
 import numpy as np
@@ -79,7 +80,8 @@ def main():
     parser.add_argument("--quick", action="store_true", help="small campaigns, finishes in under a minute")
     args = parser.parse_args()
     quick = args.quick
-    result = {"quick": quick}
+    result = {"quick": quick, "load_average_1min_start": round(os.getloadavg()[0], 2)}
+    print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores shared)")
 
     print("Decision latency of the Monte Carlo scheduler (median over repeats, ms)")
     flow, buffers, pattern, robots = tc.fig_7_6()
@@ -104,7 +106,6 @@ def main():
         cost_human=1.0,
         agent_costs=tc.USE_CASE_B_AGENT_COSTS,
     )
-    ms = latency_ms(net_b, "yumi", 150, 30.0, 5 if quick else 20)
     # the first decision has only the wait for yumi; take a marking with a real conflict
     m = net_b.m0.copy()
     m[net_b.place_index["buf:tested"]] = 1
@@ -139,6 +140,7 @@ def main():
             net_a, ["monte_carlo", "monte_carlo_T30", "monte_carlo_alg4", "round_robin"], runs, cycles,
             f"a, pat {pat}", horizon=15.0,
         )
+    result["load_average_1min_end"] = round(os.getloadavg()[0], 2)
     print(json.dumps(result))
 
 

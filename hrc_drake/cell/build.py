@@ -345,6 +345,7 @@ def build_cell(
         one = builder.AddSystem(ConstantVectorSource([1.0]))
         builder.Connect(one.get_output_port(), min_override.get_input_port(0))
     builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
+    systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
     recorder = builder.AddSystem(MetricsRecorder(world))
     recorder.set_name("metrics")

@@ -8,13 +8,14 @@ from __future__ import annotations
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import Box as MeshcatBox
-from pydrake.geometry import Rgba, Sphere
+from pydrake.geometry import Cylinder, Rgba, Sphere
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import LeafSystem
 
 from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
-from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame
+from hrc_drake.cell.systems import segment_pose
+from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame, SweptVolumes
 
 
 class MeasurementAsEstimate(LeafSystem):
@@ -207,6 +208,31 @@ class ReplayMarkers(LeafSystem):
         )
         self._flash_until: dict[str, float] = {}
         self._last_intention = 0
+        # Swept volumes (thesis 8.1): a unit cylinder per body part, scaled to each capsule's bounds.
+        self._swept_port = self.DeclareAbstractInputPort("swept_volumes", AbstractValue.Make(SweptVolumes()))
+        self._show_swept = scenario.motion_model.kind != "none"
+        if self._show_swept:
+            for k in range(6):
+                path = f"/markers/swept/{k}"
+                meshcat.SetObject(path, Cylinder(1.0, 1.0), Rgba(0.6, 0.2, 0.9, 0.18))
+                meshcat.SetProperty(path, "visible", False)
+                self._visible[path] = False
+        # A lamp above the robot: green at full speed, amber when slowed, red when stopped.
+        self._override_port = self.DeclareVectorInputPort("speed_override", 1)
+        self._lamps = {
+            "full": Rgba(0.1, 0.9, 0.1, 1.0),
+            "slow": Rgba(1.0, 0.7, 0.0, 1.0),
+            "stop": Rgba(0.9, 0.1, 0.1, 1.0),
+        }
+        if scenario.robots:
+            lamp = np.asarray(scenario.robots[0].base.xyz, float) + [0.0, 0.0, 0.75]
+            for name, color in self._lamps.items():
+                meshcat.SetObject(f"/markers/speed_lamp/{name}", Sphere(0.04), color)
+                meshcat.SetTransform(f"/markers/speed_lamp/{name}", RigidTransform(lamp))
+                meshcat.SetProperty(f"/markers/speed_lamp/{name}", "visible", name == "full")
+                self._visible[f"/markers/speed_lamp/{name}"] = name == "full"
+        else:
+            self._lamps = {}
         self.DeclarePeriodicPublishEvent(1.0 / fps, 0.0, self._publish)
 
     def _set_visible(self, path: str, visible: bool, t: float) -> None:
@@ -245,6 +271,24 @@ class ReplayMarkers(LeafSystem):
                 self._flash_until[event.goal] = t + 0.6
         for goal in self._goals:
             self._set_visible(f"/markers/flash/{goal}", self._flash_until.get(goal, -1.0) > t, t)
+        if self._show_swept and self._swept_port.HasValue(context):
+            self._publish_swept(self._swept_port.Eval(context), t)
+        if self._lamps and self._override_port.HasValue(context):
+            level = float(self._override_port.Eval(context)[0])
+            state = "full" if level >= 0.99 else ("stop" if level <= 0.01 else "slow")
+            for name in self._lamps:
+                self._set_visible(f"/markers/speed_lamp/{name}", name == state, t)
+
+    def _publish_swept(self, swept, t: float) -> None:
+        for k in range(6):
+            path = f"/markers/swept/{k}"
+            shown = k < len(swept.radius)
+            if shown:
+                start, end, radius = swept.start[k], swept.end[k], float(swept.radius[k])
+                length = float(np.linalg.norm(end - start)) + 2.0 * radius
+                self.meshcat.SetTransform(path, segment_pose(start, end), t)
+                self.meshcat.SetProperty(path, "scale", [radius, radius, length], t)
+            self._set_visible(path, shown, t)
 
 
 def add_replay_markers(builder, scenario: Scenario, meshcat, world, systems, fps):
@@ -258,4 +302,9 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, world, systems, fps
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events")
         )
+    if "motion_predictor" in systems:
+        builder.Connect(
+            systems["motion_predictor"].GetOutputPort("swept_volumes"), markers.GetInputPort("swept_volumes")
+        )
+    builder.Connect(systems["speed_override"], markers.GetInputPort("speed_override"))
     return markers

@@ -27,7 +27,9 @@ class OcclusionTracker(LeafSystem):
       "speed_override": BasicVector(1), the slow-down rule of 9.1.3 (`slow` or 1).
 
     The filter object lives on the system (`self.tracker`); the context's abstract state only
-    holds the last estimate. The update runs at `offset` (default: half a period) after the
+    holds the last estimate. `listeners`: callables `fn(frame, estimate)` called after every
+    update that produced a new estimate (probes of benchmarks and tests; they must not
+    modify their arguments). The update runs at `offset` (default: half a period) after the
     camera ticks, so it reads the frame measured at the same tick. A simulation restarted at
     an earlier time resets the filter (the core notices time going backwards).
     """
@@ -41,6 +43,7 @@ class OcclusionTracker(LeafSystem):
         self.threshold = float(threshold)
         self.slow = float(slow)
         speed_override(self.tracker.estimate_, self.threshold, self.slow)  # validates both
+        self.listeners: list = []
         self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
         self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
                                                        AbstractValue.Make(_no_capsules()))
@@ -63,8 +66,12 @@ class OcclusionTracker(LeafSystem):
                 self.tracker.is_hidden = self.is_hidden
         else:
             self.tracker.is_hidden = self.is_hidden
+        previous = self.tracker.estimate_
         estimate = self.tracker.update(frame)
         state.get_mutable_abstract_state(int(self._estimate)).set_value(estimate)
+        if estimate is not previous:
+            for listener in self.listeners:
+                listener(frame, estimate)
         return EventStatus.Succeeded()
 
     def _calc_estimate(self, context, output):

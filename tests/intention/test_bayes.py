@@ -43,6 +43,34 @@ def test_minimum_jerk_nominal_velocity_from_rest_points_at_the_goal():
     )
 
 
+def test_m1_angle_is_to_the_minimum_jerk_direction_from_the_reach_start():
+    estimator = GoalIntentionEstimator(GOALS, method="M1", m1_sigma=0.5)
+    start = np.array([0.9, 0.0, 0.9])
+    points = np.zeros((8, 3)) + [1.0, 0.0, 1.3]
+    points[L_WRIST] = [0.9, 0.3, 0.9]
+    gaze = np.array([-1.0, 0.0, 0.0])
+    k = 0
+    for _ in range(10):  # both hands at rest: anchors at `start`
+        points[R_WRIST] = start
+        estimator.update(k / 30.0, points, gaze)
+        k += 1
+    # the right wrist then moves at 0.5 m/s straight towards goal 0
+    direction = (GOALS[0] - start) / np.linalg.norm(GOALS[0] - start)
+    anchor = start
+    for step in range(1, 12):
+        points[R_WRIST] = start + 0.5 * (step / 30.0) * direction
+        log_lik, active = estimator.log_likelihood(k / 30.0, points, gaze, True)
+        if not active[1]:
+            anchor = points[R_WRIST].copy()  # the motion starts where the hand was last still
+        k += 1
+    assert active.tolist() == [False, True]
+    # from rest the quintic's velocity is along C_i - p_s at every instant: delta^i is its angle
+    expected = [-0.5 * (np.arccos(np.dot(direction, (g - anchor) / np.linalg.norm(g - anchor))) / 0.5) ** 2
+                for g in GOALS]
+    np.testing.assert_allclose(log_lik[1], expected, atol=1e-6)
+    assert np.all(np.isnan(log_lik[0]))
+
+
 def run(estimator, times, points, gaze, gaze_valid=True):
     history = []
     for t, p, g in zip(times, points, gaze, strict=True):
@@ -58,8 +86,7 @@ def test_converges_to_the_true_goal_on_a_straight_reach(small_model, method):
         history = run(estimator, *straight_reach(start, GOALS[goal_index], noise=0.003, rng=goal_index))
         np.testing.assert_allclose(history.sum(axis=2), 1.0)
         assert history[-1, 1].argmax() == goal_index
-        # M1's nominal velocity barely bends within one frame: it is the weakest (Table 3.1)
-        assert history[-1, 1, goal_index] > (0.5 if method == "M1" else 0.8)
+        assert history[-1, 1, goal_index] > 0.8
         np.testing.assert_allclose(history[-1, 0], 1 / 3)  # the still left hand learns nothing
 
 

@@ -1,10 +1,11 @@
 import numpy as np
+import pytest
 
 from hrc_drake.intention.bayes import GoalIntentionEstimator
-from hrc_drake.intention.evaluation import reach_outcomes, run_estimator, table_3_1
+from hrc_drake.intention.evaluation import reach_outcomes, rises, run_estimator, table_3_1
 from hrc_drake.intention.layouts import box_usb_layout, random_layout
 from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, default_model
-from hrc_drake.intention.recording import reaches_of, record_reaches, training_samples
+from hrc_drake.intention.recording import reaches_of, record_reaches, record_task_cycles, training_samples
 from tests.intention.intention_reaches import GOALS, straight_reach
 
 
@@ -39,3 +40,44 @@ def test_random_layout_keeps_goals_apart():
     layout = random_layout(np.random.default_rng(0))
     gaps = np.linalg.norm(layout.centers[:, None] - layout.centers[None], axis=-1)
     assert np.all(gaps[~np.eye(5, dtype=bool)] >= 0.25)
+
+
+def test_box_usb_layout_reads_the_scenario():
+    layout = box_usb_layout()
+    if layout.name != "box_usb":
+        pytest.skip("diagrams/box_usb.yaml is missing")
+    assert layout.goal_names == ("g1_home", "g2_foam_a", "g3_foam_b", "g4_station", "g5_boxes")
+    assert layout.index("g1_home") == 0 and layout.index("g4_station") == 3
+    np.testing.assert_allclose(layout.centers[3], [0.52, 0.05, 0.82])
+    assert layout.operator_base[:2] == (1.0, 0.0)
+    assert layout.operator_base[2] == pytest.approx(np.pi, abs=1e-4)
+    # facing -x the operator's left is -y: the foam feeders are on its left, the boxes on its right
+    assert layout.hands[1] == "left" and layout.hands[4] == "right"
+    assert layout.pattern == ("fill", "foam", "bring", "tape")
+    bring = {t.name: t for t in layout.tasks}["bring"]
+    assert bring.hand == "both" and bring.labels == (3, 0) and bring.duration[0] == 3.0
+    with pytest.raises(ValueError, match="no goal"):
+        layout.index("g9")
+
+
+def test_task_cycles_label_two_handed_reaches_and_their_arrival():
+    layout = box_usb_layout()
+    if not layout.tasks:
+        pytest.skip("diagrams/box_usb.yaml is missing")
+    rng = np.random.default_rng(5)
+    recording = record_task_cycles(layout, None, 1, rng, noise_std=0.005)
+    reaches = reaches_of(recording)
+    station = [r for r in reaches if r.goal == 3]
+    # bring and tape reach the station with both hands, each wrist beside the centre
+    assert sorted(r.hand for r in station) == [0, 0, 1, 1]
+    for r in station:
+        arrived = recording.true_wrists[r.arrival, r.hand]
+        assert 0.04 < np.linalg.norm(arrived - layout.centers[3]) < 0.2
+        assert r.arrival > r.start + 3
+    phi, flag = training_samples(recording, with_gaze_flag=True)
+    assert phi.shape == (len(flag), 4) and flag.dtype == bool and np.all(np.isfinite(phi))
+
+
+def test_rises_need_a_release_before_counting_again():
+    p = np.array([0.2, 0.85, 0.79, 0.82, 0.4, 0.81, 0.9])
+    assert rises(p[:, None])[:, 0].tolist() == [False, True, False, False, False, True, False]

@@ -71,3 +71,18 @@ def test_load_reports_the_file(tmp_path):
     path.write_text('{"gmm4d": {}}')
     with pytest.raises(ValueError, match="broken.json"):
         IntentionModel.load(path)
+
+
+def test_gmm4d_learns_only_from_samples_with_a_valid_gaze_flag():
+    rng = np.random.default_rng(0)
+    columns = [(0.3, 0.1), (1.5, 0.2), (0.2, 0.05), (0.25, 0.1)]
+    phi = np.column_stack([rng.normal(mean, std, 400) for mean, std in columns])
+    valid = np.arange(400) < 300
+    phi[~valid, 2] = rng.normal(2.5, 0.05, 100)  # unreliable gaze estimates: far from the goal
+    learner = IntentionLikelihoodLearner(candidates=(1,), random_state=0).fit(phi, valid)
+    assert learner.gmm4d_.means_[0, 2] == pytest.approx(phi[valid, 2].mean(), abs=1e-6)
+    assert learner.gmm2d_.means_[0] == pytest.approx(phi[:, [0, 3]].mean(axis=0), abs=1e-6)
+    with pytest.raises(ValueError, match="gaze_valid"):
+        learner.fit(phi, valid[:10])
+    with pytest.raises(ValueError, match="valid gaze flag"):
+        learner.fit(phi, np.zeros(400, bool))

@@ -27,7 +27,7 @@ class FrameSource(LeafSystem):
                                        self._calc)
 
     def _calc(self, context, output):
-        t = round(context.get_time() * 30.0) / 30.0
+        t = np.floor(context.get_time() * 30.0 + 1e-6) / 30.0  # the last camera tick
         pts = POSE.copy()
         if t > 0.3:
             pts[L_WRIST] = np.nan
@@ -47,6 +47,9 @@ def test_tracker_in_a_diagram(kind):
     tracker = builder.AddSystem(OcclusionTracker(kind, {"particles": 100}, is_hidden, [0.6, 0.2, 1.1],
                                                  [0.5, 0.6, 0.6], rate=30.0, seed=1))
     builder.Connect(source.get_output_port(), tracker.GetInputPort("skeleton_frame"))
+    heard = []
+    tracker.listeners.append(lambda frame, estimate: heard.append((frame.time, estimate.time,
+                                                                   bool(frame.tracked[L_WRIST]))))
     diagram = builder.Build()
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
@@ -60,6 +63,11 @@ def test_tracker_in_a_diagram(kind):
     assert not est.tracked[L_WRIST] and est.tracked[0]
     assert np.all(np.isfinite(est.points))
     assert est.particles.shape == (8, 50, 3) and np.all(np.isfinite(est.particles))
+    # One call per new frame (updates at 1/60, 3/60, ... 35/60 s), each with its own frame's estimate.
+    assert len(heard) == 18
+    assert all(f == e for f, e, _ in heard)
+    assert np.all(np.diff([f for f, _, _ in heard]) > 0)
+    assert [seen for _, _, seen in heard] == [f <= 0.3 + 1e-9 for f, _, _ in heard]
     speed = tracker.GetOutputPort("speed_override").Eval(tracker_context)[0]
     assert speed in (0.3, 1.0)
     if kind == "particle_filter":
