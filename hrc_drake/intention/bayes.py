@@ -1,8 +1,9 @@
 """Recursive Bayesian estimation of each hand's intended goal (thesis 3.1.1-3.1.3).
 
 Methods compared in Table 3.1:
-  M1  the method of [135] (3.1.1): angle between the wrist velocity and a minimum-jerk nominal
-      velocity towards each goal, zero-mean Gaussian likelihood, update eq. (3.1);
+  M1  the method of [135] (3.1.1): angle between the wrist velocity and the nominal velocity of
+      a minimum-jerk reach from where the hand's motion started to each goal, zero-mean
+      Gaussian likelihood, update eq. (3.1);
   M2  the learned GMM2d on Psi = (delta_W1, d) only, as if the gaze were never valid;
   M3  the full method (3.1.2): GMM4d on Phi when the gaze flag F is valid, GMM2d otherwise,
       update eq. (3.2); uncertain goal centres by averaging over Np samples, eq. (3.12).
@@ -100,7 +101,8 @@ class GoalIntentionEstimator:
     shipped one; unused by M1); goal_std: (G,) or scalar std (m) of each centre, with
     n_goal_samples > 0 the likelihood is averaged over that many sampled centres, eq. (3.12);
     switch_probability: chance per update that the intended goal changes; m1_sigma (rad) and
-    m1_mean_speed (m/s, sets the nominal duration d / speed) are the heuristics of M1.
+    m1_mean_speed (m/s, sets the nominal duration |C_i - p_s| / speed of the reach from p_s)
+    are the heuristics of M1.
     `probabilities_` (2, G): row 0 left hand, row 1 right hand.
     """
 
