@@ -1,18 +1,21 @@
 """Benchmark of the occlusion-aware skeleton tracker (thesis Ch. 9, issue 3).
 
 Parts:
-  speed     one particle-filter update, 8 points x 500 particles (median, ms), with the wrist
-            and elbow of one arm hidden behind a box (case 3) and with everything seen;
-  synthetic RMS error of occluded points, PF vs KF, on a synthetic reach behind an occluder
-            box (stand-in for pcb_occlusion.yaml until the cell exists);
-  lego      RMS error of occluded points, PF vs KF, on the real arm trajectories of
-            ../shared/data/lego_assembly_arm with synthetic occluder boxes hiding the wrist
-            and/or the elbow for 1-3 s (frame rate unknown: 30 Hz assumed);
-  cycles    Fig. 9.7 stand-in: a robot tool point runs a fixed path in the workspace box at
-            the 9.1.3 speed override while the operator reaches behind the occluder; 30 robot
-            cycles with PF and with KF: cycle times and the true minimum human-robot distance.
+  speed  one particle-filter update, 8 points x 500 particles (median, ms), on synthetic frames
+         with a wrist hidden behind a box and with everything seen; default mode (Kalman
+         sampling of seen points) and the literal bootstrap mode;
+  cell   diagrams/pcb_occlusion.yaml (thesis 9.1.3) simulated in Drake with the particle filter
+         and with the Kalman baseline, N robot cycles each (a cycle: from one L_carry begin to
+         the next, Fig. 9.7): (a) errors of the points the camera lost, PF vs KF (the KF both on
+         the PF run's very frames, run alongside, and in its own run); which points were lost,
+         why, and in which case of 9.1.2; (Fig. 9.7) robot cycle-time distributions, the true
+         minimum human-robot distance vs the scenario's safety distance, time spent slowed;
+  lego   RMS error of occluded points, PF vs KF, on the real arm trajectories of
+         ../shared/data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
+         the elbow for 1-3 s (frame rate unknown: 30 Hz assumed).
 
-Usage: python tools/bench_tracking.py [--quick]. Last line: one JSON object with the figures.
+Usage: python tools/bench_tracking.py [--quick] [--cycles N] [--elbow-occluders]
+Last line: one JSON object with the figures.
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
 
 from hrc_drake.messages import (  # noqa: E402
     L_ELBOW,
@@ -35,12 +39,13 @@ from hrc_drake.messages import (  # noqa: E402
     R_ELBOW,
     R_SHOULDER,
     R_WRIST,
+    SKELETON_POINTS,
     SkeletonFrame,
 )
 from hrc_drake.perception.geometry import BoxOcclusion  # noqa: E402
 from hrc_drake.perception.particle_filter import SkeletonParticleFilter  # noqa: E402
 from hrc_drake.perception.synthetic import reaching_sequence  # noqa: E402
-from hrc_drake.perception.tracker import SkeletonTracker, speed_override  # noqa: E402
+from hrc_drake.perception.tracker import SkeletonTracker  # noqa: E402
 
 RATE = 30.0
 CAMERA = np.array([-0.2, 0.0, 1.7])
@@ -85,7 +90,7 @@ def bench_speed(n_steps: int) -> dict:
     return out
 
 
-# ------------------------------------------------------------------------- synthetic
+# ------------------------------------------------------------------ replay runs
 def run_trackers(frames_pts, frames_seen, is_hidden_at, truth, seed, params=None):
     """Run PF and KF over a sequence; errors (m) of the occluded points of each frame."""
     errors = {"particle_filter": [], "kalman": []}
@@ -98,28 +103,6 @@ def run_trackers(frames_pts, frames_seen, is_hidden_at, truth, seed, params=None
             if np.any(hidden):
                 errors[kind].append(np.linalg.norm(est.points[hidden] - truth[k, hidden], axis=1))
     return errors
-
-
-def bench_synthetic(n_runs: int) -> dict:
-    occ = BoxOcclusion(CAMERA, [OCCLUDER])
-    all_err = {"particle_filter": [], "kalman": []}
-    hidden_frames = 0
-    for run in range(n_runs):
-        rng = np.random.default_rng(100 + run)
-        durations = rng.uniform(0.7, 1.3, size=4)
-        _, truth = reaching_sequence([REST, BEHIND, REST, BEHIND, REST], durations, torso_dir=(-1, 0, 0),
-                                     dwell=rng.uniform(0.3, 1.0))
-        hidden = occ(truth)
-        pts = truth + rng.normal(0, 0.01, truth.shape)
-        pts[hidden] = np.nan
-        errs = run_trackers(pts, ~hidden, lambda k: occ, truth, run)
-        for kind in all_err:
-            all_err[kind] += errs[kind]
-        hidden_frames += int(hidden.any(axis=1).sum())
-        print(f"  synthetic run {run + 1}/{n_runs}: PF {rms(errs['particle_filter']):.3f} m, "
-              f"KF {rms(errs['kalman']):.3f} m", flush=True)
-    return {"rms_pf": rms(all_err["particle_filter"]), "rms_kf": rms(all_err["kalman"]),
-            "occluded_frames": hidden_frames}
 
 
 # ------------------------------------------------------------------------------ lego
@@ -193,96 +176,262 @@ def bench_lego(files_limit: int, windows_per_file: int) -> dict:
             "windows_pf_better": {k: f"{v[1]}/{v[0]}" for k, v in by_case.items()}}
 
 
-# ---------------------------------------------------------------------------- cycles
-ROBOT_PATH = np.array([[0.05, -0.2, 1.0], [0.3, 0.1, 1.0], [0.05, 0.3, 1.05], [0.05, -0.2, 1.0]])
-NOMINAL_CYCLE = 6.0
+# ------------------------------------------------------------------------------ cell
+SCENARIO = REPO / "diagrams" / "pcb_occlusion.yaml"
+#: A robot cycle of 9.1.3: from one pick of a board at the slide (L_carry begins) to the next.
+CYCLE_AGENT, CYCLE_ACTION = "yumi_left", "L_carry"
+ROBOT_ACTIONS = ("L_carry", "R_assemble", "L_unload")
+#: --elbow-occluders: shelves 1.35 m tall (1.22 m in the scenario), shelf_green widened to y >= 0.20;
+#: with the scenario's camera they hide elbow and wrist together (case 3), see the closing report.
+ELBOW_OCCLUDERS = {"shelf_fuses": ([0.60, -0.33, 1.085], [0.06, 0.30, 0.53]),
+                   "shelf_green": ([0.62, 0.365, 1.085], [0.06, 0.33, 0.53])}
+ARMS = ((L_ELBOW, L_WRIST), (R_ELBOW, R_WRIST))
 
 
-def robot_point(progress: float) -> np.ndarray:
-    s = (progress % 1.0) * (len(ROBOT_PATH) - 1)
-    i = min(int(s), len(ROBOT_PATH) - 2)
-    return ROBOT_PATH[i] + (s - i) * (ROBOT_PATH[i + 1] - ROBOT_PATH[i])
+class OcclusionProbe:
+    """Listener of the cell's `OcclusionTracker` (called with each new frame and its estimate).
+
+    Records, per frame: the true skeleton at the frame's time (the operator core), which points
+    the camera lost and why (occluder box, robot link, out of view), which occlusion case of
+    9.1.2 each arm is in, and the error of the estimate of every lost point. `shadow`: an
+    optional second `SkeletonTracker` fed the same frames (the KF on the PF run's frames).
+    """
+
+    def __init__(self, operator, camera_model, shadow=None):
+        self.operator = operator
+        self.camera = camera_model
+        self.shadow = shadow
+        self.frames = 0
+        self.hidden = np.zeros(8, dtype=int)
+        self.by_box = np.zeros(8, dtype=int)
+        self.by_view = np.zeros(8, dtype=int)
+        self.cases = {"wrist": 0, "elbow": 0, "both": 0}
+        self.errors: list = []
+        self.shadow_errors: list = []
+
+    def __call__(self, frame, estimate) -> None:
+        truth = self.operator.points(frame.time)
+        lost = ~(np.asarray(frame.tracked, bool) & np.all(np.isfinite(frame.points), axis=1))
+        self.frames += 1
+        self.hidden += lost
+        box = self.camera.is_occluded(truth)
+        self.by_box += lost & box
+        self.by_view += lost & ~box & ~self.camera.in_view(truth)
+        for elbow, wrist in ARMS:
+            if lost[elbow] or lost[wrist]:
+                key = "both" if lost[elbow] and lost[wrist] else ("elbow" if lost[elbow] else "wrist")
+                self.cases[key] += 1
+        if self.shadow is not None:
+            shadow_estimate = self.shadow.update(frame)
+        if np.any(lost):
+            self.errors.append(np.linalg.norm(estimate.points[lost] - truth[lost], axis=1))
+            if self.shadow is not None:
+                self.shadow_errors.append(np.linalg.norm(shadow_estimate.points[lost] - truth[lost], axis=1))
 
 
-def bench_cycles(n_cycles: int) -> dict:
-    occ = BoxOcclusion(CAMERA, [OCCLUDER])
-    out = {}
-    for kind in ("particle_filter", "kalman"):
-        rng = np.random.default_rng(11)
-        moves, goals = [], [REST]
-        for _ in range(400):
-            goals.append(BEHIND if len(goals) % 2 else REST)
-            moves.append(rng.uniform(0.8, 1.4))
-        _, truth = reaching_sequence(goals, moves, torso_dir=(-1, 0, 0), dwell=0.8)
-        hidden = occ(truth)
-        meas = truth + rng.normal(0, 0.01, truth.shape)
-        meas[hidden] = np.nan
-        tracker = SkeletonTracker(kind, None, occ, WS_CENTER, WS_SIZE, RATE, 3)
-        progress, cycle_start, cycles, min_dist, slow_frames = 0.0, 0.0, [], np.inf, 0
-        k = 0
-        while len(cycles) < n_cycles and k < len(truth):
-            est = tracker.update(SkeletonFrame(time=k / RATE, points=meas[k], tracked=~hidden[k]))
-            override = speed_override(est)
-            slow_frames += override < 1.0
-            progress += override / (NOMINAL_CYCLE * RATE)
-            if progress >= len(cycles) + 1:
-                cycles.append(k / RATE - cycle_start)
-                cycle_start = k / RATE
-            min_dist = min(min_dist, float(np.linalg.norm(truth[k] - robot_point(progress), axis=1).min()))
-            k += 1
-        out[kind] = {"cycles": len(cycles), "mean_cycle_s": float(np.mean(cycles)),
-                     "median_cycle_s": float(np.median(cycles)), "std_cycle_s": float(np.std(cycles)),
-                     "slow_fraction": slow_frames / max(k, 1), "min_distance_m": min_dist}
-        print(f"  {kind}: {len(cycles)} cycles, mean {np.mean(cycles):.2f} s", flush=True)
-    return out
+def error_stats(errors) -> dict:
+    e = np.concatenate(errors) if errors else np.zeros(0)
+    if not e.size:
+        return {"rms": float("nan"), "median": float("nan"), "p95": float("nan"), "n": 0}
+    return {"rms": float(np.sqrt(np.mean(e**2))), "median": float(np.median(e)),
+            "p95": float(np.percentile(e, 95)), "n": int(e.size)}
 
+
+def load_pcb_scenario(kind: str, elbow_occluders: bool, operator_x: float | None = None):
+    from hrc_drake.cell.scenario import load_scenario
+
+    scenario = load_scenario(SCENARIO)
+    scenario.tracker.kind = kind
+    if operator_x is not None:
+        scenario.operator.base.xyz[0] = float(operator_x)
+    if elbow_occluders:
+        for occluder in scenario.layout.occluders:
+            if occluder.name in ELBOW_OCCLUDERS:
+                occluder.center, occluder.size = (list(v) for v in ELBOW_OCCLUDERS[occluder.name])
+    return scenario
+
+
+def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, operator_x: float | None) -> dict:
+    """Simulate pcb_occlusion.yaml with tracker `kind` until n_cycles robot cycles are complete."""
+    from pydrake.systems.analysis import Simulator
+
+    from hrc_drake.cell.build import build_cell
+
+    scenario = load_pcb_scenario(kind, elbow_occluders, operator_x)
+    cell = build_cell(scenario, SCENARIO, named_poses=named_poses)
+    lay = scenario.layout
+    shadow = None
+    if kind == "particle_filter":
+        shadow = SkeletonTracker("kalman", dict(scenario.tracker.params), None, lay.workspace_center,
+                                 lay.workspace_size, lay.camera.rate)
+    probe = OcclusionProbe(cell.systems["operator"].operator, cell.systems["camera_model"], shadow)
+    cell.systems["tracker"].listeners.append(probe)
+    simulator = Simulator(cell.diagram)
+    simulator.set_target_realtime_rate(0.0)
+    simulator.Initialize()
+    start_wall = time.perf_counter()
+    max_time = 120.0 * (n_cycles + 2)  # a cycle takes ~45 s; a cell that stalls stops here
+    t, begins = 0.0, []
+    while len(begins) < n_cycles + 1 and t < max_time:
+        t += 2.0
+        simulator.AdvanceTo(t)
+        new = [e.time for e in cell.recorder.log.events
+               if getattr(e, "agent", "") == CYCLE_AGENT and e.action == CYCLE_ACTION and e.kind == "begin"]
+        if len(new) > len(begins) and len(new) > 1:
+            print(f"  {kind}: cycle {len(new) - 1}/{n_cycles} took {new[-1] - new[-2]:5.1f} s "
+                  f"(t = {t:6.0f} s, wall {time.perf_counter() - start_wall:5.0f} s)", flush=True)
+        begins = new
+    wall = time.perf_counter() - start_wall
+    log = cell.recorder.log
+    cycles = np.diff(begins)[:n_cycles]
+    end = begins[min(len(begins) - 1, n_cycles)] if len(begins) > 1 else t
+    times = np.asarray(log.times)
+    in_run = times <= end
+    distances = np.asarray(log.distances)[in_run]
+    overrides = np.asarray(log.overrides)[in_run]
+    safety = float(scenario.safety_distance)
+    arg = int(np.argmin(distances))
+    durations = {a: [] for a in ROBOT_ACTIONS}
+    open_begin = {}
+    for e in log.events:
+        if e.action in durations and e.time <= end:
+            if e.kind == "begin":
+                open_begin[e.action] = e.time
+            elif e.kind == "end" and e.action in open_begin:
+                durations[e.action].append(e.time - open_begin.pop(e.action))
+    result = {
+        "kind": kind, "cycles": cycles.tolist(), "simulated_s": float(end), "wall_s": wall,
+        "min_distance_m": float(distances[arg]), "min_distance_at_s": float(times[in_run][arg]),
+        "below_safety_fraction": float(np.mean(distances < safety)), "safety_distance_m": safety,
+        "slowed_fraction": float(np.mean(overrides < 1.0)),
+        "robot_action_mean_s": {a: float(np.mean(v)) if v else float("nan") for a, v in durations.items()},
+        "frames": probe.frames, "hidden_frames": probe.hidden.tolist(),
+        "hidden_by_box": probe.by_box.tolist(),
+        "hidden_out_of_view": probe.by_view.tolist(), "arm_cases": dict(probe.cases),
+        "error": error_stats(probe.errors),
+    }
+    if shadow is not None:
+        result["shadow_kf_error"] = error_stats(probe.shadow_errors)
+    return result
+
+
+def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
+    """Text histogram of the cycle times of every tracker on common bins (cf. Fig. 9.7)."""
+    values = np.concatenate([np.asarray(v, float) for v in samples.values() if len(v)])
+    if not values.size:
+        return []
+    edges = np.linspace(np.floor(values.min()), np.ceil(values.max()) + 1e-9, n_bins + 1)
+    rows = [f"  {'cycle time (s)':>16s} " + " ".join(f"{k:>16s}" for k in samples)]
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        counts = [int(np.sum((np.asarray(v) >= lo) & (np.asarray(v) < hi))) for v in samples.values()]
+        rows.append(f"  {lo:7.1f} - {hi:6.1f} " + " ".join(f"{'#' * c:>16s}" for c in counts))
+    return rows
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, under a minute")
+    parser.add_argument("--cycles", type=int, default=None, help="robot cycles per tracker (30; --quick 2)")
+    parser.add_argument("--elbow-occluders", action="store_true",
+                        help="taller/wider shelves that also hide the elbows (case 3), see ELBOW_OCCLUDERS")
+    parser.add_argument("--operator-x", type=float, default=None,
+                        help="operator base x (m; the scenario has 1.0, 1.1 keeps the safety distance)")
     args = parser.parse_args()
     quick = args.quick
-    print("speed (8 points x 500 particles, one update)")
+    n_cycles = args.cycles if args.cycles is not None else (2 if quick else 30)
+    if n_cycles < 1:
+        parser.error(f"--cycles must be >= 1, got {n_cycles}")
+    print("speed (8 points x 500 particles, one update)", flush=True)
     speed = bench_speed(100 if quick else 500)
-    print("synthetic reach behind an occluder (pcb_occlusion.yaml stand-in)")
-    synthetic = bench_synthetic(2 if quick else 10)
-    print("lego_assembly_arm with synthetic occluders")
+
+    from hrc_drake.cell.build import solve_named_poses
+
+    print(f"pcb_occlusion.yaml in Drake: {n_cycles} robot cycles per tracker"
+          + (" (elbow occluders)" if args.elbow_occluders else "")
+          + (f" (operator at x = {args.operator_x} m)" if args.operator_x is not None else ""), flush=True)
+    named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False), SCENARIO)
+    cell = {kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
+            for kind in ("particle_filter", "kalman")}
+    pf, kf = cell["particle_filter"], cell["kalman"]
+
+    print("lego_assembly_arm with synthetic occluders", flush=True)
     lego = bench_lego(3 if quick else 20, 2 if quick else 5)
-    print("robot cycles with the 9.1.3 slow-down rule (Fig. 9.7 stand-in)")
-    cycles = bench_cycles(8 if quick else 30)
 
     print()
-    print(f"{'figure':48s} {'PF':>10s} {'KF':>10s}")
+    print("hidden frames per point (PF run; camera frames at 30 Hz):")
+    print(f"  {'point':16s} {'lost':>6s} {'by shelf':>9s} {'by robot':>9s} {'out of view':>12s}")
+    for i, name in enumerate(SKELETON_POINTS):
+        lost, box, view = pf["hidden_frames"][i], pf["hidden_by_box"][i], pf["hidden_out_of_view"][i]
+        print(f"  {name:16s} {lost:6d} {box:9d} {lost - box - view:9d} {view:12d}")
+    print(f"  of {pf['frames']} frames; arm occlusion cases (frames x arms): {json.dumps(pf['arm_cases'])}")
+    print()
+    print(f"{'figure':52s} {'PF':>10s} {'KF':>10s}")
     for key, label in [("occluded_kalman", "update 8x500, wrist hidden (ms, median)"),
                        ("seen_kalman", "update 8x500, all seen (ms, median)"),
-                       ("occluded_bootstrap", "same, bootstrap seen points, hidden (ms)"),
-                       ("seen_bootstrap", "same, bootstrap seen points, all seen (ms)")]:
-        print(f"{label:48s} {speed[key]:10.3f}")
-    print(f"{'synthetic: RMS error occluded points (m)':48s} {synthetic['rms_pf']:10.3f} "
-          f"{synthetic['rms_kf']:10.3f}")
+                       ("occluded_bootstrap", "same, literal bootstrap mode, hidden (ms)"),
+                       ("seen_bootstrap", "same, literal bootstrap mode, all seen (ms)")]:
+        print(f"{label:52s} {speed[key]:10.3f}")
+    shadow = pf["shadow_kf_error"]
+    for stat in ("rms", "median", "p95"):
+        print(f"{'cell (a): ' + stat + ' error of lost points, same frames (m)':52s} "
+              f"{pf['error'][stat]:10.3f} {shadow[stat]:10.3f}")
+    print(f"{'cell (a): rms error of lost points, own runs (m)':52s} {pf['error']['rms']:10.3f} "
+          f"{kf['error']['rms']:10.3f}")
     if not lego.get("skipped"):
-        print(f"{'lego: RMS error occluded points (m)':48s} {lego['rms_pf']:10.3f} {lego['rms_kf']:10.3f}")
-        print(f"{'lego: windows where PF beats KF':48s} {json.dumps(lego['windows_pf_better'])}")
-    for key, label in [("mean_cycle_s", "cycles: mean robot cycle (s)"),
-                       ("median_cycle_s", "cycles: median (s)"),
-                       ("slow_fraction", "cycles: share of time slowed"),
-                       ("min_distance_m", "cycles: true min human-robot distance (m)")]:
-        print(f"{label:48s} {cycles['particle_filter'][key]:10.3f} {cycles['kalman'][key]:10.3f}")
+        print(f"{'lego (b): RMS error occluded points (m)':52s} {lego['rms_pf']:10.3f} "
+              f"{lego['rms_kf']:10.3f}")
+        print(f"{'lego (b): windows where PF beats KF':52s} {json.dumps(lego['windows_pf_better'])}")
+    rows = [("robot cycles", lambda r: float(len(r["cycles"]))),
+            ("cycle time mean (s)", lambda r: float(np.mean(r["cycles"]))),
+            ("cycle time median (s)", lambda r: float(np.median(r["cycles"]))),
+            ("cycle time std (s)", lambda r: float(np.std(r["cycles"]))),
+            ("L_carry + R_assemble + L_unload mean (s)", lambda r: sum(r["robot_action_mean_s"].values())),
+            ("share of time slowed by the 9.1.3 rule", lambda r: r["slowed_fraction"]),
+            ("true min human-robot distance (m)", lambda r: r["min_distance_m"]),
+            ("share of samples below safety distance", lambda r: r["below_safety_fraction"]),
+            ("wall time of the run (s)", lambda r: r["wall_s"])]
+    for label, get in rows:
+        print(f"{'Fig. 9.7: ' + label:52s} {get(pf):10.3f} {get(kf):10.3f}")
+    print(f"  safety distance of the scenario: {pf['safety_distance_m']} m; minimum at t = "
+          f"{pf['min_distance_at_s']:.1f} s (PF), {kf['min_distance_at_s']:.1f} s (KF)")
+    print("robot cycle-time histogram (Fig. 9.7):")
+    for row in histogram_rows({"PF": pf["cycles"], "KF": kf["cycles"]}):
+        print(row)
+
+    def r4(x):
+        return None if x is None or not np.isfinite(x) else round(float(x), 4)
+
     figures = {
         "quick": quick,
+        "elbow_occluders": args.elbow_occluders,
+        "operator_x": args.operator_x,
         "update_ms_median_8x500_occluded": round(speed["occluded_kalman"], 3),
         "update_ms_median_8x500_all_seen": round(speed["seen_kalman"], 3),
         "update_ms_median_8x500_occluded_bootstrap": round(speed["occluded_bootstrap"], 3),
         "update_ms_median_8x500_all_seen_bootstrap": round(speed["seen_bootstrap"], 3),
-        "synthetic_rms_pf_m": round(synthetic["rms_pf"], 4),
-        "synthetic_rms_kf_m": round(synthetic["rms_kf"], 4),
-        "lego_rms_pf_m": None if lego.get("skipped") else round(lego["rms_pf"], 4),
-        "lego_rms_kf_m": None if lego.get("skipped") else round(lego["rms_kf"], 4),
-        "cycle_mean_pf_s": round(cycles["particle_filter"]["mean_cycle_s"], 3),
-        "cycle_mean_kf_s": round(cycles["kalman"]["mean_cycle_s"], 3),
-        "min_distance_pf_m": round(cycles["particle_filter"]["min_distance_m"], 3),
-        "min_distance_kf_m": round(cycles["kalman"]["min_distance_m"], 3),
-        "cycles": cycles["particle_filter"]["cycles"],
+        "cell_frames_pf_run": pf["frames"],
+        "cell_hidden_frames_pf_run": dict(zip(SKELETON_POINTS, pf["hidden_frames"], strict=True)),
+        "cell_arm_cases_pf_run": pf["arm_cases"],
+        "cell_rms_lost_pf_m": r4(pf["error"]["rms"]),
+        "cell_rms_lost_kf_same_frames_m": r4(shadow["rms"]),
+        "cell_rms_lost_kf_own_run_m": r4(kf["error"]["rms"]),
+        "cell_median_lost_pf_m": r4(pf["error"]["median"]),
+        "cell_median_lost_kf_same_frames_m": r4(shadow["median"]),
+        "lego_rms_pf_m": None if lego.get("skipped") else r4(lego["rms_pf"]),
+        "lego_rms_kf_m": None if lego.get("skipped") else r4(lego["rms_kf"]),
+        "cycles": [len(pf["cycles"]), len(kf["cycles"])],
+        "cycle_mean_pf_s": r4(np.mean(pf["cycles"])),
+        "cycle_mean_kf_s": r4(np.mean(kf["cycles"])),
+        "cycle_median_pf_s": r4(np.median(pf["cycles"])),
+        "cycle_median_kf_s": r4(np.median(kf["cycles"])),
+        "cycle_times_pf_s": [round(c, 2) for c in pf["cycles"]],
+        "cycle_times_kf_s": [round(c, 2) for c in kf["cycles"]],
+        "slowed_fraction_pf": r4(pf["slowed_fraction"]),
+        "slowed_fraction_kf": r4(kf["slowed_fraction"]),
+        "min_distance_pf_m": r4(pf["min_distance_m"]),
+        "min_distance_kf_m": r4(kf["min_distance_m"]),
+        "below_safety_fraction_pf": r4(pf["below_safety_fraction"]),
+        "below_safety_fraction_kf": r4(kf["below_safety_fraction"]),
+        "safety_distance_m": pf["safety_distance_m"],
     }
     print(json.dumps(figures))
 

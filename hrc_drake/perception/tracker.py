@@ -1,7 +1,10 @@
 """Skeleton tracker core: SkeletonFrame in, SkeletonEstimate out (thesis 9.1.2-9.1.3).
 
 kind:
-- "particle_filter": the occlusion-aware `SkeletonParticleFilter` (9.1.2);
+- "particle_filter": the occlusion-aware `SkeletonParticleFilter` (9.1.2). By default NOT the
+  literal thesis: seen points are sampled from their exact Kalman posterior instead of being
+  weighted by eq. (9.8) (occluded points follow the thesis); `bootstrap_tracked: 1` gives the
+  literal bootstrap PF for every point (see particle_filter.py);
 - "kalman": the per-point Kalman baseline of 9.1.3, open loop under occlusion, with the
   90 % confidence ellipsoid as its belief volume;
 - "none": the measurement itself, a lost point held at its last seen position.
@@ -40,7 +43,7 @@ DEFAULT_PARAMS = {
     "measurement_std": 0.01,  # R = measurement_std^2 I, eq. (9.8)
     "crown": 0.05,  # half amplitude theta of the spherical crowns (m), eq. (9.13)
     "systematic": 0,  # 1: systematic resampling instead of the thesis' bootstrap
-    "bootstrap_tracked": 0,  # 1: seen points by the plain bootstrap PF instead of Kalman sampling
+    "bootstrap_tracked": 0,  # 1: literal thesis, seen points by the bootstrap PF (9.8); 0: Kalman sampling
     "calibration_frames": 10,  # frames used to calibrate the segment lengths
     "gate": 6.0,  # re-acquisition gate (measurement std units)
     "confidence": 0.9,  # KF ellipsoid confidence (9.1.3)

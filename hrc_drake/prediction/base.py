@@ -8,11 +8,16 @@ column indices (`classes_`). Models learn from a FIFO buffer of recent actions (
 
 from __future__ import annotations
 
+import itertools
 from collections import deque
 from collections.abc import Hashable, Iterable, Sequence
 
 import numpy as np
 from sklearn.exceptions import NotFittedError
+
+
+#: every change of a model's learned state takes a fresh id, so caches keyed on it never go stale
+_STATE_IDS = itertools.count(1)
 
 
 def _plain(label):
@@ -94,6 +99,10 @@ class SequenceModel:
         self.buffer_ = deque()
         self.n_observed_ = 0
         self._reset_state()
+        self._touch()
+
+    def _touch(self) -> None:
+        self.state_id_ = next(_STATE_IDS)
 
     def _observe(self, code: int) -> None:
         limit = self._buffer_limit()
@@ -115,6 +124,7 @@ class SequenceModel:
         for code in self.encode(sequence):
             self._observe(code)
         self._update_fit(final=True)
+        self._touch()
         return self
 
     def partial_fit(self, action: Hashable):
@@ -123,6 +133,7 @@ class SequenceModel:
         (code,) = self.encode([action])
         self._observe(code)
         self._update_fit(final=False)
+        self._touch()
         return self
 
     # ---------------------------------------------------------------- prediction
@@ -136,6 +147,23 @@ class SequenceModel:
         if self.n_observed_ == 0:
             return np.full(self.n_actions_, 1.0 / self.n_actions_)
         return self._predict_codes(codes[len(codes) - self.context_length_ :] if codes else ())
+
+    def predict_proba_many(self, histories: Sequence[Sequence[Hashable]]) -> np.ndarray:
+        """`predict_proba` of many histories in one vectorised call, shape (N, m)."""
+        self._check_classes()
+        width = self.context_length_
+        contexts = []
+        for index, history in enumerate(histories):
+            try:
+                codes = self.encode(history)
+            except ValueError as err:
+                raise ValueError(f"histories[{index}]: {err}") from None
+            contexts.append(codes[len(codes) - width :] if codes else ())
+        if not contexts:
+            return np.zeros((0, self.n_actions_))
+        if self.n_observed_ == 0:
+            return np.full((len(contexts), self.n_actions_), 1.0 / self.n_actions_)
+        return self._predict_many(contexts)
 
     def predict_proba_steps(self, history: Sequence[Hashable], steps: int) -> np.ndarray:
         """P(A_{k+steps} = a | history), summing over the intermediate actions, eqs. (5.14)-(5.15)."""

@@ -88,6 +88,22 @@ def affine_prior(context: Sequence[int], members: np.ndarray, forgetting: float)
     return lag_terms @ decay
 
 
+def affine_prior_many(contexts: np.ndarray, members: np.ndarray, forgetting: float) -> np.ndarray:
+    """`affine_prior` (eq. 5.33) of N contexts (N, sigma) at once, shape (N_C, N, m)."""
+    contexts = np.atleast_2d(np.asarray(contexts, dtype=int))
+    n_sets, m = members.shape
+    n_ctx, sigma = contexts.shape
+    if n_sets == 0 or sigma == 0:
+        return np.zeros((n_sets, n_ctx, m))
+    recent = contexts[:, ::-1]  # A_{k-1}, A_{k-2}, ...
+    decay = np.exp(-forgetting * np.arange(1, sigma + 1))
+    penalty = -1.0 / (members.sum(axis=1) - 1.0)
+    same = recent[:, None, :] == np.arange(m)[None, :, None]  # (N, m, sigma)
+    past_in_set = members[:, recent].astype(float)  # (N_C, N, sigma)
+    lag_terms = np.where(same[None], penalty[:, None, None, None], past_in_set[:, :, None, :])
+    return (lag_terms * members[:, None, :, None]) @ decay
+
+
 class SuffixTreeModel(SequenceModel):
     """Suffix-tree next-action model with affine-set priors, thesis 5.2 (eqs. 5.10-5.36).
 
@@ -269,12 +285,12 @@ class SuffixTreeModel(SequenceModel):
     def domains(self, context: Sequence[Hashable]) -> np.ndarray:
         """Domain (1, 2 or 3) of (context, a) for every candidate a, eqs. (5.22)-(5.25)."""
         codes = self._context_codes(context)
-        return self._domains_and_phi(codes)[0]
+        return self._domains_and_phi_many(np.array([codes]))[0][0]
 
     def phi_v(self, context: Sequence[Hashable]) -> np.ndarray:
         """Phi_v(context, a | ST) for every candidate a at the next step, eq. (5.21)."""
         codes = self._context_codes(context)
-        return self._domains_and_phi(codes)[1]
+        return self._domains_and_phi_many(np.array([codes]))[1][0]
 
     def _context_codes(self, context: Sequence[Hashable]) -> tuple[int, ...]:
         codes = self.encode(context)
@@ -284,6 +300,8 @@ class SuffixTreeModel(SequenceModel):
 
     # ---------------------------------------------------------------- features
     def _domains_and_phi(self, context: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Reference form of `_domains_and_phi_many` for one context: the candidate sequences
+        and the distances of eqs. (5.19)-(5.20) to every branch, as written in the text."""
         m = self.n_actions_
         n_branches = self._branches.shape[0]
         if n_branches == 0:
@@ -314,11 +332,91 @@ class SuffixTreeModel(SequenceModel):
         phi = np.where(in_d1, phi1, np.where(in_d2, phi2, phi3))
         return domain, phi
 
+    def _domains_and_phi_many(self, contexts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Domains and Phi_v (N, m) of N full contexts (N, sigma) at once, eqs. (5.21)-(5.32).
+
+        Same values as `_domains_and_phi`, without building the N*m candidate sequences.
+        For Y = context |> a and a branch B, let q = O[B]_a^K be the position in B of the
+        occurrence K = I[context]_a + 1 of a (0 if B has none). Appending a only adds the
+        entry O[Y]_a^K = sigma+1 and one count of a, so
+            d_I(Y, B) = d_I(context, B) - 1 if q > 0 else + 1,
+            d_O(Y, B) = d_O(context, B) + sigma + 1 - 2 q.
+        Context-to-branch distances need only the sigma entries the context holds, as
+        sum |x - y| = sum x + sum y - 2 sum min(x, y) for non-negative entries. d_I(Y, B) = 0
+        (D1, D2) needs d_I(context, B) = 1, a sparse set of (context, branch) pairs.
+        """
+        m = self.n_actions_
+        contexts = np.asarray(contexts, dtype=np.int64).reshape(-1, int(self.order))
+        n_ctx, sigma = contexts.shape
+        alive = self._n_tokens > 0
+        if not alive.any():
+            return np.full((n_ctx, m), 3), np.zeros((n_ctx, m))
+        act = self._activation[alive] * self._decay  # at the step being predicted
+        n_branches = act.size
+        counts_b = np.ascontiguousarray(self._counts[alive].T)  # (m, B)
+        # positions_b[a, K-1, b] = O[B_b]_a^K
+        positions_b = np.ascontiguousarray(self._positions[alive].reshape(-1, m, sigma + 1).transpose(1, 2, 0))
+        one_hot = contexts[:, :, None] == np.arange(m)[None, None, :]  # (N, sigma, m)
+        rank = np.take_along_axis(np.cumsum(one_hot, axis=1), contexts[:, :, None], axis=2)[:, :, 0]
+        counts_ctx = one_hot.sum(axis=1)  # (N, m)
+        # sum_i min(I[ctx]_i, I[B]_i) = #slots whose occurrence rank is <= I[B] of their action
+        shared_counts = (rank[:, :, None] <= counts_b[contexts]).sum(axis=1)  # (N, B)
+        d_i_ctx = 2 * sigma + 1 - 2 * shared_counts
+        slot_position = np.arange(1, sigma + 1)[None, :, None]
+        shared_positions = np.minimum(slot_position, positions_b[contexts, rank - 1]).sum(axis=1)
+        d_o_ctx = sigma * (sigma + 1) // 2 + (sigma + 1) * (sigma + 2) // 2 - 2 * shared_positions
+
+        # D3, eqs. (5.31)-(5.32): delta = d_I(ctx) + d_O(ctx) + sigma + 2 - 2 (q + [q > 0])
+        shift = np.where(positions_b > 0, positions_b + 1, 0).astype(np.int16)  # (m, K, B)
+        base = (d_i_ctx + d_o_ctx + sigma + 2).astype(np.int16)  # (N, B)
+        delta = base[:, None, :] - 2 * shift[np.arange(m)[None, :], counts_ctx]  # (N, m, B)
+        reciprocal = 1.0 / np.maximum(np.arange(int(base.max()) + 1), 1)  # delta >= 1 wherever D3 applies
+        phi3 = reciprocal[delta] @ act / n_branches
+
+        # D1 and D2, eqs. (5.22)-(5.30): the pairs with d_I(ctx, B) = 1, one candidate each
+        pair_ctx, pair_branch = np.nonzero(d_i_ctx == 1)
+        pair_action = np.argmax(counts_b.T[pair_branch] - counts_ctx[pair_ctx], axis=1)
+        q = positions_b[pair_action, counts_ctx[pair_ctx, pair_action], pair_branch]
+        d_o = d_o_ctx[pair_ctx, pair_branch] + sigma + 1 - 2 * q
+        cell = pair_ctx * m + pair_action
+        pair_act = act[pair_branch]
+        exact = d_o == 0
+        size = n_ctx * m
+        phi1 = np.bincount(cell, weights=np.where(exact, pair_act, 0.0), minlength=size).reshape(n_ctx, m)
+        in_d1 = np.bincount(cell, weights=exact, minlength=size).reshape(n_ctx, m) > 0
+        n_perm = np.bincount(cell, weights=~exact, minlength=size).reshape(n_ctx, m)
+        phi2 = np.bincount(cell, weights=np.where(exact, 0.0, pair_act / np.maximum(d_o, 1)), minlength=size)
+        phi2 = phi2.reshape(n_ctx, m) / np.maximum(n_perm, 1)
+        in_d2 = ~in_d1 & (n_perm > 0)
+        domain = np.where(in_d1, 1, np.where(in_d2, 2, 3))
+        phi = np.where(in_d1, phi1, np.where(in_d2, phi2, phi3))
+        return domain, phi
+
+    def _features_many(self, contexts: np.ndarray) -> np.ndarray:
+        """Features [Phi_v, Phi_C1, ...] of N full contexts, shape (N, m, 1 + N_C)."""
+        contexts = np.asarray(contexts, dtype=np.int64).reshape(-1, int(self.order))
+        _, phi = self._domains_and_phi_many(contexts)
+        prior = affine_prior_many(contexts, self._members, float(self.forgetting))  # (N_C, N, m)
+        return np.concatenate([phi[:, :, None], prior.transpose(1, 2, 0)], axis=2)
+
+    def _predict_many(self, contexts: list[tuple[int, ...]]) -> np.ndarray:
+        sigma = int(self.order)
+        out = np.empty((len(contexts), self.n_actions_))
+        full = [i for i, ctx in enumerate(contexts) if len(ctx) >= sigma]
+        for i in range(len(contexts)):
+            if len(contexts[i]) < sigma:
+                out[i] = self._short_context_fallback(contexts[i])
+        if full:
+            rows = np.array([contexts[i][len(contexts[i]) - sigma :] for i in full], dtype=np.int64)
+            scores = self._features_many(rows) @ self.weights_
+            scores -= scores.max(axis=1, keepdims=True)
+            probs = np.exp(scores)
+            out[full] = probs / probs.sum(axis=1, keepdims=True)
+        return out
+
     def _features(self, context: tuple[int, ...]) -> np.ndarray:
         """Features [Phi_v, Phi_C1, ...] of every candidate, shape (m, 1 + N_C)."""
-        _, phi = self._domains_and_phi(context)
-        prior = affine_prior(context, self._members, float(self.forgetting))
-        return np.column_stack([phi, prior.T]) if prior.size else phi[:, None]
+        return self._features_many(np.array([context]))[0]
 
     # ---------------------------------------------------------------- weights
     def _store_training(self, features: np.ndarray, target: int) -> None:

@@ -201,3 +201,40 @@ def test_workspace_fraction_counts_particles_in_box():
     pf = settled_filter()
     frac = pf.fraction_in_box(POSE[L_WRIST], [0.2, 0.2, 0.2])
     assert frac[L_WRIST] == 1.0 and frac[0] == 0.0
+
+
+def test_literal_bootstrap_mode_tracks_hidden_wrist_and_reacquires_it():
+    # The thesis' own filter (bootstrap PF for seen points too) on a case it handles: a still
+    # arm whose wrist drops into a hidden pocket, then reappears 4 cm away.
+    pf = settled_filter(seed=5, tracked_update="bootstrap")
+    assert not np.any(pf._kf.initialized_)  # no Kalman posterior behind the seen points
+    np.testing.assert_allclose(pf.means_, POSE, atol=0.02)
+    pocket = hidden_near(POSE[L_WRIST], 0.06)
+    for _ in range(15):
+        pf.step(occluded(POSE, L_WRIST), is_hidden=pocket)
+        hand = pf.positions[L_WRIST]
+        assert np.all(pocket(hand))
+        dist = np.linalg.norm(hand - pf.means_[L_ELBOW], axis=1)
+        assert np.all(np.abs(dist - D_EH) <= pf.crown + 1e-9)
+    assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.04
+    # Seen elbow and shoulder stay on their measurements under the bootstrap weights (9.8).
+    np.testing.assert_allclose(pf.means_[[L_ELBOW, L_SHOULDER]], POSE[[L_ELBOW, L_SHOULDER]], atol=0.02)
+    back = POSE.copy()
+    back[L_WRIST] += [0.0, 0.0, 0.04]
+    for _ in range(5):
+        pf.step(back)
+    assert np.linalg.norm(pf.means_[L_WRIST] - back[L_WRIST]) < 0.015
+    assert np.all(np.isfinite(pf.particles_))
+
+
+def test_literal_bootstrap_mode_case3_constraints():
+    pf = settled_filter(seed=6, tracked_update="bootstrap")
+    is_hidden = lambda p: p[..., 2] < 1.3  # noqa: E731
+    for _ in range(10):
+        pf.step(occluded(POSE, L_ELBOW, L_WRIST), is_hidden=is_hidden)
+        shoulder = pf.means_[L_SHOULDER]
+        d_e = np.linalg.norm(pf.positions[L_ELBOW] - shoulder, axis=1)
+        d_w = np.linalg.norm(pf.positions[L_WRIST] - shoulder, axis=1)
+        assert np.all(np.abs(d_e - D_SE) <= pf.crown + 1e-9)
+        assert np.all(d_w <= D_SE + D_EH + pf.crown + 1e-9)
+    assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.02
