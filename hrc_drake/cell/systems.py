@@ -171,8 +171,7 @@ class RobotCapsules(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._nq = plant.num_positions()
         self._positions = self.DeclareVectorInputPort("positions", input_size)
-        empty = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
-        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(empty), self._calc)
+        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc)
 
     def _calc(self, context, output):
         self.plant.SetPositions(self._plant_context, self._positions.Eval(context)[: self._nq])
@@ -193,6 +192,10 @@ class MinOverride(LeafSystem):
             if port.HasValue(context):
                 value = min(value, float(port.Eval(context)[0]))
         output.SetAtIndex(0, value if np.isfinite(value) else 0.0)
+
+
+def _intention_to_logged(event) -> LoggedEvent:
+    return LoggedEvent(event.time, "intention", f"{event.goal} ({event.hand} hand)", event.kind, event.seq)
 
 
 class MetricsRecorder(LeafSystem):
@@ -224,13 +227,13 @@ class MetricsRecorder(LeafSystem):
         self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
         self.DeclareForcedPublishEvent(self._record)
 
-    def _collect(self, port, key, context):
+    def _collect(self, port, key, context, convert=None):
         if not port.HasValue(context):
             return
         new = port.Eval(context).since(self._last_seq[key])
         if new:
             self._last_seq[key] = new[-1].seq
-            self.log.events.extend(new)
+            self.log.events.extend(map(convert, new) if convert else new)
 
     def _record(self, context):
         t = context.get_time()
@@ -238,13 +241,7 @@ class MetricsRecorder(LeafSystem):
             return
         self._collect(self._human_events, "human", context)
         self._collect(self._robot_events, "robot", context)
-        if self._intention_events.HasValue(context):
-            new = self._intention_events.Eval(context).since(self._last_seq["intention"])
-            if new:
-                self._last_seq["intention"] = new[-1].seq
-                self.log.events.extend(
-                    LoggedEvent(e.time, "intention", f"{e.goal} ({e.hand} hand)", e.kind, e.seq) for e in new
-                )
+        self._collect(self._intention_events, "intention", context, _intention_to_logged)
         distance = np.inf
         points = self._human_points.Eval(context).copy() if self._human_points.HasValue(context) else None
         if self._human_capsules.HasValue(context) and self._robot_capsules.HasValue(context):

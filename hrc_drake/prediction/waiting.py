@@ -59,6 +59,10 @@ class WaitingTimePredictor:
         self.default_duration = float(default_duration)
         self.max_nodes = int(max_nodes)
         self._samples: dict[int, deque] = {}
+        self._samples_version = 0
+        self._spectra_cache: tuple = (None, None)
+        self._prob_cache_key: tuple | None = None
+        self._prob_cache: dict[tuple, np.ndarray] = {}
 
     # ---------------------------------------------------------------- statistics
     def observe_duration(self, action: Hashable, duration: float) -> WaitingTimePredictor:
@@ -68,6 +72,7 @@ class WaitingTimePredictor:
             raise ValueError(f"WaitingTimePredictor: duration of {action!r} must be finite, > 0: {duration}")
         (code,) = self.model.encode([action])
         self._samples.setdefault(code, deque(maxlen=self.max_samples)).append(duration)
+        self._samples_version += 1
         return self
 
     def durations(self, action: Hashable) -> np.ndarray:
@@ -94,6 +99,54 @@ class WaitingTimePredictor:
             bins = np.maximum(bins, 1)
         bins = bins[bins < n_bins]
         return np.bincount(bins, minlength=n_bins)[:n_bins] / samples.size
+
+    def _duration_spectra(self, n_bins: int) -> tuple[np.ndarray, int]:
+        """Spectra (m, n_fft) of the duration pmfs on the grid, cached until a new sample."""
+        key = (n_bins, self._samples_version)
+        if self._spectra_cache[0] != key:
+            m = self.model.n_actions_
+            pmfs = np.stack([self._pmf(self._duration_samples(c), n_bins, True) for c in range(m)])
+            # a smooth FFT length: 2 * n_bins is often twice a prime (slow)
+            n_fft = sp_fft.next_fast_len(2 * n_bins - 1, real=True)
+            self._spectra_cache = (key, (sp_fft.rfft(pmfs, n=n_fft, axis=1), n_fft))
+        return self._spectra_cache[1]
+
+    def _next_probs_function(self, width: int):
+        """Next-action probabilities of context rows (P, width), -1 padded on the left.
+
+        Rows are keyed by one integer (base m+1 digits) when it fits in int64, by tuples
+        otherwise. Predictions are cached per context while the model is unchanged (its
+        state_id_), so the tree levels and repeated calls between two observed actions share
+        them; the contexts a level misses go to the model in one batched call.
+        """
+        model = self.model
+        m = model.n_actions_
+        if model.n_observed_ == 0:
+            return lambda rows: np.full((rows.shape[0], m), 1.0 / m)
+        if self._prob_cache_key != (id(model), model.state_id_, width) or len(self._prob_cache) > 100_000:
+            self._prob_cache_key = (id(model), model.state_id_, width)
+            self._prob_cache = {}
+        cache = self._prob_cache
+        digits = _row_digits(m, width)
+
+        def next_probs(rows: np.ndarray) -> np.ndarray:
+            if digits is not None:
+                unique_keys, first, inverse = np.unique(
+                    (rows + 1) @ digits, return_index=True, return_inverse=True
+                )
+                keys = unique_keys.tolist()
+                unique_rows = rows[first]
+            else:
+                unique_rows, inverse = np.unique(rows, axis=0, return_inverse=True)
+                keys = [tuple(row) for row in unique_rows.tolist()]
+            missing = [i for i, key in enumerate(keys) if key not in cache]
+            if missing:
+                contexts = [tuple(c for c in unique_rows[i].tolist() if c >= 0) for i in missing]
+                for i, probs in zip(missing, model._predict_many(contexts), strict=True):
+                    cache[keys[i]] = probs
+            return np.stack([cache[key] for key in keys])[inverse.reshape(-1)]
+
+        return next_probs
 
     # ---------------------------------------------------------------- tree
     def distributions(
@@ -134,33 +187,26 @@ class WaitingTimePredictor:
             root_min = 0.0
         root_pmf = self._pmf(residual, n_bins, at_least_one=False)
 
-        duration_pmfs = np.stack([self._pmf(self._duration_samples(c), n_bins, True) for c in range(m)])
-        # a smooth FFT length: 2 * n_bins is often twice a prime (slow)
-        n_fft = sp_fft.next_fast_len(2 * n_bins - 1, real=True)
-        duration_spectra = sp_fft.rfft(duration_pmfs, n=n_fft, axis=1)
+        duration_spectra, n_fft = self._duration_spectra(n_bins)
         min_durations = np.array([self._min_duration(c) for c in range(m)])
-
         width = max(int(model.context_length_), 1)
-        cache: dict[tuple, np.ndarray] = {}
-
-        def next_probs(contexts: list[tuple[int, ...]]) -> np.ndarray:
-            if model.n_observed_ == 0:
-                return np.full((len(contexts), m), 1.0 / m)
-            missing = [ctx for ctx in dict.fromkeys(contexts) if ctx not in cache]
-            if missing:
-                cache.update(zip(missing, model._predict_many(missing), strict=True))
-            return np.stack([cache[ctx] for ctx in contexts])
+        next_probs = self._next_probs_function(width)
 
         start_mass = np.zeros((m, n_bins))  # sum of p_branch * start-time pmf at first occurrence
-        # level 1: the children of the running action start when it ends
-        parents_ctx = [tuple(codes[len(codes) - width :]) if codes else ()]
+        # level 1: the children of the running action start when it ends. A context is a row
+        # of the `width` most recent codes, -1 where the history is shorter.
+        root_ctx = np.full((1, width), -1, dtype=np.int64)
+        tail = codes[len(codes) - width :] if codes else ()
+        if tail:
+            root_ctx[0, width - len(tail) :] = tail
+        parents_ctx = root_ctx
         parents_pmf = root_pmf[None, :]
         parents_prob = np.ones(1)
         parents_min = np.array([root_min])
         parents_seen = np.zeros((1, m), dtype=bool)
         n_nodes = 0
-        while parents_ctx and n_nodes < self.max_nodes:
-            probs = next_probs(parents_ctx)  # (P, m)
+        while parents_ctx.shape[0] and n_nodes < self.max_nodes:
+            probs = next_probs(parents_ctx)  # (P, m), one batched model call per level
             child_prob = parents_prob[:, None] * probs
             parent_idx, child_action = np.nonzero(child_prob > 0.0)
             if parent_idx.size == 0:
@@ -170,46 +216,38 @@ class WaitingTimePredictor:
             # eq. (5.37): a branch counts for action a at a's first occurrence
             first_prob = np.where(parents_seen, 0.0, child_prob)  # (P, m)
             start_mass += first_prob.T @ parents_pmf
-            seen = parents_seen[parent_idx].copy()
+            seen = parents_seen[parent_idx]
             seen[np.arange(parent_idx.size), child_action] = True
             end_min = parents_min[parent_idx] + min_durations[child_action]
+            # Algorithm 1, line 16: expand only likely branches that can start within the horizon
             expand = (p >= self.epsilon) & (end_min <= horizon) & ~(seen | ~target_mask[None, :]).all(axis=1)
             if not expand.any():
                 break
             keep = np.flatnonzero(expand)
+            child_ctx = np.concatenate(
+                [parents_ctx[parent_idx[keep], 1:], child_action[keep, None].astype(np.int64)], axis=1
+            )
             # Branches with the same recent context and the same actions already seen have the
             # same future: merge them (exact, as (5.37) is linear in p_branch * pmf).
-            groups: dict[tuple, int] = {}
-            group_of = np.empty(keep.size, dtype=int)
-            contexts = []
-            for row, i in enumerate(keep):
-                ctx = (parents_ctx[parent_idx[i]] + (int(child_action[i]),))[-width:]
-                key = (ctx, seen[i].tobytes())
-                group = groups.get(key)
-                if group is None:
-                    group = groups[key] = len(contexts)
-                    contexts.append(ctx)
-                group_of[row] = group
-            n_groups = len(contexts)
+            group_first, group_of = _group_rows(child_ctx, seen[keep], m)
+            n_groups = group_first.size
             mixing = np.zeros((n_groups, parents_pmf.shape[0]))
             np.add.at(mixing, (group_of, parent_idx[keep]), p[keep])
             weighted = mixing @ parents_pmf
             group_prob = mixing.sum(axis=1)
             group_min = np.full(n_groups, np.inf)
             np.minimum.at(group_min, group_of, end_min[keep])
-            group_seen = np.zeros((n_groups, m), dtype=bool)
-            group_seen[group_of] = seen[keep]
-            group_action = np.empty(n_groups, dtype=int)
-            group_action[group_of] = child_action[keep]
+            group_ctx = child_ctx[group_first]
+            group_action = group_ctx[:, -1]
             # start time of a grandchild: this child's start + its duration (convolution, truncated)
             spectra = sp_fft.rfft(weighted, n=n_fft, axis=1) * duration_spectra[group_action]
             end_pmf = sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins]
             end_pmf[end_pmf < 1e-13] = 0.0  # FFT round-off, not probability mass
-            parents_ctx = contexts
+            parents_ctx = group_ctx
             parents_pmf = end_pmf / group_prob[:, None]
             parents_prob = group_prob
             parents_min = group_min
-            parents_seen = group_seen
+            parents_seen = seen[keep][group_first]
         cdf = np.cumsum(start_mass, axis=1)
         return times, np.clip(cdf, 0.0, 1.0)
 
@@ -238,6 +276,27 @@ class WaitingTimePredictor:
             raise ValueError(f"WaitingTimePredictor: percentile levels must be in (0, 1), got {levels}")
         times, cdf = self.distributions(history, elapsed, horizon)
         return percentiles_from_cdf(times, cdf, levels)
+
+
+def _row_digits(n_actions: int, width: int) -> np.ndarray | None:
+    """Place values that turn a row of `width` codes in -1..m-1 into one int64 (None: overflow)."""
+    if width * np.log2(n_actions + 1) > 62:
+        return None
+    return (n_actions + 1) ** np.arange(width - 1, -1, -1, dtype=np.int64)
+
+
+def _group_rows(contexts: np.ndarray, seen: np.ndarray, n_actions: int) -> tuple[np.ndarray, np.ndarray]:
+    """Groups of equal (context row, seen row): the first member of each group and the group of
+    every row, as np.unique(..., axis=0) but through one int64 key when it fits."""
+    width = contexts.shape[1]
+    if width * np.log2(n_actions + 1) + n_actions <= 62:
+        key = ((contexts + 1) @ _row_digits(n_actions, width)) << n_actions
+        key |= seen.astype(np.int64) @ (np.int64(1) << np.arange(n_actions, dtype=np.int64))
+        _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    else:
+        rows = np.concatenate([contexts, seen.astype(np.int64)], axis=1)
+        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)
 
 
 def percentiles_from_cdf(times: np.ndarray, cdf: np.ndarray, levels: Sequence[float]) -> np.ndarray:

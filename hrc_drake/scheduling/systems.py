@@ -125,6 +125,11 @@ class Scheduler(LeafSystem):
         net = compile_flow(flow, buffers, human_agent, human_pattern, robot_agents, wait_quantum)
         return cls(net, kind, params or {}, robot_agents, seed, rate)
 
+    @property
+    def commands(self) -> tuple[RobotCommand, ...]:
+        """Every RobotCommand issued so far (for tests and reports after a run)."""
+        return tuple(self._commands)
+
     def _calc_commands(self, context, output):
         n = int(context.get_discrete_state(self._count_index).get_value()[0])
         output.set_value(EventLog(tuple(self._commands[:n])))

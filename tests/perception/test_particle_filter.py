@@ -203,38 +203,56 @@ def test_workspace_fraction_counts_particles_in_box():
     assert frac[L_WRIST] == 1.0 and frac[0] == 0.0
 
 
+#: The literal bootstrap mode works without leaning on re-seeds with the first two blocks of the
+#: chain (position, velocity); with the default 4-block jerk model at 1 cm noise it does not
+#: (see the particle_filter module docstring).
+LITERAL = dict(tracked_update="bootstrap", order=2, sigma=(0.1, 1.0), initial_std=(0.01, 0.2))
+
+
+def literal_filter(seed):
+    pf = SkeletonParticleFilter(n_particles=300, rng=seed, calibration_frames=5, **LITERAL)
+    rng = np.random.default_rng(seed)
+    for _ in range(30):
+        pf.step(POSE + rng.normal(0.0, 0.01, POSE.shape))
+    return pf, rng
+
+
 def test_literal_bootstrap_mode_tracks_hidden_wrist_and_reacquires_it():
     # The thesis' own filter (bootstrap PF for seen points too) on a case it handles: a still
     # arm whose wrist drops into a hidden pocket, then reappears 4 cm away.
-    pf = settled_filter(seed=5, tracked_update="bootstrap")
+    pf, rng = literal_filter(5)
     assert not np.any(pf._kf.initialized_)  # no Kalman posterior behind the seen points
-    np.testing.assert_allclose(pf.means_, POSE, atol=0.02)
+    np.testing.assert_allclose(pf.means_, POSE, atol=0.03)
     pocket = hidden_near(POSE[L_WRIST], 0.06)
     for _ in range(15):
-        pf.step(occluded(POSE, L_WRIST), is_hidden=pocket)
+        pf.step(occluded(POSE + rng.normal(0.0, 0.01, POSE.shape), L_WRIST), is_hidden=pocket)
         hand = pf.positions[L_WRIST]
         assert np.all(pocket(hand))
         dist = np.linalg.norm(hand - pf.means_[L_ELBOW], axis=1)
         assert np.all(np.abs(dist - D_EH) <= pf.crown + 1e-9)
     assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.04
     # Seen elbow and shoulder stay on their measurements under the bootstrap weights (9.8).
-    np.testing.assert_allclose(pf.means_[[L_ELBOW, L_SHOULDER]], POSE[[L_ELBOW, L_SHOULDER]], atol=0.02)
+    np.testing.assert_allclose(pf.means_[[L_ELBOW, L_SHOULDER]], POSE[[L_ELBOW, L_SHOULDER]], atol=0.03)
     back = POSE.copy()
     back[L_WRIST] += [0.0, 0.0, 0.04]
-    for _ in range(5):
-        pf.step(back)
-    assert np.linalg.norm(pf.means_[L_WRIST] - back[L_WRIST]) < 0.015
+    for _ in range(10):
+        pf.step(back + rng.normal(0.0, 0.01, POSE.shape))
+    assert np.linalg.norm(pf.means_[L_WRIST] - back[L_WRIST]) < 0.025
     assert np.all(np.isfinite(pf.particles_))
+    seen_points = [i for i in range(8) if i != L_WRIST]
+    assert np.all(pf.n_reseeds_[seen_points] == 0)  # worked by weights alone, no re-acquisition
 
 
 def test_literal_bootstrap_mode_case3_constraints():
-    pf = settled_filter(seed=6, tracked_update="bootstrap")
+    pf, rng = literal_filter(6)
     is_hidden = lambda p: p[..., 2] < 1.3  # noqa: E731
     for _ in range(10):
-        pf.step(occluded(POSE, L_ELBOW, L_WRIST), is_hidden=is_hidden)
+        pf.step(occluded(POSE + rng.normal(0.0, 0.01, POSE.shape), L_ELBOW, L_WRIST), is_hidden=is_hidden)
         shoulder = pf.means_[L_SHOULDER]
         d_e = np.linalg.norm(pf.positions[L_ELBOW] - shoulder, axis=1)
         d_w = np.linalg.norm(pf.positions[L_WRIST] - shoulder, axis=1)
         assert np.all(np.abs(d_e - D_SE) <= pf.crown + 1e-9)
         assert np.all(d_w <= D_SE + D_EH + pf.crown + 1e-9)
-    assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.02
+        assert np.all(pf.positions[[L_ELBOW, L_WRIST], :, 2] < 1.3)
+    assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.03
+    assert pf.n_reseeds_.sum() == 0

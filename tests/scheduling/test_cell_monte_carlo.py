@@ -24,7 +24,7 @@ def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
     cell = build_cell(scenario)
     result = simulate(cell, 120.0, progress=None)
     scheduler = cell.systems["scheduler"]
-    commands = scheduler._commands
+    commands = scheduler.commands
     begins = [
         e for e in cell.recorder.log.events if isinstance(e, RobotEvent) and e.kind == "begin" and e.action
     ]
