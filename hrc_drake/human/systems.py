@@ -6,7 +6,6 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.cell.ticked import TickedSystem
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.operator import SyntheticOperator
 from hrc_drake.human.recorded import frame_at, load_skeleton_csv
@@ -112,33 +111,38 @@ class RecordedSkeletonSource(LeafSystem):
         output.set_value(self.frames[frame_at(self.times, context.get_time())])
 
 
-class DepthCamera(TickedSystem):
-    """Samples the skeleton at the camera rate (thesis Ch. 9 measurement model, see `DepthCameraModel`).
+class DepthCamera(LeafSystem):
+    """The depth camera at its frame rate (thesis Ch. 9 measurement model, see `DepthCameraModel`).
 
     Inputs: "skeleton" (24, true points), "gaze" (3), optional abstract "occluding_capsules"
     ((start (K, 3), end (K, 3), radius (K,)), e.g. robot links; unconnected = none).
-    Output: "skeleton_frame" (SkeletonFrame), the last measurement (nothing tracked before the first).
-    `last_capsules` holds the occluding capsules of the last frame, for trackers' hidden-point queries.
+    Output: "skeleton_frame" (SkeletonFrame): frame k = floor(t * rate) is measured when it is
+    first read, from the pose at that moment, and held until frame k + 1. Measuring on demand
+    costs nothing in a cell where no system reads the camera; the noise of frame k comes from a
+    generator seeded with (rng_seed, k), so runs are reproducible whoever reads it and when.
     """
 
     def __init__(self, camera_model: DepthCameraModel, rng_seed=0):
-        super().__init__(1.0 / camera_model.rate)
+        super().__init__()
         self.camera = camera_model
-        self.rng = np.random.default_rng(rng_seed)
-        self.frame = empty_skeleton_frame()
-        self.last_capsules = None
+        self.seed = int(rng_seed)
+        self._frame_index = None
+        self._frame = empty_skeleton_frame()
         self._skeleton = self.DeclareVectorInputPort("skeleton", 24)
         self._gaze = self.DeclareVectorInputPort("gaze", 3)
         self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
                                                        AbstractValue.Make(no_capsules()))
         self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame, prerequisites_of_calc=self.ticket())
-
-    def tick(self, context) -> None:
-        points = self._skeleton.Eval(context).reshape(8, 3)
-        gaze = self._gaze.Eval(context)
-        self.last_capsules = self._capsules.Eval(context) if self._capsules.HasValue(context) else None
-        self.frame = self.camera.measure(context.get_time(), points, gaze, self.rng, self.last_capsules)
+                                       self._calc_frame, prerequisites_of_calc={self.time_ticket()})
 
     def _calc_frame(self, context, output):
-        output.set_value(self.frame)
+        t = context.get_time()
+        k = int(np.floor(t * self.camera.rate + 1e-9))
+        if k != self._frame_index:
+            points = self._skeleton.Eval(context).reshape(8, 3)
+            gaze = self._gaze.Eval(context)
+            capsules = self._capsules.Eval(context) if self._capsules.HasValue(context) else None
+            rng = np.random.default_rng([self.seed, k])
+            self._frame = self.camera.measure(t, points, gaze, rng, capsules)
+            self._frame_index = k
+        output.set_value(self._frame)

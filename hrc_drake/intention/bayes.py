@@ -157,9 +157,12 @@ class GoalIntentionEstimator:
         self.m1_sigma = float(m1_sigma)
         self.m1_mean_speed = float(m1_mean_speed)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-        window = self.model.window if self.model is not None else 6
-        min_speed = self.model.min_speed if self.model is not None else 0.12
-        self._velocity = WristVelocityEstimator(window, min_speed)
+        if self.model is not None:
+            self._velocity = WristVelocityEstimator(
+                self.model.window, self.model.min_speed, self.model.significance
+            )
+        else:
+            self._velocity = WristVelocityEstimator()
         self.reset()
 
     @property

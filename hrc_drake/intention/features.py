@@ -10,8 +10,10 @@ head -> C_i; d: distance wrist -> C_i. When the gaze flag F is invalid the reduc
 Psi^i = (delta_W1, d) is used instead.
 
 Wrist velocities come from a least-squares line through the last `window` samples (robust to
-jitter, NaN samples skipped); a wrist slower than `min_speed` is "still": its direction says
-nothing, so its angle is set to pi/2 (the value of a direction orthogonal to every goal).
+jitter, NaN samples skipped). A wrist is "still" when it is slower than `min_speed` or when its
+slope is not `significance` standard errors away from zero (the standard error comes from the
+residuals of the line, so camera noise of any level is not mistaken for motion): its direction
+says nothing, so its angle is set to pi/2 (the value of a direction orthogonal to every goal).
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ _AT_GOAL = 1e-6
 
 DEFAULT_WINDOW = 8
 DEFAULT_MIN_SPEED = 0.15
+#: a wrist moves when its speed is this many standard errors of the least-squares slope
+DEFAULT_SIGNIFICANCE = 3.5
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -49,13 +53,16 @@ def least_squares_velocity(
     positions: np.ndarray,
     min_speed: float = DEFAULT_MIN_SPEED,
     min_samples: int | None = None,
+    significance: float = DEFAULT_SIGNIFICANCE,
 ):
     """Slope of the least-squares line through windows of samples.
 
     times: (..., K) sample times of each window; positions: (..., K, P, 3) P points per sample,
     NaN rows are skipped. Returns velocity (..., P, 3) (zero where unknown) and moving (..., P)
-    bool: at least `min_samples` (default K // 2 + 1) valid samples and speed >= min_speed;
-    fewer samples would turn the measurement noise into large spurious velocities.
+    bool: at least `min_samples` (default K // 2 + 1) valid samples (fewer would turn the
+    measurement noise into large spurious velocities), speed >= min_speed and
+    speed >= significance * s / sqrt(sum (t - t_mean)^2), s^2 the residual variance per
+    coordinate (a still wrist seen with noise has a slope of the order of its standard error).
     """
     times = np.asarray(times, dtype=float)
     positions = np.asarray(positions, dtype=float)
@@ -73,13 +80,26 @@ def least_squares_velocity(
     if min_samples is None:
         min_samples = times.shape[-1] // 2 + 1
     known = (count >= max(2, min_samples)) & (sxx > 1e-12)
-    velocity = np.where(known[..., None], sxy / np.where(known, sxx, 1.0)[..., None], 0.0)
-    moving = known & (np.linalg.norm(velocity, axis=-1) >= min_speed)
+    safe_sxx = np.where(known, sxx, 1.0)
+    velocity = np.where(known[..., None], sxy / safe_sxx[..., None], 0.0)
+    speed2 = np.sum(velocity * velocity, axis=-1)
+    moving = known & (speed2 >= min_speed * min_speed)
+    if significance > 0:
+        centred = (x - x_mean[..., None, :, :]) * weight[..., None]
+        total = np.sum(centred * centred, axis=(-3, -1))  # (..., P)
+        residual = np.maximum(total - speed2 * safe_sxx, 0.0)  # RSS of the line, 3 coordinates
+        dof = np.maximum(3.0 * (count - 2.0), 1.0)
+        # |v|^2 sxx / s^2 >= significance^2, with s^2 = RSS / dof
+        moving &= speed2 * safe_sxx * dof >= significance * significance * residual
     return velocity, moving
 
 
 def trajectory_velocities(
-    times: np.ndarray, wrists: np.ndarray, window: int = DEFAULT_WINDOW, min_speed: float = DEFAULT_MIN_SPEED
+    times: np.ndarray,
+    wrists: np.ndarray,
+    window: int = DEFAULT_WINDOW,
+    min_speed: float = DEFAULT_MIN_SPEED,
+    significance: float = DEFAULT_SIGNIFICANCE,
 ):
     """Causal wrist velocities along a whole recording (the batch twin of `WristVelocityEstimator`).
 
@@ -100,19 +120,27 @@ def trajectory_velocities(
     pad_x = np.concatenate([np.full((window - 1, 2, 3), np.nan), wrists])
     win_t = np.lib.stride_tricks.sliding_window_view(pad_t, window)  # (T, K)
     win_x = np.moveaxis(np.lib.stride_tricks.sliding_window_view(pad_x, window, axis=0), -1, 1)
-    return least_squares_velocity(win_t, win_x, min_speed)
+    return least_squares_velocity(win_t, win_x, min_speed, significance=significance)
 
 
 class WristVelocityEstimator:
     """On-line wrist velocities from the last `window` samples (least-squares slope)."""
 
-    def __init__(self, window: int = DEFAULT_WINDOW, min_speed: float = DEFAULT_MIN_SPEED):
+    def __init__(
+        self,
+        window: int = DEFAULT_WINDOW,
+        min_speed: float = DEFAULT_MIN_SPEED,
+        significance: float = DEFAULT_SIGNIFICANCE,
+    ):
         if int(window) < 2:
             raise ValueError(f"WristVelocityEstimator: window must be >= 2, got {window}")
         if not min_speed >= 0.0:
             raise ValueError(f"WristVelocityEstimator: min_speed must be >= 0, got {min_speed}")
+        if not significance >= 0.0:
+            raise ValueError(f"WristVelocityEstimator: significance must be >= 0, got {significance}")
         self.window = int(window)
         self.min_speed = float(min_speed)
+        self.significance = float(significance)
         self.reset()
 
     def reset(self) -> None:
@@ -128,7 +156,7 @@ class WristVelocityEstimator:
         self._wrists = np.roll(self._wrists, -1, axis=0)
         self._times[-1] = time
         self._wrists[-1] = wrists
-        return least_squares_velocity(self._times, self._wrists, self.min_speed)
+        return least_squares_velocity(self._times, self._wrists, self.min_speed, significance=self.significance)
 
 
 def as_goal_samples(goal_centers: np.ndarray) -> np.ndarray:

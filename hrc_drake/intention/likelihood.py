@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.intention.features import DEFAULT_MIN_SPEED, DEFAULT_WINDOW, PSI_COLUMNS
+from hrc_drake.intention.features import DEFAULT_MIN_SPEED, DEFAULT_SIGNIFICANCE, DEFAULT_WINDOW, PSI_COLUMNS
 
 DEFAULT_MODEL_PATH = Path(__file__).resolve().parents[1] / "data" / "intention_default.json"
 _LOG_2PI = np.log(2.0 * np.pi)
@@ -118,7 +118,7 @@ class IntentionModel:
     """The two likelihoods of thesis 3.1.2 and the feature settings they were learned with.
 
     gmm4d: density of Phi = (delta_W1, delta_W2, delta_H, d); gmm2d: density of Psi = (delta_W1, d).
-    window, min_speed: the velocity estimator used for the features (see `features`).
+    window, min_speed, significance: the velocity estimator used for the features (see `features`).
     """
 
     gmm4d: GaussianMixtureDensity
@@ -126,6 +126,7 @@ class IntentionModel:
     window: int = DEFAULT_WINDOW
     min_speed: float = DEFAULT_MIN_SPEED
     info: dict = field(default_factory=dict)
+    significance: float = DEFAULT_SIGNIFICANCE
 
     def __post_init__(self):
         if self.gmm4d.n_features != 4 or self.gmm2d.n_features != 2:
@@ -141,6 +142,7 @@ class IntentionModel:
             "gmm2d": self.gmm2d.to_dict(),
             "window": int(self.window),
             "min_speed": float(self.min_speed),
+            "significance": float(self.significance),
             "info": self.info,
         }
 
@@ -155,6 +157,8 @@ class IntentionModel:
             int(data.get("window", DEFAULT_WINDOW)),
             float(data.get("min_speed", DEFAULT_MIN_SPEED)),
             dict(data.get("info", {})),
+            # models saved before the significance test existed gated motion on speed only
+            float(data.get("significance", 0.0)),
         )
 
     def save(self, path) -> None:
@@ -212,6 +216,7 @@ class IntentionLikelihoodLearner:
         window: int = DEFAULT_WINDOW,
         min_speed: float = DEFAULT_MIN_SPEED,
         random_state: int = 0,
+        significance: float = DEFAULT_SIGNIFICANCE,
     ):
         self.candidates = tuple(int(c) for c in candidates)
         self.heldout_fraction = heldout_fraction
@@ -221,6 +226,7 @@ class IntentionLikelihoodLearner:
         self.window = window
         self.min_speed = min_speed
         self.random_state = random_state
+        self.significance = significance
 
     def _select_and_fit(self, x: np.ndarray, rng: np.random.Generator):
         from sklearn.mixture import GaussianMixture
@@ -316,6 +322,7 @@ class IntentionLikelihoodLearner:
                 "heldout_scores_2d": {str(k): v for k, v in self.heldout_scores_2d_.items()},
                 "n_samples": int(self.n_samples_seen_),
             },
+            self.significance,
         )
 
     def score_samples(self, phi: np.ndarray) -> np.ndarray:

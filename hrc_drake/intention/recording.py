@@ -15,6 +15,7 @@ import numpy as np
 
 from hrc_drake.intention.features import (
     DEFAULT_MIN_SPEED,
+    DEFAULT_SIGNIFICANCE,
     DEFAULT_WINDOW,
     skeleton_features,
     trajectory_velocities,
@@ -201,17 +202,32 @@ def training_samples(
     window: int = DEFAULT_WINDOW,
     min_speed: float = DEFAULT_MIN_SPEED,
     with_gaze_flag: bool = False,
+    significance: float = DEFAULT_SIGNIFICANCE,
+    approach_only: bool = True,
 ):
     """Phi (M, 4) for the true goal of every moving, labelled hand sample (thesis 3.1.2).
 
-    With `with_gaze_flag` also the flag F (M,) of each sample: (phi, gaze_valid).
+    approach_only: keep only the samples of each reach from its start to its arrival at the goal
+    (`reaches_of`); the dwell at a goal is no reach, and a wrist lingering there teaches the
+    mixtures "close to a goal, any direction". With `with_gaze_flag` also the flag F (M,) of
+    each sample: (phi, gaze_valid).
     """
     wrists = recording.points[:, [L_WRIST, R_WRIST]]
-    velocity, moving = trajectory_velocities(recording.times, wrists, window, min_speed)
+    velocity, moving = trajectory_velocities(recording.times, wrists, window, min_speed, significance)
     phi = skeleton_features(recording.points, velocity, moving, recording.gaze, recording.layout.centers)
+    in_reach = np.ones(recording.target.shape, dtype=bool)
+    if approach_only:
+        in_reach[:] = False
+        for reach in reaches_of(recording):
+            in_reach[reach.start : reach.arrival + 1, reach.hand] = True
     rows, flags = [], []
     for h in range(2):
-        labelled = (recording.target[:, h] >= 0) & moving[:, h] & np.all(np.isfinite(wrists[:, h]), axis=1)
+        labelled = (
+            (recording.target[:, h] >= 0)
+            & in_reach[:, h]
+            & moving[:, h]
+            & np.all(np.isfinite(wrists[:, h]), axis=1)
+        )
         steps = np.nonzero(labelled)[0]
         rows.append(phi[steps, h, recording.target[steps, h], 0])
         flags.append(recording.gaze_valid[steps])

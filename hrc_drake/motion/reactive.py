@@ -163,45 +163,104 @@ class SweptVolumeBuilder:
 class JointStateEstimator:
     """Kalman filter on the three-integrator chain of eq. (8.3), one track per joint.
 
-    The state of joint j is [q_j, q'_j, q''_j] (position first). Keeps the last `window`
-    filtered means and covariances for the RTS smoother (8.6).
+    The state of joint j is [q_j, q'_j, q''_j] (position first). process_std: jerk density
+    sigma_j of each joint (scalar or (n_dof,), rad/s^3 or m/s^3); measurement_std: default
+    standard deviation of the measured q_j (scalar or (n_dof,)), replaced at each `step` by
+    the given one (IK noise changes with the pose). The tracks are filtered in units of
+    their own sigma_j (x_j / sigma_j), so every track shares one chain model, exact for a
+    linear filter, and the RTS smoother (8.6) of the perception module applies unchanged.
+    Keeps the last `window` filtered means and covariances for the smoother.
     """
 
-    def __init__(self, n_dof: int = 12, dt: float = 0.05, process_std: float = 30.0,
-                 measurement_std: float = 0.02, window: int = 20):
-        self.model = ChainOfIntegrators(order=3, dt=dt, sigma=[0.0, 0.0, process_std], dim=1)
-        self.filter = KalmanFilter(self.model, n_tracks=n_dof, measurement_std=measurement_std,
-                                   initial_std=[measurement_std, 1.0, 5.0])
+    def __init__(self, n_dof: int = 12, dt: float = 0.05, process_std=30.0, measurement_std=0.02,
+                 window: int = 20):
+        self.n_dof = int(n_dof)
+        self.process_std = self._per_joint("process_std", process_std)
+        self.measurement_std = self._per_joint("measurement_std", measurement_std)
         if int(window) != window or window < 2:
             raise ValueError(f"JointStateEstimator: window must be an integer >= 2, got {window!r}")
         self.window = int(window)
-        self.n_dof = int(n_dof)
+        self.model = ChainOfIntegrators(order=3, dt=dt, sigma=[0.0, 0.0, 1.0], dim=1)
+        self.filter = KalmanFilter(self.model, n_tracks=self.n_dof, measurement_std=1.0,
+                                   initial_std=[1.0, 1.0, 5.0])
+        self._scale = self.process_std[:, None]  # filter units -> joint units
         self.reset()
+
+    def _per_joint(self, name, value) -> np.ndarray:
+        value = np.broadcast_to(np.asarray(value, dtype=float), (self.n_dof,)).copy() \
+            if np.ndim(value) == 0 else np.asarray(value, dtype=float)
+        if value.shape != (self.n_dof,) or not np.all(np.isfinite(value)) or np.any(value <= 0):
+            raise ValueError(f"JointStateEstimator: {name} must be positive, a scalar or {self.n_dof} "
+                             f"values, got {value!r}")
+        return value
 
     def reset(self) -> None:
         self.filter.reset()
         self.means_: list[np.ndarray] = []
         self.covs_: list[np.ndarray] = []
 
-    def step(self, q) -> np.ndarray:
-        """Filter one measurement q (n_dof,); returns phi_k|k (n_dof, 3)."""
+    def _update(self, y, std) -> None:
+        """Measurement update with one noise std per track (filter units); first sample initialises."""
+        kf = self.filter
+        if not np.all(kf.initialized_):
+            kf.x_[:] = 0.0
+            kf.x_[:, 0] = y
+            kf.P_[:] = np.diag([1.0, 1.0, 25.0]) / self._scale[:, :, None] ** 2
+            kf.P_[:, 0, 0] = std**2
+            kf.initialized_[:] = True
+            return
+        p = kf.P_
+        gain = p[:, :, 0] / (p[:, 0, 0] + std**2)[:, None]  # (T, 3)
+        kf.x_ = kf.x_ + gain * (y - kf.x_[:, 0])[:, None]
+        p = p - gain[:, :, None] * p[:, None, 0, :]
+        kf.P_ = 0.5 * (p + np.swapaxes(p, 1, 2))
+
+    def step(self, q, measurement_std=None) -> np.ndarray:
+        """Filter one measurement q (n_dof,) with noise std (n_dof,) (default: the constructor's);
+        returns phi_k|k (n_dof, 3)."""
         q = np.asarray(q, dtype=float)
-        if q.shape != (self.n_dof,):
-            raise ValueError(f"JointStateEstimator.step: q must be ({self.n_dof},), got {q.shape}")
-        if np.any(self.filter.initialized_):
+        if q.shape != (self.n_dof,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"JointStateEstimator.step: q must be {self.n_dof} finite values, got {q}")
+        std = self.measurement_std if measurement_std is None else self._per_joint("measurement_std",
+                                                                                     measurement_std)
+        if np.all(self.filter.initialized_):
             self.filter.predict()
-        self.filter.update(q[:, None])
+        self._update(q / self.process_std, std / self.process_std)
         self.means_.append(self.filter.x_.copy())
         self.covs_.append(self.filter.P_.copy())
         if len(self.means_) > self.window:
             del self.means_[0], self.covs_[0]
-        return self.filter.x_.copy()
+        return self.filter.x_ * self._scale
 
     def smoothed_window(self, length: int | None = None) -> np.ndarray:
         """phi_k|K (W, n_dof, 3) over the last `length` stored steps (all by default), eq. (8.6)."""
         start = 0 if length is None else max(0, len(self.means_) - int(length))
         means, _ = rts_smooth(self.model, np.array(self.means_[start:]), np.array(self.covs_[start:]))
-        return means
+        return means * self._scale
+
+
+def ik_joint_std(body, q, point_std: float, visible=None, cap: float = 1.0) -> np.ndarray:
+    """Standard deviation (12,) of the IK solution q for isotropic noise `point_std` (m) on the
+    visible skeletal points: sqrt(diag(point_std^2 (J^T J + (point_std / cap)^2 I)^-1)), J the
+    Jacobian of the visible points at q (finite differences, one batched forward kinematics).
+
+    Near a singular arm (straight elbow: the shoulder rotation barely moves any point) the
+    std grows toward `cap`: such joints are measured badly, and the filter should not follow
+    their IK jitter.
+    """
+    q = np.asarray(q, dtype=float)
+    if q.shape != (12,) or not np.all(np.isfinite(q)):
+        raise ValueError(f"ik_joint_std: q must be 12 finite values, got {q}")
+    if not point_std > 0 or not cap > 0:
+        raise ValueError(f"ik_joint_std: point_std and cap must be positive, got {point_std!r}, {cap!r}")
+    step = 1e-5
+    batch = q + np.vstack([np.zeros(12), step * np.eye(12)])
+    points = body.points(batch)  # (13, 8, 3)
+    if visible is not None:
+        points = points[:, np.asarray(visible, dtype=bool)]
+    jacobian = ((points[1:] - points[0]) / step).reshape(12, -1).T
+    information = jacobian.T @ jacobian + (point_std / cap) ** 2 * np.eye(12)
+    return point_std * np.sqrt(np.diag(np.linalg.inv(information)))
 
 
 class ReactiveMotionPredictor:
@@ -213,27 +272,37 @@ class ReactiveMotionPredictor:
     refresh_period: model update period (s, 0.5 in 8.1.3); each update adds the samples of
         the RTS-smoothed window that arrived since the last one (10 at 20 Hz).
     max_samples: training-set size (100). smoothing_window: RTS window length (steps).
-    process_std, measurement_std: KF noise (jerk density of eq. 8.3, rad or m).
+    min_samples: training samples the GP needs before it replaces the worst-case bounds.
+    process_std (rad/s^3), base_process_std (m/s^3): jerk densities of the KF (8.3) for the
+        rotations and the base translation.
+    point_std: noise of the skeletal points (m); `update` turns it into a per-joint, per-pose
+        measurement noise through the IK Jacobian (`ik_joint_std`). measurement_std: the
+        joint noise `update_q` assumes when given none.
     joint_speed, joint_accel (rad/s, rad/s^2), base_speed, base_accel (m/s, m/s^2): the
-        worst-case limits of [107]; also the fallback before the first GP is trained.
+        worst-case limits of [107], the fallback before the GP is trained, and the cap of
+        the GP excursions (no sampled future may leave the physically reachable set).
     levels, margin: swept-volume sampling, see `SweptVolumeBuilder`.
     """
 
     def __init__(self, body, kind: str = "gp_c", order: int = 4, dt: float = 0.05, horizon: float = 0.5,
                  n_trials: int = 50, percentile: float | None = None, refresh_period: float = 0.5,
-                 max_samples: int = 100, smoothing_window: int = 20, process_std: float = 30.0,
-                 measurement_std: float = 0.02, max_iter: int = 15, joint_speed: float = 3.0,
+                 max_samples: int = 100, smoothing_window: int = 20, min_samples: int = 30,
+                 process_std: float = 3.0, base_process_std: float = 1.0, point_std: float = 0.01,
+                 measurement_std: float = 0.05, max_iter: int = 15, joint_speed: float = 3.0,
                  joint_accel: float = 15.0, base_speed: float = 1.6, base_accel: float = 3.0,
                  levels: int = 3, margin: float = 0.0, rng=None):
         if kind not in MOTION_KINDS:
             raise ValueError(f"ReactiveMotionPredictor: unknown kind {kind!r}; use one of {MOTION_KINDS}")
-        if not (dt > 0 and horizon > 0 and refresh_period > 0):
-            raise ValueError("ReactiveMotionPredictor: dt, horizon and refresh_period must be positive")
+        if not (dt > 0 and horizon > 0 and refresh_period > 0 and point_std > 0):
+            raise ValueError("ReactiveMotionPredictor: dt, horizon, refresh_period and point_std must be positive")
         if int(n_trials) != n_trials or n_trials < 1:
             raise ValueError(f"ReactiveMotionPredictor: n_trials must be a positive integer, "
                              f"got {n_trials!r}")
         if percentile is not None and not 0 <= percentile <= 100:
             raise ValueError(f"ReactiveMotionPredictor: percentile must be in [0, 100], got {percentile!r}")
+        if int(min_samples) != min_samples or not 2 <= min_samples <= max_samples:
+            raise ValueError(f"ReactiveMotionPredictor: min_samples must be an integer in [2, max_samples], "
+                             f"got {min_samples!r}")
         self.body = body
         self.kind = kind
         self.order = int(order)
@@ -244,8 +313,12 @@ class ReactiveMotionPredictor:
         self.percentile = percentile
         self.refresh_steps = max(1, int(round(refresh_period / dt)))
         window = max(int(smoothing_window), self.refresh_steps + self.order + 1)
-        self.estimator = JointStateEstimator(12, dt, process_std, measurement_std, window)
+        jerk = np.full(12, float(process_std))
+        jerk[list(_BASE_TRANSLATION)] = base_process_std
+        self.estimator = JointStateEstimator(12, dt, jerk, measurement_std, window)
+        self.point_std = float(point_std)
         self.max_samples = int(max_samples)
+        self.min_samples = int(min_samples)
         self.max_iter = int(max_iter)
         self.v_max = np.full(12, float(joint_speed))
         self.a_max = np.full(12, float(joint_accel))
@@ -272,7 +345,9 @@ class ReactiveMotionPredictor:
 
     @property
     def model_ready(self) -> bool:
-        return self.model_ is not None and hasattr(self.model_, "buckets_")
+        """The GP holds at least `min_samples` training samples."""
+        return (self.model_ is not None and hasattr(self.model_, "buckets_")
+                and self.model_.n_samples_ >= self.min_samples)
 
     def _refresh_model(self) -> None:
         smoothed = self.estimator.smoothed_window()
@@ -285,12 +360,13 @@ class ReactiveMotionPredictor:
         self.model_.partial_fit(windows)
         self.fit_seconds_.append(_time.perf_counter() - start)
 
-    def update_q(self, q) -> tuple[np.ndarray, np.ndarray]:
-        """One step from a measured q (12,): filter, maybe refresh h_GP, excursions (Delta+, Delta-)."""
+    def update_q(self, q, measurement_std=None) -> tuple[np.ndarray, np.ndarray]:
+        """One step from a measured q (12,) with noise std (12,) (default: `measurement_std`):
+        filter, maybe refresh h_GP, excursions (Delta+, Delta-)."""
         q = np.asarray(q, dtype=float)
         if q.shape != (12,) or not np.all(np.isfinite(q)):
             raise ValueError(f"ReactiveMotionPredictor.update_q: q must be 12 finite values, got {q}")
-        phi = self.estimator.step(q)
+        phi = self.estimator.step(q, measurement_std)
         self.phi_ = phi
         self.q_ = phi[:, 0].copy()
         self._history.append(phi)
@@ -300,13 +376,15 @@ class ReactiveMotionPredictor:
         if (self.model_ is not None and self._steps_seen % self.refresh_steps == 0
                 and self._steps_seen > self.order):
             self._refresh_model()
+        bound_plus, bound_minus = worst_case_excursions(phi[:, 1], self.horizon, self.v_max, self.a_max)
         if self.model_ready and len(self._history) == self.order:
             # Start from phi_{k-P+1|k} .. phi_{k|k}: smoothed like the training samples (8.13),
             # the newest one equal to the filtered state of (8.8).
             history = self.estimator.smoothed_window(self.order + 2)[-self.order:]
             rollouts = self.model_.sample_rollouts(history, self.steps, self.n_trials, self.rng)
-            return excursions_from_rollouts(self.q_, rollouts, self.percentile)
-        return worst_case_excursions(phi[:, 1], self.horizon, self.v_max, self.a_max)
+            plus, minus = excursions_from_rollouts(self.q_, rollouts, self.percentile)
+            return np.minimum(plus, bound_plus), np.minimum(minus, bound_minus)
+        return bound_plus, bound_minus
 
     def update(self, time: float, points) -> SweptVolumes:
         """Skeleton points (8, 3) (NaN rows ignored) at `time` -> swept volumes over the horizon."""
@@ -315,7 +393,8 @@ class ReactiveMotionPredictor:
             self.reset()  # a new simulation started from an earlier time
         self.last_time_ = float(time)
         q = self.body.inverse(points, q0=self.q_)
-        delta_plus, delta_minus = self.update_q(q)
+        std = ik_joint_std(self.body, q, self.point_std, np.all(np.isfinite(points), axis=1))
+        delta_plus, delta_minus = self.update_q(q, std)
         return self.swept_volumes(time, delta_plus, delta_minus)
 
     def swept_volumes(self, time: float, delta_plus, delta_minus) -> SweptVolumes:

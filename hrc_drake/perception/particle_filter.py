@@ -20,7 +20,11 @@ are updated; occluded points are handled the same way in both modes.
   when the point is seen again the Kalman posterior restarts from the moments of the
   constrained cloud.
 - "bootstrap" (the literal thesis; tracker parameter `bootstrap_tracked: 1`): every point is
-  a bootstrap PF, seen or not: motion update, weights (9.8)-(9.9), resampling.
+  a bootstrap PF, seen or not: motion update, weights (9.8)-(9.9), resampling. It works as
+  such with a short chain (order 2: position, velocity; tests test_literal_bootstrap_*). With
+  the default 4-block jerk model and 1 cm noise, position-only weights cannot hold the
+  velocity..jerk samples: the cloud drifts off the measurement and the re-acquisition gate
+  re-seeds a seen point on most frames (still errors of 4-7 cm).
 
 One `step` (in "kalman" mode, step 2a and the resampling of seen points are replaced by the
 Kalman sampling above):

@@ -15,9 +15,12 @@ from collections.abc import Hashable, Iterable, Sequence
 import numpy as np
 from sklearn.exceptions import NotFittedError
 
-
 #: every change of a model's learned state takes a fresh id, so caches keyed on it never go stale
 _STATE_IDS = itertools.count(1)
+
+
+#: model class name -> class, for `SequenceModel.from_dict`
+_MODEL_CLASSES: dict[str, type] = {}
 
 
 def _plain(label):
@@ -36,6 +39,10 @@ class SequenceModel:
     Subclasses implement `_reset_state`, `_learn_newest`, `_forget_oldest`, `_update_fit`,
     `_predict_codes` and `context_length_`.
     """
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        _MODEL_CLASSES[cls.__name__] = cls
 
     def __init__(self, actions: int | Sequence[Hashable] | None = None, buffer_size: int | None = None):
         self.actions = actions
@@ -112,6 +119,7 @@ class SequenceModel:
         self.buffer_.append(code)
         self.n_observed_ += 1
         self._learn_newest()
+        self._touch()
 
     def _buffer_limit(self) -> int | None:
         return None if self.buffer_size is None else int(self.buffer_size)
@@ -220,14 +228,52 @@ class SequenceModel:
 
     # ---------------------------------------------------------------- persistence
     def to_dict(self) -> dict:
-        """JSON-ready description: parameters and the buffered actions (refit reproduces it)."""
+        """JSON-ready description: class, parameters, labels, buffered actions, learned state.
+
+        `SequenceModel.from_dict` rebuilds an equal model from it (labels must be JSON
+        scalars: str, int, float, bool).
+        """
         self._check_classes()
         return {
             "model": type(self).__name__,
             "params": self._params(),
             "classes": list(self.classes_),
             "buffer": [self.classes_[c] for c in self.buffer_],
+            "n_observed": int(self.n_observed_),
+            "state": self._state_to_dict(),
         }
+
+    @classmethod
+    def from_dict(cls, data: dict):
+        """Rebuild a model saved with `to_dict` (parsed JSON; no pickle). ValueError on bad data."""
+        if not isinstance(data, dict):
+            raise ValueError(f"{cls.__name__}.from_dict: expected a dict, got {type(data).__name__}")
+        missing = [key for key in ("model", "params", "classes", "buffer") if key not in data]
+        if missing:
+            raise ValueError(f"{cls.__name__}.from_dict: missing keys {missing}")
+        target = _MODEL_CLASSES.get(data["model"])
+        if target is None or not issubclass(target, cls):
+            raise ValueError(f"{cls.__name__}.from_dict: unknown model {data['model']!r}")
+        try:
+            model = target(actions=list(data["classes"]), **dict(data["params"]))
+            model._set_classes(model._classes_from_actions(None))
+            model._reset()
+            codes = model.encode(data["buffer"])
+            model._restore(codes, int(data.get("n_observed", len(codes))), data.get("state") or {})
+        except (TypeError, KeyError) as err:
+            raise ValueError(f"{cls.__name__}.from_dict: malformed {data['model']} data: {err!r}") from None
+        model._touch()
+        return model
 
     def _params(self) -> dict:
         return {"buffer_size": self.buffer_size}
+
+    def _state_to_dict(self) -> dict:
+        """Learned values that are not a function of the buffer (none by default)."""
+        return {}
+
+    def _restore(self, codes: tuple[int, ...], n_observed: int, state: dict) -> None:
+        """Replay the buffer (the counts depend only on it), then restore the step counter."""
+        for code in codes:
+            self._observe(code)
+        self.n_observed_ = max(n_observed, len(codes))

@@ -134,6 +134,25 @@ class HigherOrderMarkovModel(SequenceModel):
     def _params(self) -> dict:
         return {"order": self.order, "buffer_size": self.buffer_size, "refit_every": self.refit_every}
 
+    def _state_to_dict(self) -> dict:
+        # lambda may lag the buffer by up to refit_every - 1 actions: keep it as learned
+        return {"weights": self.weights_.tolist(), "since_refit": int(self._since_refit)}
+
+    def _restore(self, codes: tuple[int, ...], n_observed: int, state: dict) -> None:
+        super()._restore(codes, n_observed, state)
+        self.matrices_ = counts_to_matrices(self.counts_)
+        self._matrices_stale = False
+        if "weights" in state:
+            weights = np.asarray(state["weights"], dtype=float)
+            if weights.shape != self.weights_.shape or not np.all(np.isfinite(weights)):
+                raise ValueError(
+                    f"{type(self).__name__}.from_dict: weights must be {self.weights_.size} finite numbers"
+                )
+            self.weights_ = weights
+        else:
+            self.weights_ = self._fit_weights()
+        self._since_refit = int(state.get("since_refit", 0))
+
     def _reset_state(self) -> None:
         if int(self.order) < 0:
             raise ValueError(f"{type(self).__name__}: order={self.order} must be >= 0")

@@ -157,6 +157,74 @@ class SuffixTreeModel(SequenceModel):
             "l2": self.l2,
         }
 
+    # ---------------------------------------------------------------- persistence
+    def _state_to_dict(self) -> dict:
+        count = self._train_count
+        return {
+            "branches": self._branches.tolist(),
+            "activation": self._activation.tolist(),
+            "n_tokens": self._n_tokens.tolist(),
+            "tokens": [[int(step), int(index)] for step, index in self._tokens],
+            "weights": self.weights_.tolist(),
+            "step_size": float(self._step_size),
+            # the ring buffer of training steps as stored (the sums then add up identically)
+            "train_features": self._train_features[:count].tolist(),
+            "train_targets": self._train_targets[:count].tolist(),
+            "train_next": int(self._train_next),
+        }
+
+    def _restore(self, codes: tuple[int, ...], n_observed: int, state: dict) -> None:
+        """The tree, tokens and training window as saved (a replay of the bounded buffer
+        would renumber the tokens and relearn w differently)."""
+        if not state:  # a bare buffer: rebuild by replaying it
+            super()._restore(codes, n_observed, state)
+            self._update_fit(final=True)
+            return
+        m, sigma = self.n_actions_, int(self.order)
+        branches = np.asarray(state["branches"], dtype=int).reshape(-1, sigma + 1)
+        activation = np.asarray(state["activation"], dtype=float)
+        n_tokens = np.asarray(state["n_tokens"], dtype=int)
+        tokens = [(int(step), int(index)) for step, index in state["tokens"]]
+        weights = np.asarray(state["weights"], dtype=float)
+        features = np.asarray(state["train_features"], dtype=float).reshape(-1, m, weights.size)
+        targets = np.asarray(state["train_targets"], dtype=int)
+        n_branches = branches.shape[0]
+        problems = []
+        if branches.size and (branches.min() < 0 or branches.max() >= m):
+            problems.append("branch actions outside 0..m-1")
+        if activation.shape != (n_branches,) or n_tokens.shape != (n_branches,):
+            problems.append("activation/n_tokens do not match the branches")
+        if any(not 0 <= index < n_branches for _, index in tokens):
+            problems.append("a token names a missing branch")
+        if weights.shape != self.weights_.shape:
+            problems.append(f"weights need {self.weights_.size} values")
+        if targets.shape != (features.shape[0],) or features.shape[0] > int(self.learning_window):
+            problems.append("training window does not match learning_window")
+        if not all(np.all(np.isfinite(values)) for values in (weights, activation, features)):
+            problems.append("non-finite numbers")
+        if problems:
+            raise ValueError(f"SuffixTreeModel.from_dict: {'; '.join(problems)}")
+        self.buffer_ = deque(codes)
+        self.n_observed_ = max(n_observed, len(codes))
+        self._branches = branches
+        self._counts = occurrence_counts(branches, m) if n_branches else np.zeros((0, m), dtype=int)
+        self._positions = (
+            occurrence_positions(branches, m).reshape(n_branches, -1)
+            if n_branches
+            else np.zeros((0, m * (sigma + 1)), dtype=int)
+        )
+        self._branch_index = {tuple(int(v) for v in row): i for i, row in enumerate(branches)}
+        self._activation = activation
+        self._n_tokens = n_tokens
+        self._tokens = deque(tokens)
+        self.weights_ = weights
+        self._step_size = float(state.get("step_size", 1.0))
+        count = features.shape[0]
+        self._train_features[:count] = features
+        self._train_targets[:count] = targets
+        self._train_count = count
+        self._train_next = int(state.get("train_next", count)) % int(self.learning_window)
+
     # ---------------------------------------------------------------- state
     def _reset_state(self) -> None:
         sigma = int(self.order)
@@ -198,6 +266,7 @@ class SuffixTreeModel(SequenceModel):
         self._train_count = 0
         self._train_next = 0
         self._step_size = 1.0
+        self._last_features: tuple | None = None
 
     def _learn_newest(self) -> None:
         sigma = int(self.order)
@@ -206,7 +275,8 @@ class SuffixTreeModel(SequenceModel):
         if len(self.buffer_) > sigma:
             end = len(self.buffer_) - 1
             context = tuple(self.buffer_[i] for i in range(end - sigma, end))
-            self._store_training(self._features(context), newest)
+            # the features of the prediction just made for this step, if any (same tree)
+            self._store_training(self._features_cached(context), newest)
             self._activation *= self._decay
             self._add_token(context + (newest,), step)
         else:
@@ -355,7 +425,8 @@ class SuffixTreeModel(SequenceModel):
         n_branches = act.size
         counts_b = np.ascontiguousarray(self._counts[alive].T)  # (m, B)
         # positions_b[a, K-1, b] = O[B_b]_a^K
-        positions_b = np.ascontiguousarray(self._positions[alive].reshape(-1, m, sigma + 1).transpose(1, 2, 0))
+        positions_b = self._positions[alive].reshape(-1, m, sigma + 1)
+        positions_b = np.ascontiguousarray(positions_b.transpose(1, 2, 0))
         one_hot = contexts[:, :, None] == np.arange(m)[None, None, :]  # (N, sigma, m)
         rank = np.take_along_axis(np.cumsum(one_hot, axis=1), contexts[:, :, None], axis=2)[:, :, 0]
         counts_ctx = one_hot.sum(axis=1)  # (N, m)
@@ -414,6 +485,13 @@ class SuffixTreeModel(SequenceModel):
             out[full] = probs / probs.sum(axis=1, keepdims=True)
         return out
 
+    def _features_cached(self, context: tuple[int, ...]) -> np.ndarray:
+        """`_features`, reused while the tree is unchanged (state_id_) and asked again."""
+        key = (self.state_id_, context)
+        if self._last_features is None or self._last_features[0] != key:
+            self._last_features = (key, self._features(context))
+        return self._last_features[1]
+
     def _features(self, context: tuple[int, ...]) -> np.ndarray:
         """Features [Phi_v, Phi_C1, ...] of every candidate, shape (m, 1 + N_C)."""
         return self._features_many(np.array([context]))[0]
@@ -437,13 +515,14 @@ class SuffixTreeModel(SequenceModel):
         top = scores.max(axis=1, keepdims=True)
         exp_scores = np.exp(scores - top)
         norm = exp_scores.sum(axis=1, keepdims=True)
-        log_z = (top + np.log(norm))[:, 0]
+        log_z = top[:, 0] + np.log(norm[:, 0])
         probs = exp_scores / norm
-        chosen = features[np.arange(count), targets]  # (T, d)
+        chosen_sum = features[np.arange(count), targets].sum(axis=0)  # (d,)
         ridge = 0.5 * float(self.l2) * weights @ weights
-        value = float((scores[np.arange(count), targets] - log_z).mean()) - ridge
+        value = float(chosen_sum @ weights - log_z.sum()) / count - ridge
         # gradient of eqs. (5.35)-(5.36), averaged over steps
-        gradient = (chosen - np.einsum("tm,tmd->td", probs, features)).mean(axis=0) - float(self.l2) * weights
+        expected = probs.reshape(1, -1) @ features.reshape(-1, features.shape[2])  # sum_t sum_a P Phi
+        gradient = (chosen_sum - expected[0]) / count - float(self.l2) * weights
         return value, gradient
 
     def _update_fit(self, final: bool) -> None:
@@ -471,7 +550,7 @@ class SuffixTreeModel(SequenceModel):
     def _predict_codes(self, context: tuple[int, ...]) -> np.ndarray:
         sigma = int(self.order)
         if len(context) >= sigma:
-            scores = self._features(tuple(context[len(context) - sigma :])) @ self.weights_
+            scores = self._features_cached(tuple(context[len(context) - sigma :])) @ self.weights_
             scores -= scores.max()
             probs = np.exp(scores)
             return probs / probs.sum()

@@ -64,6 +64,15 @@ class WaitingTimePredictor:
         self._prob_cache_key: tuple | None = None
         self._prob_cache: dict[tuple, np.ndarray] = {}
 
+    def clear_cache(self) -> WaitingTimePredictor:
+        """Forget the cached next-action predictions and duration spectra; returns self.
+
+        Not needed for correctness (the caches follow the model's state_id_ and the samples);
+        benchmarks use it to time a cold call."""
+        self._prob_cache_key, self._prob_cache = None, {}
+        self._spectra_cache = (None, None)
+        return self
+
     # ---------------------------------------------------------------- statistics
     def observe_duration(self, action: Hashable, duration: float) -> WaitingTimePredictor:
         """Record one measured duration T^a (s) of `action`; returns self."""
@@ -74,6 +83,37 @@ class WaitingTimePredictor:
         self._samples.setdefault(code, deque(maxlen=self.max_samples)).append(duration)
         self._samples_version += 1
         return self
+
+    def to_dict(self) -> dict:
+        """JSON-ready parameters and duration samples (the model is saved on its own)."""
+        classes = self.model.classes_
+        return {
+            "params": {
+                "resolution": self.resolution,
+                "epsilon": self.epsilon,
+                "max_samples": self.max_samples,
+                "min_durations": [[label, float(value)] for label, value in self.min_durations.items()],
+                "default_duration": self.default_duration,
+                "max_nodes": self.max_nodes,
+            },
+            "samples": [[classes[code], list(samples)] for code, samples in sorted(self._samples.items())],
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict, model: SequenceModel) -> WaitingTimePredictor:
+        """Rebuild a predictor saved with `to_dict` around `model`; ValueError on bad data."""
+        if not isinstance(data, dict) or "params" not in data or "samples" not in data:
+            raise ValueError("WaitingTimePredictor.from_dict: expected a dict with 'params' and 'samples'")
+        try:
+            params = dict(data["params"])
+            params["min_durations"] = {label: value for label, value in params.get("min_durations", [])}
+            waiting = cls(model, **params)
+            for label, samples in data["samples"]:
+                for duration in samples:
+                    waiting.observe_duration(label, duration)
+        except (TypeError, KeyError) as err:
+            raise ValueError(f"WaitingTimePredictor.from_dict: malformed data: {err!r}") from None
+        return waiting
 
     def durations(self, action: Hashable) -> np.ndarray:
         """The remembered duration samples of `action` (s), oldest first."""
@@ -106,8 +146,10 @@ class WaitingTimePredictor:
         if self._spectra_cache[0] != key:
             m = self.model.n_actions_
             pmfs = np.stack([self._pmf(self._duration_samples(c), n_bins, True) for c in range(m)])
-            # a smooth FFT length: 2 * n_bins is often twice a prime (slow)
-            n_fft = sp_fft.next_fast_len(2 * n_bins - 1, real=True)
+            # long enough for a linear (not circular) convolution of a start pmf with the
+            # durations, and smooth: n_bins + support is often a prime (slow)
+            support = int(np.flatnonzero(pmfs.any(axis=0)).max(initial=0)) + 1
+            n_fft = sp_fft.next_fast_len(n_bins + support - 1, real=True)
             self._spectra_cache = (key, (sp_fft.rfft(pmfs, n=n_fft, axis=1), n_fft))
         return self._spectra_cache[1]
 
@@ -131,20 +173,14 @@ class WaitingTimePredictor:
 
         def next_probs(rows: np.ndarray) -> np.ndarray:
             if digits is not None:
-                unique_keys, first, inverse = np.unique(
-                    (rows + 1) @ digits, return_index=True, return_inverse=True
-                )
-                keys = unique_keys.tolist()
-                unique_rows = rows[first]
+                keys = ((rows + 1) @ digits).tolist()
             else:
-                unique_rows, inverse = np.unique(rows, axis=0, return_inverse=True)
-                keys = [tuple(row) for row in unique_rows.tolist()]
-            missing = [i for i, key in enumerate(keys) if key not in cache]
+                keys = [tuple(row) for row in rows.tolist()]
+            missing = {key: i for i, key in enumerate(keys) if key not in cache}
             if missing:
-                contexts = [tuple(c for c in unique_rows[i].tolist() if c >= 0) for i in missing]
-                for i, probs in zip(missing, model._predict_many(contexts), strict=True):
-                    cache[keys[i]] = probs
-            return np.stack([cache[key] for key in keys])[inverse.reshape(-1)]
+                contexts = [tuple(c for c in rows[i].tolist() if c >= 0) for i in missing.values()]
+                cache.update(zip(missing, model._predict_many(contexts), strict=True))
+            return np.array([cache[key] for key in keys])
 
         return next_probs
 
@@ -199,55 +235,51 @@ class WaitingTimePredictor:
         tail = codes[len(codes) - width :] if codes else ()
         if tail:
             root_ctx[0, width - len(tail) :] = tail
+        # Each tree node (a branch, after merging) carries its context row, p_branch, the mass
+        # p_branch * pmf of the time its action ends (= its children start), its least end time
+        # (sum of T_min) and the set of actions it has seen.
         parents_ctx = root_ctx
-        parents_pmf = root_pmf[None, :]
+        parents_mass = root_pmf[None, :]
         parents_prob = np.ones(1)
         parents_min = np.array([root_min])
         parents_seen = np.zeros((1, m), dtype=bool)
         n_nodes = 0
         while parents_ctx.shape[0] and n_nodes < self.max_nodes:
-            probs = next_probs(parents_ctx)  # (P, m), one batched model call per level
+            probs = next_probs(parents_ctx)  # (P, m) arc probabilities, one batched model call
+            # eq. (5.37): a branch counts for action a at a's first occurrence
+            start_mass += np.where(parents_seen, 0.0, probs).T @ parents_mass
             child_prob = parents_prob[:, None] * probs
-            parent_idx, child_action = np.nonzero(child_prob > 0.0)
+            n_nodes += int(np.count_nonzero(child_prob))
+            end_min = parents_min[:, None] + min_durations[None, :]
+            # Algorithm 1, line 16: expand only likely branches that can start within the horizon
+            expand = (child_prob >= self.epsilon) & (child_prob > 0.0) & (end_min <= horizon)
+            # ... and not those that have seen every target (line 8)
+            targets_left = target_mask[None, :] & ~parents_seen
+            n_left = targets_left.sum(axis=1)[:, None]
+            expand &= (n_left > 1) | ((n_left == 1) & ~targets_left)
+            parent_idx, child_action = np.nonzero(expand)
             if parent_idx.size == 0:
                 break
-            n_nodes += parent_idx.size
-            p = child_prob[parent_idx, child_action]
-            # eq. (5.37): a branch counts for action a at a's first occurrence
-            first_prob = np.where(parents_seen, 0.0, child_prob)  # (P, m)
-            start_mass += first_prob.T @ parents_pmf
+            child_ctx = np.concatenate([parents_ctx[parent_idx, 1:], child_action[:, None]], axis=1)
             seen = parents_seen[parent_idx]
             seen[np.arange(parent_idx.size), child_action] = True
-            end_min = parents_min[parent_idx] + min_durations[child_action]
-            # Algorithm 1, line 16: expand only likely branches that can start within the horizon
-            expand = (p >= self.epsilon) & (end_min <= horizon) & ~(seen | ~target_mask[None, :]).all(axis=1)
-            if not expand.any():
-                break
-            keep = np.flatnonzero(expand)
-            child_ctx = np.concatenate(
-                [parents_ctx[parent_idx[keep], 1:], child_action[keep, None].astype(np.int64)], axis=1
-            )
             # Branches with the same recent context and the same actions already seen have the
             # same future: merge them (exact, as (5.37) is linear in p_branch * pmf).
-            group_first, group_of = _group_rows(child_ctx, seen[keep], m)
-            n_groups = group_first.size
-            mixing = np.zeros((n_groups, parents_pmf.shape[0]))
-            np.add.at(mixing, (group_of, parent_idx[keep]), p[keep])
-            weighted = mixing @ parents_pmf
-            group_prob = mixing.sum(axis=1)
-            group_min = np.full(n_groups, np.inf)
-            np.minimum.at(group_min, group_of, end_min[keep])
-            group_ctx = child_ctx[group_first]
-            group_action = group_ctx[:, -1]
-            # start time of a grandchild: this child's start + its duration (convolution, truncated)
+            order, starts = _group_rows(child_ctx, seen, m)
+            parent_idx, child_action = parent_idx[order], child_action[order]
+            weighted = np.add.reduceat(
+                probs[parent_idx, child_action, None] * parents_mass[parent_idx], starts, axis=0
+            )
+            first = order[starts]
+            group_action = child_action[starts]
+            # a child ends at its start + its duration (convolution, truncated at the horizon)
             spectra = sp_fft.rfft(weighted, n=n_fft, axis=1) * duration_spectra[group_action]
-            end_pmf = sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins]
-            end_pmf[end_pmf < 1e-13] = 0.0  # FFT round-off, not probability mass
-            parents_ctx = group_ctx
-            parents_pmf = end_pmf / group_prob[:, None]
-            parents_prob = group_prob
-            parents_min = group_min
-            parents_seen = seen[keep][group_first]
+            parents_mass = sp_fft.irfft(spectra, n=n_fft, axis=1)[:, :n_bins]
+            parents_mass[parents_mass < 1e-15] = 0.0  # FFT round-off, not probability mass
+            parents_prob = np.add.reduceat(child_prob[parent_idx, child_action], starts)
+            parents_min = np.minimum.reduceat(end_min[parent_idx, child_action], starts)
+            parents_ctx = child_ctx[first]
+            parents_seen = seen[first]
         cdf = np.cumsum(start_mass, axis=1)
         return times, np.clip(cdf, 0.0, 1.0)
 
@@ -286,17 +318,19 @@ def _row_digits(n_actions: int, width: int) -> np.ndarray | None:
 
 
 def _group_rows(contexts: np.ndarray, seen: np.ndarray, n_actions: int) -> tuple[np.ndarray, np.ndarray]:
-    """Groups of equal (context row, seen row): the first member of each group and the group of
-    every row, as np.unique(..., axis=0) but through one int64 key when it fits."""
+    """Groups of equal (context row, seen row): the order that sorts the rows by group and the
+    start of each group in it (for ufunc.reduceat). One int64 key per row when it fits."""
     width = contexts.shape[1]
     if width * np.log2(n_actions + 1) + n_actions <= 62:
         key = ((contexts + 1) @ _row_digits(n_actions, width)) << n_actions
         key |= seen.astype(np.int64) @ (np.int64(1) << np.arange(n_actions, dtype=np.int64))
-        _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     else:
         rows = np.concatenate([contexts, seen.astype(np.int64)], axis=1)
-        _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
-    return first, inverse.reshape(-1)
+        key = np.unique(rows, axis=0, return_inverse=True)[1].reshape(-1)
+    order = np.argsort(key, kind="stable")
+    ordered = key[order]
+    starts = np.flatnonzero(np.concatenate(([True], ordered[1:] != ordered[:-1])))
+    return order, starts
 
 
 def percentiles_from_cdf(times: np.ndarray, cdf: np.ndarray, levels: Sequence[float]) -> np.ndarray:

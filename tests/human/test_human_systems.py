@@ -37,8 +37,8 @@ def test_operator_and_camera_simulate_two_seconds():
     op, source, camera, simulator = build()
     context = simulator.get_mutable_context()
     cam_context = camera.GetMyContextFromRoot(context)
-    before = camera.GetOutputPort("skeleton_frame").Eval(cam_context)
-    assert not before.tracked.any()  # nothing measured before the first camera tick
+    first = camera.GetOutputPort("skeleton_frame").Eval(cam_context)
+    assert first.time == 0.0 and first.tracked.all()  # frame 0 is measured when first read
     simulator.AdvanceTo(2.0)
     src_context = source.GetMyContextFromRoot(context)
     log = source.GetOutputPort("human_events").Eval(src_context)
@@ -51,7 +51,7 @@ def test_operator_and_camera_simulate_two_seconds():
     np.testing.assert_allclose(source.GetOutputPort("gaze").Eval(src_context), op.gaze(2.0))
     frame = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(context))
     assert isinstance(frame, SkeletonFrame)
-    assert frame.time == pytest.approx(59 / 30.0)  # Drake runs the events at t = 2 in the next step
+    assert frame.time == pytest.approx(2.0)
     assert frame.tracked.all()
     assert np.abs(frame.points - op.points(frame.time)).max() < 0.03
     head = op.points(frame.time)[1]
@@ -88,3 +88,25 @@ def test_recorded_source():
         RecordedSkeletonSource(times[::-1], points, tracked)
     with pytest.raises(ValueError, match="rate"):
         OperatorSource(None, rate=100.0)
+
+
+def test_camera_frames_are_held_and_reproducible():
+    frames = []
+    for _ in range(2):
+        op, source, camera, simulator = build()
+        simulator.AdvanceTo(1.0)
+        context = camera.GetMyContextFromRoot(simulator.get_context())
+        frames.append(camera.GetOutputPort("skeleton_frame").Eval(context))
+    np.testing.assert_array_equal(frames[0].points, frames[1].points)
+    # Within one frame period the output is held, even when the pose has moved on.
+    op, source, camera, simulator = build()
+    simulator.AdvanceTo(1.0)
+    context = camera.GetMyContextFromRoot(simulator.get_context())
+    held = camera.GetOutputPort("skeleton_frame").Eval(context)
+    simulator.AdvanceTo(1.0 + 0.5 / 30.0)
+    later = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(simulator.get_context()))
+    assert later.time == held.time
+    np.testing.assert_array_equal(later.points, held.points)
+    simulator.AdvanceTo(1.0 + 1.5 / 30.0)
+    nxt = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(simulator.get_context()))
+    assert nxt.time > held.time

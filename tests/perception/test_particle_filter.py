@@ -221,6 +221,8 @@ def test_literal_bootstrap_mode_tracks_hidden_wrist_and_reacquires_it():
     # The thesis' own filter (bootstrap PF for seen points too) on a case it handles: a still
     # arm whose wrist drops into a hidden pocket, then reappears 4 cm away.
     pf, rng = literal_filter(5)
+    # Lengths calibrated from noisy frames: within a measurement noise of the true ones.
+    np.testing.assert_allclose(pf.segment_lengths_[[L_ELBOW, L_WRIST]], [D_SE, D_EH], atol=0.02)
     assert not np.any(pf._kf.initialized_)  # no Kalman posterior behind the seen points
     np.testing.assert_allclose(pf.means_, POSE, atol=0.03)
     pocket = hidden_near(POSE[L_WRIST], 0.06)
@@ -229,7 +231,7 @@ def test_literal_bootstrap_mode_tracks_hidden_wrist_and_reacquires_it():
         hand = pf.positions[L_WRIST]
         assert np.all(pocket(hand))
         dist = np.linalg.norm(hand - pf.means_[L_ELBOW], axis=1)
-        assert np.all(np.abs(dist - D_EH) <= pf.crown + 1e-9)
+        assert np.all(np.abs(dist - pf.segment_lengths_[L_WRIST]) <= pf.crown + 1e-9)
     assert np.linalg.norm(pf.means_[L_WRIST] - POSE[L_WRIST]) < 0.04
     # Seen elbow and shoulder stay on their measurements under the bootstrap weights (9.8).
     np.testing.assert_allclose(pf.means_[[L_ELBOW, L_SHOULDER]], POSE[[L_ELBOW, L_SHOULDER]], atol=0.03)
@@ -251,8 +253,8 @@ def test_literal_bootstrap_mode_case3_constraints():
         shoulder = pf.means_[L_SHOULDER]
         d_e = np.linalg.norm(pf.positions[L_ELBOW] - shoulder, axis=1)
         d_w = np.linalg.norm(pf.positions[L_WRIST] - shoulder, axis=1)
-        assert np.all(np.abs(d_e - D_SE) <= pf.crown + 1e-9)
-        assert np.all(d_w <= D_SE + D_EH + pf.crown + 1e-9)
+        assert np.all(np.abs(d_e - pf.segment_lengths_[L_ELBOW]) <= pf.crown + 1e-9)
+        assert np.all(d_w <= pf.segment_lengths_[[L_ELBOW, L_WRIST]].sum() + pf.crown + 1e-9)
         assert np.all(pf.positions[[L_ELBOW, L_WRIST], :, 2] < 1.3)
     assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.03
     assert pf.n_reseeds_.sum() == 0

@@ -155,3 +155,21 @@ def test_one_symbol_history_and_factory():
         make_sequence_model("markov", {"order": 2.0}, ["a"])
     with pytest.raises(ValueError, match="integer"):
         make_sequence_model("homm", {"order": 2.5}, ["a"])
+
+
+def test_predict_proba_many_equals_one_by_one():
+    rng = np.random.default_rng(6)
+    seq = [int(a) for a in rng.integers(0, 4, size=80)]
+    histories = [seq[:k] for k in (0, 1, 2, 5, 30, 80)]
+    for model in (
+        HigherOrderMarkovModel(order=3, buffer_size=50, actions=4),
+        MarkovChainModel(buffer_size=None, actions=4),
+        VariableOrderMarkovModel(max_depth=2, buffer_size=None, actions=4),
+    ):
+        np.testing.assert_allclose(model.predict_proba_many(histories), 0.25)  # nothing observed yet
+        model.fit(seq)
+        expected = np.stack([model.predict_proba(h) for h in histories])
+        np.testing.assert_allclose(model.predict_proba_many(histories), expected, rtol=1e-12)
+        np.testing.assert_allclose(model.predict_proba_many(histories[-2:]), expected[-2:], rtol=1e-12)
+    with pytest.raises(ValueError, match=r"histories\[1\]: .*unknown action 9"):
+        model.predict_proba_many([[0], [1, 9]])

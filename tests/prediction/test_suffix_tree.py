@@ -128,3 +128,45 @@ def test_bad_input():
         p = model.predict_proba(history)
         assert p.sum() == pytest.approx(1.0)
     assert model.predict_proba([2]).argmax() == 0
+
+
+def _literal_phi_v(model, context, alpha):
+    """Phi_v of eqs. (5.21)-(5.32) straight from the text: loops over branches and tokens."""
+    m, step = model.n_actions_, model.n_observed_ + 1
+    tokens = model.token_sets_
+    out = []
+    for a in range(m):
+        y = tuple(context) + (a,)
+        act = {b: activation(t, step, alpha) for b, t in tokens.items()}
+        if y in act:  # D1, (5.27)
+            out.append(act[y])
+            continue
+        same = [b for b in act if distance_i(b, y, m) == 0]
+        if same:  # D2, (5.28)-(5.30)
+            out.append(np.mean([act[b] / distance_o(b, y, m) for b in same]))
+        else:  # D3, (5.31)-(5.32)
+            out.append(np.mean([act[b] / (distance_i(b, y, m) + distance_o(b, y, m)) for b in act]))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("order", [1, 2, 4])
+def test_batched_features_match_the_text(order):
+    rng = np.random.default_rng(order)
+    alpha = 0.1
+    stages = [[0, 1], [2], [3, 4, 5]]
+    seq = [int(a) for _ in range(25) for stage in stages for a in rng.permutation(stage)]
+    seq = [int(rng.integers(0, 6)) if rng.random() < 0.1 else a for a in seq]
+    model = SuffixTreeModel(order=order, affine_sets=[[0, 1], [3, 4, 5]], forgetting=alpha, actions=6).fit(seq)
+    contexts = [tuple(seq[i : i + order]) for i in range(0, 60, 3)]
+    contexts += [tuple(int(a) for a in rng.integers(0, 6, size=order)) for _ in range(10)]
+    domains, phi = model._domains_and_phi_many(np.array(contexts))
+    assert {1, 2, 3} <= set(domains.ravel())  # all three domains are exercised
+    for row, context in enumerate(contexts[:12]):
+        np.testing.assert_allclose(phi[row], _literal_phi_v(model, context, alpha), rtol=1e-12)
+    for row, context in enumerate(contexts):
+        ref_domain, ref_phi = model._domains_and_phi(context)
+        np.testing.assert_array_equal(domains[row], ref_domain)
+        np.testing.assert_allclose(phi[row], ref_phi, rtol=1e-12, atol=1e-15)
+    many = model.predict_proba_many([list(seq[:5]), *map(list, contexts), [], [seq[0]]])
+    single = np.stack([model.predict_proba(h) for h in [list(seq[:5]), *map(list, contexts), [], [seq[0]]]])
+    np.testing.assert_allclose(many, single, rtol=1e-12, atol=1e-15)

@@ -80,3 +80,35 @@ def test_bad_input():
     # no history: no running action, the next one starts now with the marginal probabilities
     times, cdf = waiting.distributions([], None, horizon=2.0)
     assert cdf[:, 0].sum() == pytest.approx(1.0)
+
+
+def test_cached_predictions_follow_the_model():
+    chain = MarkovChainModel(buffer_size=None).fit([0, 1, 0, 1, 0, 1])
+    waiting = WaitingTimePredictor(chain, resolution=0.5)
+    waiting.observe_duration(0, 1.0).observe_duration(1, 1.0)
+    first = waiting.distributions([0], 0.0, horizon=4.0)[1]
+    np.testing.assert_array_equal(waiting.distributions([0], 0.0, horizon=4.0)[1], first)  # warm cache
+    # after 0 -> 0 is observed the chain changes: a stale cache would repeat `first`
+    chain.partial_fit(0)
+    waiting.observe_duration(0, 2.0)
+    fresh = WaitingTimePredictor(chain, resolution=0.5)
+    for code, duration in ((0, 1.0), (1, 1.0), (0, 2.0)):
+        fresh.observe_duration(code, duration)
+    updated = waiting.distributions([0], 0.0, horizon=4.0)[1]
+    np.testing.assert_allclose(updated, fresh.distributions([0], 0.0, horizon=4.0)[1], atol=1e-12)
+    assert not np.allclose(updated, first)
+
+
+def test_deep_history_model_and_durations_longer_than_the_horizon():
+    from hrc_drake.prediction import HigherOrderMarkovModel
+
+    # a deterministic cycle 0 -> 1 -> 2 -> 0 with a 3rd-order model: tau^2 = 1 + 1, tau^0 = 1 + 1 + 1
+    model = HigherOrderMarkovModel(order=3, buffer_size=None).fit([0, 1, 2] * 10)
+    waiting = WaitingTimePredictor(model, resolution=0.5)
+    for code in range(3):
+        waiting.observe_duration(code, 1.0)
+    waiting.observe_duration(2, 50.0)  # half of the a2 durations run past the horizon
+    times, cdf = waiting.distributions([0, 1, 2, 0], 0.0, horizon=6.0)
+    np.testing.assert_allclose(cdf[1], (times >= 1.0) * 1.0, atol=1e-9)
+    np.testing.assert_allclose(cdf[2], (times >= 2.0) * 1.0, atol=1e-9)
+    np.testing.assert_allclose(cdf[0], (times >= 3.0) * 0.5, atol=1e-9)  # needs a2 to end in time
