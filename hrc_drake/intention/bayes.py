@@ -48,7 +48,8 @@ def bayes_update(
     """Recursive Bayes, eq. (3.1)/(3.2): P_k(G_i) proportional to L(Phi^i_k | G_i) P_{k-1}(G_i).
 
     prior: (..., G) rows summing to 1; log_likelihood: (..., G) log L per goal; before the update
-    the prior is mixed with the uniform one, (1 - s) P + s / G (goal switch). Rows that are not
+    the prior is mixed with the uniform one, (1 - s) P + s / G (goal switch; s a scalar or one
+    value per row, (...,)). Rows that are not
     `active` (..., bool) or whose likelihoods are all non-finite keep their prior. Log-likelihoods
     are floored at 30 nats below the row's best, so no goal's probability becomes exactly zero.
     """
@@ -58,14 +59,16 @@ def bayes_update(
         raise ValueError(
             f"bayes_update: prior {prior.shape} and log_likelihood {log_likelihood.shape} differ"
         )
-    if not 0.0 <= switch_probability <= 1.0:
+    switch = np.asarray(switch_probability, dtype=float)
+    if not np.all((switch >= 0.0) & (switch <= 1.0)):
         raise ValueError(f"bayes_update: switch_probability must be in [0, 1], got {switch_probability}")
+    switch = switch[..., None]
     n_goals = prior.shape[-1]
     finite = np.isfinite(log_likelihood)
     ok = np.any(finite, axis=-1)
     if active is not None:
         ok = ok & np.asarray(active, dtype=bool)
-    predicted = (1.0 - switch_probability) * prior + switch_probability / n_goals
+    predicted = (1.0 - switch) * prior + switch / n_goals
     best = np.max(np.where(finite, log_likelihood, -np.inf), axis=-1, keepdims=True)
     best = np.where(np.isfinite(best), best, 0.0)
     relative = np.where(
@@ -100,7 +103,12 @@ class GoalIntentionEstimator:
     goal_centers: (G, 3) goal centres C_i; model: the learned `IntentionModel` (default: the
     shipped one; unused by M1); goal_std: (G,) or scalar std (m) of each centre, with
     n_goal_samples > 0 the likelihood is averaged over that many sampled centres, eq. (3.12);
-    switch_probability: chance per update that the intended goal changes; m1_sigma (rad) and
+    switch_probability: chance per update that the intended goal changes; restart_switch: the
+    same chance at the first update of a motion that follows a pause of at least restart_after
+    s (a hand that stopped has reached its goal, the next motion is a new reach, whatever the
+    belief was); evidence_weight w in (0, 1]: the likelihoods enter eq. (3.2) as L^w, because
+    features from overlapping velocity windows at 30 Hz are not independent evidence (default:
+    the model's, learned with it); m1_sigma (rad) and
     m1_mean_speed (m/s, sets the nominal duration |C_i - p_s| / speed of the reach from p_s)
     are the heuristics of M1.
     `probabilities_` (2, G): row 0 left hand, row 1 right hand.
@@ -118,6 +126,9 @@ class GoalIntentionEstimator:
         m1_sigma: float = 0.6,
         m1_mean_speed: float = 0.4,
         rng=None,
+        evidence_weight: float | None = None,
+        restart_switch: float = 0.5,
+        restart_after: float = 0.25,
     ):
         centers = np.asarray(goal_centers, dtype=float)
         if (
@@ -154,6 +165,18 @@ class GoalIntentionEstimator:
         self.goal_std = goal_std
         self.n_goal_samples = int(n_goal_samples)
         self.switch_probability = float(switch_probability)
+        if not 0.0 <= restart_switch <= 1.0 or not restart_after >= 0.0:
+            raise ValueError(
+                f"GoalIntentionEstimator: need restart_switch in [0, 1] and restart_after >= 0, got "
+                f"{restart_switch}, {restart_after}"
+            )
+        self.restart_switch = float(restart_switch)
+        self.restart_after = float(restart_after)
+        if evidence_weight is None:
+            evidence_weight = self.model.evidence_weight if self.model is not None else 1.0
+        if not 0.0 < evidence_weight <= 1.0:
+            raise ValueError(f"GoalIntentionEstimator: evidence_weight must be in (0, 1], got {evidence_weight}")
+        self.evidence_weight = float(evidence_weight)
         self.m1_sigma = float(m1_sigma)
         self.m1_mean_speed = float(m1_mean_speed)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
@@ -178,6 +201,7 @@ class GoalIntentionEstimator:
         self._anchor_position = np.full((2, 3), np.nan)
         self._anchor_velocity = np.zeros((2, 3))
         self.last_active_ = np.zeros(2, dtype=bool)
+        self._last_motion = np.full(2, -np.inf)  # time of each hand's last update with evidence
 
     def _goal_samples(self) -> np.ndarray:
         if self.n_goal_samples <= 0 or not np.any(self.goal_std > 0):
@@ -216,6 +240,7 @@ class GoalIntentionEstimator:
             top = np.where(np.isfinite(top), top, 0.0)
             # eq. (3.12): the mean of the likelihoods over the Np sampled centres
             log_lik = top[..., 0] + np.log(np.mean(np.exp(per_sample - top), axis=-1))
+            log_lik = self.evidence_weight * log_lik
         log_lik = np.where(active[:, None], log_lik, np.nan)
         return log_lik, active
 
@@ -262,7 +287,10 @@ class GoalIntentionEstimator:
         A still or lost wrist keeps its hand's probabilities.
         """
         log_lik, active = self.log_likelihood(time, points, gaze, gaze_valid)
-        self.probabilities_ = bayes_update(self.probabilities_, log_lik, self.switch_probability, active)
+        restart = active & (time - self._last_motion >= self.restart_after)
+        switch = np.where(restart, max(self.restart_switch, self.switch_probability), self.switch_probability)
+        self.probabilities_ = bayes_update(self.probabilities_, log_lik, switch, active)
+        self._last_motion = np.where(active, time, self._last_motion)
         self.last_active_ = active
         return self.probabilities_
 

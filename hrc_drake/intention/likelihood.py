@@ -127,6 +127,7 @@ class IntentionModel:
     min_speed: float = DEFAULT_MIN_SPEED
     info: dict = field(default_factory=dict)
     significance: float = DEFAULT_SIGNIFICANCE
+    evidence_weight: float = 1.0
 
     def __post_init__(self):
         if self.gmm4d.n_features != 4 or self.gmm2d.n_features != 2:
@@ -143,6 +144,7 @@ class IntentionModel:
             "window": int(self.window),
             "min_speed": float(self.min_speed),
             "significance": float(self.significance),
+            "evidence_weight": float(self.evidence_weight),
             "info": self.info,
         }
 
@@ -159,6 +161,7 @@ class IntentionModel:
             dict(data.get("info", {})),
             # models saved before the significance test existed gated motion on speed only
             float(data.get("significance", 0.0)),
+            float(data.get("evidence_weight", 1.0)),
         )
 
     def save(self, path) -> None:

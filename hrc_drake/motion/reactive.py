@@ -239,10 +239,21 @@ class JointStateEstimator:
         return means * self._scale
 
 
+def _points_and_jacobian(body, q, visible) -> tuple[np.ndarray, np.ndarray]:
+    """Visible skeletal points (3V,) at q and their Jacobian (3V, 12), one batched forward kinematics."""
+    step = 1e-5
+    points = body.points(q + np.vstack([np.zeros(12), step * np.eye(12)]))[:, visible]  # (13, V, 3)
+    return points[0].ravel(), ((points[1:] - points[0]) / step).reshape(12, -1).T
+
+
+def _visible(points) -> np.ndarray:
+    return np.all(np.isfinite(points), axis=1)
+
+
 def ik_joint_std(body, q, point_std: float, visible=None, cap: float = 1.0) -> np.ndarray:
     """Standard deviation (12,) of the IK solution q for isotropic noise `point_std` (m) on the
     visible skeletal points: sqrt(diag(point_std^2 (J^T J + (point_std / cap)^2 I)^-1)), J the
-    Jacobian of the visible points at q (finite differences, one batched forward kinematics).
+    Jacobian of the visible points at q.
 
     Near a singular arm (straight elbow: the shoulder rotation barely moves any point) the
     std grows toward `cap`: such joints are measured badly, and the filter should not follow
@@ -253,14 +264,40 @@ def ik_joint_std(body, q, point_std: float, visible=None, cap: float = 1.0) -> n
         raise ValueError(f"ik_joint_std: q must be 12 finite values, got {q}")
     if not point_std > 0 or not cap > 0:
         raise ValueError(f"ik_joint_std: point_std and cap must be positive, got {point_std!r}, {cap!r}")
-    step = 1e-5
-    batch = q + np.vstack([np.zeros(12), step * np.eye(12)])
-    points = body.points(batch)  # (13, 8, 3)
-    if visible is not None:
-        points = points[:, np.asarray(visible, dtype=bool)]
-    jacobian = ((points[1:] - points[0]) / step).reshape(12, -1).T
+    visible = np.ones(8, dtype=bool) if visible is None else np.asarray(visible, dtype=bool)
+    _, jacobian = _points_and_jacobian(body, q, visible)
     information = jacobian.T @ jacobian + (point_std / cap) ** 2 * np.eye(12)
     return point_std * np.sqrt(np.diag(np.linalg.inv(information)))
+
+
+def tracking_inverse(body, points, q0, iterations: int = 4, regularization: float = 1e-3,
+                     tolerance: float = 0.02) -> np.ndarray:
+    """IK of the 8 skeletal points warm-started at the previous pose q0 (thesis 8.1.1, ref. [134]).
+
+    Damped Gauss-Newton steps on sum ||FK_i(q) - p_i||^2 + regularization^2 ||q - q0||^2 over
+    the visible points (the cost of `BodyModel.inverse`), clipped to the joint limits: a few
+    batched forward kinematics (~1 ms) instead of a full solve (~30 ms). Falls back on
+    `BodyModel.inverse` without q0, or when the rms point residual stays above `tolerance` (m).
+    """
+    points = np.asarray(points, dtype=float)
+    if points.shape != (8, 3):
+        raise ValueError(f"tracking_inverse: points must have shape (8, 3), got {points.shape}")
+    visible = _visible(points)
+    if q0 is None or visible.sum() < 3:
+        return body.inverse(points, q0=q0)
+    q0 = np.asarray(q0, dtype=float)
+    target = points[visible].ravel()
+    q = q0.copy()
+    damping = regularization**2 * np.eye(12)
+    for _ in range(int(iterations)):
+        model, jacobian = _points_and_jacobian(body, q, visible)
+        gradient = jacobian.T @ (target - model) - regularization**2 * (q - q0)
+        q = q + np.linalg.solve(jacobian.T @ jacobian + damping, gradient)
+        q = np.clip(q, body.q_lower, body.q_upper)
+    residual = body.points(q)[visible].ravel() - target
+    if np.sqrt(np.mean(residual**2) * 3.0) > tolerance:
+        return body.inverse(points, q0=q0)
+    return q
 
 
 class ReactiveMotionPredictor:
@@ -294,7 +331,8 @@ class ReactiveMotionPredictor:
         if kind not in MOTION_KINDS:
             raise ValueError(f"ReactiveMotionPredictor: unknown kind {kind!r}; use one of {MOTION_KINDS}")
         if not (dt > 0 and horizon > 0 and refresh_period > 0 and point_std > 0):
-            raise ValueError("ReactiveMotionPredictor: dt, horizon, refresh_period and point_std must be positive")
+            raise ValueError("ReactiveMotionPredictor: dt, horizon, refresh_period and point_std "
+                             "must be positive")
         if int(n_trials) != n_trials or n_trials < 1:
             raise ValueError(f"ReactiveMotionPredictor: n_trials must be a positive integer, "
                              f"got {n_trials!r}")
@@ -392,8 +430,8 @@ class ReactiveMotionPredictor:
         if self.last_time_ is not None and time < self.last_time_:
             self.reset()  # a new simulation started from an earlier time
         self.last_time_ = float(time)
-        q = self.body.inverse(points, q0=self.q_)
-        std = ik_joint_std(self.body, q, self.point_std, np.all(np.isfinite(points), axis=1))
+        q = tracking_inverse(self.body, points, self.q_)
+        std = ik_joint_std(self.body, q, self.point_std, _visible(points))
         delta_plus, delta_minus = self.update_q(q, std)
         return self.swept_volumes(time, delta_plus, delta_minus)
 

@@ -17,7 +17,8 @@ from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
 #: scenario `motion_model.params` keys of HumanMotionPredictor, with their types
 PREDICTOR_PARAMS = {
     "order": int, "horizon": float, "n_trials": int, "percentile": float, "refresh_period": float,
-    "max_samples": int, "smoothing_window": int, "process_std": float, "measurement_std": float,
+    "max_samples": int, "smoothing_window": int, "min_samples": int, "process_std": float,
+    "base_process_std": float, "point_std": float, "measurement_std": float,
     "max_iter": int, "joint_speed": float, "joint_accel": float, "base_speed": float,
     "base_accel": float, "levels": int, "margin": float,
 }

@@ -208,7 +208,6 @@ class HigherOrderMarkovModel(SequenceModel):
         probs = np.einsum("i,ij->j", weights, self.matrices_[np.arange(lags), :, recent]) / total
         return probs / probs.sum()
 
-
     def _predict_many(self, contexts: list[tuple[int, ...]]) -> np.ndarray:
         lags = int(self.order) + 1
         if any(len(ctx) < lags for ctx in contexts):

@@ -109,7 +109,10 @@ class SuffixTreeModel(SequenceModel):
 
     order: sigma, the number of past actions in a context (branches have sigma+1 actions).
     affine_sets: sets C_i of actions (labels) likely done in sequence, each with >= 2 actions.
-    forgetting: alpha of the activation (5.26); a token weighs exp(-alpha * age).
+    forgetting: alpha of the activation (5.26); a token weighs exp(-alpha * age), and the
+        text's forgetting time is N = 5 / alpha steps. A branch's activation only rests on
+        the tokens of about 1 / alpha recent steps: for a stationary process alpha must be
+        small enough that every branch collects several tokens (Fig. 5.7 uses 0.002).
     token_threshold: tokens whose weight exp(-alpha * age) fell below it are dropped, and
         branches left without tokens are removed: memory stays bounded.
     learning_window: number of recent steps whose features enter the likelihood (5.34).
@@ -120,6 +123,9 @@ class SuffixTreeModel(SequenceModel):
     before A_j was inserted (the predictive likelihood): with the tree after insertion the
     true branch would always be in D1.
     Learned: weights_ (1 + N_C,) = [w_0, w_C1, ...]; branches_ (B, sigma+1); token_sets_.
+    Many contexts are scored in one vectorised call (`predict_proba_many`, used by the
+    waiting-time tree); `to_dict` / `SequenceModel.from_dict` save and restore the tree,
+    tokens, training window and weights exactly.
     """
 
     def __init__(

@@ -8,6 +8,12 @@ tails past the horizon are dropped. A node is not expanded when its least start 
 (sum of minimum durations) exceeds the horizon or p_branch < epsilon (Algorithm 1, line 16).
 P(tau^a <= t) = sum over branches ending at the first occurrence of a of
 p_branch P(tau_branch <= t)   (5.37).
+
+The tree grows one level at a time: the next-action probabilities of all nodes of a level
+come from one batched model call (`_predict_many`), cached per context while the model is
+unchanged; nodes with the same recent context and the same set of actions already seen are
+merged (their futures are equal and (5.37) is linear); the start-time pmfs of a level are
+convolved with the duration pmfs in one FFT call.
 """
 
 from __future__ import annotations

@@ -2,13 +2,14 @@ import numpy as np
 import pytest
 
 from hrc_drake.human.body import BodyModel
-from hrc_drake.messages import SweptVolumes
+from hrc_drake.messages import R_WRIST, SweptVolumes
 from hrc_drake.motion.geometry import point_segment_distance
 from hrc_drake.motion.reactive import (
     JointStateEstimator,
     ReactiveMotionPredictor,
     SweptVolumeBuilder,
     excursions_from_rollouts,
+    ik_joint_std,
     worst_case_excursions,
 )
 
@@ -118,3 +119,61 @@ def test_update_from_points_gives_swept_volumes(body):
     np.testing.assert_allclose(body.points(predictor.q_), body.points(q), atol=1e-3)
     with pytest.raises(ValueError, match="unknown kind"):
         ReactiveMotionPredictor(body, "gp_z")
+
+
+def test_ik_joint_std_follows_the_geometry(body):
+    q = body.rest_q((1.0, 0.0), np.pi)
+    q[[7, 11]] = [0.05, 1.5]  # left elbow almost straight, right elbow bent
+    std = ik_joint_std(body, q, 0.01)
+    # shoulder rotation is nearly unobservable with a straight elbow, well observed with a bent one
+    assert std[6] > 5 * std[10]
+    # twice the point noise, twice the joint noise (linear propagation) away from the cap
+    np.testing.assert_allclose(ik_joint_std(body, q, 0.02)[[0, 1, 3, 11]], 2 * std[[0, 1, 3, 11]], rtol=0.02)
+    # without the right wrist the right elbow flexion is not measured at all: std at the cap
+    visible = np.ones(8, dtype=bool)
+    visible[R_WRIST] = False
+    assert ik_joint_std(body, q, 0.01, visible, cap=1.0)[11] == pytest.approx(1.0, rel=0.05)
+    with pytest.raises(ValueError, match="point_std"):
+        ik_joint_std(body, q, 0.0)
+
+
+def test_noisier_joint_is_smoothed_more():
+    """Two joints, same truth (rest), measurement noise 0.01 vs 0.1: the filter trusts the first more."""
+    rng = np.random.default_rng(3)
+    estimator = JointStateEstimator(n_dof=2, dt=0.05, process_std=3.0, measurement_std=[0.01, 0.1])
+    velocities = []
+    for _ in range(200):
+        phi = estimator.step(rng.normal(0.0, [0.01, 0.1]))
+        velocities.append(phi[:, 1])
+    rms = np.sqrt(np.mean(np.square(velocities[50:]), axis=0))
+    # ten times the noise, far less than ten times the velocity jitter (the gain is lower)
+    assert rms[1] < 5 * rms[0]
+    # a per-step std overrides the constructor's
+    estimator.step(np.array([0.0, 5.0]), measurement_std=[0.01, 1e3])
+    assert abs(estimator.filter.x_[1, 0] * 3.0) < 0.1
+    with pytest.raises(ValueError, match="measurement_std"):
+        estimator.step(np.zeros(2), measurement_std=[0.01, -1.0])
+
+
+def test_gp_waits_for_min_samples_and_stays_within_the_worst_case(body):
+    dt = 0.05
+    predictor = ReactiveMotionPredictor(body, "gp_c", order=2, dt=dt, horizon=0.5, n_trials=20,
+                                        min_samples=40, rng=1)
+    rng = np.random.default_rng(2)
+    q = body.rest_q((1.0, 0.0), np.pi)
+    ready_at = None
+    for k in range(80):
+        q_k = q + rng.normal(0.0, 0.05, 12)  # jittery IK: the GP learns noise
+        q_k[8] += 0.6 * np.sin(2.0 * k * dt)
+        plus, minus = predictor.update_q(q_k)
+        bound_plus, bound_minus = worst_case_excursions(predictor.phi_[:, 1], predictor.horizon,
+                                                        predictor.v_max, predictor.a_max)
+        assert np.all(plus <= bound_plus + 1e-12) and np.all(minus <= bound_minus + 1e-12)
+        if not predictor.model_ready:
+            np.testing.assert_allclose(plus, bound_plus)  # fallback: the worst case of [107]
+        elif ready_at is None:
+            ready_at = k
+    assert predictor.model_.n_samples_ >= 40
+    # refreshes every 10 steps; 40 samples after 4 refreshes (the first needs P + 1 states)
+    assert ready_at is not None and 35 <= ready_at <= 50
+    assert np.all(plus[:8] < bound_plus[:8])

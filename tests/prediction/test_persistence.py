@@ -71,6 +71,8 @@ def test_waiting_time_round_trip():
     copy = WaitingTimePredictor.from_dict(json.loads(json.dumps(waiting.to_dict())), chain)
     np.testing.assert_array_equal(copy.durations("y"), waiting.durations("y"))
     assert copy.min_durations == {"x": 0.5}
-    np.testing.assert_array_equal(copy.distributions(["x"], 0.2, 10.0)[1], waiting.distributions(["x"], 0.2, 10.0)[1])
+    np.testing.assert_array_equal(
+        copy.distributions(["x"], 0.2, 10.0)[1], waiting.distributions(["x"], 0.2, 10.0)[1]
+    )
     with pytest.raises(ValueError, match="params"):
         WaitingTimePredictor.from_dict({}, chain)

@@ -156,7 +156,8 @@ def test_batched_features_match_the_text(order):
     stages = [[0, 1], [2], [3, 4, 5]]
     seq = [int(a) for _ in range(25) for stage in stages for a in rng.permutation(stage)]
     seq = [int(rng.integers(0, 6)) if rng.random() < 0.1 else a for a in seq]
-    model = SuffixTreeModel(order=order, affine_sets=[[0, 1], [3, 4, 5]], forgetting=alpha, actions=6).fit(seq)
+    model = SuffixTreeModel(order=order, affine_sets=[[0, 1], [3, 4, 5]], forgetting=alpha, actions=6)
+    model.fit(seq)
     contexts = [tuple(seq[i : i + order]) for i in range(0, 60, 3)]
     contexts += [tuple(int(a) for a in rng.integers(0, 6, size=order)) for _ in range(10)]
     domains, phi = model._domains_and_phi_many(np.array(contexts))
