@@ -7,7 +7,14 @@ benchmark layout is never used here. GMM4d learns from the samples whose gaze fl
 GMM2d from all. The model is saved as JSON (weights, means, covariances), by default as the
 shipped hrc_drake/data/intention_default.json.
 
-    python tools/train_intention.py [--operators 24] [--reaches 40] [--out PATH] [--seed 0]
+Samples come from the approach phase of each reach only (start to arrival, the wrist moving by
+the significance test of `features`): a wrist lingering at its goal is no evidence of intent.
+The exponent w of the likelihoods (L^w in eq. 3.2: consecutive features share most of their
+velocity window, so they are not independent) is chosen on separate validation operators
+(seeds from VALIDATION_SEED_OFFSET, neither training nor benchmark operators), as the value
+with the fewest false positives + missed goals averaged over M2 and M3, and saved with the model.
+
+    python tools/train_intention.py [--operators 24] [--reaches 40] [--validation 6] [--out PATH] [--seed 0]
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from hrc_drake.intention.evaluation import choose_evidence_weight  # noqa: E402
 from hrc_drake.intention.layouts import box_usb_layout, random_layout  # noqa: E402
 from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
 from hrc_drake.intention.recording import (  # noqa: E402
@@ -33,8 +41,10 @@ from hrc_drake.intention.recording import (  # noqa: E402
 
 NOISE_LEVELS = (0.005, 0.01, 0.02)
 GAZE_NOISE_LEVELS = (0.05, 0.1, 0.2)
-#: Seeds of the training operators start here; the benchmark's start at 10_000.
+#: Seeds of the training operators start here; the validation ones at 5_000; the benchmark's at 10_000.
 TRAIN_SEED_OFFSET = 0
+VALIDATION_SEED_OFFSET = 5_000
+EVIDENCE_WEIGHTS = (1.0, 0.7, 0.5, 0.35, 0.25, 0.18)
 
 
 #: std (m) of an operator's personal offset from each goal centre
@@ -43,26 +53,33 @@ SCATTER_RANGE = (0.0, 0.04)
 BOTH_HANDS_SHARE = 0.25
 
 
+def record_operator(i: int, n_reaches: int, seed: int, offset: int = TRAIN_SEED_OFFSET):
+    """Recording of operator i (every third one in the box cell, the others in random layouts)."""
+    rng = np.random.default_rng([seed, offset + i])
+    noise, gaze_noise = rng.choice(NOISE_LEVELS), rng.choice(GAZE_NOISE_LEVELS)
+    scatter = rng.uniform(*SCATTER_RANGE)
+    segments = random_segments(rng)
+    if i % 3 == 2:
+        layout = box_usb_layout()
+        n_cycles = max(1, n_reaches // 12)  # a cycle of the box cell is 10-12 reaches
+        recording = record_task_cycles(
+            layout, segments, n_cycles, rng, noise, gaze_noise, target_scatter=scatter
+        )
+    else:
+        layout = random_layout(rng)
+        hands = tuple("both" if rng.random() < BOTH_HANDS_SHARE else h for h in layout.hands)
+        recording = record_reaches(
+            layout, segments, n_reaches, rng, noise, gaze_noise, hands=hands, target_scatter=scatter
+        )
+    return recording, (noise, gaze_noise, scatter)
+
+
 def collect(n_operators: int, n_reaches: int, seed: int, verbose: bool = True):
     """Phi samples (M, 4) of `n_operators` synthetic operators and their gaze flags F (M,)."""
     rows, flags = [], []
     for i in range(n_operators):
-        rng = np.random.default_rng([seed, TRAIN_SEED_OFFSET + i])
-        noise, gaze_noise = rng.choice(NOISE_LEVELS), rng.choice(GAZE_NOISE_LEVELS)
-        scatter = rng.uniform(*SCATTER_RANGE)
-        segments = random_segments(rng)
-        if i % 3 == 2:
-            layout = box_usb_layout()
-            n_cycles = max(1, n_reaches // 12)  # a cycle of the box cell is 10-12 reaches
-            recording = record_task_cycles(
-                layout, segments, n_cycles, rng, noise, gaze_noise, target_scatter=scatter
-            )
-        else:
-            layout = random_layout(rng)
-            hands = tuple("both" if rng.random() < BOTH_HANDS_SHARE else h for h in layout.hands)
-            recording = record_reaches(
-                layout, segments, n_reaches, rng, noise, gaze_noise, hands=hands, target_scatter=scatter
-            )
+        recording, (noise, gaze_noise, scatter) = record_operator(i, n_reaches, seed)
+        layout = recording.layout
         phi, flag = training_samples(recording, with_gaze_flag=True)
         rows.append(phi)
         flags.append(flag)
@@ -83,6 +100,7 @@ def main(argv=None) -> int:
     parser.add_argument("--operators", type=int, default=24)
     parser.add_argument("--reaches", type=int, default=40)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--validation", type=int, default=6, help="validation operators for w (0: w = 1)")
     parser.add_argument("--max-components", type=int, default=12)
     parser.add_argument("--out", type=Path, default=DEFAULT_MODEL_PATH)
     args = parser.parse_args(argv)
@@ -92,6 +110,17 @@ def main(argv=None) -> int:
     print(f"{len(phi)} samples in {time.time() - start:.0f} s; fitting", flush=True)
     learner = IntentionLikelihoodLearner(candidates=range(1, args.max_components + 1), random_state=args.seed)
     learner.fit(phi, gaze_valid)
+    scores = {}
+    if args.validation > 0:
+        print(f"choosing the evidence weight w on {args.validation} validation operators", flush=True)
+        recordings = [
+            record_operator(i, args.reaches, args.seed, VALIDATION_SEED_OFFSET)[0]
+            for i in range(args.validation)
+        ]
+        weight, scores = choose_evidence_weight(learner.model_, recordings, EVIDENCE_WEIGHTS)
+        learner.model_.evidence_weight = weight
+        for w, errors in scores.items():
+            print(f"  w = {w:.2f}: {errors:.3f} errors (false positives + missed goals) per reach")
     learner.model_.info.update(
         {
             "operators": args.operators,
@@ -99,6 +128,9 @@ def main(argv=None) -> int:
             "seed": args.seed,
             "samples_gaze_valid": int(gaze_valid.sum()),
             "tool": "tools/train_intention.py",
+            "approach_only": True,
+            "validation_operators": args.validation,
+            "evidence_weight_scores": {str(w): e for w, e in scores.items()},
         }
     )
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -121,6 +153,7 @@ def main(argv=None) -> int:
                 "samples_gaze_valid": int(gaze_valid.sum()),
                 "n_components_4d": learner.n_components_4d_,
                 "n_components_2d": learner.n_components_2d_,
+                "evidence_weight": learner.model_.evidence_weight,
                 "seconds": round(time.time() - start, 1),
             }
         )

@@ -175,7 +175,9 @@ class GoalIntentionEstimator:
         if evidence_weight is None:
             evidence_weight = self.model.evidence_weight if self.model is not None else 1.0
         if not 0.0 < evidence_weight <= 1.0:
-            raise ValueError(f"GoalIntentionEstimator: evidence_weight must be in (0, 1], got {evidence_weight}")
+            raise ValueError(
+                f"GoalIntentionEstimator: evidence_weight must be in (0, 1], got {evidence_weight}"
+            )
         self.evidence_weight = float(evidence_weight)
         self.m1_sigma = float(m1_sigma)
         self.m1_mean_speed = float(m1_mean_speed)

@@ -83,3 +83,36 @@ def table_3_1(outcomes: list[dict], goal: int) -> dict:
         "distance_median": float(np.median(distances)) if len(distances) else float("nan"),
         "distances": distances,
     }
+
+
+def errors_per_reach(outcomes: list[dict]) -> float:
+    """False positives plus missed goals per reach, over all goals (the sum of Table 3.1's rows)."""
+    if not outcomes:
+        return float("nan")
+    errors = sum(len(o["false_goals"]) + (not o["recognised"]) for o in outcomes)
+    return errors / len(outcomes)
+
+
+def choose_evidence_weight(model, recordings, weights=(1.0, 0.7, 0.5, 0.35, 0.25), methods=("M2", "M3")):
+    """The exponent w of the likelihoods (L^w in eq. 3.2) with the fewest errors per reach.
+
+    Errors (false positives + missed goals, `errors_per_reach`) are averaged over `methods` on
+    `recordings` of validation operators (never the benchmark's). Returns (w, {w: errors}).
+    """
+    from dataclasses import replace
+
+    if not recordings:
+        raise ValueError("choose_evidence_weight: no validation recordings")
+    scores = {}
+    for weight in weights:
+        tempered = replace(model, evidence_weight=float(weight))
+        per_method = []
+        for method in methods:
+            outcomes = []
+            for k, recording in enumerate(recordings):
+                estimator = GoalIntentionEstimator(recording.layout.centers, tempered, method, rng=k)
+                outcomes.extend(reach_outcomes(recording, run_estimator(estimator, recording)))
+            per_method.append(errors_per_reach(outcomes))
+        scores[float(weight)] = float(np.mean(per_method))
+    best = min(scores, key=lambda w: (scores[w], -w))
+    return best, scores

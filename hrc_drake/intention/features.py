@@ -156,7 +156,9 @@ class WristVelocityEstimator:
         self._wrists = np.roll(self._wrists, -1, axis=0)
         self._times[-1] = time
         self._wrists[-1] = wrists
-        return least_squares_velocity(self._times, self._wrists, self.min_speed, significance=self.significance)
+        return least_squares_velocity(
+            self._times, self._wrists, self.min_speed, significance=self.significance
+        )
 
 
 def as_goal_samples(goal_centers: np.ndarray) -> np.ndarray:

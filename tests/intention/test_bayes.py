@@ -172,3 +172,44 @@ def test_bad_inputs_raise(small_model):
         GoalIntentionEstimator(np.zeros((3, 2)), small_model)
     with pytest.raises(ValueError, match=r"\(8, 3\)"):
         GoalIntentionEstimator(GOALS, small_model).update(0.0, np.zeros((7, 3)), np.ones(3))
+
+
+def test_evidence_weight_tempers_the_likelihood(small_model):
+    times, points, gaze = straight_reach([0.85, 0.15, 0.9], GOALS[2], noise=0.003, rng=2)
+    full = GoalIntentionEstimator(GOALS, small_model, "M3", evidence_weight=1.0, restart_switch=0.0)
+    half = GoalIntentionEstimator(GOALS, small_model, "M3", evidence_weight=0.5, restart_switch=0.0)
+    for k in range(12):
+        log_full, active = full.log_likelihood(times[k], points[k], gaze[k], True)
+        log_half, _ = half.log_likelihood(times[k], points[k], gaze[k], True)
+    assert active[1]
+    np.testing.assert_allclose(log_half[1], 0.5 * log_full[1])
+    with pytest.raises(ValueError, match="evidence_weight"):
+        GoalIntentionEstimator(GOALS, small_model, "M3", evidence_weight=0.0)
+
+
+def test_a_motion_after_a_pause_restarts_from_a_flatter_prior(small_model):
+    times, points, gaze = straight_reach([0.85, 0.15, 0.9], GOALS[0], noise=0.0, rng=0)
+    estimator = GoalIntentionEstimator(
+        GOALS, small_model, "M2", switch_probability=0.0, restart_switch=0.6, restart_after=0.25
+    )
+    estimator.probabilities_[1] = [0.1, 0.1, 0.8]  # belief left over from the previous reach
+    history = run(estimator, times, points, gaze)
+    first = np.nonzero([active[1] for active in _activity(times, points, small_model)])[0][0]
+    # the first update with motion mixes the prior with the uniform one: 0.4 P + 0.6 / 3
+    prior = 0.4 * np.array([0.1, 0.1, 0.8]) + 0.2
+    replay = GoalIntentionEstimator(GOALS, small_model, "M2")
+    for k in range(first):
+        replay.log_likelihood(times[k], points[k], gaze[k], True)
+    log_lik, _ = replay.log_likelihood(times[first], points[first], gaze[first], True)
+    expected = prior * np.exp(log_lik[1] - log_lik[1].max())
+    np.testing.assert_allclose(history[first, 1], expected / expected.sum(), atol=1e-9)
+    # the next updates (no pause) use switch_probability = 0: plain eq. (3.2)
+    log_next, _ = replay.log_likelihood(times[first + 1], points[first + 1], gaze[first + 1], True)
+    expected = history[first, 1] * np.exp(log_next[1] - log_next[1].max())
+    np.testing.assert_allclose(history[first + 1, 1], expected / expected.sum(), atol=1e-9)  # 30-nat floor
+
+
+def _activity(times, points, model):
+    estimator = GoalIntentionEstimator(GOALS, model, "M2")
+    gaze = np.array([1.0, 0, 0])
+    return [estimator.log_likelihood(t, p, gaze, False)[1] for t, p in zip(times, points, strict=True)]

@@ -55,7 +55,11 @@ def test_box_usb_layout_reads_the_scenario():
     assert layout.hands[1] == "left" and layout.hands[4] == "right"
     assert layout.pattern == ("fill", "foam", "bring", "tape")
     bring = {t.name: t for t in layout.tasks}["bring"]
-    assert bring.hand == "both" and bring.labels == (3, 0) and bring.duration[0] == 3.0
+    assert bring.hand == "both" and bring.labels == (3,) and bring.duration[0] == 3.0
+    tape = {t.name: t for t in layout.tasks}["tape"]
+    assert tape.labels == (3, 0)
+    # the face-height camera of the scenario (flag F valid most of the time)
+    np.testing.assert_allclose(layout.camera_position, [0.05, 0.0, 1.45])
     with pytest.raises(ValueError, match="no goal"):
         layout.index("g9")
 
@@ -68,14 +72,19 @@ def test_task_cycles_label_two_handed_reaches_and_their_arrival():
     recording = record_task_cycles(layout, None, 1, rng, noise_std=0.005)
     reaches = reaches_of(recording)
     station = [r for r in reaches if r.goal == 3]
-    # bring and tape reach the station with both hands, each wrist beside the centre
-    assert sorted(r.hand for r in station) == [0, 0, 1, 1]
+    # bring reaches the station with both hands, each wrist beside the centre; tape starts there
+    assert sorted(r.hand for r in station) == [0, 1]
     for r in station:
         arrived = recording.true_wrists[r.arrival, r.hand]
         assert 0.04 < np.linalg.norm(arrived - layout.centers[3]) < 0.2
         assert r.arrival > r.start + 3
     phi, flag = training_samples(recording, with_gaze_flag=True)
     assert phi.shape == (len(flag), 4) and flag.dtype == bool and np.all(np.isfinite(phi))
+    # the approach phase only: no sample of a wrist lingering at its goal after the arrival
+    everything = training_samples(recording, approach_only=False)
+    assert len(everything) > len(phi)
+    in_reach = sum(r.arrival + 1 - r.start for r in reaches)
+    assert len(phi) <= in_reach
 
 
 def test_rises_need_a_release_before_counting_again():

@@ -104,3 +104,33 @@ def test_bad_inputs_raise_clear_errors():
         WristVelocityEstimator(window=1)
     with pytest.raises(ValueError, match=r"\(2, 3\)"):
         WristVelocityEstimator().update(0.0, np.zeros(3))
+
+
+def test_a_still_wrist_seen_with_camera_noise_is_not_moving():
+    rng = np.random.default_rng(7)
+    times = np.arange(300) / 30.0
+    still = np.array([0.8, 0.1, 0.9]) + 0.02 * rng.standard_normal((300, 1, 3))
+    # the slope of 8 noisy samples often exceeds 0.15 m/s: speed alone calls it motion
+    speed_only = trajectory_velocities(times, np.repeat(still, 2, axis=1), 8, 0.15, significance=0.0)[1]
+    tested = trajectory_velocities(times, np.repeat(still, 2, axis=1), 8, 0.15, significance=3.5)[1]
+    assert speed_only[10:, 0].mean() > 0.2
+    assert tested[10:, 0].mean() < 0.03
+    # a steady 0.6 m/s motion (a reach's speed) seen with the same noise is motion
+    line = still + 0.6 * times[:, None, None] * np.array([1.0, 0.0, 0.0])
+    moving = trajectory_velocities(times, np.repeat(line, 2, axis=1), 8, 0.15, significance=3.5)[1]
+    assert moving[10:, 0].mean() > 0.9
+
+
+def test_significance_test_by_hand():
+    # x = 0.3 t plus residuals +e, -e, -e, +e: slope 0.3 (the residuals are orthogonal to t)
+    times = np.arange(4) / 10.0
+    e = 0.002
+    positions = np.zeros((4, 1, 3))
+    positions[:, 0, 0] = 0.3 * times + e * np.array([1, -1, -1, 1])
+    velocity, _ = least_squares_velocity(times, positions, min_speed=0.0, significance=0.0)
+    np.testing.assert_allclose(velocity[0], [0.3, 0, 0], atol=1e-12)
+    # s^2 = RSS / (3 (K - 2)) = 4 e^2 / 6; standard error sqrt(s^2 / sum (t - t_mean)^2) = sqrt(s^2 / 0.05)
+    standard_error = np.sqrt(4 * e * e / 6 / 0.05)
+    ratio = 0.3 / standard_error
+    assert least_squares_velocity(times, positions, 0.0, significance=0.99 * ratio)[1][0]
+    assert not least_squares_velocity(times, positions, 0.0, significance=1.01 * ratio)[1][0]
