@@ -324,7 +324,7 @@ def bench_speed(repeats: int) -> dict:
         homm.partial_fit(seq54[k])
         homm.predict_proba(seq54[k - 8 : k + 1] if k >= 8 else seq54[:8])
         homm_times.append(time.perf_counter() - t0)
-    waiting_times, waiting_warm, tree_sizes = {}, {}, {}
+    waiting_times, waiting_cpu, waiting_warm, single_target, tree_sizes = {}, {}, {}, {}, {}
     for name, seq_model, history, m in (
         ("homm_n7", homm, seq54[-20:], 5),
         ("suffix_tree", model, seq[1000 + repeats - 10 : 1000 + repeats], 10),
@@ -333,34 +333,46 @@ def bench_speed(repeats: int) -> dict:
         for a in range(m):
             for d in rng.uniform(2.0, 6.0, size=30):
                 waiting.observe_duration(a, d)
-        cold, warm = [], []
-        for _ in range(max(7, repeats // 5)):
+        cold, cpu, warm, single = [], [], [], []
+        for rep in range(max(7, repeats // 5)):
             # cold: as right after a new action (model and duration caches invalid)
             waiting.clear_cache()
-            t0 = time.perf_counter()
-            times, cdf = waiting.distributions(history, 1.0, horizon=60.0)
+            t0, c0 = time.perf_counter(), time.process_time()
+            waiting.distributions(history, 1.0, horizon=60.0)
             cold.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+            tree_sizes[name] = len(waiting._prob_cache)
             # warm: a periodic update before the next action (model unchanged)
             t0 = time.perf_counter()
             waiting.distributions(history, 1.0, horizon=60.0)
             warm.append(time.perf_counter() - t0)
+            # one target's distribution (Algorithm 1 for one a), cold
+            waiting.clear_cache()
+            t0 = time.perf_counter()
+            waiting.distribution(history, 1.0, target=rep % m, horizon=60.0)
+            single.append(time.perf_counter() - t0)
         waiting_times[name] = float(np.median(cold) * 1e3)
+        waiting_cpu[name] = float(np.median(cpu) * 1e3)
         waiting_warm[name] = float(np.median(warm) * 1e3)
-        tree_sizes[name] = len(waiting._prob_cache)
+        single_target[name] = float(np.median(single) * 1e3)
     result = {
         "suffix_tree_update_predict_ms": float(np.median(st_times) * 1e3),
         "homm_update_predict_ms": float(np.median(homm_times) * 1e3),
         "waiting_60s_ms": waiting_times,
+        "waiting_60s_cpu_ms": waiting_cpu,
         "waiting_60s_warm_ms": waiting_warm,
+        "waiting_60s_one_target_ms": single_target,
     }
     log("\nSpeed (medians; targets: suffix tree <= 5 ms, waiting time <= 20 ms)")
     st_ms, homm_ms = result["suffix_tree_update_predict_ms"], result["homm_update_predict_ms"]
     log(f"  suffix tree partial_fit + predict_proba after 1000 actions: {st_ms:.2f} ms")
     log(f"  HOMM (n=7, FIFO 200) partial_fit + predict_proba:          {homm_ms:.2f} ms")
+    log("  waiting times over 60 s, all actions in one tree (cold: wall / CPU; warm) and one target (cold):")
     for name, value in waiting_times.items():
         log(
-            f"  waiting-time distributions, 60 s horizon, {name:<12}: cold {value:.2f} ms, "
-            f"warm {waiting_warm[name]:.2f} ms ({tree_sizes[name]} contexts predicted)"
+            f"    {name:<12} all: {value:6.2f} / {waiting_cpu[name]:6.2f} ms, "
+            f"warm {waiting_warm[name]:6.2f} ms ({tree_sizes[name]} contexts predicted); "
+            f"one target: {single_target[name]:6.2f} ms"
         )
     return result
 

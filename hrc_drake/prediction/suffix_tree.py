@@ -273,6 +273,7 @@ class SuffixTreeModel(SequenceModel):
         self._train_next = 0
         self._step_size = 1.0
         self._last_features: tuple | None = None
+        self._tables: tuple | None = None
 
     def _learn_newest(self) -> None:
         sigma = int(self.order)
@@ -408,6 +409,27 @@ class SuffixTreeModel(SequenceModel):
         phi = np.where(in_d1, phi1, np.where(in_d2, phi2, phi3))
         return domain, phi
 
+    def _branch_tables(self) -> tuple | None:
+        """Arrays of the live branches for `_domains_and_phi_many`, cached while the tree is
+        unchanged (state_id_): activation at the next step (B,), counts I[B] (m, B),
+        positions O[B]_a^K as (m, K, B), and q + [q > 0] as (m, K, B). None without branches."""
+        if self._tables is not None and self._tables[0] == self.state_id_:
+            return self._tables[1]
+        alive = self._n_tokens > 0
+        tables = None
+        if alive.any():
+            m, sigma = self.n_actions_, int(self.order)
+            positions = self._positions[alive].reshape(-1, m, sigma + 1)
+            positions = np.ascontiguousarray(positions.transpose(1, 2, 0))
+            tables = (
+                self._activation[alive] * self._decay,  # at the step being predicted
+                np.ascontiguousarray(self._counts[alive].T),
+                positions,
+                np.where(positions > 0, positions + 1, 0).astype(np.int16),
+            )
+        self._tables = (self.state_id_, tables)
+        return tables
+
     def _domains_and_phi_many(self, contexts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Domains and Phi_v (N, m) of N full contexts (N, sigma) at once, eqs. (5.21)-(5.32).
 
@@ -424,15 +446,11 @@ class SuffixTreeModel(SequenceModel):
         m = self.n_actions_
         contexts = np.asarray(contexts, dtype=np.int64).reshape(-1, int(self.order))
         n_ctx, sigma = contexts.shape
-        alive = self._n_tokens > 0
-        if not alive.any():
+        tables = self._branch_tables()
+        if tables is None:
             return np.full((n_ctx, m), 3), np.zeros((n_ctx, m))
-        act = self._activation[alive] * self._decay  # at the step being predicted
+        act, counts_b, positions_b, shift = tables
         n_branches = act.size
-        counts_b = np.ascontiguousarray(self._counts[alive].T)  # (m, B)
-        # positions_b[a, K-1, b] = O[B_b]_a^K
-        positions_b = self._positions[alive].reshape(-1, m, sigma + 1)
-        positions_b = np.ascontiguousarray(positions_b.transpose(1, 2, 0))
         one_hot = contexts[:, :, None] == np.arange(m)[None, None, :]  # (N, sigma, m)
         rank = np.take_along_axis(np.cumsum(one_hot, axis=1), contexts[:, :, None], axis=2)[:, :, 0]
         counts_ctx = one_hot.sum(axis=1)  # (N, m)
@@ -444,7 +462,6 @@ class SuffixTreeModel(SequenceModel):
         d_o_ctx = sigma * (sigma + 1) // 2 + (sigma + 1) * (sigma + 2) // 2 - 2 * shared_positions
 
         # D3, eqs. (5.31)-(5.32): delta = d_I(ctx) + d_O(ctx) + sigma + 2 - 2 (q + [q > 0])
-        shift = np.where(positions_b > 0, positions_b + 1, 0).astype(np.int16)  # (m, K, B)
         base = (d_i_ctx + d_o_ctx + sigma + 2).astype(np.int16)  # (N, B)
         delta = base[:, None, :] - 2 * shift[np.arange(m)[None, :], counts_ctx]  # (N, m, B)
         reciprocal = 1.0 / np.maximum(np.arange(int(base.max()) + 1), 1)  # delta >= 1 wherever D3 applies
