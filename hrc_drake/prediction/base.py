@@ -9,6 +9,7 @@ column indices (`classes_`). Models learn from a FIFO buffer of recent actions (
 from __future__ import annotations
 
 import itertools
+from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Hashable, Iterable, Sequence
 
@@ -28,7 +29,7 @@ def _plain(label):
     return label.item() if isinstance(label, np.generic) else label
 
 
-class SequenceModel:
+class SequenceModel(ABC):
     """Base of the next-action models: label mapping, FIFO buffer, multi-step prediction.
 
     actions: the action set: an int m (actions 0..m-1), a sequence of labels, or None to
@@ -211,20 +212,24 @@ class SequenceModel:
     # ---------------------------------------------------------------- hooks
     context_length_: int = 1
 
+    @abstractmethod
     def _reset_state(self) -> None:
-        raise NotImplementedError
+        """Forget everything learned (counts, tokens, weights)."""
 
+    @abstractmethod
     def _learn_newest(self) -> None:
-        raise NotImplementedError
+        """Learn from the newest action in the buffer."""
 
+    @abstractmethod
     def _forget_oldest(self) -> None:
-        raise NotImplementedError
+        """Unlearn the action about to leave the FIFO buffer."""
 
-    def _update_fit(self, final: bool) -> None:
+    def _update_fit(self, final: bool) -> None:  # noqa: B027 - optional hook, most models have nothing to refit
         """Refit what depends on the whole buffer (weights); `final` after a batch `fit`."""
 
+    @abstractmethod
     def _predict_codes(self, context: tuple[int, ...]) -> np.ndarray:
-        raise NotImplementedError
+        """Next-action probabilities (m,) after the context of action codes."""
 
     # ---------------------------------------------------------------- persistence
     def to_dict(self) -> dict:
