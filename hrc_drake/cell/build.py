@@ -18,6 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
+from hrc_drake.cell import plugins
 from hrc_drake.cell.scenario import ScenarioError, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
@@ -179,35 +180,31 @@ def _recorded_source(scenario: Scenario, scenario_path):
     return RecordedSkeletonSource(times, points, tracked)
 
 
-def build_cell(
-    scenario: Scenario,
-    scenario_path: str | Path = "<scenario>",
-    meshcat=None,
-    replay_fps: float = 10.0,
-    named_poses: dict | None = None,
-) -> Cell:
-    """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer."""
-    seeds = np.random.SeedSequence(scenario.seed).spawn(8)
-    rngs = [np.random.default_rng(s) for s in seeds]
-    if named_poses is None:
-        named_poses = solve_named_poses(scenario, scenario_path)
-    world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
-    builder = DiagramBuilder()
-    dynamic = any(r.mode == "dynamic" for r in scenario.robots)
-    if dynamic:
-        time_step = min(r.time_step for r in scenario.robots)
-        plant, scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=time_step)
+def _add_plant(builder, scenario: Scenario):
+    """The robots' plant: kinematic (positions imposed, no dynamics) or a discrete plant with PD joints."""
+    if any(r.mode == "dynamic" for r in scenario.robots):
+        plant, scene_graph = AddMultibodyPlantSceneGraph(
+            builder, time_step=min(r.time_step for r in scenario.robots)
+        )
         robots = _add_robots(plant, scenario)
         for instance, _ in robots:
             set_pd_gains(plant, instance)
-    else:
-        scene_graph = builder.AddSystem(SceneGraph())
-        plant = MultibodyPlant(0.0)
-        plant.RegisterAsSourceForSceneGraph(scene_graph)
-        robots = _add_robots(plant, scenario)
+        plant.Finalize()
+        return plant, scene_graph, robots, True
+    scene_graph = builder.AddSystem(SceneGraph())
+    plant = MultibodyPlant(0.0)
+    plant.RegisterAsSourceForSceneGraph(scene_graph)
+    robots = _add_robots(plant, scenario)
     plant.Finalize()
+    return plant, scene_graph, robots, False
 
-    # Arm agents: one path-follower channel each.
+
+def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, world, use_scheduler):
+    """Task executor and path follower of every arm agent, driving the plant.
+
+    Returns the executor, follower, arm agents and the port (and its size) whose first nq
+    entries are the robots' current positions.
+    """
     q0 = np.zeros(plant.num_positions())
     arm_indices, v_max, agents, moves = [], [], [], {}
     for instance, robot in robots:
@@ -226,7 +223,6 @@ def build_cell(
         PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE)
     )
     follower.set_name("path_follower")
-    use_scheduler = scenario.scheduler.kind not in ("none",)
 
     def make_executor(request_path):
         return TaskExecutor(agents, moves, world, request_path, use_commands=use_scheduler)
@@ -237,36 +233,27 @@ def build_cell(
     builder.Connect(follower.GetOutputPort("path_done"), executor.GetInputPort("path_done"))
 
     nq = plant.num_positions()
-    if dynamic:
-        for instance, _ in robots:
-            actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
-            n = len(actuators)
-            selector = np.zeros((2 * n, nq))
-            for row, actuator in enumerate(actuators):
-                selector[row, actuator.joint().position_start()] = 1.0
-            gain = builder.AddSystem(MatrixGain(selector))
-            builder.Connect(follower.GetOutputPort("positions"), gain.get_input_port())
-            builder.Connect(gain.get_output_port(), plant.get_desired_state_input_port(instance))
-        plant_positions_port = plant.get_state_output_port()
-        plant_positions_size = plant.num_multibody_states()
-        for instance, _ in robots:
-            plant.SetDefaultPositions(instance, q0[_instance_position_indices(plant, instance)])
-    else:
+    if not dynamic:
         to_pose = builder.AddSystem(MultibodyPositionToGeometryPose(plant))
         builder.Connect(follower.GetOutputPort("positions"), to_pose.get_input_port())
         builder.Connect(to_pose.get_output_port(), scene_graph.get_source_pose_port(plant.get_source_id()))
-        plant_positions_port = follower.GetOutputPort("positions")
-        plant_positions_size = nq
-    capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
-    robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, plant_positions_size))
-    robot_capsules.set_name("robot_capsules")
-    builder.Connect(plant_positions_port, robot_capsules.get_input_port())
+        return executor, follower, agents, follower.GetOutputPort("positions"), nq
+    # The follower's path becomes the desired state [q_d, v_d = 0] of each instance's PD actuators.
+    for instance, _ in robots:
+        actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices(instance)]
+        selector = np.zeros((2 * len(actuators), nq))
+        for row, actuator in enumerate(actuators):
+            selector[row, actuator.joint().position_start()] = 1.0
+        gain = builder.AddSystem(MatrixGain(selector))
+        builder.Connect(follower.GetOutputPort("positions"), gain.get_input_port())
+        builder.Connect(gain.get_output_port(), plant.get_desired_state_input_port(instance))
+        plant.SetDefaultPositions(instance, q0[_instance_position_indices(plant, instance)])
+    return executor, follower, agents, plant.get_state_output_port(), plant.num_multibody_states()
 
-    # The operator and the camera (or a recorded skeleton, which is already a measurement).
-    body = BodyModel(scenario.operator.segments)
-    systems: dict = {}
+
+def _camera_model(scenario: Scenario) -> DepthCameraModel:
     cam = scenario.layout.camera
-    camera_model = DepthCameraModel(
+    return DepthCameraModel(
         cam.position,
         cam.target,
         [(np.asarray(o.center, float), np.asarray(o.size, float)) for o in scenario.layout.occluders],
@@ -275,23 +262,35 @@ def build_cell(
         margin=cam.margin,
         gaze_valid_angle=cam.gaze_valid_angle,
     )
+
+
+def _add_human(
+    builder, scenario, scenario_path, body, world, robot_capsules, scene_graph, camera_seed, rng, systems
+):
+    """The operator (synthetic or recorded), its capsules in SceneGraph and the depth camera.
+
+    Returns the camera (or recorded source), the human-capsules system and the human events port.
+    """
+    camera_model = _camera_model(scenario)
     systems["camera_model"] = camera_model
     if scenario.operator.recorded:
+        # A recorded skeleton is already a measurement: it stands for the camera.
         camera = builder.AddSystem(_recorded_source(scenario, scenario_path))
         camera.set_name("recorded_skeleton")
         human_capsules = builder.AddSystem(HumanCapsules(body, source="frame"))
         builder.Connect(camera.GetOutputPort("skeleton_frame"), human_capsules.get_input_port())
-        no_events = builder.AddSystem(ConstantValueSource(AbstractValue.Make(EventLog())))
-        human_events_port = no_events.get_output_port()
+        human_events_port = builder.AddSystem(
+            ConstantValueSource(AbstractValue.Make(EventLog()))
+        ).get_output_port()
     else:
-        operator_source, operator = _operator_system(scenario, body, world, rngs[0])
+        operator_source, _ = _operator_system(scenario, body, world, rng)
         builder.AddSystem(operator_source)
         operator_source.set_name("operator")
         systems["operator"] = operator_source
         human_events_port = operator_source.GetOutputPort("human_events")
         human_capsules = builder.AddSystem(HumanCapsules(body, source="q"))
         builder.Connect(operator_source.GetOutputPort("q"), human_capsules.get_input_port())
-        camera = builder.AddSystem(DepthCamera(camera_model, int(rngs[1].integers(2**31))))
+        camera = builder.AddSystem(DepthCamera(camera_model, camera_seed))
         camera.set_name("depth_camera")
         builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
         builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
@@ -306,37 +305,11 @@ def build_cell(
     builder.Connect(
         human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id)
     )
-    register_scene(scene_graph, scenario)
+    return camera, human_capsules, human_events_port
 
-    overrides = []
-    from hrc_drake.cell import plugins
 
-    estimate_port = plugins.add_tracker(
-        builder,
-        scenario,
-        camera,
-        camera_model,
-        robot_capsules,
-        systems,
-        overrides,
-        int(rngs[2].integers(2**31)),
-    )
-    plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
-    plugins.add_predictor(builder, scenario, human_events_port, systems)
-    plugins.add_scheduler(
-        builder, scenario, human_events_port, executor, systems, int(rngs[3].integers(2**31))
-    )
-    plugins.add_motion(
-        builder,
-        scenario,
-        body,
-        estimate_port,
-        robot_capsules,
-        systems,
-        overrides,
-        int(rngs[4].integers(2**31)),
-    )
-
+def _add_speed_override(builder, overrides, follower, systems) -> None:
+    """The smallest of the safety systems' overrides drives the path follower (1 when there is none)."""
     min_override = builder.AddSystem(MinOverride(max(len(overrides), 1)))
     min_override.set_name("speed_override")
     for k, port in enumerate(overrides):
@@ -347,6 +320,8 @@ def build_cell(
     builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
+
+def _add_recorder(builder, world, human_events_port, executor, human_capsules, robot_capsules, systems):
     recorder = builder.AddSystem(MetricsRecorder(world))
     recorder.set_name("metrics")
     builder.Connect(human_events_port, recorder.GetInputPort("human_events"))
@@ -354,26 +329,76 @@ def build_cell(
     builder.Connect(human_capsules.GetOutputPort("points"), recorder.GetInputPort("human_points"))
     builder.Connect(human_capsules.GetOutputPort("capsules"), recorder.GetInputPort("human_capsules"))
     builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
-    builder.Connect(follower.GetOutputPort("speed_override_applied"), recorder.GetInputPort("speed_override"))
+    builder.Connect(systems["speed_override"], recorder.GetInputPort("speed_override"))
     if "intention" in systems:
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events")
         )
+    return recorder
 
+
+def _add_meshcat(builder, scenario: Scenario, scene_graph, meshcat, world, systems, replay_fps: float):
+    meshcat.Delete()
+    meshcat.SetProperty("/Axes", "visible", False)
+    center = np.array(scenario.layout.table.center[:2] + [scenario.layout.table.height])
+    meshcat.SetCameraPose(center + np.array([0.3, -2.2, 1.1]), center + np.array([0.0, 0.0, 0.15]))
+    params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
+    visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
+    plugins.add_replay_markers(builder, scenario, meshcat, world, systems, replay_fps)
+    return visualizer
+
+
+def build_cell(
+    scenario: Scenario,
+    scenario_path: str | Path = "<scenario>",
+    meshcat=None,
+    replay_fps: float = 10.0,
+    named_poses: dict | None = None,
+) -> Cell:
+    """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay)."""
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
+
+    def seed(k: int) -> int:
+        return int(rngs[k].integers(2**31))
+
+    if named_poses is None:
+        named_poses = solve_named_poses(scenario, scenario_path)
+    world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
+    builder = DiagramBuilder()
+    plant, scene_graph, robots, dynamic = _add_plant(builder, scenario)
+    executor, follower, agents, positions_port, positions_size = _add_robot_motion(
+        builder, plant, scene_graph, robots, dynamic, named_poses, world, scenario.scheduler.kind != "none"
+    )
+    capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
+    robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))
+    robot_capsules.set_name("robot_capsules")
+    builder.Connect(positions_port, robot_capsules.get_input_port())
+
+    body = BodyModel(scenario.operator.segments)
+    systems: dict = {}
+    camera, human_capsules, human_events_port = _add_human(
+        builder, scenario, scenario_path, body, world, robot_capsules, scene_graph, seed(1), rngs[0], systems
+    )
+    register_scene(scene_graph, scenario)
+
+    overrides = []
+    estimate_port = plugins.add_tracker(
+        builder, scenario, camera, systems["camera_model"], robot_capsules, systems, overrides, seed(2)
+    )
+    plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
+    plugins.add_predictor(builder, scenario, human_events_port, systems)
+    plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, seed(3))
+    plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides, seed(4))
+    _add_speed_override(builder, overrides, follower, systems)
+    recorder = _add_recorder(
+        builder, world, human_events_port, executor, human_capsules, robot_capsules, systems
+    )
     visualizer = None
     if meshcat is not None:
-        meshcat.Delete()
-        meshcat.SetProperty("/Axes", "visible", False)
-        center = np.array(scenario.layout.table.center[:2] + [scenario.layout.table.height])
-        meshcat.SetCameraPose(center + np.array([0.3, -2.2, 1.1]), center + np.array([0.0, 0.0, 0.15]))
-        params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
-        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
-        plugins.add_replay_markers(builder, scenario, meshcat, world, systems, replay_fps)
+        visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, world, systems, replay_fps)
 
-    diagram = builder.Build()
-    agent_names = [scenario.operator.name] + [a.agent for a in agents]
     return Cell(
-        diagram=diagram,
+        diagram=builder.Build(),
         scenario=scenario,
         world=world,
         plant=plant,
@@ -381,7 +406,7 @@ def build_cell(
         body=body,
         recorder=recorder,
         executor=executor,
-        agents=agent_names,
+        agents=[scenario.operator.name] + [a.agent for a in agents],
         product_actions=_product_actions(scenario),
         meshcat=meshcat,
         visualizer=visualizer,
