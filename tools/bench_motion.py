@@ -10,11 +10,11 @@ Sequences: simulated operators (`SyntheticOperator`, skeleton points -> body-mod
 the LEGO arm trajectories of ../shared/data/lego_assembly_arm (camera frame -> world frame,
 IK with head missing; the frame rate is not stated: 15 Hz assumed).
 
-The cycle-time comparison on box_pcb_coexistence.yaml needs the cell: `cycle_time_comparison`
-takes a `run_cell(scenario_path, motion_kind) -> dict` callable; it runs only when the
-scenario file exists and a runner is wired (see `_cell_runner`).
+The cycle-time comparison runs the Drake cell of diagrams/box_pcb_coexistence.yaml with model C
+and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
+between consecutive ends of L_store, reported with the true minimum human-robot distance.
 
-Usage: python tools/bench_motion.py [--quick]. Last line: one JSON object.
+Usage: python tools/bench_motion.py [--quick] [--no-cell | --cell-only]. Last line: one JSON object.
 """
 
 from __future__ import annotations
@@ -45,7 +45,11 @@ from hrc_drake.messages import (  # noqa: E402
     THORAX,
 )
 from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
-from hrc_drake.motion.reactive import ReactiveMotionPredictor  # noqa: E402
+from hrc_drake.motion.reactive import (  # noqa: E402
+    ReactiveMotionPredictor,
+    ik_joint_std,
+    tracking_inverse,
+)
 from hrc_drake.motion.speed import SpeedScalerCore  # noqa: E402
 
 GROUPS = {
@@ -110,17 +114,18 @@ def lego_sequences(limit: int, max_frames: int):
     return out
 
 
-def joint_sequence(body, points) -> np.ndarray:
-    """q (T, 12) by the body model's IK, warm-started from the previous frame."""
-    q, out = None, []
+def joint_sequence(body, points, point_std: float):
+    """q (T, 12) by IK warm-started at the previous frame, and its noise std (T, 12) (`ik_joint_std`)."""
+    q, out, stds = None, [], []
     for frame in points:
-        q = body.inverse(frame, q0=q)
+        q = tracking_inverse(body, frame, q)
         out.append(q)
-    return np.array(out)
+        stds.append(ik_joint_std(body, q, point_std, np.all(np.isfinite(frame), axis=1)))
+    return np.array(out), np.array(stds)
 
 
 # ------------------------------------------------------------------ evaluation
-def run_model(body, qs, kind, order, dt, n_trials, horizon, warmup):
+def run_model(body, qs, stds, kind, order, dt, n_trials, horizon, warmup):
     """Predicted excursions per step, filtered q, timings."""
     predictor = ReactiveMotionPredictor(body, kind, order=order, dt=dt, horizon=horizon, n_trials=n_trials,
                                         rng=0)
@@ -128,7 +133,7 @@ def run_model(body, qs, kind, order, dt, n_trials, horizon, warmup):
     for k, q in enumerate(qs):
         start = time.perf_counter()
         fits_before = len(predictor.fit_seconds_)
-        plus, minus = predictor.update_q(q)
+        plus, minus = predictor.update_q(q, stds[k])
         elapsed = time.perf_counter() - start
         if len(predictor.fit_seconds_) > fits_before:
             elapsed -= predictor.fit_seconds_[-1]  # the model update is timed on its own
@@ -170,7 +175,8 @@ def summarise(eps_plus, eps_minus):
     for name, joints in GROUPS.items():
         p, m = eps_plus[:, joints].ravel(), eps_minus[:, joints].ravel()
         row[name] = {"eps_plus_median": float(np.median(p)), "eps_minus_median": float(np.median(m)),
-                     "violation_rate": float(np.mean((p < 0) | (m < 0)))}
+                     "violation_rate": float(np.mean((p < 0) | (m < 0))),
+                     "violation_rate_over_0.01": float(np.mean((p < -0.01) | (m < -0.01)))}
     return row
 
 
@@ -190,112 +196,173 @@ def speed_scaler_seconds(predictor, deltas, filtered, repeats=50):
 
 
 # ------------------------------------------------------------------ cell
-def cycle_time_comparison(run_cell, scenario_path, kinds=("gp_c", "worst_case"), runs: int = 3) -> dict:
+def run_cell(scenario_path, kind: str, seed: int, duration: float) -> dict:
+    """One run of the cell with motion model `kind`: robot cycles, true distance, override.
+
+    Robot cycle = time between consecutive "end" events of L_store (one PCB board stored).
+    """
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.run import simulate
+    from hrc_drake.cell.scenario import load_scenario
+
+    warnings.filterwarnings("ignore")
+    scenario = load_scenario(scenario_path)
+    scenario.motion_model.kind = kind
+    scenario.seed = int(seed)
+    cell = build_cell(scenario, scenario_path)
+    start = time.perf_counter()
+    result = simulate(cell, duration, progress=None)
+    log = cell.recorder.log
+    stores = sorted(e.time for e in log.events
+                    if getattr(e, "action", "") == "L_store" and getattr(e, "kind", "") == "end")
+    distances = np.asarray(log.distances, dtype=float)
+    return {
+        "kind": kind, "seed": int(seed), "duration": duration, "wall_s": time.perf_counter() - start,
+        "store_ends": [round(t, 2) for t in stores], "cycles": np.diff(stores).round(2).tolist(),
+        "robot_actions_finished": sum(1 for e in log.events if getattr(e, "agent", "").startswith("yumi")
+                                      and getattr(e, "kind", "") == "end"),
+        "min_human_robot_distance": float(result.metrics["min_human_robot_distance"]),
+        "time_below_0.05m_s": float(np.sum(distances < 0.05) * np.mean(np.diff(log.times))),
+        "mean_speed_override": float(result.metrics["mean_speed_override"]),
+    }
+
+
+def _run_cell_args(args):
+    return run_cell(*args)
+
+
+def cycle_time_comparison(scenario_path, seeds, duration, kinds=("gp_c", "worst_case"),
+                          workers: int = 1) -> dict:
     """Robot cycle time on box_pcb_coexistence, model C vs [107] (thesis: 8.59 % shorter with C).
 
-    run_cell(scenario_path, motion_kind) -> dict with "robot_cycle_time" (s) and
-    "min_human_robot_distance" (m). Returns per kind the mean cycle time and the smallest
-    true distance over the runs, plus the relative reduction of the first kind w.r.t. the second.
+    Every (kind, seed) runs for `duration` s; per kind: all cycles pooled, their mean, the
+    number of boards stored, the smallest true human-robot distance. The reduction is
+    1 - mean cycle C / mean cycle [107] (None when [107] completes fewer than two stores).
     """
-    results = {}
+    jobs = [(str(scenario_path), kind, seed, duration) for kind in kinds for seed in seeds]
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(workers) as pool:
+            runs = list(pool.map(_run_cell_args, jobs))
+    else:
+        runs = []
+        for job in jobs:
+            runs.append(run_cell(*job))
+            print(f"  {job[1]:<11} seed {job[2]}: stores at {runs[-1]['store_ends']}", flush=True)
+    results = {"scenario": Path(scenario_path).name, "duration_s": duration, "runs": runs}
     for kind in kinds:
-        cycles, distances = [], []
-        for _ in range(runs):
-            out = run_cell(scenario_path, kind)
-            cycles.append(float(out["robot_cycle_time"]))
-            distances.append(float(out["min_human_robot_distance"]))
-        results[kind] = {"cycle_time": float(np.mean(cycles)), "min_distance": float(np.min(distances))}
-    a, b = kinds[0], kinds[1]
-    results["reduction_percent"] = 100.0 * (1.0 - results[a]["cycle_time"] / results[b]["cycle_time"])
+        mine = [r for r in runs if r["kind"] == kind]
+        cycles = [c for r in mine for c in r["cycles"]]
+        results[kind] = {
+            "mean_cycle_s": float(np.mean(cycles)) if cycles else None,
+            "cycles": len(cycles), "boards_stored": int(sum(len(r["store_ends"]) for r in mine)),
+            "min_distance_m": float(min(r["min_human_robot_distance"] for r in mine)),
+            "robot_actions_finished": int(sum(r["robot_actions_finished"] for r in mine)),
+            "mean_override": float(np.mean([r["mean_speed_override"] for r in mine])),
+        }
+    a, b = results[kinds[0]]["mean_cycle_s"], results[kinds[1]]["mean_cycle_s"]
+    results["reduction_percent"] = None if a is None or b is None else 100.0 * (1.0 - a / b)
     return results
-
-
-def _cell_runner():
-    """A run_cell callable when the cell and the scenario exist, else (None, reason)."""
-    scenario = REPO / "diagrams" / "box_pcb_coexistence.yaml"
-    try:
-        import hrc_drake.cell.build  # noqa: F401
-    except ImportError:
-        return None, scenario, "hrc_drake.cell.build does not exist yet"
-    if not scenario.exists():
-        return None, scenario, f"{scenario.name} does not exist yet (the lead writes it)"
-    return None, scenario, "no run_cell adapter wired yet (the lead wires it to the cell's motion_model)"
 
 
 # ------------------------------------------------------------------ main
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small run, under a minute")
+    parser.add_argument("--no-cell", action="store_true", help="skip the cycle-time comparison in the cell")
+    parser.add_argument("--cell-only", action="store_true", help="only the cycle-time comparison")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
     if args.quick:
-        orders, sim_seconds, lego_limit, lego_frames, n_trials = (4,), 25.0, 1, 350, 30
+        orders, sim_seconds, lego_limit, lego_frames, n_trials = (4,), 20.0, 1, 300, 30
         kinds_orders = [(k, 4) for k in KINDS] + [("gp_c", 1)]
     else:
-        orders, sim_seconds, lego_limit, lego_frames, n_trials = (1, 2, 3, 4), 120.0, 4, 900, 50
+        orders, sim_seconds, lego_limit, lego_frames, n_trials = (1, 2, 3, 4), 60.0, 3, 600, 50
         kinds_orders = [(k, p) for k in KINDS[:3] for p in orders] + [("worst_case", 4)]
-    horizon = 0.5
+    horizon = 0.3  # the cell's horizon: robot reaction + stopping time
     figures = {"quick": bool(args.quick), "horizon_s": horizon, "n_trials": n_trials, "sequences": {}}
 
-    sequences = []
-    dt_sim = 0.05
-    print(f"simulating an operator for {sim_seconds:.0f} s ...", flush=True)
-    body, points = simulated_sequence(sim_seconds, dt_sim, seed=7)
-    sequences.append(("simulated", body, joint_sequence(body, points), dt_sim))
-    lego = lego_sequences(lego_limit, lego_frames)
-    if not lego:
-        print(f"(lego_assembly_arm not found under {data_dir()}: skipping the real sequences)")
-    for name, lego_body, lego_points in lego:
-        print(f"IK of {name} ({len(lego_points)} frames) ...", flush=True)
-        sequences.append((f"lego:{name}", lego_body, joint_sequence(lego_body, lego_points), 1.0 / 15.0))
+    if not args.cell_only:
+        sequences = []
+        dt_sim = 0.05
+        print(f"simulating an operator for {sim_seconds:.0f} s ...", flush=True)
+        body, points = simulated_sequence(sim_seconds, dt_sim, seed=7)
+        sequences.append(("simulated", body, *joint_sequence(body, points, 0.01), dt_sim))
+        lego = lego_sequences(lego_limit, lego_frames)
+        if not lego:
+            print(f"(lego_assembly_arm not found under {data_dir()}: skipping the real sequences)")
+        for name, lego_body, lego_points in lego:
+            print(f"IK of {name} ({len(lego_points)} frames) ...", flush=True)
+            sequences.append((f"lego:{name}", lego_body, *joint_sequence(lego_body, lego_points, 0.02),
+                              1.0 / 15.0))
 
-    step_times, fit_times, scaler_times, violations = [], [], [], []
-    print(f"\n{'sequence':<34} {'model':<11} {'P':>2} {'group':<10} {'eps+ med':>9} {'eps- med':>9} "
-          f"{'viol %':>7}")
-    for seq_name, seq_body, qs, dt in sequences:
-        warmup = int(round(3.0 / dt))
-        figures["sequences"][seq_name] = {}
-        for kind, order in kinds_orders:
-            predictor, deltas, filtered, steps_s = run_model(seq_body, qs, kind, order, dt, n_trials, horizon,
-                                                             warmup)
-            eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
-            row = summarise(eps_plus, eps_minus)
-            figures["sequences"][seq_name][f"{kind}_P{order}"] = row
-            for group, values in row.items():
-                print(f"{seq_name[:34]:<34} {kind:<11} {order:>2} {group:<10} "
-                      f"{values['eps_plus_median']:>9.3f} {values['eps_minus_median']:>9.3f} "
-                      f"{100 * values['violation_rate']:>7.1f}")
-            if kind == "gp_c" and order == 4:
-                step_times += steps_s
-                fit_times += predictor.fit_seconds_
-                scaler_times.append(speed_scaler_seconds(predictor, deltas, filtered))
-                violations += violation_distances(predictor, seq_body, deltas, filtered, eps_plus, eps_minus,
-                                                  warmup)
-            print(flush=True)
+        step_times, fit_times, scaler_times, violations = [], [], [], []
+        print(f"\n{'sequence':<34} {'model':<11} {'P':>2} {'group':<10} {'eps+ med':>9} {'eps- med':>9} "
+              f"{'viol %':>7} {'>0.01 %':>8}   (eps in m or rad; violation: eps < 0, or < -0.01)")
+        for seq_name, seq_body, qs, stds, dt in sequences:
+            warmup = int(round(3.0 / dt))
+            figures["sequences"][seq_name] = {}
+            for kind, order in kinds_orders:
+                predictor, deltas, filtered, steps_s = run_model(
+                    seq_body, qs, stds, kind, order, dt, n_trials, horizon, warmup)
+                eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
+                row = summarise(eps_plus, eps_minus)
+                figures["sequences"][seq_name][f"{kind}_P{order}"] = row
+                for group, values in row.items():
+                    print(f"{seq_name[:34]:<34} {kind:<11} {order:>2} {group:<10} "
+                          f"{values['eps_plus_median']:>9.4f} {values['eps_minus_median']:>9.4f} "
+                          f"{100 * values['violation_rate']:>7.1f} "
+                          f"{100 * values['violation_rate_over_0.01']:>8.1f}")
+                if kind == "gp_c" and order == 4:
+                    step_times += steps_s
+                    fit_times += predictor.fit_seconds_
+                    scaler_times.append(speed_scaler_seconds(predictor, deltas, filtered))
+                    violations += violation_distances(predictor, seq_body, deltas, filtered, eps_plus,
+                                                      eps_minus, warmup)
+                print(flush=True)
 
-    figures["gp_c_P4_rollout_step_ms_median"] = 1000 * float(np.median(step_times))
-    figures["gp_c_P4_model_update_ms_median"] = 1000 * float(np.median(fit_times))
-    figures["swept_volumes_plus_override_ms_median"] = 1000 * float(np.median(scaler_times))
-    figures["violation_distance_m"] = {
-        "count": len(violations),
-        "median": float(np.median(violations)) if violations else None,
-        "p90": float(np.percentile(violations, 90)) if violations else None,
-    }
-    print(f"model C (P=4) update: {figures['gp_c_P4_model_update_ms_median']:.1f} ms median "
-          f"(thesis 309.86 ms; target <= 50 ms)")
-    print(f"model C (P=4) Monte Carlo excursions per step: "
-          f"{figures['gp_c_P4_rollout_step_ms_median']:.1f} ms")
-    print(f"swept volumes + speed override per step: "
-          f"{figures['swept_volumes_plus_override_ms_median']:.1f} ms (target <= 10 ms)")
-    print(f"violations (model C, P=4): distance of real arm points outside the swept volumes: "
-          f"{figures['violation_distance_m']}")
+        figures["gp_c_P4_rollout_step_ms_median"] = 1000 * float(np.median(step_times))
+        figures["gp_c_P4_model_update_ms_median"] = 1000 * float(np.median(fit_times))
+        figures["swept_volumes_plus_override_ms_median"] = 1000 * float(np.median(scaler_times))
+        figures["violation_distance_m"] = {
+            "count": len(violations),
+            "median": float(np.median(violations)) if violations else None,
+            "p90": float(np.percentile(violations, 90)) if violations else None,
+        }
+        print(f"model C (P=4) update: {figures['gp_c_P4_model_update_ms_median']:.1f} ms median "
+              f"(thesis 309.86 ms; target <= 50 ms)")
+        print(f"model C (P=4) Monte Carlo excursions per step: "
+              f"{figures['gp_c_P4_rollout_step_ms_median']:.1f} ms")
+        print(f"swept volumes + speed override per step: "
+              f"{figures['swept_volumes_plus_override_ms_median']:.1f} ms (target <= 10 ms)")
+        print(f"violations (model C, P=4): distance of real arm points outside the swept volumes: "
+              f"{figures['violation_distance_m']}")
 
-    runner, scenario, reason = _cell_runner()
-    if runner is None:
-        print(f"cycle-time comparison on {scenario.name}: switched off ({reason})")
+    scenario = REPO / "diagrams" / "box_pcb_coexistence.yaml"
+    if args.no_cell or not scenario.exists():
+        print(f"cycle-time comparison on {scenario.name}: switched off")
         figures["cycle_time"] = None
     else:
-        figures["cycle_time"] = cycle_time_comparison(runner, scenario, runs=1 if args.quick else 3)
+        seeds, duration = ((5,), 12.0) if args.quick else ((5, 6, 7), 75.0)
+        print(f"\ncycle-time comparison on {scenario.name}: seeds {list(seeds)}, {duration:.0f} s each ...",
+              flush=True)
+        comparison = cycle_time_comparison(scenario, seeds, duration, workers=1 if args.quick else 2)
+        for run in comparison["runs"]:
+            print(f"  {run['kind']:<11} seed {run['seed']}: {run['robot_actions_finished']} robot actions, "
+                  f"L_store ends {run['store_ends']}  cycles "
+                  f"{run['cycles']}  min true distance {run['min_human_robot_distance']:.3f} m  "
+                  f"mean override {run['mean_speed_override']:.2f}  ({run['wall_s']:.0f} s wall)")
+        for kind in ("gp_c", "worst_case"):
+            row = comparison[kind]
+            cycle = "n/a" if row["mean_cycle_s"] is None else f"{row['mean_cycle_s']:.2f} s"
+            print(f"  {kind:<11} mean robot cycle {cycle} over {row['cycles']} cycles, "
+                  f"{row['boards_stored']} boards stored, {row['robot_actions_finished']} robot actions, "
+                  f"min true distance {row['min_distance_m']:.3f} m")
+        reduction = comparison["reduction_percent"]
+        print("  cycle time with C vs [107]: " + ("n/a (too few [107] cycles)" if reduction is None
+                                                  else f"{reduction:.1f} % shorter") + " (thesis: 8.59 %)")
+        figures["cycle_time"] = comparison
     print(json.dumps(figures, separators=(",", ":")))
 
 

@@ -388,7 +388,9 @@ def build_cell(
     plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
     plugins.add_predictor(builder, scenario, human_events_port, systems)
     plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, seed(3))
-    plugins.add_motion(builder, scenario, body, estimate_port, robot_capsules, systems, overrides, seed(4))
+    plugins.add_motion(
+        builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
+    )
     _add_speed_override(builder, overrides, follower, systems)
     recorder = _add_recorder(
         builder, world, human_events_port, executor, human_capsules, robot_capsules, systems

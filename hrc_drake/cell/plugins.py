@@ -14,7 +14,7 @@ from pydrake.systems.framework import LeafSystem
 
 from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
-from hrc_drake.cell.systems import segment_pose
+from hrc_drake.cell.systems import RobotCapsules, segment_pose
 from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame, SweptVolumes
 
 
@@ -138,7 +138,9 @@ def add_scheduler(builder, scenario: Scenario, human_events_port, executor, syst
     systems["scheduler"] = scheduler
 
 
-def add_motion(builder, scenario: Scenario, body, estimate_port, robot_capsules, systems, overrides, seed):
+def add_motion(
+    builder, scenario: Scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed
+):
     if scenario.motion_model.kind == "none":
         return
     from hrc_drake.motion.systems import HumanMotionPredictor, SpeedScaler
@@ -151,6 +153,15 @@ def add_motion(builder, scenario: Scenario, body, estimate_port, robot_capsules,
     builder.Connect(estimate_port, predictor.GetInputPort("skeleton_estimate"))
     builder.Connect(predictor.GetOutputPort("swept_volumes"), scaler.GetInputPort("swept_volumes"))
     builder.Connect(robot_capsules.get_output_port(), scaler.GetInputPort("robot_capsules"))
+    # Capsules a moment ahead on the path: only motion toward the operator is slowed (ISO/TS 15066).
+    ahead = builder.AddSystem(
+        RobotCapsules(
+            robot_capsules.plant, robot_capsules.kinematics, follower.GetOutputPort("positions_ahead").size()
+        )
+    )
+    ahead.set_name("robot_capsules_ahead")
+    builder.Connect(follower.GetOutputPort("positions_ahead"), ahead.get_input_port())
+    builder.Connect(ahead.get_output_port(), scaler.GetInputPort("robot_capsules_ahead"))
     overrides.append(scaler.GetOutputPort("speed_override"))
     systems["motion_predictor"] = predictor
     systems["speed_scaler"] = scaler

@@ -1,10 +1,17 @@
 """Reactive safety core, thesis 8.1: human joint state, excursions, swept volumes.
 
 Pipeline of Fig. 8.4, one `ReactiveMotionPredictor.update` per camera sample:
-skeleton points -> q (body-model IK) -> Kalman filter on the three-integrator chain (8.3)
--> every `refresh_period` the RTS-smoothed window (8.6) refreshes the GP model (8.13)
--> Monte Carlo excursions Delta+/- (8.8)-(8.10), or the worst-case bounds of [107]
--> capsules bounding the body over the horizon (`SweptVolumes`).
+skeleton points -> q (body-model IK, warm-started) -> Kalman filter on the three-integrator
+chain (8.3), each joint with its own IK noise (from the Jacobian at q: a shoulder rotation
+next to a straight elbow is barely observable) and its own jerk density (trunk slower than
+arms) -> every `refresh_period` the RTS-smoothed window (8.6) refreshes the GP model (8.13)
+-> Monte Carlo excursions Delta+/- (8.8)-(8.10), capped by the worst-case bounds of [107]
+(also the fallback until the GP holds `min_samples` samples) -> capsules bounding the body
+over the horizon (`SweptVolumes`).
+
+Filtering IK jitter matters twice: noisy joint velocities inflate the worst-case bounds, and
+a GP trained on jitter predicts jitter; base yaw and torso flexion excursions move every
+capsule, so their noise alone can make the swept volumes tens of centimetres too large.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_sm
 
 MOTION_KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
 _BASE_TRANSLATION = (0, 1)
+_TORSO = (2, 3)  # base yaw and torso flexion
 
 
 def excursions_from_rollouts(q_now, rollouts, percentile=None) -> tuple[np.ndarray, np.ndarray]:
@@ -310,8 +318,9 @@ class ReactiveMotionPredictor:
         the RTS-smoothed window that arrived since the last one (10 at 20 Hz).
     max_samples: training-set size (100). smoothing_window: RTS window length (steps).
     min_samples: training samples the GP needs before it replaces the worst-case bounds.
-    process_std (rad/s^3), base_process_std (m/s^3): jerk densities of the KF (8.3) for the
-        rotations and the base translation.
+    process_std, torso_process_std (rad/s^3), base_process_std (m/s^3): jerk densities of the
+        KF (8.3) for the arm joints, base yaw + torso flexion, and the base translation (the
+        trunk moves slower than the arms: a lower density filters its IK noise harder).
     point_std: noise of the skeletal points (m); `update` turns it into a per-joint, per-pose
         measurement noise through the IK Jacobian (`ik_joint_std`). measurement_std: the
         joint noise `update_q` assumes when given none.
@@ -324,7 +333,8 @@ class ReactiveMotionPredictor:
     def __init__(self, body, kind: str = "gp_c", order: int = 4, dt: float = 0.05, horizon: float = 0.5,
                  n_trials: int = 50, percentile: float | None = None, refresh_period: float = 0.5,
                  max_samples: int = 100, smoothing_window: int = 20, min_samples: int = 30,
-                 process_std: float = 3.0, base_process_std: float = 1.0, point_std: float = 0.01,
+                 process_std: float = 3.0, torso_process_std: float = 1.0, base_process_std: float = 0.5,
+                 point_std: float = 0.01,
                  measurement_std: float = 0.05, max_iter: int = 15, joint_speed: float = 3.0,
                  joint_accel: float = 15.0, base_speed: float = 1.6, base_accel: float = 3.0,
                  levels: int = 3, margin: float = 0.0, rng=None):
@@ -353,6 +363,7 @@ class ReactiveMotionPredictor:
         window = max(int(smoothing_window), self.refresh_steps + self.order + 1)
         jerk = np.full(12, float(process_std))
         jerk[list(_BASE_TRANSLATION)] = base_process_std
+        jerk[list(_TORSO)] = torso_process_std
         self.estimator = JointStateEstimator(12, dt, jerk, measurement_std, window)
         self.point_std = float(point_std)
         self.max_samples = int(max_samples)

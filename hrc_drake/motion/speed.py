@@ -10,6 +10,11 @@ constant deceleration stops in s v_r T_s / 2), C the minimum clearance and v_h t
 speed not already covered by the swept volumes (0 when their horizon >= T_r + T_s). The
 override is the largest s with S_p(s) <= d, d the clearance between robot and swept volumes:
 1 far away, 0 (stop) once d <= C + v_h (T_r + T_s), linear and monotone in between.
+
+ISO/TS 15066 takes v_r as the robot speed toward the operator. When the caller knows where the
+robot will be shortly along its path at full speed, the approach speed is the rate at which
+that motion shrinks the clearance; a robot moving away (approach speed <= 0) keeps full speed,
+so a robot stopped next to the operator can still retreat.
 """
 
 from __future__ import annotations
@@ -57,13 +62,21 @@ class SeparationRule:
         """Clearance from which the override is 1: S_p(1)."""
         return self.stop_distance + self.robot_speed * (self.reaction_time + 0.5 * self.stopping_time)
 
-    def override(self, distance) -> np.ndarray | float:
-        """Speed override in [0, 1] for the clearance `distance` (m), vectorised; NaN is an error."""
+    def override(self, distance, approach_speed=None) -> np.ndarray | float:
+        """Speed override in [0, 1] for the clearance `distance` (m), vectorised; NaN is an error.
+
+        approach_speed: speed (m/s) at which the robot's full-speed motion shrinks the clearance
+        (None: `robot_speed`, any direction); <= 0 (moving away) gives 1.
+        """
         d = np.asarray(distance, dtype=float)
         if np.any(np.isnan(d)):
             raise ValueError("SeparationRule.override: distance is NaN")
-        slope = self.robot_speed * (self.reaction_time + 0.5 * self.stopping_time)
+        speed = self.robot_speed if approach_speed is None else np.asarray(approach_speed, dtype=float)
+        if np.any(np.isnan(speed)):
+            raise ValueError("SeparationRule.override: approach_speed is NaN")
+        slope = np.maximum(speed, 1e-9) * (self.reaction_time + 0.5 * self.stopping_time)
         s = np.clip((d - self.stop_distance) / slope, 0.0, 1.0)
+        s = np.where(speed <= 0.0, 1.0, s)
         return float(s) if s.ndim == 0 else s
 
 
@@ -94,7 +107,28 @@ class SpeedScalerCore:
     def __init__(self, params: dict | None = None):
         self.rule = SeparationRule.from_params(params or {})
 
-    def step(self, robot_capsules, swept) -> tuple[float, float]:
-        """(override, min_distance) for robot capsules and a `SweptVolumes` message."""
+    def step(self, robot_capsules, swept, capsules_ahead=None, lookahead: float = 0.1) -> tuple[float, float]:
+        """(override, min_distance) for robot capsules and a `SweptVolumes` message.
+
+        capsules_ahead: optional robot capsules `lookahead` s later along the path at full speed
+        (same capsules, same order). With them each robot capsule k gets its own approach speed
+        (d_k - d_k_ahead) / lookahead, d_k its clearance to the swept volumes, and the override
+        is the smallest of the per-capsule rules.
+        """
         distance = minimum_distance(robot_capsules, swept.start, swept.end, swept.radius)
-        return self.rule.override(distance), distance
+        if capsules_ahead is None or len(np.asarray(capsules_ahead[0]).reshape(-1, 3)) == 0 \
+                or not np.isfinite(distance):
+            return self.rule.override(distance), distance
+        if not lookahead > 0:
+            raise ValueError(f"SpeedScalerCore.step: lookahead must be > 0, got {lookahead!r}")
+        now = _per_capsule_distance(robot_capsules, swept)
+        ahead = _per_capsule_distance(capsules_ahead, swept)
+        if now.shape != ahead.shape:
+            raise ValueError(f"SpeedScalerCore.step: {len(now)} robot capsules but {len(ahead)} ahead")
+        return float(np.min(self.rule.override(now, (now - ahead) / lookahead))), distance
+
+
+def _per_capsule_distance(robot_capsules, swept) -> np.ndarray:
+    """Clearance (K,) of each robot capsule to the nearest swept volume."""
+    start, end, radius = robot_capsules
+    return capsule_capsule_distance(start, end, radius, swept.start, swept.end, swept.radius).min(axis=1)

@@ -18,12 +18,13 @@ from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
 PREDICTOR_PARAMS = {
     "order": int, "horizon": float, "n_trials": int, "percentile": float, "refresh_period": float,
     "max_samples": int, "smoothing_window": int, "min_samples": int, "process_std": float,
-    "base_process_std": float, "point_std": float, "measurement_std": float,
+    "torso_process_std": float, "base_process_std": float, "point_std": float, "measurement_std": float,
     "max_iter": int, "joint_speed": float, "joint_accel": float, "base_speed": float,
     "base_accel": float, "levels": int, "margin": float,
 }
 #: scenario keys of SpeedScaler
-SCALER_PARAMS = ("clearance", "reaction_time", "stopping_time", "robot_speed", "human_speed", "rate")
+SCALER_PARAMS = ("clearance", "reaction_time", "stopping_time", "robot_speed", "human_speed", "rate",
+                 "lookahead")
 
 
 def predictor_kwargs(params: dict) -> dict:
@@ -105,8 +106,11 @@ class SpeedScaler(LeafSystem):
     """Speed override for the path follower from the robot-to-swept-volume clearance (8.1.3).
 
     params: `SeparationRule` fields (clearance, reaction_time, stopping_time, robot_speed,
-    human_speed) and "rate" (Hz, default 20). Inputs "swept_volumes" (abstract SweptVolumes)
-    and "robot_capsules" (abstract tuple (start (K, 3), end (K, 3), radius (K,))). Outputs
+    human_speed), "rate" (Hz, default 20) and "lookahead" (s, default 0.1). Inputs
+    "swept_volumes" (abstract SweptVolumes), "robot_capsules" (abstract tuple (start (K, 3),
+    end (K, 3), radius (K,))) and, optional, "robot_capsules_ahead" (the same capsules
+    `lookahead` s later along the path at full speed: the rule then uses the approach speed,
+    and a robot moving away from the operator keeps moving). Outputs
     "speed_override" (BasicVector 1, in [0, 1]) and "min_distance" (BasicVector 1, m; inf when
     there is no human or robot geometry), both computed at each periodic update and at
     initialization; a reader sees values at most one period old.
@@ -119,6 +123,9 @@ class SpeedScaler(LeafSystem):
         if unknown:
             raise ValueError(f"SpeedScaler params: unknown keys {unknown}; known: {list(SCALER_PARAMS)}")
         rate = float(params.pop("rate", 20.0))
+        self.lookahead = float(params.pop("lookahead", 0.1))
+        if not self.lookahead > 0:
+            raise ValueError(f"SpeedScaler: lookahead must be > 0 s, got {self.lookahead!r}")
         if not 0 < rate <= 50:
             raise ValueError(f"SpeedScaler: rate must be in (0, 50] Hz, got {rate!r}")
         self.core = SpeedScalerCore({k: v for k, v in params.items() if k in SCALER_PARAMS})
@@ -126,6 +133,8 @@ class SpeedScaler(LeafSystem):
         self._state_index = self.DeclareDiscreteState(np.array([1.0, np.inf]))
         self.DeclareAbstractInputPort("swept_volumes", AbstractValue.Make(SweptVolumes()))
         self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(_empty_capsules()))
+        self._ahead_port = self.DeclareAbstractInputPort("robot_capsules_ahead",
+                                                         AbstractValue.Make(_empty_capsules()))
         ticket = {self.discrete_state_ticket(self._state_index)}
         self.DeclareVectorOutputPort("speed_override", BasicVector(1), self._calc_override,
                                      prerequisites_of_calc=ticket)
@@ -137,7 +146,8 @@ class SpeedScaler(LeafSystem):
     def _update(self, context, discrete_state):
         swept = self.get_input_port(0).Eval(context)
         robot = self.get_input_port(1).Eval(context)
-        override, distance = self.core.step(robot, swept)
+        ahead = self._ahead_port.Eval(context) if self._ahead_port.HasValue(context) else None
+        override, distance = self.core.step(robot, swept, ahead, self.lookahead)
         discrete_state.get_mutable_vector(self._state_index).SetFromVector([override, distance])
         return EventStatus.Succeeded()
 

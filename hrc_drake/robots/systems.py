@@ -25,11 +25,13 @@ class PathFollower(TickedSystem):
     Input "path_requests": abstract tuple of (channel, seq, waypoints, dwells) requests.
     Input "speed_override": vector (1,) in [0, 1]; unconnected means 1.
     Outputs "positions" (nq,), "velocities" (nq,), "path_done" (abstract tuple of seq per channel),
-    "speed_override_applied" (1,). Positions are evaluated at the context time, extrapolated from
-    the last tick with the override then applied, so they stay smooth between ticks.
+    "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
+    later at full speed, so that a speed rule can tell motion toward the operator from motion away.
+    Positions are evaluated at the context time, extrapolated from the last tick with the
+    override then applied, so they stay smooth between ticks.
     """
 
-    def __init__(self, follower: JointPathFollower, period: float = 0.02):
+    def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1):
         super().__init__(period)
         self.follower = follower
         self._nq = len(follower.q)
@@ -43,6 +45,13 @@ class PathFollower(TickedSystem):
         )
         self.DeclareVectorOutputPort(
             "velocities", self._nq, self._calc_v, prerequisites_of_calc=self.ticket()
+        )
+        self.lookahead = lookahead
+        self.DeclareVectorOutputPort(
+            "positions_ahead",
+            self._nq,
+            self._calc_q_ahead,
+            prerequisites_of_calc={self.time_ticket(), self.xd_ticket()},
         )
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(()), self._calc_done, prerequisites_of_calc=self.ticket()
@@ -62,6 +71,10 @@ class PathFollower(TickedSystem):
         self._applied = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
         self.follower.step(self.period, self._applied)
         self._last_tick_time = context.get_time()
+
+    def _calc_q_ahead(self, context, output: BasicVector):
+        ahead = max(context.get_time() - self._last_tick_time, 0.0) * self._applied + self.lookahead
+        output.SetFromVector(self.follower.positions_ahead(ahead, 1.0))
 
     def _calc_q(self, context, output: BasicVector):
         ahead = context.get_time() - self._last_tick_time

@@ -10,6 +10,7 @@ from hrc_drake.motion.reactive import (
     SweptVolumeBuilder,
     excursions_from_rollouts,
     ik_joint_std,
+    tracking_inverse,
     worst_case_excursions,
 )
 
@@ -177,3 +178,20 @@ def test_gp_waits_for_min_samples_and_stays_within_the_worst_case(body):
     # refreshes every 10 steps; 40 samples after 4 refreshes (the first needs P + 1 states)
     assert ready_at is not None and 35 <= ready_at <= 50
     assert np.all(plus[:8] < bound_plus[:8])
+
+
+def test_tracking_inverse_matches_the_full_solve_and_falls_back(body):
+    rng = np.random.default_rng(5)
+    q = body.rest_q((1.0, 0.1), np.pi)
+    q[[4, 7, 8, 11]] = [0.6, 0.9, 0.3, 1.2]
+    points = body.points(q) + rng.normal(0.0, 0.01, (8, 3))
+    full = body.inverse(points, q0=q)
+    warm = tracking_inverse(body, points, q + 0.02)
+    np.testing.assert_allclose(body.points(warm), body.points(full), atol=2e-3)
+    # without a previous pose, or from a far one, it is the full solve
+    np.testing.assert_allclose(tracking_inverse(body, points, None), body.inverse(points), atol=1e-9)
+    far = q.copy()
+    far[[4, 8]] += 2.0
+    np.testing.assert_allclose(body.points(tracking_inverse(body, points, far)), body.points(full), atol=0.02)
+    with pytest.raises(ValueError, match="shape"):
+        tracking_inverse(body, points[:7], q)

@@ -87,3 +87,35 @@ def test_bad_params_are_clear_errors():
     with pytest.raises(ValueError, match="unknown keys"):
         SpeedScaler({"speed": 1.0})
     assert predictor_kwargs({"percentile": -1})["percentile"] is None
+
+
+def test_scaler_ahead_port_lets_a_retreating_robot_move():
+    human = SweptVolumes(time=0.0, names=("torso",), start=np.array([[0.5, 0.0, 0.8]]),
+                         end=np.array([[0.5, 0.0, 1.3]]), radius=np.array([0.2]), horizon=0.3)
+    params = {"clearance": 0.1, "reaction_time": 0.1, "stopping_time": 0.3, "robot_speed": 1.0,
+              "lookahead": 0.1}
+    overrides = {}
+    for label, ahead_x in (("retreat", -0.05), ("approach", 0.2), ("unwired", None)):
+        builder = DiagramBuilder()
+        scaler = builder.AddSystem(SpeedScaler(params))
+        swept = builder.AddSystem(ConstantValueSource(AbstractValue.Make(human)))
+        robot = builder.AddSystem(ConstantValueSource(AbstractValue.Make(_robot_capsules())))  # link at x = 0
+        builder.Connect(swept.get_output_port(0), scaler.GetInputPort("swept_volumes"))
+        builder.Connect(robot.get_output_port(0), scaler.GetInputPort("robot_capsules"))
+        if ahead_x is not None:
+            start, end, radius = _robot_capsules()
+            shift = np.array([ahead_x, 0.0, 0.0])
+            moved = (start + shift, end + shift, radius)
+            ahead = builder.AddSystem(ConstantValueSource(AbstractValue.Make(moved)))
+            builder.Connect(ahead.get_output_port(0), scaler.GetInputPort("robot_capsules_ahead"))
+        simulator = Simulator(builder.Build())
+        simulator.Initialize()
+        simulator.AdvanceTo(0.1)
+        context = scaler.GetMyContextFromRoot(simulator.get_context())
+        assert scaler.GetOutputPort("min_distance").Eval(context)[0] == pytest.approx(0.25)
+        overrides[label] = scaler.GetOutputPort("speed_override").Eval(context)[0]
+    # clearance 0.25: the plain rule (1 m/s) gives (0.25 - 0.1) / 0.25 = 0.6; closing in at 2 m/s
+    # halves it; retreating is free
+    assert overrides["unwired"] == pytest.approx(0.6)
+    assert overrides["approach"] == pytest.approx(0.3)
+    assert overrides["retreat"] == pytest.approx(1.0)

@@ -1,0 +1,45 @@
+"""The coexistence cell of thesis 8.1.3 with model C: the robot works, and slows near the operator."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pydrake")
+
+from hrc_drake.cell.build import build_cell  # noqa: E402
+from hrc_drake.cell.run import simulate  # noqa: E402
+from hrc_drake.cell.scenario import load_scenario  # noqa: E402
+
+SCENARIO = Path(__file__).resolve().parents[2] / "diagrams" / "box_pcb_coexistence.yaml"
+
+
+@pytest.fixture(scope="module")
+def run():
+    if not SCENARIO.exists():
+        pytest.skip(f"{SCENARIO} is missing")
+    scenario = load_scenario(SCENARIO)
+    scenario.motion_model.kind = "gp_c"
+    cell = build_cell(scenario, SCENARIO)
+    simulate(cell, 9.0, progress=None)
+    return cell
+
+
+def test_robot_finishes_actions_with_model_c(run):
+    ends = [e for e in run.recorder.log.events
+            if getattr(e, "agent", "").startswith("yumi") and getattr(e, "kind", "") == "end"]
+    assert len(ends) >= 1
+
+
+def test_robot_full_speed_far_and_slowed_near(run):
+    log = run.recorder.log
+    times = np.asarray(log.times)
+    distance = np.asarray(log.distances)
+    override = np.asarray(log.overrides)
+    trained = times > 2.5  # the first ~2 s use the worst-case bounds while the GP fills its training set
+    far = trained & (distance > 0.3)
+    near = trained & (distance < 0.2)
+    assert far.sum() >= 5 and near.sum() >= 5
+    assert override[far].mean() > 0.8 and override[far].max() == pytest.approx(1.0)
+    assert override[near].mean() < 0.5
+    assert np.all((override >= 0.0) & (override <= 1.0))
