@@ -21,7 +21,7 @@ def run():
     scenario = load_scenario(SCENARIO)
     scenario.motion_model.kind = "gp_c"
     cell = build_cell(scenario, SCENARIO)
-    simulate(cell, 9.0, progress=None)
+    simulate(cell, 30.0, progress=None)
     return cell
 
 
