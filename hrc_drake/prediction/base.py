@@ -250,7 +250,7 @@ class SequenceModel(ABC):
 
     @classmethod
     def from_dict(cls, data: dict):
-        """Rebuild a model saved with `to_dict` (parsed JSON; no pickle). ValueError on bad data."""
+        """Rebuild a model saved with `to_dict` (parsed JSON). ValueError on bad data."""
         if not isinstance(data, dict):
             raise ValueError(f"{cls.__name__}.from_dict: expected a dict, got {type(data).__name__}")
         missing = [key for key in ("model", "params", "classes", "buffer") if key not in data]
