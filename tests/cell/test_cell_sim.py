@@ -20,7 +20,7 @@ def torch_run():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cell = build_cell(scenario, path)
-        result = simulate(cell, 80.0, progress=None)
+        result = simulate(cell, 120.0, progress=None)
     return cell, result
 
 
@@ -168,7 +168,7 @@ def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
     raw["operator"]["recorded"] = "skeleton.csv"
     (tmp_path / "cell.yaml").write_text(yaml.safe_dump(raw))
     scenario = load_scenario(tmp_path / "cell.yaml")
-    cell, result = _quiet_build_and_run(scenario, tmp_path / "cell.yaml", 10.0)
+    cell, result = _quiet_build_and_run(scenario, tmp_path / "cell.yaml", 18.0)
     recorded = np.array([p for p in cell.recorder.log.human_points if p is not None]).reshape(-1, 8, 3)
     assert np.all(np.isfinite(recorded))
     assert np.ptp(recorded[:, 7, 2]) > 0.1  # the recorded wrist moves in the cell
