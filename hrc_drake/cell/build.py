@@ -22,6 +22,7 @@ from hrc_drake.cell import plugins
 from hrc_drake.cell.scenario import ScenarioError, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
+    CellWorldSystem,
     HumanCapsules,
     HumanGeometry,
     MetricsRecorder,
@@ -392,6 +393,10 @@ def build_cell(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
     _add_speed_override(builder, overrides, follower, systems)
+    world_system = builder.AddSystem(CellWorldSystem(world))
+    world_system.set_name("cell_world")
+    builder.Connect(executor.GetOutputPort("activity"), world_system.get_input_port())
+    systems["world"] = world_system
     recorder = _add_recorder(
         builder, world, human_events_port, executor, human_capsules, robot_capsules, systems
     )

@@ -20,7 +20,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 from hrc_drake.cell.metrics import LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.human.camera import segment_segment_distance
-from hrc_drake.messages import EventLog, SkeletonFrame
+from hrc_drake.messages import EventLog, SkeletonFrame, WorldSnapshot
 
 HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
 GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]
@@ -176,6 +176,28 @@ class RobotCapsules(LeafSystem):
     def _calc(self, context, output):
         self.plant.SetPositions(self._plant_context, self._positions.Eval(context)[: self._nq])
         output.set_value(self.kinematics.capsules(self._plant_context))
+
+
+class CellWorldSystem(LeafSystem):
+    """The cell's ground truth in the diagram: output "snapshot" (WorldSnapshot) of the parts in
+    every buffer, finished products, and what each robot agent is doing (input "robot_activity").
+
+    The truth itself is the `CellWorld` core that the operator and the task executor act on.
+    """
+
+    def __init__(self, world):
+        super().__init__()
+        self.world = world
+        self._activity = self.DeclareAbstractInputPort("robot_activity", AbstractValue.Make({}))
+        self.DeclareAbstractOutputPort(
+            "snapshot", lambda: AbstractValue.Make(WorldSnapshot()), self._calc, {self.time_ticket()}
+        )
+
+    def _calc(self, context, output):
+        activity = dict(self.world.running)
+        if self._activity.HasValue(context):
+            activity.update(self._activity.Eval(context))
+        output.set_value(self.world.snapshot(context.get_time(), activity))
 
 
 class MinOverride(LeafSystem):

@@ -179,3 +179,13 @@ def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
 
     with pytest.raises(ScenarioError, match="operator.recorded"):
         build_cell(load_scenario(tmp_path / "bad.yaml"), tmp_path / "bad.yaml")
+
+
+def test_world_snapshot_reports_the_truth(torch_run):
+    cell, _ = torch_run
+    world_system = cell.systems["world"]
+    context = world_system.GetMyContextFromRoot(cell.diagram.CreateDefaultContext())
+    snapshot = world_system.GetOutputPort("snapshot").Eval(context)
+    assert snapshot.buffers == cell.world.parts
+    assert snapshot.finished_products == cell.world.finished_products
+    assert set(snapshot.activity) >= {"yumi_right", "yumi_left"}
