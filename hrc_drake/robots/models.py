@@ -160,14 +160,17 @@ def arm_joint_limits(plant: MultibodyPlant, instance: ModelInstanceIndex, model:
     return lower, upper, velocity
 
 
+def _joint_starts(plant: MultibodyPlant, instance: ModelInstanceIndex, joints, start: str) -> np.ndarray:
+    """`position_start` or `velocity_start` of each named joint of `instance`, in the given order."""
+    return np.array([getattr(plant.GetJointByName(j, instance), start)() for j in joints], dtype=int)
+
+
 def arm_position_indices(
     plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full position vector q."""
     _check_arm(model, arm)
-    return np.array(
-        [plant.GetJointByName(j, instance).position_start() for j in ROBOT_ARMS[model][arm]], dtype=int
-    )
+    return _joint_starts(plant, instance, ROBOT_ARMS[model][arm], "position_start")
 
 
 def arm_velocity_indices(
@@ -175,9 +178,7 @@ def arm_velocity_indices(
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full velocity vector v."""
     _check_arm(model, arm)
-    return np.array(
-        [plant.GetJointByName(j, instance).velocity_start() for j in ROBOT_ARMS[model][arm]], dtype=int
-    )
+    return _joint_starts(plant, instance, ROBOT_ARMS[model][arm], "velocity_start")
 
 
 def gripper_position_indices(
@@ -185,9 +186,7 @@ def gripper_position_indices(
 ) -> np.ndarray:
     """Indices of the arm's finger joints into the plant's full position vector (empty if none)."""
     _check_arm(model, arm)
-    return np.array(
-        [plant.GetJointByName(j, instance).position_start() for j in GRIPPER_JOINTS[(model, arm)]], dtype=int
-    )
+    return _joint_starts(plant, instance, GRIPPER_JOINTS[(model, arm)], "position_start")
 
 
 #: default implicit-PD gains (kp, kd) per URDF joint name: stiff enough that gravity sag stays
