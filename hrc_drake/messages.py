@@ -7,6 +7,7 @@ field comments. Times are seconds of simulated time, positions metres in the wor
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,12 +31,29 @@ WRIST_OF_HAND = {"left": L_WRIST, "right": R_WRIST}
 HUMAN_AGENT = "human"
 
 
+class Immutable:
+    """A value that is never changed after it is built: copies return the value itself.
+
+    Drake copies abstract-state and port values (twice per unrestricted update, once per port
+    read); for an immutable value a copy is the value, so those copies cost nothing
+    (DESIGN.md, performance rules). Arrays inside such a value are never written to.
+    """
+
+    __slots__ = ()
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 def _empty_points() -> np.ndarray:
     return np.zeros((8, 3))
 
 
 @dataclass(frozen=True)
-class SkeletonFrame:
+class SkeletonFrame(Immutable):
     """One camera measurement of the skeleton.
 
     points: (8, 3) measured positions; rows of untracked points hold NaN.
@@ -52,7 +70,7 @@ class SkeletonFrame:
 
 
 @dataclass(frozen=True)
-class SkeletonEstimate:
+class SkeletonEstimate(Immutable):
     """The tracker's belief about the skeleton.
 
     points: (8, 3) mean positions.
@@ -74,7 +92,7 @@ class SkeletonEstimate:
 
 
 @dataclass(frozen=True)
-class GoalBelief:
+class GoalBelief(Immutable):
     """Probability of each goal for each hand (thesis 3.1, recursive Bayes eq. 3.2).
 
     goals: goal names, in column order.
@@ -90,7 +108,7 @@ class GoalBelief:
 
 
 @dataclass(frozen=True)
-class HumanEvent:
+class HumanEvent(Immutable):
     """The operator began or ended an action, or began/ended waiting for parts.
 
     kind: "begin", "end", "wait_begin" or "wait_end".
@@ -105,7 +123,7 @@ class HumanEvent:
 
 
 @dataclass(frozen=True)
-class RobotEvent:
+class RobotEvent(Immutable):
     """A robot agent (an arm) began or ended an action, or began/ended waiting.
 
     agent: the robot agent name, e.g. "yumi_right".
@@ -120,7 +138,7 @@ class RobotEvent:
 
 
 @dataclass(frozen=True)
-class EventLog:
+class EventLog(Immutable):
     """The events a source has emitted so far, oldest first (a port value).
 
     Readers remember the last `seq` they processed and read `since(seq)`.
@@ -139,7 +157,7 @@ class EventLog:
 
 
 @dataclass(frozen=True)
-class RobotCommand:
+class RobotCommand(Immutable):
     """What the scheduler asks a robot agent to do next.
 
     action: the action to start, or None to wait `wait` seconds (thesis 6.3.1 wait quantum).
@@ -154,7 +172,7 @@ class RobotCommand:
 
 
 @dataclass(frozen=True)
-class Forecast:
+class Forecast(Immutable):
     """Predicted next human actions and their waiting times (thesis Ch. 5).
 
     actions: action names, in column order.
@@ -172,7 +190,7 @@ class Forecast:
 
 
 @dataclass(frozen=True)
-class SweptVolumes:
+class SweptVolumes(Immutable):
     """Capsules bounding where the human body can be within the horizon (thesis 8.1).
 
     start, end: (K, 3) capsule segment end points; radius: (K,); names: K labels
@@ -188,7 +206,7 @@ class SweptVolumes:
 
 
 @dataclass(frozen=True)
-class WorldSnapshot:
+class WorldSnapshot(Immutable):
     """Ground truth of the cell: parts in each buffer, what each agent is doing.
 
     buffers: buffer name -> number of parts.
@@ -200,3 +218,72 @@ class WorldSnapshot:
     buffers: dict = field(default_factory=dict)
     activity: dict = field(default_factory=dict)
     finished_products: int = 0
+
+
+class Capsules(NamedTuple):
+    """Capsules in the world: segment end points start, end (K, 3) and radius (K,).
+
+    Unpacks as (start, end, radius). Immutable: copies return the value itself.
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    radius: np.ndarray
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+    @property
+    def count(self) -> int:
+        return int(len(self.radius))
+
+
+def no_capsules() -> Capsules:
+    """Zero capsules: the value of an unconnected capsules input."""
+    return Capsules(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+
+
+@dataclass(frozen=True)
+class PathRequest(Immutable):
+    """A motion one arm (its follower channel) should start: joint waypoints (n, dof) and the
+    dwell (s) at each; seq increases per channel so that the follower starts each request once."""
+
+    channel: int
+    seq: int
+    waypoints: np.ndarray
+    dwells: np.ndarray
+
+
+@dataclass(frozen=True)
+class PathStatus(Immutable):
+    """The last completed request seq of every follower channel."""
+
+    done_seq: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class WorldRequest(Immutable):
+    """An agent asks the cell's truth to start an action (take its inputs, reserve its output
+    room, hold its resources) or reports that it finished one (put its outputs).
+
+    kind: "start" or "finish". seq: strictly increasing per source (the system emitting it).
+    """
+
+    time: float
+    agent: str
+    action: str
+    kind: str
+    seq: int
+
+
+@dataclass(frozen=True)
+class AgentActivity(Immutable):
+    """What each agent of a source is doing: agent name -> action, "wait:<action>" or "idle"."""
+
+    activity: tuple[tuple[str, str], ...] = ()
+
+    def as_dict(self) -> dict[str, str]:
+        return dict(self.activity)
