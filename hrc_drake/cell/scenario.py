@@ -18,6 +18,7 @@ from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.cell import schema
 from hrc_drake.cell.schema import Distribution, Scenario
+from hrc_drake.errors import ScenarioError
 
 DISTRIBUTION_KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
 BUFFER_KINDS = ("raw", "intermediate", "product")
@@ -29,17 +30,6 @@ INTENTION_KINDS = ("none", "gmm")
 PREDICTOR_KINDS = ("none", "homm", "suffix_tree", "markov")
 SCHEDULER_KINDS = ("none", "round_robin", "monte_carlo", "greedy", "deterministic")
 MOTION_KINDS = ("none", "gp_a", "gp_b", "gp_c", "worst_case")
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be used: names the file, the field path and the reason."""
-
-    def __init__(self, file: str | Path, field: str, reason: str):
-        self.file = str(file)
-        self.field = field
-        self.reason = reason
-        where = f"{self.file}: {field}" if field else self.file
-        super().__init__(f"{where}: {reason}")
 
 
 def scenario_relative(scenario_path: str | Path, name: str) -> Path:
