@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.cell.schema import Segments
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.config import Segments
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator
 from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST
 

@@ -32,8 +32,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from hrc_drake.cell.schema import Segments  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
+from hrc_drake.human.config import Segments  # noqa: E402
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator  # noqa: E402
 from hrc_drake.messages import (  # noqa: E402
     L_ELBOW,

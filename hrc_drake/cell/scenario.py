@@ -17,10 +17,10 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.cell import schema
-from hrc_drake.cell.schema import Distribution, Scenario
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError
 
-DISTRIBUTION_KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODELS = ("yumi", "irb140")
 ROBOT_MODES = ("kinematic", "dynamic")
@@ -122,28 +122,11 @@ def _check_vec(file, field, values, n=3):
 
 
 def check_distribution(file, field: str, dist: Distribution) -> None:
-    """A duration distribution must have a known kind and only positive durations."""
-    if dist.kind not in DISTRIBUTION_KINDS:
-        raise ScenarioError(
-            file, f"{field}.kind", f"unknown distribution '{dist.kind}' (one of {DISTRIBUTION_KINDS})"
-        )
-    if dist.kind in ("fixed", "normal", "lognormal") and dist.mean <= 0:
-        raise ScenarioError(file, f"{field}.mean", f"a duration must be positive, got {dist.mean}")
-    if dist.kind in ("normal", "lognormal") and dist.std < 0:
-        raise ScenarioError(file, f"{field}.std", f"must be >= 0, got {dist.std}")
-    if dist.kind == "uniform" and not (0 < dist.low < dist.high):
-        raise ScenarioError(
-            file, field, f"uniform needs 0 < low < high, got low={dist.low}, high={dist.high}"
-        )
-    if dist.kind == "triangular" and not (0 < dist.low <= dist.mode <= dist.high and dist.low < dist.high):
-        raise ScenarioError(
-            file, field, f"triangular needs 0 < low <= mode <= high, got {dist.low}, {dist.mode}, {dist.high}"
-        )
-    if dist.kind == "empirical":
-        if not dist.samples:
-            raise ScenarioError(file, f"{field}.samples", "an empirical distribution needs samples")
-        if min(dist.samples) <= 0:
-            raise ScenarioError(file, f"{field}.samples", "durations must be positive")
+    """A duration distribution: a known kind and only positive durations (`distributions`)."""
+    try:
+        validate_distribution(dist, field, positive=True)
+    except ScenarioError as err:
+        raise ScenarioError(file, err.field, err.reason) from None
 
 
 def _unique(file, field, names):

@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 
-from hrc_drake.cell.schema import Buffer, FlowAction
 from hrc_drake.messages import WorldSnapshot
+from hrc_drake.scheduling.flow import Buffer, FlowAction
 
 
 @dataclass(frozen=True)

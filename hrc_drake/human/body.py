@@ -111,7 +111,7 @@ def _apply(R: np.ndarray, v: np.ndarray) -> np.ndarray:
 class BodyModel:
     """12-dof upper-body model and its 8 skeletal points (thesis Fig. 8.2 and Fig. 9.1).
 
-    segments: `hrc_drake.cell.schema.Segments` (torso, neck, shoulder_width, upper_arm,
+    segments: `hrc_drake.human.config.Segments` (torso, neck, shoulder_width, upper_arm,
     forearm in metres), or any object with those attributes; None uses the defaults.
     """
 
@@ -122,7 +122,7 @@ class BodyModel:
 
     def __init__(self, segments=None):
         if segments is None:
-            from hrc_drake.cell.schema import Segments
+            from hrc_drake.human.config import Segments
 
             segments = Segments()
         lengths = {}

@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from hrc_drake.distributions import sample_duration, validate_distribution
 from hrc_drake.human.body import ARM_DOFS, BodyModel
 from hrc_drake.messages import HEAD, HUMAN_AGENT, THORAX, WRIST_OF_HAND, HumanEvent
-from hrc_drake.scheduling.durations import sample_duration, validate_distribution
 
 #: the head starts turning towards a goal this long before the hand starts moving (s)
 HEAD_LEAD = 0.3
@@ -59,7 +59,7 @@ class OperatorTask:
 
 
 def sampler_from_distribution(dist) -> Callable[[np.random.Generator], float]:
-    """A duration sampler from a `schema.Distribution` (see `hrc_drake.scheduling.durations`),
+    """A duration sampler from a `schema.Distribution` (see `hrc_drake.distributions`),
     floored at MIN_DURATION. Raises ValueError for a distribution that cannot be sampled."""
     validate_distribution(dist)
     return lambda rng: max(sample_duration(dist, rng), MIN_DURATION)

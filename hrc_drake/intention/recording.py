@@ -44,7 +44,7 @@ class Recording:
 
 def random_segments(rng: np.random.Generator):
     """Anthropometrics of a random adult (+/- ~10 % around the schema defaults)."""
-    from hrc_drake.cell.schema import Segments
+    from hrc_drake.human.config import Segments
 
     scale = rng.uniform(0.9, 1.1)
     return Segments(

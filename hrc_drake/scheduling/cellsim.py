@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hrc_drake.scheduling.durations import sample_duration
+from hrc_drake.distributions import sample_duration
 from hrc_drake.scheduling.montecarlo import wait_tick_delay
 from hrc_drake.scheduling.petri import PcTPN
 

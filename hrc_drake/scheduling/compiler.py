@@ -27,8 +27,8 @@ from collections import Counter, deque
 
 import numpy as np
 
-from hrc_drake.cell.schema import Buffer, Distribution, Flow, FlowAction
-from hrc_drake.scheduling.durations import validate_distribution
+from hrc_drake.distributions import Distribution, validate_distribution
+from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
 from hrc_drake.scheduling.petri import PcTPN
 
 IDLE_ROLES = ("wait", "wait_end", "giveup", "commit")

@@ -9,7 +9,7 @@ from collections import deque
 
 import numpy as np
 
-from hrc_drake.scheduling.durations import mean_duration, sample_duration
+from hrc_drake.distributions import mean_duration, sample_duration
 from hrc_drake.scheduling.petri import PcTPN
 
 

@@ -14,8 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hrc_drake.cell.schema import Distribution
-from hrc_drake.scheduling.durations import validate_distribution
+from hrc_drake.distributions import Distribution, validate_distribution
 
 #: transition roles produced by the flow compiler
 ROLES = ("begin", "end", "wait", "wait_end", "intent", "commit", "giveup", "other")

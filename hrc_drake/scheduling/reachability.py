@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hrc_drake.scheduling.durations import duration_cdf, duration_support
+from hrc_drake.distributions import duration_cdf, duration_support
 from hrc_drake.scheduling.petri import PcTPN
 
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hrc_drake.cell.schema import Buffer, Distribution, Flow, FlowAction
+from hrc_drake.distributions import Distribution
+from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
 from hrc_drake.scheduling.petri import PcTPN
 
 

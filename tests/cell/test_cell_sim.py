@@ -126,7 +126,8 @@ def _quiet_build_and_run(scenario, path, duration):
 
 
 def test_a_cell_can_hold_a_yumi_and_an_irb140(diagrams_dir):
-    from hrc_drake.cell.schema import Arm, NamedPose, Pose, Robot, RobotAction
+    from hrc_drake.config_common import Pose
+    from hrc_drake.robots.config import Arm, NamedPose, Robot, RobotAction
 
     path = diagrams_dir / "torch_clock.yaml"
     scenario = load_scenario(path)

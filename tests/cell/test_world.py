@@ -1,7 +1,7 @@
 import pytest
 
-from hrc_drake.cell.schema import Buffer, FlowAction
 from hrc_drake.cell.world import CellWorld
+from hrc_drake.scheduling.flow import Buffer, FlowAction
 
 
 def make_world():

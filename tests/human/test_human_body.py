@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Segments
 from hrc_drake.human.body import ARM_DOFS, CAPSULE_NAMES, HIP_FRACTION, JOINT_NAMES, N_DOF, BodyModel
+from hrc_drake.human.config import Segments
 from hrc_drake.messages import (
     HEAD,
     L_ELBOW,

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Occluder
 from hrc_drake.human.camera import DepthCameraModel, segment_segment_distance, segments_hit_boxes
+from hrc_drake.human.config import Occluder
 from hrc_drake.messages import HEAD
 
 

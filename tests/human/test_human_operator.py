@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Distribution, Operator, OperatorAction, Segments
+from hrc_drake.distributions import Distribution
 from hrc_drake.human.body import BodyModel
+from hrc_drake.human.config import Operator, OperatorAction, Segments
 from hrc_drake.human.operator import (
     BOTH_HANDS_OFFSET,
     HEAD_LEAD,
@@ -209,7 +210,7 @@ def test_samplers():
     triangular = sampler_from_distribution(Distribution("triangular", low=1, mode=2, high=4))
     tri = [triangular(rng) for _ in range(200)]
     assert 1 <= min(tri) and max(tri) <= 4
-    with pytest.raises(ValueError, match="unknown distribution kind"):
+    with pytest.raises(ValueError, match="unknown distribution"):
         sampler_from_distribution(Distribution("gamma"))
     with pytest.raises(ValueError, match="low <= high"):
         sampler_from_distribution(Distribution("uniform", low=2, high=1))

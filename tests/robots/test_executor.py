@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Buffer, FlowAction
 from hrc_drake.cell.world import CellWorld
 from hrc_drake.messages import RobotCommand
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
+from hrc_drake.scheduling.flow import Buffer, FlowAction
 
 
 def make(use_commands=False):

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Buffer, Distribution, Flow, FlowAction
+from hrc_drake.distributions import Distribution, mean_duration, sample_duration
 from hrc_drake.scheduling.compiler import FlowError, compile_flow
-from hrc_drake.scheduling.durations import mean_duration, sample_duration
+from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
 from hrc_drake.scheduling.montecarlo import CostNode, evaluate_cost_tree, evaluate_costs
 from hrc_drake.scheduling.petri import PcTPN
 
@@ -21,7 +21,7 @@ def test_sample_duration_kinds_and_errors():
     a = sample_duration(Distribution("uniform", low=1, high=2), np.random.default_rng(5), 4)
     b = sample_duration(Distribution("uniform", low=1, high=2), np.random.default_rng(5), 4)
     assert np.array_equal(a, b)
-    with pytest.raises(ValueError, match="unknown distribution kind"):
+    with pytest.raises(ValueError, match="unknown distribution"):
         sample_duration(Distribution("gamma"), rng)
     with pytest.raises(ValueError, match="no samples"):
         sample_duration(Distribution("empirical"), rng)

@@ -7,10 +7,9 @@ The figures are missing from the text; the nets are reconstructed in `thesis_cel
 import numpy as np
 import pytest
 
-from hrc_drake.cell.schema import Distribution
+from hrc_drake.distributions import Distribution, duration_cdf, duration_support
 from hrc_drake.scheduling import thesis_cells as tc
 from hrc_drake.scheduling.compiler import compile_flow
-from hrc_drake.scheduling.durations import duration_cdf, duration_support
 from hrc_drake.scheduling.reachability import ReachabilityTree
 
 STEP = 0.0025

@@ -1,63 +1,107 @@
-"""Sampling of duration distributions (scenario `Distribution`), used by the pcTPN firing
-delays (thesis 6.2: delays as random variables) and by the cell simulators.
+"""Duration distributions: the `Distribution` type of scenarios, its one validator and its
+sampler, used by the human model (action durations) and by scheduling (pcTPN firing delays,
+thesis 6.2: delays as random variables).
 
-Kinds (see `hrc_drake.cell.schema.Distribution`):
-fixed (mean) | normal (mean, std, truncated below at `low`) | uniform (low, high) |
+Kinds: fixed (mean) | normal (mean, std, truncated below at `low`) | uniform (low, high) |
 triangular (low, mode, high) | lognormal (mean, std of the duration itself) |
 empirical (samples, drawn with replacement).
 """
 
-from __future__ import annotations
-
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from hrc_drake.cell.schema import Distribution
+from hrc_drake.errors import ConfigError
 
 KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
 
 
-def validate_distribution(dist: Distribution, where: str = "duration") -> None:
-    """Raise ValueError naming `where` when `dist` cannot be sampled as a duration."""
+@dataclass
+class Distribution:
+    """A duration distribution (s).
+
+    kind: fixed (mean) | normal (mean, std, truncated at `low`) | uniform (low, high) |
+    triangular (low, mode, high) | lognormal (mean, std of the duration itself) |
+    empirical (samples).
+    """
+
+    #: one of KINDS
+    kind: str = "fixed"
+    #: mean duration (s): fixed, normal (before truncation), lognormal
+    mean: float = 1.0
+    #: standard deviation (s): normal, lognormal
+    std: float = 0.0
+    #: lower bound (s): uniform, triangular; the truncation point of the normal
+    low: float = 0.0
+    #: upper bound (s): uniform, triangular
+    high: float = 0.0
+    #: mode (s): triangular
+    mode: float = 0.0
+    #: observed durations (s): empirical
+    samples: list[float] = field(default_factory=list)
+
+    def validate(self, path: str = "duration", positive: bool = True) -> None:
+        """See `validate_distribution`."""
+        validate_distribution(self, path, positive)
+
+
+def validate_distribution(dist: Distribution, where: str = "duration", positive: bool = False) -> None:
+    """Raise `ConfigError` naming the field under `where` when `dist` cannot be sampled as a
+    duration: every duration must be >= 0, and > 0 with `positive` (an action's duration; a
+    firing delay of a net may be 0)."""
     if not isinstance(dist, Distribution):
-        raise ValueError(f"{where}: expected a Distribution, got {type(dist).__name__}")
+        raise ConfigError(where, f"expected a Distribution, got {type(dist).__name__}")
     kind = dist.kind
     if kind not in KINDS:
-        raise ValueError(f"{where}: unknown distribution kind {kind!r}; expected one of {KINDS}")
+        raise ConfigError(f"{where}.kind", f"unknown distribution '{kind}' (one of {', '.join(KINDS)})")
     numbers = {"mean": dist.mean, "std": dist.std, "low": dist.low, "high": dist.high, "mode": dist.mode}
     for name, value in numbers.items():
         if not math.isfinite(float(value)):
-            raise ValueError(f"{where}: {name} = {value} is not finite")
+            raise ConfigError(f"{where}.{name}", f"{value} is not finite")
+    if positive:
+        _check_positive(dist, where)
     if kind == "fixed":
         if dist.mean < 0:
-            raise ValueError(f"{where}: fixed duration mean = {dist.mean} is negative")
+            raise ConfigError(where, f"fixed duration mean = {dist.mean} is negative")
     elif kind == "normal":
         if dist.std < 0:
-            raise ValueError(f"{where}: normal std = {dist.std} is negative")
+            raise ConfigError(where, f"normal std = {dist.std} is negative")
         if dist.low < 0:
-            raise ValueError(f"{where}: normal truncation low = {dist.low} is negative")
+            raise ConfigError(where, f"normal truncation low = {dist.low} is negative")
         if dist.std == 0 and dist.mean < dist.low:
-            raise ValueError(f"{where}: normal with std 0 has mean {dist.mean} below low {dist.low}")
+            raise ConfigError(where, f"normal with std 0 has mean {dist.mean} below low {dist.low}")
     elif kind == "uniform":
         if not 0 <= dist.low <= dist.high:
-            raise ValueError(f"{where}: uniform needs 0 <= low <= high, got low={dist.low}, high={dist.high}")
+            raise ConfigError(where, f"uniform needs 0 <= low <= high, got low={dist.low}, high={dist.high}")
     elif kind == "triangular":
         if not (0 <= dist.low <= dist.mode <= dist.high) or dist.low == dist.high:
-            raise ValueError(
-                f"{where}: triangular needs 0 <= low <= mode <= high and low < high, "
+            raise ConfigError(
+                where,
+                f"triangular needs 0 <= low <= mode <= high and low < high, "
                 f"got low={dist.low}, mode={dist.mode}, high={dist.high}"
             )
     elif kind == "lognormal":
         if dist.mean <= 0 or dist.std < 0:
-            raise ValueError(f"{where}: lognormal needs mean > 0 and std >= 0, got {dist.mean}, {dist.std}")
+            raise ConfigError(where, f"lognormal needs mean > 0 and std >= 0, got {dist.mean}, {dist.std}")
     elif kind == "empirical":
         samples = np.asarray(dist.samples, dtype=float)
         if samples.ndim != 1 or samples.size == 0:
-            raise ValueError(f"{where}: empirical distribution has no samples")
+            raise ConfigError(where, "empirical distribution has no samples")
         if not np.all(np.isfinite(samples)) or np.any(samples < 0):
-            raise ValueError(f"{where}: empirical samples must be finite and >= 0")
+            raise ConfigError(where, "empirical samples must be finite and >= 0")
+
+
+def _check_positive(dist: Distribution, where: str) -> None:
+    """A duration of an action: every value it can take is > 0."""
+    kind = dist.kind
+    if kind in ("fixed", "normal", "lognormal") and dist.mean <= 0:
+        raise ConfigError(f"{where}.mean", f"a duration must be positive, got {dist.mean}")
+    if kind in ("uniform", "triangular") and dist.low <= 0:
+        raise ConfigError(f"{where}.low", f"a duration must be positive, got low={dist.low}")
+    if kind == "empirical" and dist.samples and min(dist.samples) <= 0:
+        raise ConfigError(f"{where}.samples", "durations must be positive")
 
 
 def sample_duration(dist: Distribution, rng: np.random.Generator, size=None):
