@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import Context, EventStatus, LeafSystem, State
+from pydrake.systems.framework import AbstractStateIndex, Context, EventStatus, LeafSystem, State
 
 from hrc_drake.messages import Immutable
 
@@ -79,9 +79,10 @@ def set_state(state: State, index: int, value: Any) -> None:
     state.get_mutable_abstract_state(index).set_value(value)
 
 
-def state_ticket(system: LeafSystem, index: int) -> set:
-    """Prerequisites of an output that is a function of abstract state `index` only."""
-    return {system.abstract_state_ticket(index)}
+def state_ticket(system: LeafSystem, index: int, *more) -> set:
+    """Prerequisites of an output that is a function of abstract state `index` (an int from
+    `declare_state`) and of the other tickets `more` (e.g. `system.time_ticket()`)."""
+    return {system.abstract_state_ticket(AbstractStateIndex(int(index))), *more}
 
 
 def input_or(port, context: Context, default: Any) -> Any:

@@ -48,6 +48,14 @@ class Immutable:
         return self
 
 
+def shallow_copy(obj):
+    """A new object of obj's class sharing obj's attributes (a fast `copy.copy` for cores'
+    `clone` methods, which then replace what an update writes)."""
+    other = object.__new__(type(obj))
+    other.__dict__.update(obj.__dict__)
+    return other
+
+
 def _empty_points() -> np.ndarray:
     return np.zeros((8, 3))
 
@@ -212,12 +220,16 @@ class WorldSnapshot(Immutable):
     buffers: buffer name -> number of parts.
     activity: agent name -> current action name, "wait:<action>" or "idle".
     finished_products: products that left the cell so far.
+    granted, refused: agent name -> seq of its last start `WorldRequest` that was granted /
+        found impossible at least once (the agent waits until it is granted).
     """
 
     time: float = 0.0
     buffers: dict = field(default_factory=dict)
     activity: dict = field(default_factory=dict)
     finished_products: int = 0
+    granted: dict = field(default_factory=dict)
+    refused: dict = field(default_factory=dict)
 
 
 class Capsules(NamedTuple):

@@ -7,7 +7,7 @@ predictor / scheduler / motion systems, the metrics recorder and, when asked, Me
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +19,7 @@ from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
 from hrc_drake.cell import plugins
+from hrc_drake.cell.replay import add_replay_markers
 from hrc_drake.cell.scenario import ScenarioError, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
@@ -49,26 +50,56 @@ from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
 
 @dataclass
 class Cell:
-    """A built cell: the diagram and handles on the parts a run reads back."""
+    """A built cell: the diagram (a description; every run lives in its own Context) and what
+    a run needs to read back. Systems are found by name (`system`); the diagram exports its main
+    ports: "skeleton_estimate", "human_events", "robot_events", "speed_override", "positions",
+    "world" (the truth's `WorldSnapshot`)."""
 
     diagram: object
     scenario: Scenario
-    world: CellWorld
     plant: MultibodyPlant
     scene_graph: SceneGraph
     body: BodyModel
-    recorder: MetricsRecorder
-    executor: RobotTaskExecutor
     agents: list[str]
     product_actions: dict[str, int]
     meshcat: object = None
     visualizer: object = None
-    systems: dict = field(default_factory=dict)
+
+    def system(self, name: str):
+        """The subsystem called `name` (e.g. "metrics", "cell_world", "tracker", "scheduler")."""
+        return self.diagram.GetSubsystemByName(name)
+
+    def has_system(self, name: str) -> bool:
+        return self.diagram.HasSubsystemNamed(name)
+
+    @property
+    def recorder(self) -> MetricsRecorder:
+        return self.system("metrics")
+
+    @property
+    def executor(self) -> RobotTaskExecutor:
+        return self.system("robot_task_executor")
+
+    @property
+    def world_system(self) -> CellWorldSystem:
+        return self.system("cell_world")
+
+    def world(self, root_context):
+        """The `CellWorld` (truth) of a run, from the diagram's root context."""
+        world_system = self.world_system
+        return world_system.world(world_system.GetMyContextFromRoot(root_context))
+
+    def log(self, root_context):
+        """The `MetricsLog` of a run, from the diagram's root context."""
+        recorder = self.recorder
+        return recorder.log(recorder.GetMyContextFromRoot(root_context))
 
 
 #: rate (Hz) of the operator's logic and the path follower: the camera's 30 Hz, so that their
 #: updates share the simulator's steps (each distinct event time costs a step)
 CELL_RATE = 30.0
+#: period (s) of the robot task executor's decisions
+EXECUTOR_PERIOD = 0.1
 #: the operator's wrist stops this far above a buffer's base when picking or placing a part
 HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
 
@@ -155,15 +186,15 @@ def _product_actions(scenario: Scenario) -> dict[str, int]:
     return out
 
 
-def _operator_system(scenario: Scenario, body: BodyModel, world: CellWorld, rng):
+def _operator_system(scenario: Scenario, body: BodyModel, rng):
     from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
     from hrc_drake.human.systems import OperatorSource
 
     op = scenario.operator
     tasks = tasks_from_schema(op, _places(scenario))
     rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
-    operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, world=world, agent=op.name)
-    return OperatorSource(operator, rate=CELL_RATE), operator
+    operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, agent=op.name)
+    return OperatorSource(operator, rate=CELL_RATE)
 
 
 def _recorded_source(scenario: Scenario, scenario_path):
@@ -200,7 +231,7 @@ def _add_plant(builder, scenario: Scenario):
     return plant, scene_graph, robots, False
 
 
-def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, world, use_scheduler):
+def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler):
     """Task executor and path follower of every arm agent, driving the plant.
 
     Returns the executor, follower, arm agents and the port (and its size) whose first nq
@@ -224,11 +255,11 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
         PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE)
     )
     follower.set_name("path_follower")
-
-    def make_executor(request_path):
-        return TaskExecutor(agents, moves, world, request_path, use_commands=use_scheduler)
-
-    executor = builder.AddSystem(RobotTaskExecutor(make_executor, period=0.1))
+    executor = builder.AddSystem(
+        RobotTaskExecutor(
+            TaskExecutor(agents, moves, use_commands=use_scheduler, requests=True), period=EXECUTOR_PERIOD
+        )
+    )
     executor.set_name("robot_task_executor")
     builder.Connect(executor.GetOutputPort("path_requests"), follower.GetInputPort("path_requests"))
     builder.Connect(follower.GetOutputPort("path_done"), executor.GetInputPort("path_done"))
@@ -265,29 +296,27 @@ def _camera_model(scenario: Scenario) -> DepthCameraModel:
     )
 
 
-def _add_human(
-    builder, scenario, scenario_path, body, world, robot_capsules, scene_graph, camera_seed, rng, systems
-):
+def _add_human(builder, scenario, scenario_path, body, robot_capsules, scene_graph, camera_seed, rng, systems):
     """The operator (synthetic or recorded), its capsules in SceneGraph and the depth camera.
 
-    Returns the camera (or recorded source), the human-capsules system and the human events port.
+    Returns the camera (or recorded source), the human-capsules system, the human events port
+    and the operator source (None for a recorded skeleton).
     """
     camera_model = _camera_model(scenario)
     systems["camera_model"] = camera_model
+    operator_source = None
     if scenario.operator.recorded:
         # A recorded skeleton is already a measurement: it stands for the camera.
         camera = builder.AddSystem(_recorded_source(scenario, scenario_path))
         camera.set_name("recorded_skeleton")
-        human_capsules = builder.AddSystem(HumanCapsules(body, source="frame"))
-        builder.Connect(camera.GetOutputPort("skeleton_frame"), human_capsules.get_input_port())
+        human_capsules = builder.AddSystem(HumanCapsules(body, source="points"))
+        builder.Connect(camera.GetOutputPort("skeleton"), human_capsules.get_input_port())
         human_events_port = builder.AddSystem(
             ConstantValueSource(AbstractValue.Make(EventLog()))
         ).get_output_port()
     else:
-        operator_source, _ = _operator_system(scenario, body, world, rng)
-        builder.AddSystem(operator_source)
+        operator_source = builder.AddSystem(_operator_system(scenario, body, rng))
         operator_source.set_name("operator")
-        systems["operator"] = operator_source
         human_events_port = operator_source.GetOutputPort("human_events")
         human_capsules = builder.AddSystem(HumanCapsules(body, source="q"))
         builder.Connect(operator_source.GetOutputPort("q"), human_capsules.get_input_port())
@@ -302,11 +331,30 @@ def _add_human(
     # A translucent body lets the replay show the tracker's markers inside it.
     color = [0.95, 0.65, 0.45, 0.45] if scenario.tracker.kind != "none" else [0.95, 0.65, 0.45, 1.0]
     human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body, color=color))
+    human_geometry.set_name("human_geometry")
     builder.Connect(human_capsules.GetOutputPort("capsules"), human_geometry.get_input_port())
     builder.Connect(
         human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id)
     )
-    return camera, human_capsules, human_events_port
+    return camera, human_capsules, human_events_port, operator_source
+
+
+def _add_world(builder, scenario: Scenario, operator_source, executor):
+    """The truth (`CellWorldSystem`): arbitrates the agents' requests, tells them the answers."""
+    world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
+    sources = ["robots"] + (["operator"] if operator_source is not None else [])
+    world_system = builder.AddSystem(CellWorldSystem(world, sources, period=1.0 / CELL_RATE))
+    world_system.set_name("cell_world")
+    snapshot = world_system.GetOutputPort("snapshot")
+    builder.Connect(executor.GetOutputPort("world_requests"), world_system.GetInputPort("requests_robots"))
+    builder.Connect(executor.GetOutputPort("activity"), world_system.GetInputPort("robot_activity"))
+    builder.Connect(snapshot, executor.GetInputPort("world"))
+    if operator_source is not None:
+        builder.Connect(
+            operator_source.GetOutputPort("world_requests"), world_system.GetInputPort("requests_operator")
+        )
+        builder.Connect(snapshot, operator_source.GetInputPort("world"))
+    return world_system
 
 
 def _add_speed_override(builder, overrides, follower, systems) -> None:
@@ -322,8 +370,8 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
 
-def _add_recorder(builder, world, human_events_port, executor, human_capsules, robot_capsules, systems):
-    recorder = builder.AddSystem(MetricsRecorder(world))
+def _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems):
+    recorder = builder.AddSystem(MetricsRecorder())
     recorder.set_name("metrics")
     builder.Connect(human_events_port, recorder.GetInputPort("human_events"))
     builder.Connect(executor.GetOutputPort("robot_events"), recorder.GetInputPort("robot_events"))
@@ -331,6 +379,7 @@ def _add_recorder(builder, world, human_events_port, executor, human_capsules, r
     builder.Connect(human_capsules.GetOutputPort("capsules"), recorder.GetInputPort("human_capsules"))
     builder.Connect(robot_capsules.get_output_port(), recorder.GetInputPort("robot_capsules"))
     builder.Connect(systems["speed_override"], recorder.GetInputPort("speed_override"))
+    builder.Connect(world_system.GetOutputPort("snapshot"), recorder.GetInputPort("world"))
     if "intention" in systems:
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events")
@@ -338,14 +387,14 @@ def _add_recorder(builder, world, human_events_port, executor, human_capsules, r
     return recorder
 
 
-def _add_meshcat(builder, scenario: Scenario, scene_graph, meshcat, world, systems, replay_fps: float):
+def _add_meshcat(builder, scenario: Scenario, scene_graph, meshcat, systems, replay_fps: float):
     meshcat.Delete()
     meshcat.SetProperty("/Axes", "visible", False)
     center = np.array(scenario.layout.table.center[:2] + [scenario.layout.table.height])
     meshcat.SetCameraPose(center + np.array([0.3, -2.2, 1.1]), center + np.array([0.0, 0.0, 0.15]))
     params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
     visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
-    plugins.add_replay_markers(builder, scenario, meshcat, world, systems, replay_fps)
+    add_replay_markers(builder, scenario, meshcat, systems, replay_fps)
     return visualizer
 
 
@@ -364,11 +413,10 @@ def build_cell(
 
     if named_poses is None:
         named_poses = solve_named_poses(scenario, scenario_path)
-    world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
     builder = DiagramBuilder()
     plant, scene_graph, robots, dynamic = _add_plant(builder, scenario)
     executor, follower, agents, positions_port, positions_size = _add_robot_motion(
-        builder, plant, scene_graph, robots, dynamic, named_poses, world, scenario.scheduler.kind != "none"
+        builder, plant, scene_graph, robots, dynamic, named_poses, scenario.scheduler.kind != "none"
     )
     capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))
@@ -377,10 +425,12 @@ def build_cell(
 
     body = BodyModel(scenario.operator.segments)
     systems: dict = {}
-    camera, human_capsules, human_events_port = _add_human(
-        builder, scenario, scenario_path, body, world, robot_capsules, scene_graph, seed(1), rngs[0], systems
+    camera, human_capsules, human_events_port, operator_source = _add_human(
+        builder, scenario, scenario_path, body, robot_capsules, scene_graph, seed(1), rngs[0], systems
     )
     register_scene(scene_graph, scenario)
+    world_system = _add_world(builder, scenario, operator_source, executor)
+    systems["world"] = world_system.GetOutputPort("snapshot")
 
     overrides = []
     estimate_port = plugins.add_tracker(
@@ -393,31 +443,28 @@ def build_cell(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
     _add_speed_override(builder, overrides, follower, systems)
-    world_system = builder.AddSystem(CellWorldSystem(world))
-    world_system.set_name("cell_world")
-    builder.Connect(executor.GetOutputPort("activity"), world_system.get_input_port())
-    systems["world"] = world_system
-    recorder = _add_recorder(
-        builder, world, human_events_port, executor, human_capsules, robot_capsules, systems
-    )
+    _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems)
     visualizer = None
     if meshcat is not None:
-        visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, world, systems, replay_fps)
-
+        visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, systems, replay_fps)
+    builder.ExportOutput(estimate_port, "skeleton_estimate")
+    builder.ExportOutput(human_events_port, "human_events")
+    builder.ExportOutput(executor.GetOutputPort("robot_events"), "robot_events")
+    builder.ExportOutput(systems["speed_override"], "speed_override")
+    builder.ExportOutput(follower.GetOutputPort("positions"), "positions")
+    builder.ExportOutput(world_system.GetOutputPort("snapshot"), "world")
+    diagram = builder.Build()
+    diagram.set_name("cell")
     return Cell(
-        diagram=builder.Build(),
+        diagram=diagram,
         scenario=scenario,
-        world=world,
         plant=plant,
         scene_graph=scene_graph,
         body=body,
-        recorder=recorder,
-        executor=executor,
         agents=[scenario.operator.name] + [a.agent for a in agents],
         product_actions=_product_actions(scenario),
         meshcat=meshcat,
         visualizer=visualizer,
-        systems=systems,
     )
 
 

@@ -33,6 +33,45 @@ class LoggedEvent:
     seq: int
 
 
+class AppendOnly:
+    """An immutable append-only sequence: `append` returns a new value sharing the old items
+    (chunks of CHUNK items), so a log kept in a Context grows at O(1) per item and its copies
+    are free (`__deepcopy__` returns itself)."""
+
+    CHUNK = 256
+    __slots__ = ("_chunks", "_tail")
+
+    def __init__(self, chunks: tuple = (), tail: tuple = ()):
+        self._chunks = chunks
+        self._tail = tail
+
+    def append(self, item) -> AppendOnly:
+        tail = self._tail + (item,)
+        if len(tail) >= self.CHUNK:
+            return AppendOnly(self._chunks + (tail,), ())
+        return AppendOnly(self._chunks, tail)
+
+    def extend(self, items) -> AppendOnly:
+        out = self
+        for item in items:
+            out = out.append(item)
+        return out
+
+    def __iter__(self):
+        for chunk in self._chunks:
+            yield from chunk
+        yield from self._tail
+
+    def __len__(self) -> int:
+        return self.CHUNK * len(self._chunks) + len(self._tail)
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+
 @dataclass
 class MetricsLog:
     """What a run recorded: events of every agent and periodic samples."""

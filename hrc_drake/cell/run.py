@@ -11,14 +11,18 @@ from pathlib import Path
 from pydrake.systems.analysis import Simulator
 
 from hrc_drake.cell.build import Cell
-from hrc_drake.cell.metrics import plot_gantt, summarize, write_events_csv
+from hrc_drake.cell.metrics import MetricsLog, plot_gantt, summarize, write_events_csv
 
 
 @dataclass
 class RunResult:
+    """A finished run: its metrics, log and the diagram context it ran in."""
+
     metrics: dict
     wall_time: float
     simulated_time: float
+    log: MetricsLog
+    context: object
 
 
 def simulate(
@@ -32,10 +36,14 @@ def simulate(
     """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent).
 
     realtime_rate: 0 runs as fast as possible; 1 paces the run with the wall clock (live view).
+    Every call runs in a new Context: one built cell can be simulated again.
     """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
     simulator = Simulator(cell.diagram)
+    context = simulator.get_context()
+    world_system = cell.world_system
+    world_context = world_system.GetMyContextFromRoot(context)
     simulator.set_target_realtime_rate(realtime_rate)
     if record and cell.visualizer is not None:
         cell.visualizer.StartRecording(False)
@@ -51,21 +59,21 @@ def simulate(
             lead = "\r" if interactive else ""
             print(
                 f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
-                f"   products = {cell.world.finished_products:3d}"
+                f"   products = {world_system.world(world_context).finished_products:3d}"
                 f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
                 end="" if interactive else "\n",
                 file=progress,
                 flush=True,
             )
-    cell.diagram.ForcedPublish(simulator.get_context())
     wall = time.perf_counter() - start
     if interactive:
         print(file=progress)
     if record and cell.visualizer is not None:
         cell.visualizer.StopRecording()
         cell.visualizer.PublishRecording()
-    metrics = summarize(cell.recorder.log, duration, cell.agents, cell.product_actions, wall_time=wall)
-    return RunResult(metrics=metrics, wall_time=wall, simulated_time=duration)
+    log = cell.log(context)
+    metrics = summarize(log, duration, cell.agents, cell.product_actions, wall_time=wall)
+    return RunResult(metrics=metrics, wall_time=wall, simulated_time=duration, log=log, context=context)
 
 
 def write_replay(cell: Cell, path: Path) -> int:
@@ -84,8 +92,8 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     metrics_path = out_dir / "metrics.json"
     metrics_path.write_text(json.dumps(result.metrics, indent=2))
     events_path = out_dir / "events.csv"
-    write_events_csv(events_path, cell.recorder.log.events)
+    write_events_csv(events_path, result.log.events)
     gantt_path = out_dir / "gantt.png"
     title = cell.scenario.description or "cell"
-    plot_gantt(gantt_path, cell.recorder.log, result.simulated_time, cell.agents, title=title)
+    plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title)
     return [metrics_path, events_path, gantt_path]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
@@ -15,12 +17,13 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.cell.metrics import LoggedEvent, MetricsLog
+from hrc_drake.cell.metrics import AppendOnly, LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
+from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 from hrc_drake.human.camera import segment_segment_distance
-from hrc_drake.messages import EventLog, SkeletonFrame, WorldSnapshot
+from hrc_drake.messages import AgentActivity, Capsules, EventLog, Immutable, WorldSnapshot, no_capsules
 
 HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
 GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]
@@ -41,45 +44,38 @@ def segment_pose(start: np.ndarray, end: np.ndarray) -> RigidTransform:
     return RigidTransform(R, 0.5 * (start + end))
 
 
-EMPTY_CAPSULES = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
-
-
 class HumanCapsules(LeafSystem):
-    """The operator's body capsules (start, end, radius) in the world.
+    """The operator's body capsules (`messages.Capsules`) in the world.
 
     source "q": input "q" (12,), capsules of the body model at q.
-    source "frame": input "skeleton_frame" (SkeletonFrame), capsules through its points
-    (points it lost keep their last value). Output "capsules" (abstract), "points" (24,).
+    source "points": input "skeleton" (24,), capsules through those 8 points (e.g. a recorded
+    skeleton with lost points held, `RecordedSkeletonSource`). Outputs "capsules" and "points"
+    (24,). Stateless.
     """
 
     def __init__(self, body_model, source: str = "q"):
         super().__init__()
-        if source not in ("q", "frame"):
-            raise ValueError(f"HumanCapsules: source must be 'q' or 'frame', got {source!r}")
+        if source not in ("q", "points"):
+            raise ValueError(f"HumanCapsules: source must be 'q' or 'points', got {source!r}")
         self.body = body_model
         self.source = source
         if source == "q":
             self._input = self.DeclareVectorInputPort("q", 12)
         else:
-            self._input = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
-            self._last = body_model.points(body_model.rest_q())
-        self.DeclareAbstractOutputPort(
-            "capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc_capsules
-        )
+            self._input = self.DeclareVectorInputPort("skeleton", 24)
+        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(no_capsules()), self._calc_capsules)
         self.DeclareVectorOutputPort("points", 24, self._calc_points)
 
     def _points(self, context) -> np.ndarray:
         if self.source == "q":
             return self.body.points(self._input.Eval(context))
-        frame = self._input.Eval(context)
-        self._last = np.where(np.isfinite(frame.points), frame.points, self._last)
-        return self._last
+        return self._input.Eval(context).reshape(8, 3)
 
     def _calc_capsules(self, context, output):
         if self.source == "q":
-            output.set_value(self.body.capsules(self._input.Eval(context)))
+            output.set_value(Capsules(*self.body.capsules(self._input.Eval(context))))
         else:
-            output.set_value(self.body.capsules_from_points(self._points(context)))
+            output.set_value(Capsules(*self.body.capsules_from_points(self._points(context))))
 
     def _calc_points(self, context, output: BasicVector):
         output.SetFromVector(self._points(context).ravel())
@@ -108,7 +104,7 @@ class HumanGeometry(LeafSystem):
             instance.set_illustration_properties(MakePhongIllustrationProperties(color))
             scene_graph.RegisterGeometry(self.source_id, frame_id, instance)
             self.frame_ids.append(frame_id)
-        self._capsules = self.DeclareAbstractInputPort("capsules", AbstractValue.Make(EMPTY_CAPSULES))
+        self._capsules = self.DeclareAbstractInputPort("capsules", AbstractValue.Make(no_capsules()))
         self.DeclareAbstractOutputPort(
             "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()), self._calc_poses
         )
@@ -161,7 +157,8 @@ class RobotCapsules(LeafSystem):
     """World capsules of every robot link, from the plant positions.
 
     Input "positions" (n >= nq; the first nq entries are the plant's positions).
-    Output "capsules": abstract (start (K,3), end (K,3), radius (K,)).
+    Output "capsules": `messages.Capsules`. Stateless: the plant context on the system is
+    scratch space, fully overwritten before each use.
     """
 
     def __init__(self, plant, kinematics, input_size: int):
@@ -171,33 +168,74 @@ class RobotCapsules(LeafSystem):
         self._plant_context = plant.CreateDefaultContext()
         self._nq = plant.num_positions()
         self._positions = self.DeclareVectorInputPort("positions", input_size)
-        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(EMPTY_CAPSULES), self._calc)
+        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(no_capsules()), self._calc)
 
     def _calc(self, context, output):
         self.plant.SetPositions(self._plant_context, self._positions.Eval(context)[: self._nq])
-        output.set_value(self.kinematics.capsules(self._plant_context))
+        output.set_value(Capsules(*self.kinematics.capsules(self._plant_context)))
 
 
 class CellWorldSystem(LeafSystem):
-    """The cell's ground truth in the diagram: output "snapshot" (WorldSnapshot) of the parts in
-    every buffer, finished products, and what each robot agent is doing (input "robot_activity").
+    """The cell's ground truth in the diagram (thesis Table 6.1 buffers and resources).
 
-    The truth itself is the `CellWorld` core that the operator and the task executor act on.
+    State: the `CellWorld` (parts in every buffer, reservations, finished products, pending
+    start requests). Inputs "requests_<source>" (EventLog of `WorldRequest`, one per source of
+    agents, e.g. the operator and the robot task executor) and optional "robot_activity"
+    (`AgentActivity`). At each tick (`period`) the new requests are arbitrated
+    (`CellWorld.handle_requests`). Output "snapshot" (`WorldSnapshot`): parts, products, what
+    each agent does, and which start requests were granted or refused.
     """
 
-    def __init__(self, world):
+    def __init__(self, world, sources: list[str], period: float):
         super().__init__()
-        self.world = world
-        self._activity = self.DeclareAbstractInputPort("robot_activity", AbstractValue.Make({}))
+        self._initial = WorldRun(Frozen(world.clone()), (0,) * len(sources))
+        self._run = declare_state(self, lambda context: self._initial)
+        self._sources = [
+            self.DeclareAbstractInputPort(f"requests_{name}", AbstractValue.Make(EventLog())) for name in sources
+        ]
+        self._activity = self.DeclareAbstractInputPort("robot_activity", AbstractValue.Make(AgentActivity()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
         self.DeclareAbstractOutputPort(
-            "snapshot", lambda: AbstractValue.Make(WorldSnapshot()), self._calc, {self.time_ticket()}
+            "snapshot", lambda: AbstractValue.Make(WorldSnapshot()), self._calc,
+            state_ticket(self, self._run, self._activity.ticket()),
         )
 
+    def world(self, context):
+        """The `CellWorld` of `context` (read only)."""
+        return get_state(context, self._run).world.core
+
+    def _tick(self, context, state):
+        run = get_state(context, self._run)
+        new, seen = [], list(run.seen)
+        for k, port in enumerate(self._sources):
+            if port.HasValue(context):
+                fresh = port.Eval(context).since(seen[k])
+                if fresh:
+                    seen[k] = fresh[-1].seq
+                    new.extend(fresh)
+        if not new:  # nothing changed since the last tick: a pending start still cannot start
+            return EventStatus.DidNothing()
+        world = run.world.thaw()
+        world.handle_requests(new)
+        set_state(state, self._run, WorldRun(Frozen(world), tuple(seen), context.get_time()))
+        return EventStatus.Succeeded()
+
     def _calc(self, context, output):
-        activity = dict(self.world.running)
+        world = self.world(context)
+        activity = dict(world.running)
         if self._activity.HasValue(context):
-            activity.update(self._activity.Eval(context))
-        output.set_value(self.world.snapshot(context.get_time(), activity))
+            activity.update(self._activity.Eval(context).as_dict())
+        output.set_value(world.snapshot(get_state(context, self._run).time, activity))
+
+
+@dataclass(frozen=True)
+class WorldRun(Immutable):
+    """The world's run state: the world, the last request seq seen from each source, and the
+    time of the last change (the snapshot's time)."""
+
+    world: Frozen
+    seen: tuple[int, ...] = ()
+    time: float = 0.0
 
 
 class MinOverride(LeafSystem):
@@ -220,50 +258,55 @@ def _intention_to_logged(event) -> LoggedEvent:
     return LoggedEvent(event.time, "intention", f"{event.goal} ({event.hand} hand)", event.kind, event.seq)
 
 
+@dataclass(frozen=True)
+class RecorderRun(Immutable):
+    """What the recorder has recorded so far: append-only logs and the last seq seen per source."""
+
+    samples: AppendOnly = AppendOnly()
+    events: AppendOnly = AppendOnly()
+    seen: tuple[int, int, int] = (0, 0, 0)
+    last_time: float = -np.inf
+
+
 class MetricsRecorder(LeafSystem):
     """Collects events, buffer contents and the true human-robot distance (periodic, `period` s).
 
-    Inputs "human_events", "robot_events" (EventLog), "human_points" (24,), "human_capsules",
-    "robot_capsules", "speed_override" (1,). The `log` attribute (`MetricsLog`) holds what was
-    recorded.
+    Inputs "human_events", "robot_events", "intention_events" (EventLog), "human_points" (24,),
+    "human_capsules", "robot_capsules" (`messages.Capsules`), "speed_override" (1,), "world"
+    (`WorldSnapshot`). State: a `RecorderRun`; `log(context)` gives the `MetricsLog` of a run,
+    with a last sample at the context's time.
     """
 
-    def __init__(self, world, period: float = 0.1):
+    def __init__(self, period: float = 0.1):
         super().__init__()
-        self.world = world
-        self.log = MetricsLog()
         self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
-        self._human_points = self.DeclareVectorInputPort("human_points", 24)
-        self._human_capsules = self.DeclareAbstractInputPort(
-            "human_capsules", AbstractValue.Make(EMPTY_CAPSULES)
-        )
-        self._robot_capsules = self.DeclareAbstractInputPort(
-            "robot_capsules", AbstractValue.Make(EMPTY_CAPSULES)
-        )
-        self._override = self.DeclareVectorInputPort("speed_override", 1)
         self._intention_events = self.DeclareAbstractInputPort(
             "intention_events", AbstractValue.Make(EventLog())
         )
-        self._last_seq = {"human": 0, "robot": 0, "intention": 0}
-        self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
-        self.DeclareForcedPublishEvent(self._record)
+        self._human_points = self.DeclareVectorInputPort("human_points", 24)
+        self._human_capsules = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
+        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(no_capsules()))
+        self._override = self.DeclareVectorInputPort("speed_override", 1)
+        self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
+        self._run = declare_state(self, lambda context: RecorderRun())
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._record)
 
-    def _collect(self, port, key, context, convert=None):
-        if not port.HasValue(context):
-            return
-        new = port.Eval(context).since(self._last_seq[key])
-        if new:
-            self._last_seq[key] = new[-1].seq
-            self.log.events.extend(map(convert, new) if convert else new)
-
-    def _record(self, context):
+    def _sample(self, context, run: RecorderRun) -> RecorderRun:
         t = context.get_time()
-        if self.log.times and t <= self.log.times[-1]:
-            return
-        self._collect(self._human_events, "human", context)
-        self._collect(self._robot_events, "robot", context)
-        self._collect(self._intention_events, "intention", context, _intention_to_logged)
+        seen = list(run.seen)
+        events = run.events
+        sources = (
+            (self._human_events, None),
+            (self._robot_events, None),
+            (self._intention_events, _intention_to_logged),
+        )
+        for k, (port, convert) in enumerate(sources):
+            if port.HasValue(context):
+                new = port.Eval(context).since(seen[k])
+                if new:
+                    seen[k] = new[-1].seq
+                    events = events.extend(map(convert, new) if convert else new)
         distance = np.inf
         points = self._human_points.Eval(context).copy() if self._human_points.HasValue(context) else None
         if self._human_capsules.HasValue(context) and self._robot_capsules.HasValue(context):
@@ -275,4 +318,23 @@ class MetricsRecorder(LeafSystem):
                 )
                 distance = float(np.min(d - h_radius[:, None] - r_radius[None, :]))
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
-        self.log.record(t, distance, override, dict(self.world.parts), self.world.finished_products, points)
+        world = input_or(self._world, context, WorldSnapshot())
+        sample = (t, distance, override, world.buffers, world.finished_products, points)
+        return RecorderRun(run.samples.append(sample), events, tuple(seen), t)
+
+    def _record(self, context, state):
+        run = get_state(context, self._run)
+        if context.get_time() <= run.last_time:
+            return EventStatus.DidNothing()
+        set_state(state, self._run, self._sample(context, run))
+        return EventStatus.Succeeded()
+
+    def log(self, context) -> MetricsLog:
+        """The run recorded in `context`, closed by a sample at the context's time (not stored)."""
+        run = get_state(context, self._run)
+        if context.get_time() > run.last_time:
+            run = self._sample(context, run)
+        log = MetricsLog(events=list(run.events))
+        for t, distance, override, buffers, products, points in run.samples:
+            log.record(t, distance, override, buffers, products, points)
+        return log

@@ -3,6 +3,11 @@
 An action of the assembly flow (thesis Table 6.1) can start when each of its input buffers
 holds a part and each of its output buffers has room, counting the room already promised to
 actions under way. Starting takes the input parts; finishing puts the output parts.
+
+In a cell the agents do not touch the world: they send `WorldRequest`s (start / finish) and the
+world, one system, arbitrates them (`handle_requests`): finishes first, then pending starts in
+the order they were asked, each granted as soon as it can start. An agent learns from the
+world's snapshot whether its start request was granted, or refused for now (it then waits).
 """
 
 from __future__ import annotations
@@ -10,7 +15,7 @@ from __future__ import annotations
 from collections import Counter
 from dataclasses import dataclass
 
-from hrc_drake.messages import WorldSnapshot
+from hrc_drake.messages import WorldRequest, WorldSnapshot, shallow_copy
 from hrc_drake.scheduling.flow import Buffer, FlowAction
 
 
@@ -37,8 +42,43 @@ class CellWorld:
         self.reserved: Counter[str] = Counter()
         self.running: dict[str, str] = {}
         self.finished_products = 0
-        self.completions: list[Completion] = []
+        self.completions: tuple[Completion, ...] = ()
         self.time = 0.0
+        #: start requests not granted yet, by agent (at most one per agent)
+        self.pending: dict[str, WorldRequest] = {}
+        #: seq of the last start request granted / refused at least once, by agent
+        self.granted: dict[str, int] = {}
+        self.refused: dict[str, int] = {}
+
+    def clone(self) -> CellWorld:
+        """A copy an update may change (`drake_helpers.Frozen`): copies the counters, shares the
+        immutable description (buffers, actions) and the completions tuple."""
+        other = shallow_copy(self)
+        other.parts = dict(self.parts)
+        other.resource_free = dict(self.resource_free)
+        other.reserved = Counter(self.reserved)
+        other.running = dict(self.running)
+        other.pending = dict(self.pending)
+        other.granted = dict(self.granted)
+        other.refused = dict(self.refused)
+        return other
+
+    def handle_requests(self, requests: list[WorldRequest]) -> None:
+        """Arbitrate the agents' new requests (any order): finishes first, then every pending
+        start, oldest first (ties by agent name), granted when it can start now."""
+        for request in sorted(requests, key=lambda r: (r.kind != "finish", r.time, r.agent, r.seq)):
+            if request.kind == "finish":
+                self.finish(request.agent, request.action, request.time)
+            elif request.kind == "start":
+                self.pending[request.agent] = request
+            else:
+                raise ValueError(f"world request of unknown kind {request.kind!r} from {request.agent!r}")
+        for request in sorted(self.pending.values(), key=lambda r: (r.time, r.agent, r.seq)):
+            if self.try_start(request.agent, request.action):
+                self.granted[request.agent] = request.seq
+                del self.pending[request.agent]
+            else:
+                self.refused[request.agent] = request.seq
 
     def can_start(self, action: str) -> bool:
         """Whether `action`'s inputs are present, its outputs have room, its resources are free."""
@@ -89,7 +129,7 @@ class CellWorld:
         for r in spec.resources:
             self.resource_free[r] += 1
         self.finished_products += products
-        self.completions.append(Completion(self.time, agent, action, products))
+        self.completions = self.completions + (Completion(self.time, agent, action, products),)
 
     def snapshot(self, time: float, activity: dict[str, str] | None = None) -> WorldSnapshot:
         return WorldSnapshot(
@@ -97,4 +137,6 @@ class CellWorld:
             buffers=dict(self.parts),
             activity=dict(activity if activity is not None else self.running),
             finished_products=self.finished_products,
+            granted=dict(self.granted),
+            refused=dict(self.refused),
         )

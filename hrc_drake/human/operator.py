@@ -8,6 +8,11 @@ then the wrist reaches it along a minimum-jerk joint-space motion (75 % of what 
 then dwells. Between actions, while the world says the action cannot start (parts missing),
 the operator waits with the wrists resting in front of the torso at table height.
 
+In a cell the operator does not touch the world: it sends a start `WorldRequest` and begins
+when the world's snapshot says the request was granted (it waits, hands at rest, once the world
+says it cannot start yet), and a finish request when it ends (`update(t, view)`). Given a
+synchronous world object instead (`world=`), it starts and finishes in place.
+
 Arm configurations come from a small inverse kinematics on wrist position only (torso
 flexion + the arm(s) of the action, base fixed), solved once per goal and cached, so that
 `q(t)` is closed-form minimum-jerk interpolation between cached configurations.
@@ -26,7 +31,15 @@ from scipy.optimize import least_squares
 
 from hrc_drake.distributions import sample_duration, validate_distribution
 from hrc_drake.human.body import ARM_DOFS, BodyModel
-from hrc_drake.messages import HEAD, HUMAN_AGENT, THORAX, WRIST_OF_HAND, HumanEvent
+from hrc_drake.messages import (
+    HEAD,
+    HUMAN_AGENT,
+    THORAX,
+    WRIST_OF_HAND,
+    HumanEvent,
+    WorldRequest,
+    shallow_copy,
+)
 
 #: the head starts turning towards a goal this long before the hand starts moving (s)
 HEAD_LEAD = 0.3
@@ -118,15 +131,21 @@ class SyntheticOperator:
 
     body: BodyModel; tasks: action name -> OperatorTask; pattern: cyclic list of action
     names; rest_q (12,): base pose and torso flexion (its arm values are replaced by the
-    resting configuration); rng: numpy Generator; world: object with
-    `try_start(agent, action) -> bool` and `finish(agent, action)` (None: always starts);
+    resting configuration); rng: numpy Generator or seed (the duration of the k-th action
+    started is drawn from a generator seeded with (seed, k), so a copy of the operator needs no
+    copy of a generator); world: synchronous object with `try_start(agent, action) -> bool`
+    and `finish(agent, action)` (None: always starts, or the request protocol of `update`);
     rest_height: wrist height at rest (default: median goal height + 5 cm).
+
+    The description (body, tasks, IK cache) is shared by copies (`clone`); the run state
+    (plans, indices, events) is what an update changes.
     """
 
     def __init__(self, body: BodyModel, tasks: dict, pattern, rest_q, rng: np.random.Generator,
                  world=None, agent: str = HUMAN_AGENT, rest_height: float | None = None):
         self.body = body
-        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.seed = int(generator.integers(2**62))
         self.world = world
         self.agent = agent
         self.pattern = list(pattern)
@@ -180,14 +199,26 @@ class SyntheticOperator:
         self._time = None
         self._seq = 0
         self._index = 0
+        self._started = 0
         self._state = "idle"
         self._action: str | None = None
         self._action_end = 0.0
         self._phase_starts: list[float] = []
         self._phase_goals: list[dict] = []
-        self.events: list[HumanEvent] = []
+        self.events: tuple[HumanEvent, ...] = ()
+        #: the world requests of the last update (request protocol), and their count so far
+        self.new_requests: tuple[WorldRequest, ...] = ()
+        self._request_seq = 0
         self._joints = _Plan(self.rest_config, 0.0)
         self._head = _Plan(self._head_angles(self.rest_config, self._rest_look), 0.0)
+
+    def clone(self) -> SyntheticOperator:
+        """A copy whose run state an update may change; shares the description and IK cache
+        (plans and phase lists are replaced, never changed in place)."""
+        other = shallow_copy(self)
+        other._joints = shallow_copy(self._joints)
+        other._head = shallow_copy(self._head)
+        return other
 
     # ------------------------------------------------------------------ kinematics helpers
     def _solve(self, hands, targets, q_start) -> np.ndarray:
@@ -282,18 +313,43 @@ class SyntheticOperator:
     def _emit(self, time: float, action: str, kind: str, out: list):
         self._seq += 1
         event = HumanEvent(time=float(time), action=action, kind=kind, seq=self._seq, agent=self.agent)
-        self.events.append(event)
+        self.events = self.events + (event,)
         out.append(event)
 
+    def _request(self, time: float, action: str, kind: str, requests: list) -> None:
+        self._request_seq += 1
+        requests.append(WorldRequest(time=float(time), agent=self.agent, action=action, kind=kind,
+                                     seq=self._request_seq))
+
     # ------------------------------------------------------------------ logic
-    def update(self, t: float) -> list[HumanEvent]:
-        """Advance the operator to time t; returns the events emitted (begin/end/wait_begin/wait_end)."""
+    def busy_until(self, t: float) -> bool:
+        """Whether the operator is still doing an action at time t (an update would do nothing)."""
+        return self._state == "busy" and t < self._action_end
+
+    def will_change(self, t: float, view=None) -> bool:
+        """Whether `update(t, view)` would change anything (cheap; lets a system skip a copy)."""
+        if self._state == "busy":
+            return t >= self._action_end
+        if self._state == "idle" or view is None or self.world is not None:
+            return True
+        granted = view.granted.get(self.agent, 0) >= self._request_seq
+        refused = view.refused.get(self.agent, 0) >= self._request_seq
+        return granted or (refused and self._state == "requesting")
+
+    def update(self, t: float, view=None) -> list[HumanEvent]:
+        """Advance the operator to time t; returns the events emitted (begin/end/wait_begin/wait_end).
+
+        view: the world's `WorldSnapshot` (request protocol: the requests of this update are
+        left in `new_requests`); None with no world or a synchronous `world`.
+        """
         t = float(t)
         if not np.isfinite(t):
             raise ValueError(f"SyntheticOperator.update: time must be finite, got {t}")
         if self._time is not None and t < self._time - 1e-12:
             raise ValueError(f"SyntheticOperator.update: time went backwards ({t} < {self._time})")
         out: list[HumanEvent] = []
+        requests: list[WorldRequest] = []
+        protocol = view is not None and self.world is None
         start_time = t
         while True:
             if self._state == "busy":
@@ -301,39 +357,63 @@ class SyntheticOperator:
                     break
                 if self.world is not None:
                     self.world.finish(self.agent, self._action)
+                elif protocol:
+                    self._request(self._action_end, self._action, "finish", requests)
                 self._emit(self._action_end, self._action, "end", out)
                 start_time = self._action_end
                 self._action = None
                 self._state = "idle"
                 self._index = (self._index + 1) % len(self.pattern)
             name = self.pattern[self._index]
-            if self.world is None or self.world.try_start(self.agent, name):
+            if protocol:
+                if self._state == "idle":
+                    self._request(t, name, "start", requests)
+                    self._state = "requesting"
+                    break
+                can_start = view.granted.get(self.agent, 0) >= self._request_seq
+                if not can_start and self._state == "requesting":
+                    if view.refused.get(self.agent, 0) >= self._request_seq:
+                        self._begin_wait(t, name, out)
+                    break
+            else:
+                can_start = self.world is None or self.world.try_start(self.agent, name)
+            if can_start:
                 if self._state == "waiting":
                     self._emit(t, name, "wait_end", out)
+                if self._state in ("waiting", "requesting"):
                     start_time = t
-                task = self.tasks[name]
-                duration = float(task.duration_sampler(self.rng))
-                if not np.isfinite(duration) or duration <= 0:
-                    raise ValueError(f"SyntheticOperator: duration sampler of {name!r} returned {duration!r}")
-                self._emit(start_time, name, "begin", out)
-                self._state = "busy"
-                self._action = name
-                self._action_end = start_time + duration
-                self._plan_action(start_time, task, duration)
+                self._begin(start_time, name, out)
                 continue
             if self._state != "waiting":
-                self._emit(t, name, "wait_begin", out)
-                self._state = "waiting"
-                self._phase_starts, self._phase_goals = [], []
-                self._plan_rest(t, self.tasks[name].goals[0])
+                self._begin_wait(t, name, out)
             break
         self._time = t
+        self.new_requests = tuple(requests)
         return out
+
+    def _begin(self, start_time: float, name: str, out: list) -> None:
+        task = self.tasks[name]
+        duration = float(task.duration_sampler(np.random.default_rng([self.seed, self._started])))
+        self._started += 1
+        if not np.isfinite(duration) or duration <= 0:
+            raise ValueError(f"SyntheticOperator: duration sampler of {name!r} returned {duration!r}")
+        self._emit(start_time, name, "begin", out)
+        self._state = "busy"
+        self._action = name
+        self._action_end = start_time + duration
+        self._plan_action(start_time, task, duration)
+
+    def _begin_wait(self, t: float, name: str, out: list) -> None:
+        self._emit(t, name, "wait_begin", out)
+        self._state = "waiting"
+        self._phase_starts, self._phase_goals = [], []
+        self._plan_rest(t, self.tasks[name].goals[0])
 
     # ------------------------------------------------------------------ pose
     @property
     def state(self) -> str:
-        """'idle' (before the first update), 'busy' or 'waiting'."""
+        """'idle' (before the first update), 'requesting' (asked the world, no answer yet),
+        'busy' or 'waiting'."""
         return self._state
 
     @property

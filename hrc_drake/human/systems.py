@@ -1,17 +1,24 @@
-"""Drake adapters of the human model: the synthetic operator, a recorded skeleton, the depth camera."""
+"""Drake adapters of the human model: the synthetic operator, a recorded skeleton, the depth camera.
+
+Each keeps its run in its Context (DESIGN.md): the operator's plans and event logs, the camera's
+last frame are abstract state set again at initialization; outputs read only the Context.
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
+from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.operator import SyntheticOperator
 from hrc_drake.human.recorded import frame_at, load_skeleton_csv
-from hrc_drake.messages import EventLog, SkeletonFrame
+from hrc_drake.messages import EventLog, Immutable, SkeletonFrame, WorldSnapshot, no_capsules
 
-#: the human_events output keeps at most this many of the latest events
+#: the human_events and world_requests outputs keep at most this many of the latest events
 MAX_EVENTS_OUT = 200
 
 
@@ -21,62 +28,96 @@ def empty_skeleton_frame(time: float = 0.0) -> SkeletonFrame:
                          gaze=np.array([1.0, 0.0, 0.0]), gaze_valid=False)
 
 
-def no_capsules():
-    """Value of an empty `occluding_capsules` input: (start (0, 3), end (0, 3), radius (0,))."""
-    return (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+def append_window(log: EventLog, new, size: int = MAX_EVENTS_OUT) -> EventLog:
+    """`log` with the events `new` appended, keeping the last `size`."""
+    if not new:
+        return log
+    return EventLog((log.events + tuple(new))[-size:])
+
+
+@dataclass(frozen=True)
+class OperatorRun(Immutable):
+    """The operator's run state: its core (plans, indices) and what it emitted so far."""
+
+    operator: Frozen
+    human_events: EventLog = EventLog()
+    world_requests: EventLog = EventLog()
 
 
 class OperatorSource(LeafSystem):
     """The synthetic operator as a source: its logic advances at `rate` Hz, its pose is read at any time.
 
-    Output ports: "skeleton" (24: the 8 true points flattened row-major), "q" (12),
-    "gaze" (3, unit), "human_events" (EventLog of HumanEvent, the last MAX_EVENTS_OUT).
-    One simulation per operator object: the operator keeps its own logic state.
+    Input "world" (optional WorldSnapshot): with it the operator asks the world to start and
+    finish actions (`world_requests`) and begins when its request is granted; unconnected, it
+    starts every action at once. Outputs: "skeleton" (24: the 8 true points flattened
+    row-major), "q" (12), "gaze" (3, unit), "human_events" (EventLog of HumanEvent) and
+    "world_requests" (EventLog of WorldRequest), each log the last MAX_EVENTS_OUT.
+    State: an `OperatorRun` (the core is copied only by updates that change it).
     """
 
     def __init__(self, operator: SyntheticOperator, rate: float = 50.0):
         super().__init__()
         if not np.isfinite(rate) or rate <= 0 or rate > 50.0:
             raise ValueError(f"OperatorSource: rate must be in (0, 50] Hz, got {rate!r}")
-        self.operator = operator
-        self.events: list = []
-        self._log = EventLog(())
-        self._log_size = 0
-        # the number of events so far, so that outputs depend on the state the update changed
-        self._count_index = self.DeclareDiscreteState(1)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
-        self.DeclareVectorOutputPort("skeleton", BasicVector(24), self._calc_skeleton)
-        self.DeclareVectorOutputPort("q", BasicVector(12), self._calc_q)
-        self.DeclareVectorOutputPort("gaze", BasicVector(3), self._calc_gaze)
-        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog(())),
-                                       self._calc_events)
+        if operator.world is not None:
+            raise ValueError("OperatorSource: the operator must not hold a world (use the 'world' input)")
+        self._initial = OperatorRun(Frozen(operator))
+        self._run = declare_state(self, lambda context: self._initial)
+        self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
+        pose_ticket = state_ticket(self, self._run, self.time_ticket())
+        self.DeclareVectorOutputPort("skeleton", BasicVector(24), self._calc_skeleton, pose_ticket)
+        self.DeclareVectorOutputPort("q", BasicVector(12), self._calc_q, pose_ticket)
+        self.DeclareVectorOutputPort("gaze", BasicVector(3), self._calc_gaze, pose_ticket)
+        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_events, state_ticket(self, self._run))
+        self.DeclareAbstractOutputPort("world_requests", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_requests, state_ticket(self, self._run))
 
-    def _update(self, context, discrete_state):
-        self.events.extend(self.operator.update(context.get_time()))
-        discrete_state.get_mutable_vector(self._count_index).SetAtIndex(0, float(len(self.events)))
+    def operator(self, context) -> SyntheticOperator:
+        """The operator core of `context` (read only)."""
+        return get_state(context, self._run).operator.core
+
+    def _update(self, context, state):
+        run = get_state(context, self._run)
+        t = context.get_time()
+        if run.operator.core.busy_until(t):
+            return EventStatus.DidNothing()
+        view = input_or(self._world, context, None)
+        if not run.operator.core.will_change(t, view):
+            return EventStatus.DidNothing()
+        operator = run.operator.thaw()
+        events = operator.update(t, view)
+        set_state(state, self._run, OperatorRun(
+            Frozen(operator),
+            append_window(run.human_events, events),
+            append_window(run.world_requests, operator.new_requests),
+        ))
         return EventStatus.Succeeded()
 
     def _calc_skeleton(self, context, output):
-        output.SetFromVector(self.operator.points(context.get_time()).ravel())
+        output.SetFromVector(self.operator(context).points(context.get_time()).ravel())
 
     def _calc_q(self, context, output):
-        output.SetFromVector(self.operator.q(context.get_time()))
+        output.SetFromVector(self.operator(context).q(context.get_time()))
 
     def _calc_gaze(self, context, output):
-        output.SetFromVector(self.operator.gaze(context.get_time()))
+        output.SetFromVector(self.operator(context).gaze(context.get_time()))
 
     def _calc_events(self, context, output):
-        if self._log_size != len(self.events):
-            self._log = EventLog(tuple(self.events[-MAX_EVENTS_OUT:]))
-            self._log_size = len(self.events)
-        output.set_value(self._log)
+        output.set_value(get_state(context, self._run).human_events)
+
+    def _calc_requests(self, context, output):
+        output.set_value(get_state(context, self._run).world_requests)
 
 
 class RecordedSkeletonSource(LeafSystem):
     """Replays recorded camera frames: output "skeleton_frame" is the sample at the last time <= t.
 
     times (T,), points (T, 8, 3) with NaN rows where untracked, tracked (T, 8) bool.
-    The recording has no gaze: gaze_valid is False.
+    The recording has no gaze: gaze_valid is False. Output "skeleton" (24): the points with
+    each untracked point held at its last tracked value (the body's rest is unknown before
+    a point is first seen: NaN). Stateless: every output is a function of time.
     """
 
     def __init__(self, times, points, tracked):
@@ -91,13 +132,19 @@ class RecordedSkeletonSource(LeafSystem):
             raise ValueError("RecordedSkeletonSource: times must strictly increase")
         self.times = times
         self.frames = []
-        for t, frame, flags in zip(times, points, tracked, strict=True):
+        held = np.full((times.size, 8, 3), np.nan)
+        last = np.full((8, 3), np.nan)
+        for k, (t, frame, flags) in enumerate(zip(times, points, tracked, strict=True)):
             frame = frame.copy()
             frame[~flags] = np.nan
+            last = np.where(np.isfinite(frame), frame, last)
+            held[k] = last
             self.frames.append(SkeletonFrame(time=float(t), points=frame, tracked=flags.copy(),
                                              gaze=np.array([1.0, 0.0, 0.0]), gaze_valid=False))
+        self.held_points = held
         self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame)
+                                       self._calc_frame, {self.time_ticket()})
+        self.DeclareVectorOutputPort("skeleton", BasicVector(24), self._calc_skeleton, {self.time_ticket()})
 
     @classmethod
     def from_csv(cls, path) -> RecordedSkeletonSource:
@@ -110,39 +157,37 @@ class RecordedSkeletonSource(LeafSystem):
     def _calc_frame(self, context, output):
         output.set_value(self.frames[frame_at(self.times, context.get_time())])
 
+    def _calc_skeleton(self, context, output):
+        output.SetFromVector(self.held_points[frame_at(self.times, context.get_time())].ravel())
+
 
 class DepthCamera(LeafSystem):
-    """The depth camera at its frame rate (thesis Ch. 9 measurement model, see `DepthCameraModel`).
+    """The depth camera (thesis Ch. 9 measurement model, see `DepthCameraModel`).
 
     Inputs: "skeleton" (24, true points), "gaze" (3), optional abstract "occluding_capsules"
-    ((start (K, 3), end (K, 3), radius (K,)), e.g. robot links; unconnected = none).
-    Output: "skeleton_frame" (SkeletonFrame): frame k = floor(t * rate) is measured when it is
-    first read, from the pose at that moment, and held until frame k + 1. Measuring on demand
-    costs nothing in a cell where no system reads the camera; the noise of frame k comes from a
-    generator seeded with (rng_seed, k), so runs are reproducible whoever reads it and when.
+    (`messages.Capsules`, e.g. robot links; unconnected = none).
+    Output: "skeleton_frame" (SkeletonFrame), a pure function of the context: the inputs
+    measured at the context's time, with the noise of frame k = floor(t * rate) drawn from a
+    generator seeded with (rng_seed, k). Readers sample it at the camera rate (the tracker,
+    the intention estimator); nothing is measured where nobody reads it. Stateless.
     """
 
     def __init__(self, camera_model: DepthCameraModel, rng_seed=0):
         super().__init__()
         self.camera = camera_model
         self.seed = int(rng_seed)
-        self._frame_index = None
-        self._frame = empty_skeleton_frame()
         self._skeleton = self.DeclareVectorInputPort("skeleton", 24)
         self._gaze = self.DeclareVectorInputPort("gaze", 3)
-        self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
-                                                       AbstractValue.Make(no_capsules()))
+        self._capsules = self.DeclareAbstractInputPort(
+            "occluding_capsules", AbstractValue.Make(no_capsules())
+        )
         self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame, prerequisites_of_calc={self.time_ticket()})
+                                       self._calc_frame)
 
     def _calc_frame(self, context, output):
         t = context.get_time()
         k = int(np.floor(t * self.camera.rate + 1e-9))
-        if k != self._frame_index:
-            points = self._skeleton.Eval(context).reshape(8, 3)
-            gaze = self._gaze.Eval(context)
-            capsules = self._capsules.Eval(context) if self._capsules.HasValue(context) else None
-            rng = np.random.default_rng([self.seed, k])
-            self._frame = self.camera.measure(t, points, gaze, rng, capsules)
-            self._frame_index = k
-        output.set_value(self._frame)
+        points = self._skeleton.Eval(context).reshape(8, 3)
+        capsules = input_or(self._capsules, context, None)
+        rng = np.random.default_rng([self.seed, k])
+        output.set_value(self.camera.measure(t, points, self._gaze.Eval(context), rng, capsules))

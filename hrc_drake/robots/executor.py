@@ -1,18 +1,22 @@
 """Robot task execution: each arm agent runs its program, or the scheduler's commands.
 
 Pure Python core. An arm picks its next action (the next one of its fixed program in
-round-robin order, or the action a scheduler commanded), starts it as soon as `CellWorld`
+round-robin order, or the action a scheduler commanded), starts it as soon as the world
 says its input parts are there (waiting, recorded as idle, until then), moves through the
 action's poses, and on arrival at the last pose finishes it in the world.
+
+The world is either a synchronous object (`try_start`, `finish`) or, in a cell, the request
+protocol of `cell.world`: `update(..., view=WorldSnapshot)` leaves start/finish
+`WorldRequest`s in `new_requests` and starts an action once its request is granted.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from hrc_drake.messages import RobotCommand, RobotEvent
+from hrc_drake.messages import PathRequest, RobotCommand, RobotEvent, WorldRequest, shallow_copy
 
 
 @dataclass
@@ -34,30 +38,35 @@ class RobotMove:
 
 @dataclass
 class _ArmState:
-    mode: str = "choose"  # choose | ready | waiting | moving | pausing
+    mode: str = "choose"  # choose | ready | requesting | waiting | moving | pausing
     action: str | None = None
     program_index: int = 0
     path_seq: int = 0
     pause_until: float = 0.0
     command_seq: int = 0
-    pending: list = field(default_factory=list)
+    pending: tuple = ()
+    request_seq: int = 0
 
 
 class TaskExecutor:
     """Round-robin programs, or scheduler commands when `use_commands` is set.
 
-    world: an object with `try_start(agent, action) -> bool` and `finish(agent, action, time)`.
-    request_path: callback (channel, seq, waypoints, dwells) that starts a motion.
+    world: an object with `try_start(agent, action) -> bool` and `finish(agent, action, time)`,
+    or None. requests: use the request protocol instead (see the module docstring); with
+    neither, every action starts at once.
+    The motions to start are `path_requests` (channel -> `PathRequest`, the latest per arm).
     """
 
     def __init__(
         self,
         agents: list[ArmAgent],
         moves: dict[str, RobotMove],
-        world,
-        request_path,
+        world=None,
         use_commands: bool = False,
+        requests: bool = False,
     ):
+        if world is not None and requests:
+            raise ValueError("TaskExecutor: give a synchronous world or use requests, not both")
         for a in agents:
             if not use_commands and not a.program:
                 raise ValueError(f"agent '{a.agent}' has an empty program")
@@ -67,16 +76,59 @@ class TaskExecutor:
         self.agents = agents
         self.moves = moves
         self.world = world
-        self.request_path = request_path
+        self.requests = requests
         self.use_commands = use_commands
         self.state = {a.agent: _ArmState() for a in agents}
-        self.events: list[RobotEvent] = []
+        self.events: tuple[RobotEvent, ...] = ()
+        self.path_requests: dict[int, PathRequest] = {}
+        self.new_requests: tuple[WorldRequest, ...] = ()
+        self._requests: list[WorldRequest] = []
         self._seq = 0
+        self._world_seq = 0
         self._last_command_seq = 0
+        self._view = None
+
+    def clone(self) -> TaskExecutor:
+        """A copy an update may change; shares the agents, moves and the events tuple."""
+        other = shallow_copy(self)
+        other.state = {agent: shallow_copy(st) for agent, st in self.state.items()}
+        other.path_requests = dict(self.path_requests)
+        return other
 
     def _emit(self, time: float, agent: str, action: str, kind: str) -> None:
         self._seq += 1
-        self.events.append(RobotEvent(time=time, agent=agent, action=action, kind=kind, seq=self._seq))
+        event = RobotEvent(time=time, agent=agent, action=action, kind=kind, seq=self._seq)
+        self.events = self.events + (event,)
+
+    def _world_request(self, time: float, agent: str, action: str, kind: str) -> None:
+        self._world_seq += 1
+        request = WorldRequest(time=time, agent=agent, action=action, kind=kind, seq=self._world_seq)
+        self._requests.append(request)
+        if kind == "start":
+            self.state[agent].request_seq = self._world_seq
+
+    def needs_world(self) -> bool:
+        """Whether an update may read the world's answer (an arm is asking or waiting)."""
+        return self.requests and any(st.mode in ("requesting", "waiting") for st in self.state.values())
+
+    def will_change(self, done_seq, commands, view) -> bool:
+        """Whether `update` would change anything (cheap; lets a system skip a copy)."""
+        if commands and commands[-1].seq > self._last_command_seq:
+            return True
+        for arm in self.agents:
+            st = self.state[arm.agent]
+            if st.mode in ("choose", "pausing"):
+                return True
+            if st.mode == "moving" and done_seq[arm.channel] >= st.path_seq:
+                return True
+            if st.mode in ("requesting", "waiting") and view is not None:
+                if view.granted.get(arm.agent, 0) >= st.request_seq:
+                    return True
+                if st.mode == "requesting" and view.refused.get(arm.agent, 0) >= st.request_seq:
+                    return True
+            if st.mode == "waiting" and self.world is not None:
+                return True
+        return False
 
     def activity(self) -> dict[str, str]:
         out = {}
@@ -85,12 +137,18 @@ class TaskExecutor:
                 out[agent] = st.action
             elif st.mode == "waiting":
                 out[agent] = f"wait:{st.action}"
+            elif st.mode == "requesting":
+                out[agent] = f"request:{st.action}"
             else:
                 out[agent] = "idle"
         return out
 
-    def update(self, time: float, done_seq: list[int], commands: tuple[RobotCommand, ...] = ()) -> None:
-        """Advance every arm's state machine to `time`."""
+    def update(
+        self, time: float, done_seq: list[int], commands: tuple[RobotCommand, ...] = (), view=None
+    ) -> None:
+        """Advance every arm's state machine to `time` (view: the world's snapshot, request protocol)."""
+        self._requests = []
+        self._view = view
         for command in commands:
             if command.seq <= self._last_command_seq:
                 continue
@@ -99,11 +157,15 @@ class TaskExecutor:
                 raise ValueError(f"command for unknown robot agent '{command.agent}'")
             if command.action is not None and command.action not in self.moves:
                 raise ValueError(f"command for unknown robot action '{command.action}'")
-            self.state[command.agent].pending.append(command)
+            st = self.state[command.agent]
+            st.pending = st.pending + (command,)
         for arm in self.agents:
             st = self.state[arm.agent]
             if st.mode == "moving" and done_seq[arm.channel] >= st.path_seq:
-                self.world.finish(arm.agent, st.action, time)
+                if self.world is not None:
+                    self.world.finish(arm.agent, st.action, time)
+                else:
+                    self._world_request(time, arm.agent, st.action, "finish")
                 self._emit(time, arm.agent, st.action, "end")
                 st.mode, st.action = "choose", None
             if st.mode == "pausing" and time >= st.pause_until:
@@ -117,24 +179,41 @@ class TaskExecutor:
                     st.program_index += 1
                     self._try_begin(time, arm, st, first=True)
             if st.mode == "ready" and st.pending:
-                command = st.pending.pop(0)
+                command, st.pending = st.pending[0], st.pending[1:]
                 if command.action is None:
                     st.mode, st.pause_until = "pausing", time + max(command.wait, 0.0)
                 else:
                     st.action = command.action
                     self._try_begin(time, arm, st, first=True)
-            elif st.mode == "waiting":
+            elif st.mode in ("waiting", "requesting"):
                 self._try_begin(time, arm, st, first=False)
+        self.new_requests = tuple(self._requests)
+        self._view = None
 
     def _try_begin(self, time: float, arm: ArmAgent, st: _ArmState, first: bool) -> None:
-        if self.world.try_start(arm.agent, st.action):
-            if not first:
+        if self.world is not None:
+            granted = self.world.try_start(arm.agent, st.action)
+            refused = not granted
+        elif not self.requests:  # no world at all: every action can start
+            granted, refused = True, False
+        elif first:
+            self._world_request(time, arm.agent, st.action, "start")
+            st.mode = "requesting"
+            return
+        else:
+            view = self._view
+            granted = view is not None and view.granted.get(arm.agent, 0) >= st.request_seq
+            refused = view is not None and view.refused.get(arm.agent, 0) >= st.request_seq
+        if granted:
+            if st.mode == "waiting":
                 self._emit(time, arm.agent, st.action, "wait_end")
             self._emit(time, arm.agent, st.action, "begin")
             move = self.moves[st.action]
             st.path_seq += 1
-            self.request_path(arm.channel, st.path_seq, move.waypoints, move.dwells)
+            self.path_requests[arm.channel] = PathRequest(
+                arm.channel, st.path_seq, move.waypoints, move.dwells
+            )
             st.mode = "moving"
-        elif first:
+        elif refused and st.mode != "waiting":
             self._emit(time, arm.agent, st.action, "wait_begin")
             st.mode = "waiting"

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from hrc_drake.messages import shallow_copy
+
 MIN_JERK_PEAK = 1.875
 MIN_SEGMENT_TIME = 0.2
 
@@ -38,18 +40,34 @@ class ArmPath:
         self.phase = 0.0  # progress in seconds at full speed within the segment's move + dwell
         self.finished = len(waypoints) == 0
 
+    def progress_after(self, segment: int, phase: float, dt: float) -> tuple[int, float, bool]:
+        """Progress (segment, phase, finished) `dt` seconds of full-speed time after (segment, phase)."""
+        n = len(self.move_times)
+        while dt > 0 and segment < n:
+            total = self.move_times[segment] + self.dwells[segment]
+            step = min(dt, total - phase)
+            phase += step
+            dt -= step
+            if phase >= total - 1e-12:
+                segment += 1
+                phase = 0.0
+        return segment, phase, segment >= n
+
+    def position_at(self, segment: int, phase: float) -> np.ndarray:
+        """Joint positions at progress (segment, phase); phase may run past the segment."""
+        while segment < len(self.move_times) and phase >= self.move_times[segment] + self.dwells[segment]:
+            phase -= self.move_times[segment] + self.dwells[segment]
+            segment += 1
+        if segment >= len(self.move_times):
+            return self.points[-1].copy()
+        a, b = self.points[segment], self.points[segment + 1]
+        s = min_jerk_profile(phase / self.move_times[segment])
+        return a + (b - a) * s
+
     def advance(self, dt: float) -> np.ndarray:
         """Advance by `dt` seconds of full-speed time; return the arm's joint positions."""
-        while dt > 0 and not self.finished:
-            total = self.move_times[self.segment] + self.dwells[self.segment]
-            step = min(dt, total - self.phase)
-            self.phase += step
-            dt -= step
-            if self.phase >= total - 1e-12:
-                self.segment += 1
-                self.phase = 0.0
-                if self.segment == len(self.move_times):
-                    self.finished = True
+        if not self.finished:
+            self.segment, self.phase, self.finished = self.progress_after(self.segment, self.phase, dt)
         return self.position()
 
     def position(self) -> np.ndarray:
@@ -57,22 +75,22 @@ class ArmPath:
 
     def position_ahead(self, dt: float) -> np.ndarray:
         """Joint positions `dt` seconds of full-speed time ahead, without advancing."""
-        segment, phase = self.segment, self.phase + dt
-        while segment < len(self.move_times) and phase >= self.move_times[segment] + self.dwells[segment]:
-            phase -= self.move_times[segment] + self.dwells[segment]
-            segment += 1
-        if self.finished or segment == len(self.move_times):
+        if self.finished:
             return self.points[-1].copy()
-        a, b = self.points[segment], self.points[segment + 1]
-        s = min_jerk_profile(phase / self.move_times[segment])
-        return a + (b - a) * s
+        return self.position_at(self.segment, self.phase + dt)
 
     def velocity(self) -> np.ndarray:
         if self.finished:
             return np.zeros(self.points.shape[1])
-        a, b = self.points[self.segment], self.points[self.segment + 1]
-        T = self.move_times[self.segment]
-        tau = self.phase / T
+        return self.velocity_at(self.segment, self.phase)
+
+    def velocity_at(self, segment: int, phase: float) -> np.ndarray:
+        """Joint velocities at full speed at progress (segment, phase) (0 while dwelling)."""
+        if segment >= len(self.move_times):
+            return np.zeros(self.points.shape[1])
+        a, b = self.points[segment], self.points[segment + 1]
+        T = self.move_times[segment]
+        tau = phase / T
         if tau >= 1.0:
             return np.zeros_like(a)
         return (b - a) * 30.0 * tau**2 * (1.0 - tau) ** 2 / T
@@ -104,6 +122,15 @@ class JointPathFollower:
         self.paths: list[ArmPath | None] = [None] * len(self.arm_indices)
         self.requested_seq = [0] * len(self.arm_indices)
         self.done_seq = [0] * len(self.arm_indices)
+
+    def clone(self) -> JointPathFollower:
+        """A copy that `request`/`step` may change; the paths' arrays are shared (never written)."""
+        other = shallow_copy(self)
+        other.q = self.q.copy()
+        other.paths = [None if p is None else shallow_copy(p) for p in self.paths]
+        other.requested_seq = list(self.requested_seq)
+        other.done_seq = list(self.done_seq)
+        return other
 
     def request(self, arm: int, seq: int, waypoints: np.ndarray, dwells: np.ndarray) -> None:
         """Start following `waypoints` (n, dof) from where the arm is; `seq` tags completion."""

@@ -1,149 +1,239 @@
 """Drake systems of the robots: task executor and path follower.
 
-Both keep their pure core (`TaskExecutor`, `JointPathFollower`) on the system and tick it with
-a periodic discrete update; a one-number discrete state counts the ticks, so that output
-ports computed from the core are invalidated exactly when the core changes.
+Both tick their pure core (`TaskExecutor`, `JointPathFollower`) with a periodic update and keep
+it in the Context as an immutable value (`drake_helpers.Frozen`): an update that changes the
+core works on a copy, so one built diagram can be simulated again and two contexts never share.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.cell.ticked import TickedSystem
-from hrc_drake.messages import EventLog
+from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
+from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, WorldSnapshot
 from hrc_drake.robots.executor import TaskExecutor
-from hrc_drake.robots.path import JointPathFollower
+from hrc_drake.robots.path import ArmPath, JointPathFollower
 
 EVENT_WINDOW = 400
 
 
-class PathFollower(TickedSystem):
+class PathFollower(LeafSystem):
     """Joint path following with velocity limits and a speed override (see `robots.path`).
 
-    Input "path_requests": abstract tuple of (channel, seq, waypoints, dwells) requests.
+    Input "path_requests": abstract tuple of `messages.PathRequest` (the latest per channel).
     Input "speed_override": vector (1,) in [0, 1]; unconnected means 1.
-    Outputs "positions" (nq,), "velocities" (nq,), "path_done" (abstract tuple of seq per channel),
+    Outputs "positions" (nq,), "velocities" (nq,), "path_done" (`messages.PathStatus`),
     "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
     later at full speed, so that a speed rule can tell motion toward the operator from motion away.
     Positions are evaluated at the context time, extrapolated from the last tick with the
     override then applied, so they stay smooth between ticks.
+
+    Discrete state (all numbers): [applied override, last tick time, q (nq), per arm
+    (requested seq, done seq, segment, phase), the start of each arm's path (nq)]. A path's
+    geometry is the request itself (the input) from that start: `robots.path.ArmPath`, memoised.
     """
 
     def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1):
-        super().__init__(period)
-        self.follower = follower
-        self._nq = len(follower.q)
+        super().__init__()
+        self.period = float(period)
+        self.lookahead = float(lookahead)
+        self.arm_indices = [np.asarray(i, dtype=int) for i in follower.arm_indices]
+        self.v_max = [np.asarray(v, dtype=float) for v in follower.v_max]
+        self.fraction = follower.fraction
+        self._nq = nq = len(follower.q)
+        self._arms = len(self.arm_indices)
+        self._q = slice(2, 2 + nq)
+        self._arm0 = 2 + nq
+        self._start = slice(2 + nq + 4 * self._arms, 2 + 2 * nq + 4 * self._arms)
+        initial = np.zeros(2 + 2 * nq + 4 * self._arms)
+        initial[0] = 1.0
+        initial[self._q] = follower.q
+        initial[self._start] = follower.q
+        self._state = self.DeclareDiscreteState(initial)
+        self._paths: dict = {}
         self._requests = self.DeclareAbstractInputPort("path_requests", AbstractValue.Make(()))
         self._override = self.DeclareVectorInputPort("speed_override", 1)
-        self._seen = [0] * len(follower.arm_indices)
-        self._applied = 1.0
-        self._last_tick_time = 0.0
-        self.DeclareVectorOutputPort(
-            "positions", self._nq, self._calc_q, prerequisites_of_calc={self.time_ticket(), self.xd_ticket()}
-        )
-        self.DeclareVectorOutputPort(
-            "velocities", self._nq, self._calc_v, prerequisites_of_calc=self.ticket()
-        )
-        self.lookahead = lookahead
-        self.DeclareVectorOutputPort(
-            "positions_ahead",
-            self._nq,
-            self._calc_q_ahead,
-            prerequisites_of_calc={self.time_ticket(), self.xd_ticket()},
-        )
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._tick)
+        smooth = {self.time_ticket(), self.xd_ticket(), self._requests.ticket()}
+        ticked = {self.xd_ticket(), self._requests.ticket()}
+        self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
+        self.DeclareVectorOutputPort("velocities", nq, self._calc_v, ticked)
+        self.DeclareVectorOutputPort("positions_ahead", nq, self._calc_q_ahead, smooth)
         self.DeclareAbstractOutputPort(
-            "path_done", lambda: AbstractValue.Make(()), self._calc_done, prerequisites_of_calc=self.ticket()
+            "path_done", lambda: AbstractValue.Make(PathStatus()), self._calc_done, {self.xd_ticket()}
         )
-        self.DeclareVectorOutputPort(
-            "speed_override_applied", 1, self._calc_applied, prerequisites_of_calc=self.ticket()
-        )
+        self.DeclareVectorOutputPort("speed_override_applied", 1, self._calc_applied, {self.xd_ticket()})
 
-    def tick(self, context) -> None:
-        for channel, seq, waypoints, dwells in (
-            self._requests.Eval(context) if self._requests.HasValue(context) else ()
-        ):
-            if seq > self._seen[channel]:
-                self._seen[channel] = seq
-                self.follower.request(channel, seq, waypoints, dwells)
+    def _path(self, request, start: np.ndarray) -> ArmPath:
+        """The path of `request` from `start` (a pure function of both, memoised)."""
+        key = (request.channel, request.seq, start.tobytes(), request.waypoints.tobytes())
+        path = self._paths.get(key)
+        if path is None:
+            if len(self._paths) > 256:
+                self._paths.clear()
+            waypoints = np.atleast_2d(np.asarray(request.waypoints, dtype=float))
+            dwells = np.broadcast_to(np.asarray(request.dwells, dtype=float), len(waypoints))
+            path = ArmPath(start, waypoints, dwells, self.v_max[request.channel], self.fraction)
+            self._paths[key] = path
+        return path
+
+    def _active(self, x: np.ndarray, requests):
+        """(arm, path, segment, phase) of every arm following a path in state x."""
+        out = []
+        for request in requests:
+            k = self._arm0 + 4 * request.channel
+            if x[k] == request.seq and x[k + 1] < x[k]:
+                start = x[self._start][self.arm_indices[request.channel]]
+                out.append((request.channel, self._path(request, start), int(x[k + 2]), x[k + 3]))
+        return out
+
+    def _tick(self, context, discrete_state):
+        x = np.array(context.get_discrete_state(self._state).get_value())
+        requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
+        q = x[self._q]
+        for request in requests:
+            k = self._arm0 + 4 * request.channel
+            if request.seq > x[k]:
+                if np.shape(request.waypoints)[-1] != len(self.arm_indices[request.channel]):
+                    raise ValueError(f"PathFollower: request for arm {request.channel} has waypoints of "
+                                     f"{np.shape(request.waypoints)[-1]} joints, expected "
+                                     f"{len(self.arm_indices[request.channel])}")
+                idx = self.arm_indices[request.channel]
+                start = x[self._start]
+                start[idx] = q[idx]
+                x[self._start] = start
+                x[k], x[k + 2], x[k + 3] = request.seq, 0.0, 0.0
         override = self._override.Eval(context)[0] if self._override.HasValue(context) else 1.0
-        self._applied = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
-        self.follower.step(self.period, self._applied)
-        self._last_tick_time = context.get_time()
+        applied = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
+        for arm, path, segment, phase in self._active(x, requests):
+            k = self._arm0 + 4 * arm
+            segment, phase, finished = path.progress_after(segment, phase, self.period * applied)
+            q[self.arm_indices[arm]] = path.position_at(segment, phase)
+            x[k + 2], x[k + 3] = segment, phase
+            if finished:
+                x[k + 1] = x[k]
+        x[self._q] = q
+        x[0], x[1] = applied, context.get_time()
+        discrete_state.get_mutable_vector(self._state).SetFromVector(x)
+        return EventStatus.Succeeded()
 
-    def _calc_q_ahead(self, context, output: BasicVector):
-        ahead = max(context.get_time() - self._last_tick_time, 0.0) * self._applied + self.lookahead
-        output.SetFromVector(self.follower.positions_ahead(ahead, 1.0))
+    def _positions(self, context, ahead: float) -> np.ndarray:
+        """q `ahead` seconds of full-speed time after the last tick."""
+        x = context.get_discrete_state(self._state).get_value()
+        q = x[self._q].copy()
+        if ahead > 0.0:
+            requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
+            for arm, path, segment, phase in self._active(x, requests):
+                q[self.arm_indices[arm]] = path.position_at(segment, phase + ahead)
+        return q
 
     def _calc_q(self, context, output: BasicVector):
-        ahead = context.get_time() - self._last_tick_time
-        if ahead <= 0.0:
-            output.SetFromVector(self.follower.q)
-        else:
-            output.SetFromVector(self.follower.positions_ahead(ahead, self._applied))
+        x = context.get_discrete_state(self._state).get_value()
+        output.SetFromVector(self._positions(context, (context.get_time() - x[1]) * x[0]))
+
+    def _calc_q_ahead(self, context, output: BasicVector):
+        x = context.get_discrete_state(self._state).get_value()
+        ahead = max(context.get_time() - x[1], 0.0) * x[0] + self.lookahead
+        output.SetFromVector(self._positions(context, ahead))
 
     def _calc_v(self, context, output: BasicVector):
-        output.SetFromVector(self.follower.velocities(self._applied))
+        x = context.get_discrete_state(self._state).get_value()
+        v = np.zeros(self._nq)
+        requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
+        for arm, path, segment, phase in self._active(x, requests):
+            v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * x[0]
+        output.SetFromVector(v)
 
     def _calc_done(self, context, output):
-        output.set_value(tuple(self.follower.done_seq))
+        x = context.get_discrete_state(self._state).get_value()
+        output.set_value(PathStatus(tuple(int(x[self._arm0 + 4 * k + 1]) for k in range(self._arms))))
 
     def _calc_applied(self, context, output: BasicVector):
-        output.SetAtIndex(0, self._applied)
+        output.SetAtIndex(0, context.get_discrete_state(self._state).get_value()[0])
 
 
-class RobotTaskExecutor(TickedSystem):
+@dataclass(frozen=True)
+class ExecutorRun(Immutable):
+    """The executor's run state: its core and the logs it emitted."""
+
+    executor: Frozen
+    robot_events: EventLog = EventLog()
+    world_requests: EventLog = EventLog()
+
+
+class RobotTaskExecutor(LeafSystem):
     """Runs the arm agents' programs (or scheduler commands) against the cell's truth.
 
-    Inputs "path_done" (from `PathFollower`), optional "robot_commands" (EventLog of RobotCommand).
-    Outputs "path_requests" (to `PathFollower`), "robot_events" (EventLog of RobotEvent),
-    "activity" (abstract dict agent -> current action / wait / idle).
+    Inputs "path_done" (`PathStatus` from `PathFollower`), optional "robot_commands" (EventLog
+    of RobotCommand), optional "world" (`WorldSnapshot`: the request protocol of `cell.world`;
+    unconnected, every action starts at once). Outputs "path_requests" (tuple of PathRequest,
+    to `PathFollower`), "robot_events" (EventLog of RobotEvent), "world_requests" (EventLog of
+    WorldRequest), "activity" (`AgentActivity`: agent -> current action / wait / idle).
     """
 
-    def __init__(self, executor_factory, period: float = 0.02):
-        super().__init__(period)
-        self._requests: dict[int, tuple] = {}
-        self.executor: TaskExecutor = executor_factory(self._request_path)
-        self._done = self.DeclareAbstractInputPort("path_done", AbstractValue.Make(()))
+    def __init__(self, executor: TaskExecutor, period: float = 0.02):
+        super().__init__()
+        if executor.world is not None:
+            raise ValueError("RobotTaskExecutor: the executor must not hold a world (use the 'world' input)")
+        self.period = float(period)
+        self._channels = max((a.channel for a in executor.agents), default=-1) + 1
+        self._initial = ExecutorRun(Frozen(executor.clone()))
+        self._run = declare_state(self, lambda context: self._initial)
+        self._done = self.DeclareAbstractInputPort("path_done", AbstractValue.Make(PathStatus()))
         self._commands = self.DeclareAbstractInputPort("robot_commands", AbstractValue.Make(EventLog()))
-        self._last_command = 0
-        self.DeclareAbstractOutputPort(
-            "path_requests",
-            lambda: AbstractValue.Make(()),
-            self._calc_requests,
-            prerequisites_of_calc=self.ticket(),
-        )
-        self.DeclareAbstractOutputPort(
-            "robot_events",
-            lambda: AbstractValue.Make(EventLog()),
-            self._calc_events,
-            prerequisites_of_calc=self.ticket(),
-        )
-        self.DeclareAbstractOutputPort(
-            "activity",
-            lambda: AbstractValue.Make({}),
-            self._calc_activity,
-            prerequisites_of_calc=self.ticket(),
-        )
+        self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
+        ticket = state_ticket(self, self._run)
+        self.DeclareAbstractOutputPort("path_requests", lambda: AbstractValue.Make(()),
+                                       self._calc_requests, ticket)
+        self.DeclareAbstractOutputPort("robot_events", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_events, ticket)
+        self.DeclareAbstractOutputPort("world_requests", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_world_requests, ticket)
+        self.DeclareAbstractOutputPort("activity", lambda: AbstractValue.Make(AgentActivity()),
+                                       self._calc_activity, ticket)
 
-    def _request_path(self, channel, seq, waypoints, dwells):
-        self._requests[channel] = (channel, seq, waypoints, dwells)
+    def executor(self, context) -> TaskExecutor:
+        """The executor core of `context` (read only)."""
+        return get_state(context, self._run).executor.core
 
-    def tick(self, context) -> None:
-        done = self._done.Eval(context)
-        commands = ()
-        if self._commands.HasValue(context):
-            commands = self._commands.Eval(context).since(self._last_command)
-            if commands:
-                self._last_command = commands[-1].seq
-        self.executor.update(context.get_time(), list(done), commands)
+    def _tick(self, context, state):
+        run = get_state(context, self._run)
+        done = input_or(self._done, context, PathStatus()).done_seq or (0,) * self._channels
+        commands = input_or(self._commands, context, EventLog()).since(run.executor.core._last_command_seq)
+        core = run.executor.core
+        view = input_or(self._world, context, None) if core.needs_world() else None
+        if not core.will_change(done, commands, view):
+            return EventStatus.DidNothing()
+        executor = run.executor.thaw()
+        before = len(executor.events)
+        executor.update(context.get_time(), list(done), commands, view)
+        set_state(state, self._run, ExecutorRun(
+            Frozen(executor),
+            _append(run.robot_events, executor.events[before:]),
+            _append(run.world_requests, executor.new_requests),
+        ))
+        return EventStatus.Succeeded()
 
     def _calc_requests(self, context, output):
-        output.set_value(tuple(self._requests.values()))
+        requests = self.executor(context).path_requests
+        output.set_value(tuple(requests[k] for k in sorted(requests)))
 
     def _calc_events(self, context, output):
-        output.set_value(EventLog(tuple(self.executor.events[-EVENT_WINDOW:])))
+        output.set_value(get_state(context, self._run).robot_events)
+
+    def _calc_world_requests(self, context, output):
+        output.set_value(get_state(context, self._run).world_requests)
 
     def _calc_activity(self, context, output):
-        output.set_value(self.executor.activity())
+        output.set_value(AgentActivity(tuple(self.executor(context).activity().items())))
+
+
+def _append(log: EventLog, new) -> EventLog:
+    if not new:
+        return log
+    return EventLog((log.events + tuple(new))[-EVENT_WINDOW:])

@@ -105,7 +105,7 @@ def test_events_sequence_and_world_calls():
         assert begin.action == end.action
         if begin.action == "pick_place":
             assert 3.0 <= end.time - begin.time <= 4.0
-    assert op.events == events
+    assert list(op.events) == events
 
 
 def test_waits_when_world_refuses():

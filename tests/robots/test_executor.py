@@ -15,13 +15,10 @@ def make(use_commands=False):
             FlowAction(name="B", agents=["arm"], inputs=["a"], outputs=["out"]),
         ],
     )
-    requests = []
     moves = {n: RobotMove(np.zeros((1, 2)), np.zeros(1)) for n in ("A", "B")}
     program = [] if use_commands else ["B", "A"]
-    ex = TaskExecutor(
-        [ArmAgent("arm", 0, program)], moves, world, lambda *r: requests.append(r), use_commands=use_commands
-    )
-    return ex, world, requests
+    ex = TaskExecutor([ArmAgent("arm", 0, program)], moves, world, use_commands=use_commands)
+    return ex, world, ex.path_requests
 
 
 def kinds(ex):
@@ -39,7 +36,7 @@ def test_round_robin_waits_for_parts_then_runs():
     world.parts["a"] = 1
     ex.update(2.0, [0])
     assert kinds(ex)[-2:] == [("B", "wait_end"), ("B", "begin")]
-    assert requests[-1][:2] == (0, 1)
+    assert (ex.path_requests[0].channel, ex.path_requests[0].seq) == (0, 1)
     ex.update(3.0, [1])
     assert kinds(ex)[-2:] == [("B", "end"), ("A", "begin")]
     assert world.finished_products == 1
