@@ -16,65 +16,76 @@ from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import RobotCapsules, segment_pose
 from hrc_drake.messages import EventLog, SkeletonEstimate, SkeletonFrame, SweptVolumes
-
-
-class MeasurementAsEstimate(LeafSystem):
-    """No tracker: the estimate is the last measurement (untracked points keep their last value)."""
-
-    def __init__(self, workspace_center, workspace_size):
-        super().__init__()
-        self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
-        self._lo = np.asarray(workspace_center, float) - 0.5 * np.asarray(workspace_size, float)
-        self._hi = np.asarray(workspace_center, float) + 0.5 * np.asarray(workspace_size, float)
-        self._last = np.full((8, 3), np.nan)
-        self.DeclareAbstractOutputPort(
-            "skeleton_estimate", lambda: AbstractValue.Make(SkeletonEstimate()), self._calc
-        )
-
-    def _calc(self, context, output):
-        frame = self._frame.Eval(context)
-        points = np.where(frame.tracked[:, None], frame.points, self._last)
-        self._last = np.where(np.isfinite(points), points, self._last)
-        inside = np.all((points >= self._lo) & (points <= self._hi), axis=1)
-        output.set_value(
-            SkeletonEstimate(
-                time=frame.time,
-                points=np.nan_to_num(points),
-                spread=np.where(frame.tracked, 0.0, np.inf),
-                tracked=frame.tracked.copy(),
-                workspace_fraction=inside.astype(float),
-                gaze=frame.gaze,
-                gaze_valid=frame.gaze_valid,
-            )
-        )
+from hrc_drake.perception.systems import MeasurementAsEstimate  # noqa: F401  (moved there; re-exported)
 
 
 def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
     """The skeleton tracker of Ch. 9 (or the measurement itself); returns the estimate port."""
-    lay = scenario.layout
-    kind = scenario.tracker.kind
-    if kind == "none":
-        tracker = builder.AddSystem(MeasurementAsEstimate(lay.workspace_center, lay.workspace_size))
-    else:
-        from hrc_drake.perception.systems import OcclusionTracker
+    from hrc_drake.perception.systems import apply_tracker_config
 
-        tracker = builder.AddSystem(
-            OcclusionTracker(
-                kind,
-                dict(scenario.tracker.params),
-                camera_model.is_hidden,
-                lay.workspace_center,
-                lay.workspace_size,
-                rate=lay.camera.rate,
-                seed=seed,
-            )
-        )
-        builder.Connect(robot_capsules.get_output_port(), tracker.GetInputPort("occluding_capsules"))
+    lay = scenario.layout
+    config = _tracker_config(scenario.tracker)
+    tracker = apply_tracker_config(
+        config,
+        builder,
+        skeleton_frame=camera.GetOutputPort("skeleton_frame"),
+        occluding_capsules=robot_capsules.get_output_port(),
+        is_hidden=camera_model.is_hidden,
+        workspace_center=lay.workspace_center,
+        workspace_size=lay.workspace_size,
+        rate=lay.camera.rate,
+        seed=seed,
+    )
+    if tracker.HasOutputPort("speed_override"):
         overrides.append(tracker.GetOutputPort("speed_override"))
-    tracker.set_name("tracker")
-    builder.Connect(camera.GetOutputPort("skeleton_frame"), tracker.GetInputPort("skeleton_frame"))
     systems["tracker"] = tracker
     return tracker.GetOutputPort("skeleton_estimate")
+
+
+# TEMPORARY: until the typed scenario schema lands
+def _typed(cls, params: dict, field: str, renames: dict | None = None):
+    """A config of `cls` from a flat scenario params dict (numbers), cast to the field types."""
+    import dataclasses
+
+    from hrc_drake.errors import ConfigError
+
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    values = {}
+    for key, value in params.items():
+        name = (renames or {}).get(key, key)
+        if name not in fields:
+            raise ConfigError(f"{field}.{key}", f"unknown parameter; known: {sorted(fields)}")
+        kind = fields[name].type
+        if kind in (bool, "bool"):
+            values[name] = bool(value)
+        elif kind in (int, "int"):
+            if float(value) != int(float(value)):
+                raise ConfigError(f"{field}.{key}", f"must be an integer, got {value!r}")
+            values[name] = int(float(value))
+        elif kind in (float, "float"):
+            values[name] = float(value)
+        else:
+            values[name] = value
+    config = cls(**values)
+    config.validate(field)
+    return config
+
+
+# TEMPORARY: until the typed scenario schema lands
+def _tracker_config(options):
+    from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+
+    if options.kind == "none":
+        return NoTracker()
+    params = dict(options.params)
+    renames = {"threshold": "slow_down_threshold", "slow": "slow_factor"}
+    if options.kind == "kalman":
+        # The old flat dict accepted the particle filter's keys for the KF too; they did nothing.
+        for key in ("particles", "crown", "systematic", "bootstrap_tracked", "calibration_frames", "gate"):
+            params.pop(key, None)
+        return _typed(KalmanTracker, params, "tracker.params", renames)
+    params.pop("confidence", None)
+    return _typed(ParticleFilterTracker, params, "tracker.params", renames)
 
 
 def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, systems):
