@@ -89,29 +89,29 @@ def _tracker_config(options):
 
 
 def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, systems):
-    if scenario.intention.kind == "none":
-        return
-    from hrc_drake.intention.systems import IntentionEstimator
+    from hrc_drake.intention.config import GmmBayesIntention, NoIntention
+    from hrc_drake.intention.systems import apply_intention_config
 
+    # TEMPORARY: until the typed scenario schema lands (kind + params dict -> typed config)
+    options = scenario.intention
+    if options.kind == "none":
+        config = NoIntention()
+    else:
+        config = _typed(GmmBayesIntention, dict(options.params), "intention.params")
+        config.model = options.model
+        config.feedback_sequence = list(options.names)
     goals = scenario.layout.goals
-    params = dict(scenario.intention.params)
-    model = None
-    if scenario.intention.model:
-        from hrc_drake.intention.likelihood import IntentionModel
-
-        model = IntentionModel.load(scenario_relative(scenario_path, scenario.intention.model))
-    estimator = builder.AddSystem(
-        IntentionEstimator(
-            [g.name for g in goals],
-            np.array([g.center for g in goals], float),
-            model=model,
-            threshold=params.get("threshold", 0.8),
-            feedback_sequence=tuple(scenario.intention.names) or None,
-        )
+    estimator = apply_intention_config(
+        config,
+        builder,
+        skeleton_estimate=estimate_port,
+        goal_names=[g.name for g in goals],
+        goal_centers=np.array([g.center for g in goals], float).reshape(-1, 3),
+        model_dir=scenario_relative(scenario_path, "."),
+        seed=scenario.seed,
     )
-    estimator.set_name("intention")
-    builder.Connect(estimate_port, estimator.GetInputPort("skeleton_estimate"))
-    systems["intention"] = estimator
+    if estimator is not None:
+        systems["intention"] = estimator
 
 
 def add_predictor(builder, scenario: Scenario, human_events_port, systems):
