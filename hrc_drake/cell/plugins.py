@@ -152,18 +152,38 @@ def add_scheduler(builder, scenario: Scenario, human_events_port, executor, syst
 def add_motion(
     builder, scenario: Scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed
 ):
-    if scenario.motion_model.kind == "none":
-        return
-    from hrc_drake.motion.systems import HumanMotionPredictor, SpeedScaler
+    import dataclasses
 
-    params = dict(scenario.motion_model.params)
-    predictor = builder.AddSystem(HumanMotionPredictor(body, scenario.motion_model.kind, params, seed=seed))
-    predictor.set_name("human_motion_predictor")
-    scaler = builder.AddSystem(SpeedScaler(params))
-    scaler.set_name("speed_scaler")
-    builder.Connect(estimate_port, predictor.GetInputPort("skeleton_estimate"))
-    builder.Connect(predictor.GetOutputPort("swept_volumes"), scaler.GetInputPort("swept_volumes"))
-    builder.Connect(robot_capsules.get_output_port(), scaler.GetInputPort("robot_capsules"))
+    from hrc_drake.motion.config import (
+        GPMotionModel,
+        NoMotionModel,
+        SeparationSpeedScaling,
+        WorstCaseMotionModel,
+    )
+    from hrc_drake.motion.systems import apply_motion_config
+
+    # TEMPORARY: until the typed scenario schema lands. Today one flat dict holds the motion model's
+    # and the speed scaler's keys; the kind names the model (gp_a/gp_b/gp_c: models A/B/C of 8.1.2).
+    kind = scenario.motion_model.kind
+    if kind == "none":
+        config = NoMotionModel()
+    else:
+        params = dict(scenario.motion_model.params)
+        scaler_keys = {f.name for f in dataclasses.fields(SeparationSpeedScaling)}
+        where = "motion_model.params"
+        scaling = _typed(SeparationSpeedScaling, {k: v for k, v in params.items() if k in scaler_keys}, where)
+        model = {k: v for k, v in params.items() if k not in scaler_keys}
+        if kind == "worst_case":
+            # The old flat dict accepted GP keys for worst_case too; they changed nothing.
+            gp_only = {"order", "n_trials", "percentile", "refresh_period", "max_samples", "smoothing_window",
+                       "min_samples", "max_iter"}
+            config = _typed(WorstCaseMotionModel, {k: v for k, v in model.items() if k not in gp_only}, where)
+        else:
+            config = _typed(GPMotionModel, model, where)
+            config.variant = kind[-1].upper()
+            config.validate("motion_model")
+    if isinstance(config, NoMotionModel):
+        return
     # Capsules a moment ahead on the path: only motion toward the operator is slowed (ISO/TS 15066).
     ahead = builder.AddSystem(
         RobotCapsules(
@@ -172,7 +192,16 @@ def add_motion(
     )
     ahead.set_name("robot_capsules_ahead")
     builder.Connect(follower.GetOutputPort("positions_ahead"), ahead.get_input_port())
-    builder.Connect(ahead.get_output_port(), scaler.GetInputPort("robot_capsules_ahead"))
+    predictor, scaler = apply_motion_config(
+        config,
+        builder,
+        speed_scaling=scaling,
+        body_model=body,
+        skeleton_estimate=estimate_port,
+        robot_capsules=robot_capsules.get_output_port(),
+        robot_capsules_ahead=ahead.get_output_port(),
+        seed=seed,
+    )
     overrides.append(scaler.GetOutputPort("speed_override"))
     systems["motion_predictor"] = predictor
     systems["speed_scaler"] = scaler
