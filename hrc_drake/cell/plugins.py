@@ -6,98 +6,105 @@ motion model) and the replay's extra markers. With kind "none" a plain default i
 from __future__ import annotations
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
 
 from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import RobotCapsules
-from hrc_drake.messages import SkeletonEstimate, SkeletonFrame
-
-
-class MeasurementAsEstimate(LeafSystem):
-    """No tracker: the estimate is the last measurement (untracked points keep their last value)."""
-
-    def __init__(self, workspace_center, workspace_size):
-        super().__init__()
-        self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
-        self._lo = np.asarray(workspace_center, float) - 0.5 * np.asarray(workspace_size, float)
-        self._hi = np.asarray(workspace_center, float) + 0.5 * np.asarray(workspace_size, float)
-        self._last = np.full((8, 3), np.nan)
-        self.DeclareAbstractOutputPort(
-            "skeleton_estimate", lambda: AbstractValue.Make(SkeletonEstimate()), self._calc
-        )
-
-    def _calc(self, context, output):
-        frame = self._frame.Eval(context)
-        points = np.where(frame.tracked[:, None], frame.points, self._last)
-        self._last = np.where(np.isfinite(points), points, self._last)
-        inside = np.all((points >= self._lo) & (points <= self._hi), axis=1)
-        output.set_value(
-            SkeletonEstimate(
-                time=frame.time,
-                points=np.nan_to_num(points),
-                spread=np.where(frame.tracked, 0.0, np.inf),
-                tracked=frame.tracked.copy(),
-                workspace_fraction=inside.astype(float),
-                gaze=frame.gaze,
-                gaze_valid=frame.gaze_valid,
-            )
-        )
 
 
 def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
     """The skeleton tracker of Ch. 9 (or the measurement itself); returns the estimate port."""
-    lay = scenario.layout
-    kind = scenario.tracker.kind
-    if kind == "none":
-        tracker = builder.AddSystem(MeasurementAsEstimate(lay.workspace_center, lay.workspace_size))
-    else:
-        from hrc_drake.perception.systems import OcclusionTracker
+    from hrc_drake.perception.systems import apply_tracker_config
 
-        tracker = builder.AddSystem(
-            OcclusionTracker(
-                kind,
-                dict(scenario.tracker.params),
-                camera_model.is_hidden,
-                lay.workspace_center,
-                lay.workspace_size,
-                rate=lay.camera.rate,
-                seed=seed,
-            )
-        )
-        builder.Connect(robot_capsules.get_output_port(), tracker.GetInputPort("occluding_capsules"))
+    lay = scenario.layout
+    config = _tracker_config(scenario.tracker)
+    tracker = apply_tracker_config(
+        config,
+        builder,
+        skeleton_frame=camera.GetOutputPort("skeleton_frame"),
+        occluding_capsules=robot_capsules.get_output_port(),
+        is_hidden=camera_model.is_hidden,
+        workspace_center=lay.workspace_center,
+        workspace_size=lay.workspace_size,
+        rate=lay.camera.rate,
+        seed=seed,
+    )
+    if tracker.HasOutputPort("speed_override"):
         overrides.append(tracker.GetOutputPort("speed_override"))
-    tracker.set_name("tracker")
-    builder.Connect(camera.GetOutputPort("skeleton_frame"), tracker.GetInputPort("skeleton_frame"))
     systems["tracker"] = tracker
     return tracker.GetOutputPort("skeleton_estimate")
 
 
+# TEMPORARY: until the typed scenario schema lands
+def _typed(cls, params: dict, field: str, renames: dict | None = None):
+    """A config of `cls` from a flat scenario params dict (numbers), cast to the field types."""
+    import dataclasses
+
+    from hrc_drake.errors import ConfigError
+
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    values = {}
+    for key, value in params.items():
+        name = (renames or {}).get(key, key)
+        if name not in fields:
+            raise ConfigError(f"{field}.{key}", f"unknown parameter; known: {sorted(fields)}")
+        kind = fields[name].type
+        if kind in (bool, "bool"):
+            values[name] = bool(value)
+        elif kind in (int, "int"):
+            if float(value) != int(float(value)):
+                raise ConfigError(f"{field}.{key}", f"must be an integer, got {value!r}")
+            values[name] = int(float(value))
+        elif kind in (float, "float"):
+            values[name] = float(value)
+        else:
+            values[name] = value
+    config = cls(**values)
+    config.validate(field)
+    return config
+
+
+# TEMPORARY: until the typed scenario schema lands
+def _tracker_config(options):
+    from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+
+    if options.kind == "none":
+        return NoTracker()
+    params = dict(options.params)
+    renames = {"threshold": "slow_down_threshold", "slow": "slow_factor"}
+    if options.kind == "kalman":
+        # The old flat dict accepted the particle filter's keys for the KF too; they did nothing.
+        for key in ("particles", "crown", "systematic", "bootstrap_tracked", "calibration_frames", "gate"):
+            params.pop(key, None)
+        return _typed(KalmanTracker, params, "tracker.params", renames)
+    params.pop("confidence", None)
+    return _typed(ParticleFilterTracker, params, "tracker.params", renames)
+
+
 def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, systems):
-    if scenario.intention.kind == "none":
-        return
-    from hrc_drake.intention.systems import IntentionEstimator
+    from hrc_drake.intention.config import GmmBayesIntention, NoIntention
+    from hrc_drake.intention.systems import apply_intention_config
 
+    # TEMPORARY: until the typed scenario schema lands (kind + params dict -> typed config)
+    options = scenario.intention
+    if options.kind == "none":
+        config = NoIntention()
+    else:
+        config = _typed(GmmBayesIntention, dict(options.params), "intention.params")
+        config.model = options.model
+        config.feedback_sequence = list(options.names)
     goals = scenario.layout.goals
-    params = dict(scenario.intention.params)
-    model = None
-    if scenario.intention.model:
-        from hrc_drake.intention.likelihood import IntentionModel
-
-        model = IntentionModel.load(scenario_relative(scenario_path, scenario.intention.model))
-    estimator = builder.AddSystem(
-        IntentionEstimator(
-            [g.name for g in goals],
-            np.array([g.center for g in goals], float),
-            model=model,
-            threshold=params.get("threshold", 0.8),
-            feedback_sequence=tuple(scenario.intention.names) or None,
-        )
+    estimator = apply_intention_config(
+        config,
+        builder,
+        skeleton_estimate=estimate_port,
+        goal_names=[g.name for g in goals],
+        goal_centers=np.array([g.center for g in goals], float).reshape(-1, 3),
+        model_dir=scenario_relative(scenario_path, "."),
+        seed=scenario.seed,
     )
-    estimator.set_name("intention")
-    builder.Connect(estimate_port, estimator.GetInputPort("skeleton_estimate"))
-    systems["intention"] = estimator
+    if estimator is not None:
+        systems["intention"] = estimator
 
 
 def add_predictor(builder, scenario: Scenario, human_events_port, systems):
@@ -138,18 +145,38 @@ def add_scheduler(builder, scenario: Scenario, human_events_port, executor, syst
 def add_motion(
     builder, scenario: Scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed
 ):
-    if scenario.motion_model.kind == "none":
-        return
-    from hrc_drake.motion.systems import HumanMotionPredictor, SpeedScaler
+    import dataclasses
 
-    params = dict(scenario.motion_model.params)
-    predictor = builder.AddSystem(HumanMotionPredictor(body, scenario.motion_model.kind, params, seed=seed))
-    predictor.set_name("human_motion_predictor")
-    scaler = builder.AddSystem(SpeedScaler(params))
-    scaler.set_name("speed_scaler")
-    builder.Connect(estimate_port, predictor.GetInputPort("skeleton_estimate"))
-    builder.Connect(predictor.GetOutputPort("swept_volumes"), scaler.GetInputPort("swept_volumes"))
-    builder.Connect(robot_capsules.get_output_port(), scaler.GetInputPort("robot_capsules"))
+    from hrc_drake.motion.config import (
+        GPMotionModel,
+        NoMotionModel,
+        SeparationSpeedScaling,
+        WorstCaseMotionModel,
+    )
+    from hrc_drake.motion.systems import apply_motion_config
+
+    # TEMPORARY: until the typed scenario schema lands. Today one flat dict holds the motion model's
+    # and the speed scaler's keys; the kind names the model (gp_a/gp_b/gp_c: models A/B/C of 8.1.2).
+    kind = scenario.motion_model.kind
+    if kind == "none":
+        config = NoMotionModel()
+    else:
+        params = dict(scenario.motion_model.params)
+        scaler_keys = {f.name for f in dataclasses.fields(SeparationSpeedScaling)}
+        where = "motion_model.params"
+        scaling = _typed(SeparationSpeedScaling, {k: v for k, v in params.items() if k in scaler_keys}, where)
+        model = {k: v for k, v in params.items() if k not in scaler_keys}
+        if kind == "worst_case":
+            # The old flat dict accepted GP keys for worst_case too; they changed nothing.
+            gp_only = {"order", "n_trials", "percentile", "refresh_period", "max_samples", "smoothing_window",
+                       "min_samples", "max_iter"}
+            config = _typed(WorstCaseMotionModel, {k: v for k, v in model.items() if k not in gp_only}, where)
+        else:
+            config = _typed(GPMotionModel, model, where)
+            config.variant = kind[-1].upper()
+            config.validate("motion_model")
+    if isinstance(config, NoMotionModel):
+        return
     # Capsules a moment ahead on the path: only motion toward the operator is slowed (ISO/TS 15066).
     ahead = builder.AddSystem(
         RobotCapsules(
@@ -158,7 +185,16 @@ def add_motion(
     )
     ahead.set_name("robot_capsules_ahead")
     builder.Connect(follower.GetOutputPort("positions_ahead"), ahead.get_input_port())
-    builder.Connect(ahead.get_output_port(), scaler.GetInputPort("robot_capsules_ahead"))
+    predictor, scaler = apply_motion_config(
+        config,
+        builder,
+        speed_scaling=scaling,
+        body_model=body,
+        skeleton_estimate=estimate_port,
+        robot_capsules=robot_capsules.get_output_port(),
+        robot_capsules_ahead=ahead.get_output_port(),
+        seed=seed,
+    )
     overrides.append(scaler.GetOutputPort("speed_override"))
     systems["motion_predictor"] = predictor
     systems["speed_scaler"] = scaler

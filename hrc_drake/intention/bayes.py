@@ -15,6 +15,7 @@ move to the next one, and the feedback machine of Fig. 3.6 needs goal 1 after go
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +23,7 @@ import numpy as np
 from hrc_drake.intention.features import PSI_COLUMNS, WristVelocityEstimator, angle_between, skeleton_features
 from hrc_drake.intention.likelihood import IntentionModel, default_model
 from hrc_drake.messages import HANDS, HEAD, L_WRIST, R_WRIST
+from hrc_drake.rng import clone_generator
 
 METHODS = ("M1", "M2", "M3")
 #: Floor of a log-likelihood below the best goal's: keeps every goal recoverable, never -inf.
@@ -194,6 +196,16 @@ class GoalIntentionEstimator:
     def n_goals(self) -> int:
         return self.goal_centers.shape[0]
 
+    def clone(self) -> GoalIntentionEstimator:
+        """A copy for copy-on-write state. `update` rebinds every array it changes (never
+        writes one in place), so the copy shares them; the velocity window and, when goal
+        centres are sampled, the generator are copied."""
+        new = copy.copy(self)
+        new._velocity = self._velocity.clone()
+        if self.n_goal_samples > 0 and np.any(self.goal_std > 0):
+            new.rng = clone_generator(self.rng)
+        return new
+
     def reset(self) -> None:
         """Back to uniform probabilities and an empty velocity history."""
         self._velocity.reset()
@@ -328,6 +340,10 @@ class FeedbackStateMachine:
         self.sequence = tuple(sequence) if sequence else None
         self.hands = tuple(hands)
         self.reset()
+
+    def clone(self) -> FeedbackStateMachine:
+        """A copy for copy-on-write state (`step` rebinds `_armed`, never writes it in place)."""
+        return copy.copy(self)
 
     def reset(self) -> None:
         self.state = 0  # 0: initial (no human yet); j >= 1 waits for sequence[j - 1]

@@ -143,6 +143,13 @@ class WristVelocityEstimator:
         self.significance = float(significance)
         self.reset()
 
+    def clone(self) -> WristVelocityEstimator:
+        """A copy for copy-on-write state: `update` rolls the window into new arrays before
+        writing, so the copy shares the current ones."""
+        new = WristVelocityEstimator.__new__(WristVelocityEstimator)
+        new.__dict__.update(self.__dict__)
+        return new
+
     def reset(self) -> None:
         self._times = np.zeros(self.window)
         self._wrists = np.full((self.window, 2, 3), np.nan)

@@ -1,120 +1,143 @@
-"""Drake adapter of the intended-goal estimator (thesis 3.1): `IntentionEstimator`."""
+"""Drake adapter of the intended-goal estimator (thesis 3.1): `IntentionEstimator`, and
+`apply_intention_config`.
+
+The run lives in the Context (DESIGN.md): the estimator, the feedback machine, the last belief
+and the event log are one abstract state value (`Frozen(IntentionRun)`), cloned by each update
+(copy-on-write) and rebuilt by the initialization event.
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import EventStatus, LeafSystem
+from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
+from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
 from hrc_drake.intention.bayes import FeedbackStateMachine, GoalIntentionEstimator, IntentionEvent
+from hrc_drake.intention.config import MAX_RATE, GmmBayesIntention, NoIntention
 from hrc_drake.messages import EventLog, GoalBelief, SkeletonEstimate
 
 #: the intention_events output keeps at most this many of the latest events
 MAX_EVENTS_OUT = 200
-_MAX_RATE = 50.0
+
+
+class IntentionRun:
+    """What changes during a run of `IntentionEstimator`: the estimator core, the feedback
+    machine, the last belief, the event log (the last MAX_EVENTS_OUT) and the event count."""
+
+    def __init__(self, estimator: GoalIntentionEstimator, feedback: FeedbackStateMachine,
+                 belief: GoalBelief, log: EventLog, count: int):
+        self.estimator = estimator
+        self.feedback = feedback
+        self.belief = belief
+        self.log = log
+        self.count = count
+
+    def clone(self) -> IntentionRun:
+        """A copy whose cores may be changed (belief and log are immutable values, shared)."""
+        return IntentionRun(self.estimator.clone(), self.feedback.clone(), self.belief, self.log, self.count)
 
 
 class IntentionEstimator(LeafSystem):
-    """Per-hand goal probabilities at `rate` Hz (method M3 of 3.1.2) and "robot understood" feedback.
+    """Per-hand goal probabilities at `config.rate` Hz (methods M1-M3 of 3.1, M3 by default) and
+    "robot understood" feedback (Fig. 3.6).
 
     Input "skeleton_estimate" (abstract `SkeletonEstimate`; its gaze and gaze_valid give delta_H
     and the flag F). Outputs "goal_belief" (abstract `GoalBelief`, `understood` holding the
     (hand, goal) pairs of the feedback events of the latest update) and "intention_events"
-    (abstract `EventLog` of `IntentionEvent`, the last MAX_EVENTS_OUT). Feedback (Fig. 3.6):
-    with `feedback_sequence` (e.g. ("G4", "G1")) the cyclic machine of the thesis, otherwise
-    every rise of a goal's probability to `threshold`. Extra keyword arguments go to
-    `GoalIntentionEstimator` (method, goal_std, n_goal_samples, switch_probability, rng).
-    One simulation per system object at a time: the core lives on the system and is reset at
-    initialisation.
+    (abstract `EventLog` of `IntentionEvent`, the last MAX_EVENTS_OUT). Feedback: with
+    `config.feedback_sequence` (e.g. ["G4", "G1"]) the cyclic machine of the thesis, otherwise
+    every rise of a goal's probability to `config.threshold`.
+    model: the learned `IntentionModel` (None: the shipped one). seed: the generator of the
+    sampled goal centres of eq. (3.12).
+    State: one abstract value `Frozen(IntentionRun)`, outputs read from it only.
     """
 
-    def __init__(
-        self,
-        goal_names: list[str],
-        goal_centers: np.ndarray,
-        model=None,
-        rate: float = 30.0,
-        threshold: float = 0.8,
-        feedback_sequence=None,
-        feedback_hands=("left", "right"),
-        **estimator_options,
-    ):
+    def __init__(self, config: GmmBayesIntention, goal_names: list[str], goal_centers: np.ndarray,
+                 model=None, seed: int = 0):
         super().__init__()
-        if not np.isfinite(rate) or rate <= 0 or rate > _MAX_RATE:
-            raise ValueError(f"IntentionEstimator: rate must be in (0, {_MAX_RATE}] Hz, got {rate!r}")
+        if not np.isfinite(config.rate) or config.rate <= 0 or config.rate > MAX_RATE:
+            raise ValueError(f"IntentionEstimator: rate must be in (0, {MAX_RATE}] Hz, got {config.rate!r}")
+        config.validate("intention")
+        self.config = config
         self.goal_names = tuple(str(g) for g in goal_names)
-        self.estimator = GoalIntentionEstimator(
-            goal_centers, model, goal_names=self.goal_names, **estimator_options
-        )
-        self.feedback = FeedbackStateMachine(self.goal_names, threshold, feedback_sequence, feedback_hands)
-        self.events: list[IntentionEvent] = []
-        self._log = EventLog(())
-        self._log_size = -1
-        n_goals = len(self.goal_names)
-        self._n_prob = 2 * n_goals
-        # probabilities (2G), time of the last update, events so far, events before the last update
-        initial = np.concatenate([np.full(self._n_prob, 1.0 / n_goals), [0.0, 0.0, 0.0]])
-        self._state_index = self.DeclareDiscreteState(initial)
-        self._input = self.DeclareAbstractInputPort(
-            "skeleton_estimate", AbstractValue.Make(SkeletonEstimate())
-        )
-        self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
-        self.DeclareAbstractOutputPort(
-            "goal_belief",
-            lambda: AbstractValue.Make(GoalBelief()),
-            self._calc_belief,
-            prerequisites_of_calc={self.xd_ticket()},
-        )
-        self.DeclareAbstractOutputPort(
-            "intention_events",
-            lambda: AbstractValue.Make(EventLog(())),
-            self._calc_events,
-            prerequisites_of_calc={self.xd_ticket()},
-        )
+        estimator = GoalIntentionEstimator(
+            goal_centers, model, method=config.method, goal_names=self.goal_names, goal_std=config.goal_std,
+            n_goal_samples=config.n_goal_samples, switch_probability=config.switch_probability,
+            m1_sigma=config.m1_sigma, m1_mean_speed=config.m1_mean_speed, rng=np.random.default_rng(seed),
+            evidence_weight=config.evidence_weight or None, restart_switch=config.restart_switch,
+            restart_after=config.restart_after)
+        feedback = FeedbackStateMachine(self.goal_names, config.threshold,
+                                        tuple(config.feedback_sequence) or None,
+                                        tuple(config.feedback_hands), release=config.release)
+        self._cores = (estimator, feedback)
+        self._input = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                    AbstractValue.Make(SkeletonEstimate()))
+        self._run = declare_state(self, self._initial)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
+        ticket = {self.abstract_state_ticket(AbstractStateIndex(self._run))}
+        self.DeclareAbstractOutputPort("goal_belief", lambda: AbstractValue.Make(GoalBelief()),
+                                       self._calc_belief, ticket)
+        self.DeclareAbstractOutputPort("intention_events", lambda: AbstractValue.Make(EventLog(())),
+                                       self._calc_events, ticket)
 
-    def _initialize(self, context, discrete_state):
-        self.estimator.reset()
-        self.feedback.reset()
-        self.events = []
-        self._log_size = -1
-        n_goals = len(self.goal_names)
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(
-            np.concatenate([np.full(self._n_prob, 1.0 / n_goals), [context.get_time(), 0.0, 0.0]])
-        )
-        return EventStatus.Succeeded()
+    def _initial(self, context) -> Frozen:
+        estimator, feedback = self._cores
+        time = 0.0 if context is None else context.get_time()
+        belief = GoalBelief(time=time, goals=self.goal_names,
+                            probabilities=np.full((2, len(self.goal_names)), 1.0 / len(self.goal_names)))
+        return Frozen(IntentionRun(estimator, feedback, belief, EventLog(()), 0))
 
-    def _update(self, context, discrete_state):
+    def _update(self, context, state):
         time = context.get_time()
-        estimate = self._input.Eval(context) if self._input.HasValue(context) else SkeletonEstimate(time=time)
-        probabilities = self.estimator.update(time, estimate.points, estimate.gaze, bool(estimate.gaze_valid))
-        before = len(self.events)
-        for hand, goal in self.feedback.step(probabilities):
-            self.events.append(IntentionEvent(time=time, hand=hand, goal=goal, seq=len(self.events) + 1))
-        discrete_state.get_mutable_vector(self._state_index).SetFromVector(
-            np.concatenate([probabilities.ravel(), [time, float(len(self.events)), float(before)]])
-        )
+        estimate = input_or(self._input, context, None) or SkeletonEstimate(time=time)
+        run = get_state(context, self._run).thaw()
+        probabilities = run.estimator.update(time, estimate.points, estimate.gaze, bool(estimate.gaze_valid))
+        understood = tuple(run.feedback.step(probabilities))
+        if understood:
+            new = tuple(IntentionEvent(time=time, hand=hand, goal=goal, seq=run.count + k + 1)
+                        for k, (hand, goal) in enumerate(understood))
+            run.count += len(new)
+            run.log = EventLog((run.log.events + new)[-MAX_EVENTS_OUT:])
+        run.belief = GoalBelief(time=time, goals=self.goal_names, probabilities=np.array(probabilities),
+                                understood=understood)
+        set_state(state, self._run, Frozen(run))
         return EventStatus.Succeeded()
-
-    def _counts(self, context):
-        state = context.get_discrete_state(self._state_index).value()
-        return state, int(round(state[self._n_prob + 1])), int(round(state[self._n_prob + 2]))
 
     def _calc_belief(self, context, output):
-        state, count, before = self._counts(context)
-        understood = tuple((e.hand, e.goal) for e in self.events[before:count])
-        output.set_value(
-            GoalBelief(
-                time=float(state[self._n_prob]),
-                goals=self.goal_names,
-                probabilities=state[: self._n_prob].reshape(2, -1).copy(),
-                understood=understood,
-            )
-        )
+        output.set_value(get_state(context, self._run).core.belief)
 
     def _calc_events(self, context, output):
-        _, count, _ = self._counts(context)
-        if self._log_size != count:
-            self._log = EventLog(tuple(self.events[max(0, count - MAX_EVENTS_OUT) : count]))
-            self._log_size = count
-        output.set_value(self._log)
+        output.set_value(get_state(context, self._run).core.log)
+
+
+def apply_intention_config(config: NoIntention | GmmBayesIntention, builder, *, skeleton_estimate,
+                           goal_names: list[str], goal_centers, model_dir: str | Path = ".",
+                           seed: int = 0) -> IntentionEstimator | None:
+    """Add the intention estimator of `config` to `builder`, named "intention", fed by the
+    `skeleton_estimate` output port; None for `NoIntention`.
+
+    goal_names, goal_centers (G, 3): the cell's goal regions. model_dir: the folder
+    `config.model` is relative to (the scenario's). seed: the scenario seed.
+    """
+    if isinstance(config, NoIntention):
+        return None
+    config.validate("intention")
+    model = None
+    if config.model:
+        from hrc_drake.intention.likelihood import IntentionModel
+
+        model = IntentionModel.load((Path(model_dir) / config.model).resolve())
+    unknown = [g for g in config.feedback_sequence if g not in goal_names]
+    if unknown:
+        from hrc_drake.errors import ConfigError
+
+        raise ConfigError("intention.feedback_sequence",
+                          f"unknown goals {unknown}; the cell has {goal_names}")
+    estimator = builder.AddSystem(
+        IntentionEstimator(config, goal_names, np.asarray(goal_centers, float), model=model, seed=seed))
+    estimator.set_name("intention")
+    builder.Connect(skeleton_estimate, estimator.GetInputPort("skeleton_estimate"))
+    return estimator

@@ -19,11 +19,13 @@ set's mean and standard deviation, so one RBF length fits features of different 
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.linalg import cho_solve, cholesky
-from scipy.optimize import minimize
-from sklearn.gaussian_process.kernels import RBF, ConstantKernel, DotProduct, WhiteKernel
 from threadpoolctl import ThreadpoolController
+
+from hrc_drake.rng import clone_generator
 
 N_DOF = 12
 #: joint groups of the three models of 8.1.2 (indices of q, body-model order)
@@ -62,6 +64,8 @@ def motion_kernel(theta1: float = 0.1, theta2: float = 0.1, theta3: float = 1.0,
     for name, value in (("theta1", theta1), ("theta2", theta2), ("theta3", theta3), ("theta4", theta4)):
         if not np.isfinite(value) or value <= 0:
             raise ValueError(f"motion_kernel: {name} must be a positive number, got {value!r}")
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, DotProduct, WhiteKernel
+
     linear = ConstantKernel(theta1, _THETA_BOUNDS) * DotProduct(sigma_0=0.0, sigma_0_bounds="fixed")
     rbf = ConstantKernel(theta3, _THETA_BOUNDS) * RBF(length_scale=1.0 / np.sqrt(theta2),
                                                        length_scale_bounds=(1e-2, 1e3))
@@ -135,6 +139,8 @@ def fit_hyperparameters(x, y, initial_theta, max_iter: int = 15) -> np.ndarray:
         value, gradient = log_marginal_likelihood(log_theta, gram, sq_dist, y)
         return -value, -gradient
 
+    from scipy.optimize import minimize
+
     result = minimize(objective, start, method="L-BFGS-B", jac=True, bounds=np.log(THETA_BOUNDS),
                       options={"maxiter": int(max_iter)})
     return np.exp(result.x)
@@ -191,8 +197,21 @@ class GPMotionModel:
         self.max_samples = int(max_samples)
         self.max_iter = int(max_iter)
         self.initial_theta = tuple(float(v) for v in initial_theta)
-        motion_kernel(*self.initial_theta)  # validates
+        for name, value in zip(("theta1", "theta2", "theta3", "theta4"), self.initial_theta, strict=True):
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"GPMotionModel: initial {name} must be a positive number, got {value!r}")
         self.random_state = random_state
+
+    def clone(self, rng: np.random.Generator | None = None) -> GPMotionModel:
+        """A copy for copy-on-write state. Training never writes an array in place (it builds new
+        ones), so the copy shares the training set and the fitted buckets; its generator is
+        `rng`, else a copy of this model's."""
+        new = copy.copy(self)
+        if hasattr(self, "_rng"):
+            new._rng = rng if rng is not None else clone_generator(self._rng)
+            if self.random_state is self._rng:
+                new.random_state = new._rng
+        return new
 
     # ---------------------------------------------------------------- training
     def _check_windows(self, windows) -> np.ndarray:
@@ -244,6 +263,8 @@ class GPMotionModel:
             if len(new_x) > old:
                 new_x, new_y = new_x[-old:], new_y[-old:]
             slots = self._rng.choice(old, len(new_x), replace=False)  # only samples older than this call
+            # New arrays, never in place: a clone (copy-on-write state) may share the old ones.
+            self.X_, self.Y_ = self.X_.copy(), self.Y_.copy()
             self.X_[slots] = new_x
             self.Y_[slots] = new_y
         self._refit()
@@ -262,6 +283,7 @@ class GPMotionModel:
 
     def _refit_groups(self) -> None:
         n = len(self.X_)
+        self.theta_ = self.theta_.copy()  # written below; a clone may share the old one
         buckets: dict[int, list[int]] = {}
         for g, joints in enumerate(self.groups):
             buckets.setdefault(len(joints), []).append(g)

@@ -16,6 +16,7 @@ capsule, so their noise alone can make the swept volumes tens of centimetres too
 
 from __future__ import annotations
 
+import copy
 import time as _time
 
 import numpy as np
@@ -24,6 +25,7 @@ from hrc_drake.messages import SweptVolumes
 from hrc_drake.motion.geometry import bounding_capsules
 from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth
+from hrc_drake.rng import clone_generator
 
 MOTION_KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
 _BASE_TRANSLATION = (0, 1)
@@ -201,6 +203,15 @@ class JointStateEstimator:
             raise ValueError(f"JointStateEstimator: {name} must be positive, a scalar or {self.n_dof} "
                              f"values, got {value!r}")
         return value
+
+    def clone(self) -> JointStateEstimator:
+        """A copy for copy-on-write state: the filter's tracks and the window lists are copied
+        (the stored means and covariances are never written, so they are shared)."""
+        new = copy.copy(self)
+        new.filter = self.filter.clone()
+        new.means_ = list(self.means_)
+        new.covs_ = list(self.covs_)
+        return new
 
     def reset(self) -> None:
         self.filter.reset()
@@ -391,6 +402,22 @@ class ReactiveMotionPredictor:
         self._history: list[np.ndarray] = []
         self.fit_seconds_: list[float] = []
         self.last_time_ = None
+
+    def clone(self) -> ReactiveMotionPredictor:
+        """A copy for copy-on-write state: the joint filter, the history, the generator (shared
+        by the GP model, as in the original) and the GP model are copied; the GP shares its
+        training set, which training never writes in place."""
+        new = copy.copy(self)
+        new.estimator = self.estimator.clone()
+        new.rng = clone_generator(self.rng)
+        if self.model_ is not None:
+            new.model_ = self.model_.clone(rng=new.rng if getattr(self.model_, "_rng", None) is self.rng
+                                           else None)
+            if self.model_.random_state is self.rng:
+                new.model_.random_state = new.rng
+        new._history = list(self._history)
+        new.fit_seconds_ = list(self.fit_seconds_)
+        return new
 
     @property
     def model_ready(self) -> bool:

@@ -19,10 +19,11 @@ the KF baseline of 9.1.3 does under occlusion.
 
 from __future__ import annotations
 
+import copy
+from functools import lru_cache
 from math import factorial
 
 import numpy as np
-from scipy.stats import chi2
 
 
 class ChainOfIntegrators:
@@ -79,6 +80,14 @@ class ChainOfIntegrators:
                 f"sigma={self.sigma.tolist()}, dim={self.dim})")
 
 
+@lru_cache(maxsize=64)
+def chi2_quantile(confidence: float, dof: int) -> float:
+    """chi2_dof quantile at `confidence` (scipy.stats imported here, not at module import)."""
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(float(confidence), int(dof)))
+
+
 # Fixed points uniform in the unit ball: the 90 % ellipsoid fraction is then deterministic.
 _BALL_SAMPLES = 512
 
@@ -117,6 +126,14 @@ class KalmanFilter:
         init[0] = measurement_std
         self._initial_cov = np.kron(np.diag(init**2), np.eye(model.dim))
         self.reset()
+
+    def clone(self) -> KalmanFilter:
+        """A copy that shares only what never changes (the model): the tracks are copied."""
+        new = copy.copy(self)
+        new.x_ = self.x_.copy()
+        new.P_ = self.P_.copy()
+        new.initialized_ = self.initialized_.copy()
+        return new
 
     def reset(self) -> None:
         """Forget every track (a new operator)."""
@@ -199,7 +216,7 @@ class KalmanFilter:
         """
         if not 0 < confidence < 1:
             raise ValueError(f"KalmanFilter.ellipsoid: confidence must be in (0, 1), got {confidence!r}")
-        scale = chi2.ppf(confidence, self.model.dim)
+        scale = chi2_quantile(confidence, self.model.dim)
         eigval, eigvec = np.linalg.eigh(self.position_covariances)
         return self.positions, np.sqrt(np.clip(eigval, 0.0, None) * scale), eigvec
 
@@ -235,7 +252,7 @@ class KalmanFilter:
         offset = pts[None, :, :] - self.positions[:, None, :]
         cov = self.position_covariances + 1e-15 * np.eye(d)
         m2 = np.einsum("tnd,tnd->tn", offset, np.linalg.solve(cov, np.swapaxes(offset, 1, 2)).swapaxes(1, 2))
-        return (m2 <= chi2.ppf(confidence, d)).mean(axis=1)
+        return (m2 <= chi2_quantile(confidence, d)).mean(axis=1)
 
     def filter_sequence(self, measurements, mask=None):
         """Filter a whole sequence from the current state.

@@ -54,12 +54,14 @@ where both ends are seen), or given.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 
 import numpy as np
 
 from hrc_drake.messages import SKELETON_PARENTS
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
+from hrc_drake.rng import clone_generator
 
 _WHERE = "SkeletonParticleFilter: "
 IsHidden = Callable[[np.ndarray], np.ndarray]
@@ -181,6 +183,22 @@ class SkeletonParticleFilter:
         self.reset()
 
     # ------------------------------------------------------------------ state
+    def clone(self) -> SkeletonParticleFilter:
+        """A copy for copy-on-write state: what `step` writes in place is copied (particles,
+        means, flags, calibration, the Kalman tracks, the constraint cache, the generator);
+        the model and the constants are shared."""
+        new = copy.copy(self)
+        new.particles_ = self.particles_.copy()
+        new.initialized_ = self.initialized_.copy()
+        new.means_ = self.means_.copy()
+        new.n_reseeds_ = self.n_reseeds_.copy()
+        new.segment_lengths_ = self.segment_lengths_.copy()
+        new._length_samples = [list(s) for s in self._length_samples]
+        new._constraint_cache = dict(self._constraint_cache)
+        new._kf = self._kf.clone()
+        new.rng = clone_generator(self.rng)
+        return new
+
     def reset(self) -> None:
         """Forget the operator: particles, and the segment-length calibration."""
         s = self.model.state_size

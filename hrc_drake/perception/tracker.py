@@ -19,6 +19,7 @@ fraction 1 (unknown counts as possibly inside the workspace).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 
 import numpy as np
@@ -148,6 +149,18 @@ class SkeletonTracker:
         self._ever_seen = np.zeros(8, dtype=bool)
         self.estimate_ = SkeletonEstimate(workspace_fraction=np.ones(8), spread=np.full(8, UNKNOWN_SPREAD),
                                           tracked=np.zeros(8, dtype=bool))
+
+    def clone(self) -> SkeletonTracker:
+        """A copy for copy-on-write state: the filter and what `update` writes in place are
+        copied, the configuration is shared."""
+        new = copy.copy(self)
+        if self._pf is not None:
+            new._pf = self._pf.clone()
+        if self._kf is not None:
+            new._kf = self._kf.clone()
+        new._held = self._held.copy()
+        new._ever_seen = self._ever_seen.copy()
+        return new
 
     @property
     def particle_filter(self) -> SkeletonParticleFilter | None:

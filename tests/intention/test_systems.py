@@ -11,6 +11,7 @@ from pydrake.systems.analysis import Simulator  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 
 from hrc_drake.intention.bayes import IntentionEvent  # noqa: E402
+from hrc_drake.intention.config import GmmBayesIntention  # noqa: E402
 from hrc_drake.intention.systems import IntentionEstimator  # noqa: E402
 from hrc_drake.messages import EventLog, GoalBelief, SkeletonEstimate  # noqa: E402
 
@@ -35,7 +36,8 @@ class ScriptedEstimates(LeafSystem):
 def build(model, times, points, gaze, **kwargs):
     builder = DiagramBuilder()
     source = builder.AddSystem(ScriptedEstimates(times, points, gaze))
-    estimator = builder.AddSystem(IntentionEstimator(["A", "B", "C"], GOALS, model=model, **kwargs))
+    estimator = builder.AddSystem(IntentionEstimator(GmmBayesIntention(**kwargs), ["A", "B", "C"], GOALS,
+                                                     model=model))
     builder.Connect(source.get_output_port(0), estimator.GetInputPort("skeleton_estimate"))
     diagram = builder.Build()
     return diagram, estimator
@@ -84,4 +86,39 @@ def test_understood_is_set_only_at_the_update_that_crossed(small_model):
 
 def test_bad_rate_raises(small_model):
     with pytest.raises(ValueError, match="rate"):
-        IntentionEstimator(["A", "B", "C"], GOALS, model=small_model, rate=100.0)
+        IntentionEstimator(GmmBayesIntention(rate=100.0), ["A", "B", "C"], GOALS, model=small_model)
+
+
+def test_two_contexts_fed_different_reaches_stay_independent(small_model):
+    """The run lives in the Context: two contexts of one system, fed different moving reaches and
+    advanced in turn, end as each does alone (sampled goal centres: the generator is state too)."""
+    config = GmmBayesIntention(n_goal_samples=5, goal_std=0.02)
+    estimator = IntentionEstimator(config, ["A", "B", "C"], GOALS, model=small_model, seed=3)
+    reaches = {
+        name: straight_reach([0.85, 0.15, 0.9], GOALS[g], duration=0.9, noise=0.003, rng=5)
+        for name, g in (("a", 0), ("b", 2))
+    }
+
+    def feed(context, name, t):
+        times, points, gaze = reaches[name]
+        k = int(min(len(times) - 1, round(t * 30.0)))
+        estimator.GetInputPort("skeleton_estimate").FixValue(
+            context, AbstractValue.Make(SkeletonEstimate(time=t, points=points[k], gaze=gaze[k])))
+
+    def run(names):
+        contexts = {n: estimator.CreateDefaultContext() for n in names}
+        simulators = {n: Simulator(estimator, c) for n, c in contexts.items()}
+        for n in names:
+            feed(contexts[n], n, 0.0)
+            simulators[n].Initialize()
+        for k in range(1, 31):
+            for n in names:
+                feed(contexts[n], n, k / 30.0)
+                simulators[n].AdvanceTo(k / 30.0 + 1e-6)
+        return {n: estimator.GetOutputPort("goal_belief").Eval(contexts[n]) for n in names}
+
+    together = run(["a", "b"])
+    alone = run(["a"])
+    np.testing.assert_array_equal(together["a"].probabilities, alone["a"].probabilities)
+    assert together["a"].probabilities[1].argmax() == 0
+    assert together["b"].probabilities[1].argmax() == 2

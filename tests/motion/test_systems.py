@@ -8,8 +8,18 @@ from pydrake.systems.analysis import Simulator  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 from pydrake.systems.primitives import ConstantValueSource, VectorLogSink  # noqa: E402
 
+from hrc_drake.errors import ConfigError  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
-from hrc_drake.messages import SkeletonEstimate, SweptVolumes  # noqa: E402
+from hrc_drake.messages import (  # noqa: E402
+    Capsules,  # noqa: E402
+    SkeletonEstimate,
+    SweptVolumes,
+)
+from hrc_drake.motion.config import (  # noqa: E402
+    GPMotionModel,
+    SeparationSpeedScaling,
+    WorstCaseMotionModel,
+)
 from hrc_drake.motion.systems import HumanMotionPredictor, SpeedScaler, predictor_kwargs  # noqa: E402
 
 
@@ -31,7 +41,7 @@ class ScriptedSkeleton(LeafSystem):
 
 def _robot_capsules():
     # a vertical link at the origin, radius 0.05
-    return (np.array([[0.0, 0.0, 0.8]]), np.array([[0.0, 0.0, 1.3]]), np.array([0.05]))
+    return Capsules(np.array([[0.0, 0.0, 0.8]]), np.array([[0.0, 0.0, 1.3]]), np.array([0.05]))
 
 
 @pytest.mark.parametrize("kind", ["worst_case", "gp_c"])
@@ -39,10 +49,11 @@ def test_predictor_and_scaler_in_a_diagram(kind):
     body = BodyModel()
     builder = DiagramBuilder()
     source = builder.AddSystem(ScriptedSkeleton(body))
-    predictor = builder.AddSystem(HumanMotionPredictor(
-        body, kind, {"order": 2, "horizon": 0.3, "n_trials": 20, "clearance": 0.1}, rate=20.0, seed=1))
-    scaler = builder.AddSystem(SpeedScaler({"clearance": 0.1, "reaction_time": 0.1, "stopping_time": 0.3,
-                                            "robot_speed": 1.0}))
+    config = (GPMotionModel(variant=kind[-1].upper(), order=2, horizon=0.3, n_trials=20, rate=20.0)
+              if kind.startswith("gp") else WorstCaseMotionModel(horizon=0.3, rate=20.0))
+    predictor = builder.AddSystem(HumanMotionPredictor(body, config, seed=1))
+    scaler = builder.AddSystem(SpeedScaler(SeparationSpeedScaling(clearance=0.1, reaction_time=0.1,
+                                                                  stopping_time=0.3, robot_speed=1.0)))
     robot = builder.AddSystem(ConstantValueSource(AbstractValue.Make(_robot_capsules())))
     builder.Connect(source.get_output_port(0), predictor.GetInputPort("skeleton_estimate"))
     builder.Connect(predictor.GetOutputPort("swept_volumes"), scaler.GetInputPort("swept_volumes"))
@@ -78,22 +89,28 @@ def test_predictor_and_scaler_in_a_diagram(kind):
 
 def test_bad_params_are_clear_errors():
     body = BodyModel()
-    with pytest.raises(ValueError, match="unknown keys"):
-        HumanMotionPredictor(body, "gp_c", {"ordr": 3})
-    with pytest.raises(ValueError, match="integer"):
-        predictor_kwargs({"order": 2.5})
-    with pytest.raises(ValueError, match="unknown kind"):
-        HumanMotionPredictor(body, "gp_d")
-    with pytest.raises(ValueError, match="unknown keys"):
-        SpeedScaler({"speed": 1.0})
-    assert predictor_kwargs({"percentile": -1})["percentile"] is None
+    with pytest.raises(TypeError, match="ordr"):
+        GPMotionModel(ordr=3)
+    with pytest.raises(ConfigError, match=r"motion_model\.order: must be an integer"):
+        HumanMotionPredictor(body, GPMotionModel(order=2.5))
+    with pytest.raises(ConfigError, match=r"motion_model\.variant"):
+        HumanMotionPredictor(body, GPMotionModel(variant="D"))
+    with pytest.raises(TypeError, match="speed"):
+        SeparationSpeedScaling(speed=1.0)
+    with pytest.raises(ConfigError, match=r"speed_scaling\.robot_speed"):
+        SpeedScaler(SeparationSpeedScaling(robot_speed=0.0))
+    with pytest.raises(ConfigError, match=r"motion_model\.rate"):
+        HumanMotionPredictor(body, WorstCaseMotionModel(rate=100.0))
+    assert predictor_kwargs(GPMotionModel(percentile=-1))["percentile"] is None
+    assert predictor_kwargs(GPMotionModel(variant="A"))["kind"] == "gp_a"
+    assert predictor_kwargs(WorstCaseMotionModel())["kind"] == "worst_case"
 
 
 def test_scaler_ahead_port_lets_a_retreating_robot_move():
     human = SweptVolumes(time=0.0, names=("torso",), start=np.array([[0.5, 0.0, 0.8]]),
                          end=np.array([[0.5, 0.0, 1.3]]), radius=np.array([0.2]), horizon=0.3)
-    params = {"clearance": 0.1, "reaction_time": 0.1, "stopping_time": 0.3, "robot_speed": 1.0,
-              "lookahead": 0.1}
+    params = SeparationSpeedScaling(clearance=0.1, reaction_time=0.1, stopping_time=0.3, robot_speed=1.0,
+                                    lookahead=0.1)
     overrides = {}
     for label, ahead_x in (("retreat", -0.05), ("approach", 0.2), ("unwired", None)):
         builder = DiagramBuilder()
@@ -105,7 +122,7 @@ def test_scaler_ahead_port_lets_a_retreating_robot_move():
         if ahead_x is not None:
             start, end, radius = _robot_capsules()
             shift = np.array([ahead_x, 0.0, 0.0])
-            moved = (start + shift, end + shift, radius)
+            moved = Capsules(start + shift, end + shift, radius)
             ahead = builder.AddSystem(ConstantValueSource(AbstractValue.Make(moved)))
             builder.Connect(ahead.get_output_port(0), scaler.GetInputPort("robot_capsules_ahead"))
         simulator = Simulator(builder.Build())

@@ -9,7 +9,8 @@ from pydrake.common.value import AbstractValue  # noqa: E402
 from pydrake.systems.analysis import Simulator  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 
-from hrc_drake.messages import L_WRIST, SkeletonEstimate, SkeletonFrame  # noqa: E402
+from hrc_drake.messages import L_WRIST, Capsules, SkeletonEstimate, SkeletonFrame  # noqa: E402
+from hrc_drake.perception.config import KalmanTracker, ParticleFilterTracker  # noqa: E402
 from hrc_drake.perception.systems import OcclusionTracker  # noqa: E402
 
 POSE = np.array([
@@ -44,8 +45,9 @@ def test_tracker_in_a_diagram(kind):
         calls.append(capsules)
         return points[..., 0] > 0.15
 
-    tracker = builder.AddSystem(OcclusionTracker(kind, {"particles": 100}, is_hidden, [0.6, 0.2, 1.1],
-                                                 [0.5, 0.6, 0.6], rate=30.0, seed=1))
+    config = ParticleFilterTracker(particles=100) if kind == "particle_filter" else KalmanTracker()
+    tracker = builder.AddSystem(OcclusionTracker(config, is_hidden, [0.6, 0.2, 1.1], [0.5, 0.6, 0.6],
+                                                 rate=30.0, seed=1))
     builder.Connect(source.get_output_port(), tracker.GetInputPort("skeleton_frame"))
     heard = []
     tracker.listeners.append(lambda frame, estimate: heard.append((frame.time, estimate.time,
@@ -55,7 +57,7 @@ def test_tracker_in_a_diagram(kind):
     context = simulator.get_mutable_context()
     tracker_context = tracker.GetMyContextFromRoot(context)
     tracker.GetInputPort("occluding_capsules").FixValue(
-        tracker_context, AbstractValue.Make((np.zeros((1, 3)), np.ones((1, 3)), np.array([0.05]))))
+        tracker_context, AbstractValue.Make(Capsules(np.zeros((1, 3)), np.ones((1, 3)), np.array([0.05]))))
     simulator.AdvanceTo(0.6)
     est = tracker.GetOutputPort("skeleton_estimate").Eval(tracker_context)
     assert isinstance(est, SkeletonEstimate)

@@ -1,0 +1,104 @@
+"""Typed configs of the intended-goal estimator, one dataclass per kind (thesis 3.1).
+
+A scenario's `intention` field is `NoIntention` or `GmmBayesIntention`;
+`intention.systems.apply_intention_config` builds the system. The defaults reproduce the
+estimator of `diagrams/box_usb.yaml` (method M3 with the shipped model, threshold 0.8).
+No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
+"""
+
+import math
+from dataclasses import dataclass, field
+
+from hrc_drake.errors import check
+
+#: Methods of Table 3.1.
+METHODS = ("M1", "M2", "M3")
+#: Hands whose goals the feedback may announce.
+HANDS = ("left", "right")
+#: Highest update rate of a Python system (DESIGN.md, performance rules).
+MAX_RATE = 50.0
+
+
+def _unit(value, path: str, name: str, low_open: bool = False) -> None:
+    ok = math.isfinite(value) and (0.0 < value if low_open else 0.0 <= value) and value <= 1.0
+    check(ok, f"{path}.{name}", f"must be in {'(' if low_open else '['}0, 1], got {value!r}")
+
+
+@dataclass
+class NoIntention:
+    """No intention estimator in the cell."""
+
+    def validate(self, path: str) -> None:
+        """Nothing to check."""
+
+
+@dataclass
+class GmmBayesIntention:
+    """Per-hand goal probabilities by recursive Bayes over learned GMM likelihoods (thesis 3.1.2,
+    eq. 3.2) and the "robot understood" feedback of Fig. 3.6."""
+
+    #: Method of Table 3.1: "M1" ([135], angle to a minimum-jerk reach, eq. 3.1), "M2" (GMM2d on
+    #: Psi only) or "M3" (GMM4d on Phi while the gaze flag F holds, GMM2d otherwise).
+    method: str = "M3"
+    #: Probability a goal must reach for the feedback "the robot understood" (Fig. 3.6).
+    threshold: float = 0.8
+    #: Probability below which a goal's feedback is re-armed (no feedback sequence only).
+    release: float = 0.5
+    #: Update rate of the estimator (Hz), at most 50.
+    rate: float = 30.0
+    #: Learned `IntentionModel` (JSON) relative to the scenario file; "" for the shipped model.
+    model: str = ""
+    #: Goal names of the cyclic feedback machine of Fig. 3.6 (e.g. [G4, G1]); empty: feedback
+    #: at every rise of a goal's probability to `threshold`.
+    feedback_sequence: list[str] = field(default_factory=list)
+    #: Hands whose goals the feedback announces ("left", "right").
+    feedback_hands: list[str] = field(default_factory=lambda: ["left", "right"])
+    #: Standard deviation of each goal centre C_i (m); with n_goal_samples > 0 the likelihood is
+    #: averaged over sampled centres, eq. (3.12).
+    goal_std: float = 0.0
+    #: Np, sampled centres per goal of eq. (3.12); 0 uses the centres themselves.
+    n_goal_samples: int = 0
+    #: Probability per update that the intended goal changes (Markov prediction step).
+    switch_probability: float = 0.02
+    #: The same probability at the first update of a motion after a pause of restart_after s.
+    restart_switch: float = 0.5
+    #: Pause (s) after which a hand's next motion is a new reach.
+    restart_after: float = 0.25
+    #: Exponent w of the likelihoods in eq. (3.2), in (0, 1]; 0: the model's own (learned with it).
+    evidence_weight: float = 0.0
+    #: sigma of the angle likelihood of M1, eq. (3.1) (rad).
+    m1_sigma: float = 0.6
+    #: Mean hand speed of M1's nominal reach duration |C_i - p_s| / speed (m/s).
+    m1_mean_speed: float = 0.4
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the estimator cannot use."""
+        check(self.method in METHODS, f"{path}.method", f"must be one of {METHODS}, got {self.method!r}")
+        _unit(self.threshold, path, "threshold", low_open=True)
+        check(math.isfinite(self.release) and 0.0 <= self.release < self.threshold, f"{path}.release",
+              f"must be in [0, threshold), got {self.release!r}")
+        check(math.isfinite(self.rate) and 0.0 < self.rate <= MAX_RATE, f"{path}.rate",
+              f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
+        check(isinstance(self.model, str), f"{path}.model", "must be a file path (a string)")
+        for k, goal in enumerate(self.feedback_sequence):
+            check(isinstance(goal, str) and goal != "", f"{path}.feedback_sequence[{k}]",
+                  f"must be a goal name, got {goal!r}")
+        check(len(self.feedback_hands) > 0, f"{path}.feedback_hands", "needs at least one hand")
+        for k, hand in enumerate(self.feedback_hands):
+            check(hand in HANDS, f"{path}.feedback_hands[{k}]", f"must be one of {HANDS}, got {hand!r}")
+        check(math.isfinite(self.goal_std) and self.goal_std >= 0, f"{path}.goal_std",
+              f"must be a finite number >= 0, got {self.goal_std!r}")
+        check(isinstance(self.n_goal_samples, int) and 0 <= self.n_goal_samples <= 10000,
+              f"{path}.n_goal_samples", f"must be an integer in [0, 10000], got {self.n_goal_samples!r}")
+        _unit(self.switch_probability, path, "switch_probability")
+        _unit(self.restart_switch, path, "restart_switch")
+        check(math.isfinite(self.restart_after) and self.restart_after >= 0, f"{path}.restart_after",
+              f"must be a finite number >= 0, got {self.restart_after!r}")
+        _unit(self.evidence_weight, path, "evidence_weight")
+        for name in ("m1_sigma", "m1_mean_speed"):
+            value = getattr(self, name)
+            check(math.isfinite(value) and value > 0, f"{path}.{name}", f"must be > 0, got {value!r}")
+
+
+#: Every intention kind a scenario can choose.
+IntentionConfig = NoIntention | GmmBayesIntention
