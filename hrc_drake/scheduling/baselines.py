@@ -13,7 +13,7 @@ import copy
 import numpy as np
 
 from hrc_drake.scheduling.learning import DurationModel
-from hrc_drake.scheduling.montecarlo import simulate_trials
+from hrc_drake.scheduling.montecarlo import copy_generator, simulate_trials
 from hrc_drake.scheduling.petri import PcTPN
 
 _PROGRESS = ("end", "intent", "begin", "giveup")
@@ -67,7 +67,7 @@ class _Policy:
         """A copy that `decide` may change without touching this one: its own random generator
         (same state) and program pointers; the net, programs and plan are shared (read only)."""
         new = copy.copy(self)
-        new.rng = copy.deepcopy(self.rng)
+        new.rng = copy_generator(self.rng)
         if hasattr(self, "pointer"):
             new.pointer = dict(self.pointer)
         return new

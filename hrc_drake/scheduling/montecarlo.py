@@ -43,6 +43,14 @@ def wait_tick_delay(time, quantum: float):
 ROLLOUTS = ("uniform", "work_first")
 
 
+def copy_generator(rng: np.random.Generator) -> np.random.Generator:
+    """An independent generator in the same state as `rng` (same future draws); ~3x cheaper
+    than `copy.deepcopy`, used by the copy-on-write clones of the policies."""
+    bit_generator = type(rng.bit_generator)(0)
+    bit_generator.state = rng.bit_generator.state
+    return np.random.Generator(bit_generator)
+
+
 @dataclass
 class TrialBatch:
     """Output of `simulate_trials`.
@@ -357,7 +365,7 @@ class MonteCarloPolicy:
         random generator (same state) and duration model; the net is shared."""
         new = copy.copy(self)
         new.durations_ = self.durations_.clone()
-        new.rng = copy.deepcopy(self.rng)
+        new.rng = copy_generator(self.rng)
         return new
 
     def observe(self, transition, delay: float) -> None:
