@@ -14,14 +14,14 @@ import time
 import numpy as np
 
 from hrc_drake.scheduling import thesis_cells as tc
-from hrc_drake.scheduling.baselines import DeterministicPlanScheduler, GreedyScheduler, RoundRobinScheduler
+from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import compile_flow
-from hrc_drake.scheduling.montecarlo import MonteCarloScheduler
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
 
 
 def latency_ms(net, agent, n_trials, horizon, repeats, seed=0):
-    sched = MonteCarloScheduler(net, n_trials=n_trials, horizon=horizon, random_state=seed)
+    sched = MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -32,18 +32,18 @@ def latency_ms(net, agent, n_trials, horizon, repeats, seed=0):
 
 def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
     if kind == "monte_carlo":
-        return MonteCarloScheduler(net, n_trials=n_trials, horizon=horizon, random_state=seed)
+        return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     if kind.startswith("monte_carlo_T"):  # a second horizon, side by side
-        return MonteCarloScheduler(net, n_trials=n_trials, horizon=float(kind[13:]), random_state=seed)
+        return MonteCarloPolicy(net, n_trials=n_trials, horizon=float(kind[13:]), random_state=seed)
     if kind == "monte_carlo_alg4":  # Algorithm 4 with rule (b) at every controllable branching
-        return MonteCarloScheduler(
+        return MonteCarloPolicy(
             net, n_trials=n_trials, horizon=horizon, random_state=seed, min_branch_samples=1
         )
     if kind == "round_robin":
-        return RoundRobinScheduler(net, programs=programs, random_state=seed)
+        return RoundRobinPolicy(net, programs=programs, random_state=seed)
     if kind == "greedy":
-        return GreedyScheduler(net, random_state=seed)
-    return DeterministicPlanScheduler(net, random_state=seed)
+        return GreedyPolicy(net, random_state=seed)
+    return DeterministicPlanPolicy(net, random_state=seed)
 
 
 def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None):
@@ -110,7 +110,7 @@ def main():
     m = net_b.m0.copy()
     m[net_b.place_index["buf:tested"]] = 1
     m[net_b.place_index["space:tested"]] -= 1
-    sched = MonteCarloScheduler(net_b, n_trials=150, horizon=30.0, random_state=0)
+    sched = MonteCarloPolicy(net_b, n_trials=150, horizon=30.0, random_state=0)
     times = []
     for _ in range(5 if quick else 20):
         t0 = time.perf_counter()

@@ -108,38 +108,34 @@ def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, sys
 
 
 def add_predictor(builder, scenario: Scenario, human_events_port, systems):
-    if scenario.predictor.kind == "none":
-        return
-    from hrc_drake.prediction.systems import ActivityPredictor
+    from hrc_drake.prediction.config import legacy_config
+    from hrc_drake.prediction.systems import apply_predictor_config
 
+    # TEMPORARY: until the typed scenario schema lands (kind + params dict -> typed config)
+    config = legacy_config(scenario.predictor.kind, scenario.predictor.params, "predictor")
     actions = [a.name for a in scenario.operator.actions]
-    params = dict(scenario.predictor.params)
-    # A forecast per half second is plenty for actions lasting seconds; each costs a waiting-time tree.
-    rate = params.pop("rate", 2.0)
-    predictor = builder.AddSystem(
-        ActivityPredictor(actions, kind=scenario.predictor.kind, params=params, rate=rate)
-    )
-    predictor.set_name("activity_predictor")
-    builder.Connect(human_events_port, predictor.GetInputPort("human_events"))
-    systems["predictor"] = predictor
+    predictor = apply_predictor_config(config, builder, human_events=human_events_port, actions=actions)
+    if predictor is not None:
+        systems["predictor"] = predictor
 
 
 def add_scheduler(builder, scenario: Scenario, human_events_port, executor, systems, seed):
-    if scenario.scheduler.kind == "none":
-        return
-    from hrc_drake.scheduling.systems import Scheduler, net_from_scenario
+    from hrc_drake.scheduling.config import legacy_config
+    from hrc_drake.scheduling.systems import apply_scheduler_config
 
-    net_keys = ("wait_quantum", "cost_robot", "cost_human")
-    params = {k: v for k, v in scenario.scheduler.params.items() if k not in net_keys}
-    robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
-    scheduler = builder.AddSystem(
-        Scheduler(net_from_scenario(scenario), scenario.scheduler.kind, params, robots, seed)
+    # TEMPORARY: until the typed scenario schema lands (kind + params dict -> typed config)
+    config = legacy_config(scenario.scheduler.kind, scenario.scheduler.params, "scheduler")
+    scheduler = apply_scheduler_config(
+        config,
+        builder,
+        human_events=human_events_port,
+        robot_events=executor.GetOutputPort("robot_events"),
+        robot_commands_input=executor.GetInputPort("robot_commands"),
+        scenario=scenario,
+        seed=seed,
     )
-    scheduler.set_name("scheduler")
-    builder.Connect(human_events_port, scheduler.GetInputPort("human_events"))
-    builder.Connect(executor.GetOutputPort("robot_events"), scheduler.GetInputPort("robot_events"))
-    builder.Connect(scheduler.GetOutputPort("robot_commands"), executor.GetInputPort("robot_commands"))
-    systems["scheduler"] = scheduler
+    if scheduler is not None:
+        systems["scheduler"] = scheduler
 
 
 def add_motion(

@@ -4,7 +4,7 @@ Cores only (no pydrake); the Drake adapter is `hrc_drake.prediction.systems.Acti
 """
 
 from .base import SequenceModel
-from .factory import make_sequence_model
+from .factory import make_sequence_model, make_waiting_predictor
 from .markov import ChingHigherOrderModel, HigherOrderMarkovModel, MarkovChainModel
 from .suffix_tree import SuffixTreeModel
 from .vomm import VariableOrderMarkovModel
@@ -19,5 +19,6 @@ __all__ = [
     "VariableOrderMarkovModel",
     "WaitingTimePredictor",
     "make_sequence_model",
+    "make_waiting_predictor",
     "percentiles_from_cdf",
 ]

@@ -8,13 +8,13 @@ column indices (`classes_`). Models learn from a FIFO buffer of recent actions (
 
 from __future__ import annotations
 
+import copy
 import itertools
 from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Hashable, Iterable, Sequence
 
 import numpy as np
-from sklearn.exceptions import NotFittedError
 
 #: every change of a model's learned state takes a fresh id, so caches keyed on it never go stale
 _STATE_IDS = itertools.count(1)
@@ -68,6 +68,8 @@ class SequenceModel(ABC):
                 return list(range(int(self.actions)))
             return list(self.actions)
         if sequence is None:
+            from sklearn.exceptions import NotFittedError  # lazy: scikit-learn is slow to import
+
             raise NotFittedError(
                 f"{type(self).__name__}: the action set is unknown; pass actions= or call fit first"
             )
@@ -99,6 +101,23 @@ class SequenceModel(ABC):
         if not hasattr(self, "classes_"):
             self._set_classes(self._classes_from_actions(None))
             self._reset()
+
+    # ---------------------------------------------------------------- copy-on-write
+    def clone(self):
+        """A copy that `partial_fit` may change without touching this model (copy-on-write).
+
+        Shares what an update never writes in place (parameters, label maps, arrays that are
+        only ever replaced, memo caches keyed on `state_id_`); copies the FIFO buffer and what
+        `_clone_state` names. Cheaper than a deep copy (used by the Drake systems' state).
+        """
+        new = copy.copy(self)
+        if hasattr(self, "buffer_"):
+            new.buffer_ = deque(self.buffer_)
+            new._clone_state()
+        return new
+
+    def _clone_state(self) -> None:  # noqa: B027 - optional hook
+        """Replace, on a fresh shallow copy, every container `_learn_newest` writes in place."""
 
     # ---------------------------------------------------------------- learning
     def _reset(self) -> None:

@@ -1,63 +1,84 @@
-"""Build a next-action model from a scenario's `predictor: {kind, params}` option."""
+"""Build the cores of an activity predictor from its typed config (`prediction.config`)."""
 
 from __future__ import annotations
 
 from collections.abc import Hashable, Sequence
 
+from hrc_drake.errors import ConfigError
+
 from .base import SequenceModel
+from .config import (
+    ChingPredictor,
+    HigherOrderMarkovPredictor,
+    MarkovChainPredictor,
+    NoPredictor,
+    SuffixTreePredictor,
+    VariableOrderMarkovPredictor,
+)
 from .markov import ChingHigherOrderModel, HigherOrderMarkovModel, MarkovChainModel
 from .suffix_tree import SuffixTreeModel
 from .vomm import VariableOrderMarkovModel
-
-#: kind -> (class, integer parameters, float parameters)
-_KINDS = {
-    "homm": (HigherOrderMarkovModel, {"order", "buffer_size", "refit_every"}, set()),
-    "markov": (MarkovChainModel, {"buffer_size"}, set()),
-    "ching": (ChingHigherOrderModel, {"order", "buffer_size", "refit_every"}, set()),
-    "vomm": (VariableOrderMarkovModel, {"max_depth", "buffer_size"}, set()),
-    "suffix_tree": (
-        SuffixTreeModel,
-        {"order", "learning_window", "learning_iterations"},
-        {"forgetting", "token_threshold", "l2"},
-    ),
-}
-
-#: parameters of the waiting-time part, ignored by the sequence models
-WAITING_PARAMS = {"resolution", "epsilon", "max_samples", "default_duration", "max_nodes"}
+from .waiting import WaitingTimePredictor
 
 
-def make_sequence_model(
-    kind: str,
-    params: dict | None,
-    actions: Sequence[Hashable],
-    affine_sets: Sequence[Sequence[Hashable]] = (),
-) -> SequenceModel:
-    """A model of `kind` (homm | markov | ching | vomm | suffix_tree) over `actions`.
+def _buffer(size: int) -> int | None:
+    return None if int(size) == 0 else int(size)
 
-    params: numbers from the scenario (floats are cast to int where the model needs ints);
-    keys of the waiting-time predictor (WAITING_PARAMS) are skipped. Unknown keys are errors.
-    """
-    if kind not in _KINDS:
-        raise ValueError(f"predictor kind {kind!r} is unknown; choose one of {sorted(_KINDS)}")
-    cls, int_keys, float_keys = _KINDS[kind]
-    kwargs: dict = {}
-    for key, value in (params or {}).items():
-        if key in WAITING_PARAMS:
-            continue
-        if key in int_keys:
-            if value is None and key == "buffer_size":
-                kwargs[key] = None
-                continue
-            if float(value) != int(value):
-                raise ValueError(f"predictor.params.{key}={value} must be an integer")
-            kwargs[key] = int(value)
-        elif key in float_keys:
-            kwargs[key] = float(value)
-        else:
-            raise ValueError(
-                f"predictor.params.{key} is not a parameter of kind {kind!r}; "
-                f"known: {sorted(int_keys | float_keys | WAITING_PARAMS)}"
-            )
-    if kind == "suffix_tree":
-        kwargs["affine_sets"] = [list(s) for s in affine_sets]
-    return cls(actions=list(actions), **kwargs)
+
+def make_sequence_model(config, actions: Sequence[Hashable], path: str = "predictor") -> SequenceModel:
+    """The next-action model a predictor config describes, over `actions` (validated first;
+    ConfigError naming `path.<field>` for a bad value)."""
+    if isinstance(config, NoPredictor):
+        raise ConfigError(path, "NoPredictor describes no sequence model")
+    if not hasattr(config, "validate"):
+        raise ConfigError(path, f"{type(config).__name__} is not a predictor config")
+    config.validate(path)
+    actions = list(actions)
+    if isinstance(config, SuffixTreePredictor):
+        for i, members in enumerate(config.affine_sets):
+            unknown = [a for a in members if a not in actions]
+            if unknown:
+                raise ConfigError(f"{path}.affine_sets[{i}]", f"actions {unknown} are not in {actions}")
+        return SuffixTreeModel(
+            order=config.order,
+            affine_sets=[list(s) for s in config.affine_sets],
+            forgetting=config.forgetting,
+            actions=actions,
+            token_threshold=config.token_threshold,
+            learning_window=config.learning_window,
+            learning_iterations=config.learning_iterations,
+            l2=config.l2,
+        )
+    if isinstance(config, ChingPredictor):
+        return ChingHigherOrderModel(
+            order=config.order,
+            buffer_size=_buffer(config.buffer_size),
+            actions=actions,
+            refit_every=config.refit_every,
+        )
+    if isinstance(config, HigherOrderMarkovPredictor):
+        return HigherOrderMarkovModel(
+            order=config.order,
+            buffer_size=_buffer(config.buffer_size),
+            actions=actions,
+            refit_every=config.refit_every,
+        )
+    if isinstance(config, MarkovChainPredictor):
+        return MarkovChainModel(buffer_size=_buffer(config.buffer_size), actions=actions)
+    if isinstance(config, VariableOrderMarkovPredictor):
+        return VariableOrderMarkovModel(
+            max_depth=config.max_depth, buffer_size=_buffer(config.buffer_size), actions=actions
+        )
+    raise ConfigError(path, f"{type(config).__name__} is not a predictor config")
+
+
+def make_waiting_predictor(config, model: SequenceModel) -> WaitingTimePredictor:
+    """The waiting-time predictor (thesis 5.3) of a predictor config around `model`."""
+    return WaitingTimePredictor(
+        model,
+        resolution=config.resolution,
+        epsilon=config.epsilon,
+        max_samples=config.max_samples,
+        default_duration=config.default_duration,
+        max_nodes=config.max_nodes,
+    )

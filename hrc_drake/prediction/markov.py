@@ -153,6 +153,9 @@ class HigherOrderMarkovModel(SequenceModel):
             self.weights_ = self._fit_weights()
         self._since_refit = int(state.get("since_refit", 0))
 
+    def _clone_state(self) -> None:
+        self.counts_ = self.counts_.copy()  # += in place; matrices_ and weights_ are replaced
+
     def _reset_state(self) -> None:
         if int(self.order) < 0:
             raise ValueError(f"{type(self).__name__}: order={self.order} must be >= 0")

@@ -232,6 +232,17 @@ class SuffixTreeModel(SequenceModel):
         self._train_next = int(state.get("train_next", count)) % int(self.learning_window)
 
     # ---------------------------------------------------------------- state
+    def _clone_state(self) -> None:
+        """What `_learn_newest` writes in place: activation, token counts and list, the branch
+        index and the training ring buffer. Branch rows, counts and positions are only ever
+        replaced (vstack, masks), so they stay shared."""
+        self._branch_index = dict(self._branch_index)
+        self._activation = self._activation.copy()
+        self._n_tokens = self._n_tokens.copy()
+        self._tokens = deque(self._tokens)
+        self._train_features = self._train_features.copy()
+        self._train_targets = self._train_targets.copy()
+
     def _reset_state(self) -> None:
         sigma = int(self.order)
         if sigma < 1:

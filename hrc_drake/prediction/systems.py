@@ -2,18 +2,43 @@
 
 from __future__ import annotations
 
-from collections import deque
-from collections.abc import Hashable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
+from ..drake_helpers import Frozen, declare_state, get_state, set_state
+from ..errors import ConfigError
 from ..messages import HUMAN_AGENT, EventLog, Forecast
-from .factory import WAITING_PARAMS, make_sequence_model
-from .waiting import WaitingTimePredictor
+from .config import NoPredictor
+from .factory import make_sequence_model, make_waiting_predictor
 
 _SEQ, _CURRENT, _BEGIN, _RUNNING = range(4)
+
+
+class PredictorCore:
+    """What an ActivityPredictor learns during a run: the sequence model, the waiting-time
+    predictor around it, the recent begun actions (history, oldest first) and the begin time of
+    each action still running. Kept frozen in the Context; `clone` copies only what an observed
+    event writes (copy-on-write)."""
+
+    def __init__(self, model, waiting, history_length: int):
+        self.model = model
+        self.waiting = waiting
+        self.history_length = int(history_length)
+        self.history: tuple = ()
+        self.open_begins: dict[str, float] = {}
+
+    def clone(self, model_changes: bool = True) -> PredictorCore:
+        """A private copy for an update; the model is copied only when `model_changes` (a begin)."""
+        new = object.__new__(PredictorCore)
+        new.model = self.model.clone() if model_changes else self.model
+        new.waiting = self.waiting.clone(new.model)
+        new.history_length = self.history_length
+        new.history = self.history
+        new.open_begins = dict(self.open_begins)
+        return new
 
 
 class ActivityPredictor(LeafSystem):
@@ -25,56 +50,43 @@ class ActivityPredictor(LeafSystem):
     Output "forecast": messages.Forecast with P(next action) (eq. 5.8 / 5.10) and the
     percentiles of tau^a (Algorithm 1, eq. 5.37) measured from the current time.
 
-    Updated periodically at `rate` Hz. Before the first begin event the forecast is uniform
+    config: one of the kinds of `hrc_drake.prediction.config` (not NoPredictor). Updated
+    periodically at `config.rate` Hz. Before the first begin event the forecast is uniform
     with infinite waiting times (documented fallback). Between an "end" and the next "begin"
     the last action counts as finished (no residual time). An event naming an action outside
     `actions` raises ValueError.
 
-    The sequence model and duration samples live on this object (not in the Context): they
-    are rebuilt by an initialization event, so one simulation at a time per system.
-    Discrete state: group 0 [last seq, current action index, its begin time, running flag];
-    group 1 [forecast time, next probabilities (A), percentiles (A*P) row-major].
-    params: the model's parameters (see factory.make_sequence_model) plus the waiting-time
-    ones: resolution, epsilon, max_samples, default_duration, max_nodes.
+    State (all in the Context, set again at initialization):
+    abstract 0: Frozen(PredictorCore), replaced (copy-on-write) only when a begin or end
+    event of the human arrives; discrete group 0 [last seq, current action index, its begin
+    time, running flag]; group 1 [forecast time, next probabilities (A), percentiles (A*P)
+    row-major].
     """
 
-    def __init__(
-        self,
-        actions: list[str],
-        kind: str = "homm",
-        params: dict | None = None,
-        rate: float = 10.0,
-        percentile_levels: Sequence[float] = (0.2, 0.5, 0.8),
-        horizon: float = 60.0,
-        affine_sets: Sequence[Sequence[Hashable]] = (),
-    ):
+    def __init__(self, config, actions: Sequence[str]):
         LeafSystem.__init__(self)
+        if isinstance(config, NoPredictor):
+            raise ConfigError("predictor", "NoPredictor builds no ActivityPredictor")
+        actions = list(actions)
         if len(actions) == 0 or len(set(actions)) != len(actions):
             raise ValueError(f"ActivityPredictor: actions must be distinct and non-empty, got {actions!r}")
-        if not (np.isfinite(rate) and 0 < rate <= 50):
-            raise ValueError(f"ActivityPredictor: rate={rate} must be in (0, 50] Hz")
-        levels = np.asarray(percentile_levels, dtype=float)
-        if levels.ndim != 1 or np.any((levels <= 0) | (levels >= 1)):
-            raise ValueError(f"ActivityPredictor: percentile_levels must be in (0, 1), got {levels}")
-        if not (np.isfinite(horizon) and horizon > 0):
-            raise ValueError(f"ActivityPredictor: horizon={horizon} must be positive")
+        model = make_sequence_model(config, actions)  # validates the config
+        model._check_classes()  # the label map is built now, never lazily on a frozen core
+        self.config = config
         self._actions = tuple(actions)
-        self._kind = kind
-        self._params = dict(params or {})
-        self._affine_sets = [list(s) for s in affine_sets]
-        self._levels = levels
-        self._horizon = float(horizon)
-        self._waiting_kwargs = {k: v for k, v in self._params.items() if k in WAITING_PARAMS}
-        for key in ("max_samples", "max_nodes"):
-            if key in self._waiting_kwargs:
-                self._waiting_kwargs[key] = int(self._waiting_kwargs[key])
-        self._reset_core()  # builds the model once now, so bad parameters fail at construction
+        self._levels = np.asarray(config.percentile_levels, dtype=float)
+        self._horizon = float(config.horizon)
+        self._initial_core = PredictorCore(
+            model, make_waiting_predictor(config, model), max(64, 2 * int(model.context_length_))
+        )
 
-        n_actions, n_levels = len(actions), levels.size
+        n_actions, n_levels = len(actions), self._levels.size
+        self._shape = (n_actions, n_levels)
         self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
+        self._core_index = declare_state(self, lambda context: Frozen(self._initial_core))
         self._tracking_index = self.DeclareDiscreteState(BasicVector([-1.0, -1.0, 0.0, 0.0]))
         self._forecast_index = self.DeclareDiscreteState(BasicVector(self._fallback_vector(0.0)))
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
         self.DeclareInitializationDiscreteUpdateEvent(self._initialize)
         self.DeclareAbstractOutputPort(
             "forecast",
@@ -82,14 +94,10 @@ class ActivityPredictor(LeafSystem):
             self._calc_forecast,
             prerequisites_of_calc={self.discrete_state_ticket(self._forecast_index)},
         )
-        self._shape = (n_actions, n_levels)
 
-    # ---------------------------------------------------------------- core
-    def _reset_core(self) -> None:
-        self.model = make_sequence_model(self._kind, self._params, self._actions, self._affine_sets)
-        self.waiting = WaitingTimePredictor(self.model, **self._waiting_kwargs)
-        self._history: deque = deque(maxlen=max(64, 2 * int(self.model.context_length_)))
-        self._open_begins: dict[str, float] = {}
+    def core(self, context) -> PredictorCore:
+        """The predictor's learned core in `context` (read only: do not change it)."""
+        return get_state(context, self._core_index).core
 
     def _fallback_vector(self, time: float) -> np.ndarray:
         n_actions = len(self._actions)
@@ -98,17 +106,19 @@ class ActivityPredictor(LeafSystem):
         )
 
     def _initialize(self, context, discrete_state):
-        self._reset_core()
         discrete_state.get_mutable_vector(self._tracking_index).SetFromVector([-1.0, -1.0, 0.0, 0.0])
         discrete_state.get_mutable_vector(self._forecast_index).SetFromVector(
             self._fallback_vector(context.get_time())
         )
         return EventStatus.Succeeded()
 
-    def _update(self, context, discrete_state):
+    def _update(self, context, state):
         tracking = np.array(context.get_discrete_state(self._tracking_index).get_value())
+        core = get_state(context, self._core_index).core
         log = self.get_input_port(0).Eval(context)
-        for event in log.since(int(tracking[_SEQ])):
+        new_events = log.since(int(tracking[_SEQ]))
+        relevant = []
+        for event in new_events:
             tracking[_SEQ] = event.seq
             if getattr(event, "agent", HUMAN_AGENT) != HUMAN_AGENT or event.kind not in ("begin", "end"):
                 continue
@@ -117,31 +127,36 @@ class ActivityPredictor(LeafSystem):
                     f"ActivityPredictor: event seq={event.seq} names action {event.action!r}, "
                     f"not one of {self._actions!r}"
                 )
-            code = self._actions.index(event.action)
-            if event.kind == "begin":
-                self.model.partial_fit(event.action)
-                self._history.append(event.action)
-                self._open_begins[event.action] = float(event.time)
-                tracking[_CURRENT], tracking[_BEGIN], tracking[_RUNNING] = code, event.time, 1.0
-            else:
-                began = self._open_begins.pop(event.action, None)
-                duration = None if began is None else float(event.time) - began
-                if duration is not None and np.isfinite(duration) and duration > 0:
-                    self.waiting.observe_duration(event.action, duration)
-                if int(tracking[_CURRENT]) == code:
-                    tracking[_RUNNING] = 0.0
-        discrete_state.get_mutable_vector(self._tracking_index).SetFromVector(tracking)
+            relevant.append(event)
+        if relevant:  # copy-on-write: only an observed begin or end changes the core
+            core = core.clone(model_changes=any(e.kind == "begin" for e in relevant))
+            for event in relevant:
+                code = self._actions.index(event.action)
+                if event.kind == "begin":
+                    core.model.partial_fit(event.action)
+                    core.history = (core.history + (event.action,))[-core.history_length :]
+                    core.open_begins[event.action] = float(event.time)
+                    tracking[_CURRENT], tracking[_BEGIN], tracking[_RUNNING] = code, event.time, 1.0
+                else:
+                    began = core.open_begins.pop(event.action, None)
+                    duration = None if began is None else float(event.time) - began
+                    if duration is not None and np.isfinite(duration) and duration > 0:
+                        core.waiting.observe_duration(event.action, duration)
+                    if int(tracking[_CURRENT]) == code:
+                        tracking[_RUNNING] = 0.0
+            set_state(state, self._core_index, Frozen(core))
+        state.get_mutable_discrete_state(self._tracking_index).SetFromVector(tracking)
 
         now = context.get_time()
         if tracking[_CURRENT] < 0:
             vector = self._fallback_vector(now)
         else:
-            history = list(self._history)
-            probs = self.model.predict_proba(history)
+            history = list(core.history)
+            probs = core.model.predict_proba(history)
             elapsed = max(0.0, now - tracking[_BEGIN]) if tracking[_RUNNING] > 0 else None
-            percentiles = self.waiting.percentiles(history, elapsed, self._levels, self._horizon)
+            percentiles = core.waiting.percentiles(history, elapsed, self._levels, self._horizon)
             vector = np.concatenate([[now], probs, percentiles.ravel()])
-        discrete_state.get_mutable_vector(self._forecast_index).SetFromVector(vector)
+        state.get_mutable_discrete_state(self._forecast_index).SetFromVector(vector)
         return EventStatus.Succeeded()
 
     def _calc_forecast(self, context, output):
@@ -156,3 +171,19 @@ class ActivityPredictor(LeafSystem):
                 waiting_percentiles=np.array(vector[1 + n_actions :]).reshape(n_actions, n_levels),
             )
         )
+
+
+def apply_predictor_config(
+    config, builder, *, human_events, actions: Sequence[str]
+) -> ActivityPredictor | None:
+    """Add the ActivityPredictor `config` describes to `builder` (named "activity_predictor"),
+    its "human_events" input connected to the output port `human_events`; None for NoPredictor."""
+    if isinstance(config, NoPredictor):
+        return None
+    predictor = builder.AddSystem(ActivityPredictor(config, actions))
+    predictor.set_name("activity_predictor")
+    builder.Connect(human_events, predictor.GetInputPort("human_events"))
+    return predictor
+
+
+__all__ = ["ActivityPredictor", "PredictorCore", "apply_predictor_config"]

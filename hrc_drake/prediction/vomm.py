@@ -46,13 +46,18 @@ class VariableOrderMarkovModel(SequenceModel):
             raise ValueError(f"{type(self).__name__}: max_depth={self.max_depth} must be >= 0")
         self.contexts_: dict[tuple[int, ...], np.ndarray] = {}
 
+    def _clone_state(self) -> None:
+        # the count arrays are replaced, never written in place: a shallow copy of the dict will do
+        self.contexts_ = dict(self.contexts_)
+
     def _add(self, context: tuple[int, ...], code: int, amount: float) -> None:
         counts = self.contexts_.get(context)
-        if counts is None:
-            counts = self.contexts_[context] = np.zeros(self.n_actions_)
+        counts = np.zeros(self.n_actions_) if counts is None else counts.copy()
         counts[code] += amount
         if amount < 0 and counts.sum() <= 0:
-            del self.contexts_[context]
+            self.contexts_.pop(context, None)
+        else:
+            self.contexts_[context] = counts
 
     def _learn_newest(self) -> None:
         buffer = self.buffer_

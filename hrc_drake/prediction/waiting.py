@@ -18,6 +18,7 @@ convolved with the duration pmfs in one FFT call.
 
 from __future__ import annotations
 
+import copy
 from collections import deque
 from collections.abc import Hashable, Mapping, Sequence
 
@@ -86,9 +87,23 @@ class WaitingTimePredictor:
         if not np.isfinite(duration) or duration <= 0:
             raise ValueError(f"WaitingTimePredictor: duration of {action!r} must be finite, > 0: {duration}")
         (code,) = self.model.encode([action])
-        self._samples.setdefault(code, deque(maxlen=self.max_samples)).append(duration)
+        # a new deque, not an append: clones share the others (copy-on-write)
+        samples = deque(self._samples.get(code, ()), maxlen=self.max_samples)
+        samples.append(duration)
+        self._samples[code] = samples
         self._samples_version += 1
         return self
+
+    def clone(self, model: SequenceModel | None = None) -> WaitingTimePredictor:
+        """A copy that `observe_duration` may change without touching this one (copy-on-write),
+        around `model` (default: the same model object). The memo of next-action predictions is
+        shared while the model is the same object (its entries are functions of the model)."""
+        new = copy.copy(self)
+        new._samples = dict(self._samples)
+        if model is not None and model is not self.model:
+            new.model = model
+            new._prob_cache_key, new._prob_cache = None, {}
+        return new
 
     def to_dict(self) -> dict:
         """JSON-ready parameters and duration samples (the model is saved on its own)."""

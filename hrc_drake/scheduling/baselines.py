@@ -1,6 +1,6 @@
 """Baseline robot schedulers on the same pcTPN (thesis 7.3.2 and 7.5.1).
 
-All share the policy interface of `MonteCarloScheduler`:
+All share the policy interface of `MonteCarloPolicy`:
 ``decide(marking, agent, now=0.0, elapsed=None) -> transition index`` and ``observe(j, delay)``.
 Collaborations with the human are joined reactively by all baselines: a robot commits to a
 human-robot action only when the human already waits for it (as the round robin of 7.5.1).
@@ -8,10 +8,12 @@ human-robot action only when the human already waits for it (as the round robin 
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from hrc_drake.scheduling.learning import DurationModel
-from hrc_drake.scheduling.montecarlo import simulate_trials
+from hrc_drake.scheduling.montecarlo import copy_generator, simulate_trials
 from hrc_drake.scheduling.petri import PcTPN
 
 _PROGRESS = ("end", "intent", "begin", "giveup")
@@ -61,6 +63,15 @@ class _Policy:
     def observe(self, transition, delay: float) -> None:
         """Baselines do not learn."""
 
+    def clone(self):
+        """A copy that `decide` may change without touching this one: its own random generator
+        (same state) and program pointers; the net, programs and plan are shared (read only)."""
+        new = copy.copy(self)
+        new.rng = copy_generator(self.rng)
+        if hasattr(self, "pointer"):
+            new.pointer = dict(self.pointer)
+        return new
+
     def _repair(self, marking, agent: str, en) -> int:
         """Random enabled robot action (no wait), as the deadlock repair of [93] (7.3.2)."""
         choices = _work_choices(self.net, en, agent)
@@ -69,7 +80,7 @@ class _Policy:
         return _wait_of(self.net, agent)
 
 
-class GreedyScheduler(_Policy):
+class GreedyPolicy(_Policy):
     """Start whatever is enabled: a random enabled action of the agent, else its wait."""
 
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
@@ -80,7 +91,7 @@ class GreedyScheduler(_Policy):
         return self._repair(marking, agent, en)
 
 
-class RoundRobinScheduler(_Policy):
+class RoundRobinPolicy(_Policy):
     """Fixed cyclic program per robot agent (7.5.1): the next action of the program when it is
     enabled, else the wait quantum; joins a collaboration as soon as the human waits for it.
     On a deadlock the program skips to its next enabled action.
@@ -101,7 +112,7 @@ class RoundRobinScheduler(_Policy):
                 for name in names:
                     key = f"{name}:begin"
                     if key not in net.transition_index or agent not in net.agents[net.transition_index[key]]:
-                        raise ValueError(f"RoundRobinScheduler: {name!r} is not a robot action of {agent!r}")
+                        raise ValueError(f"RoundRobinPolicy: {name!r} is not a robot action of {agent!r}")
                     js.append(net.transition_index[key])
             self.programs[agent] = js
         self.pointer = {agent: 0 for agent in net.robot_agents}
@@ -136,7 +147,7 @@ class _MeanDurations(DurationModel):
         return pools
 
 
-class DeterministicPlanScheduler(_Policy):
+class DeterministicPlanPolicy(_Policy):
     """Long-horizon plan on mean durations with random repair on deadlock (like [93], 7.3.2).
 
     Offline, `n_candidates` deterministic rollouts of the net (mean durations, the human

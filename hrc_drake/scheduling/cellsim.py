@@ -58,7 +58,7 @@ def simulate_cell(
     """Run the cell until `n_cycles` human pattern cycles, `n_products` products or `max_time`.
 
     policy: an object with ``decide(marking, agent, now, elapsed) -> transition`` and
-    ``observe(transition, delay)`` (MonteCarloScheduler or a baseline).
+    ``observe(transition, delay)`` (MonteCarloPolicy or a baseline).
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError("simulate_cell: rng must be a numpy.random.Generator")

@@ -3,6 +3,7 @@ the durations of the tasks and refines the distributions d; 7.3.1: empirical dis
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 from collections import deque
@@ -36,8 +37,17 @@ class DurationModel:
             raise ValueError(
                 f"DurationModel: delay of {self.net.transitions[j]!r} must be finite and >= 0, got {delay}"
             )
-        self.samples_[j].append(delay)
+        # a new deque, not an append: clones share the other transitions' (copy-on-write)
+        samples = deque(self.samples_[j], maxlen=self.window)
+        samples.append(delay)
+        self.samples_[j] = samples
         return self
+
+    def clone(self) -> DurationModel:
+        """A copy that `partial_fit` may change without touching this one (copy-on-write)."""
+        new = copy.copy(self)
+        new.samples_ = list(self.samples_)
+        return new
 
     def is_learned(self, j: int) -> bool:
         return len(self.samples_[j]) >= self.min_samples

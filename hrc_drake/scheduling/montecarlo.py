@@ -21,6 +21,7 @@ Two departures from a literal reading of 7.3.1, both measured on use case a (7.5
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
@@ -40,6 +41,14 @@ def wait_tick_delay(time, quantum: float):
 
 
 ROLLOUTS = ("uniform", "work_first")
+
+
+def copy_generator(rng: np.random.Generator) -> np.random.Generator:
+    """An independent generator in the same state as `rng` (same future draws); ~3x cheaper
+    than `copy.deepcopy`, used by the copy-on-write clones of the policies."""
+    bit_generator = type(rng.bit_generator)(0)
+    bit_generator.state = rng.bit_generator.state
+    return np.random.Generator(bit_generator)
 
 
 @dataclass
@@ -280,7 +289,7 @@ def evaluate_cost_tree(node: CostNode, beta: float, is_root: bool = True):
     )
 
 
-class MonteCarloScheduler:
+class MonteCarloPolicy:
     """Receding-horizon Monte Carlo scheduler (7.1 + 7.3.1).
 
     n_trials: N; horizon: T_sch (s); beta: percentile level of Algorithm 4 (0.5 = median).
@@ -304,7 +313,7 @@ class MonteCarloScheduler:
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
-                f"MonteCarloScheduler: need n_trials >= 1, horizon > 0, 0 <= beta <= 1; "
+                f"MonteCarloPolicy: need n_trials >= 1, horizon > 0, 0 <= beta <= 1; "
                 f"got {n_trials}, {horizon}, {beta}"
             )
         self.net = net
@@ -314,7 +323,7 @@ class MonteCarloScheduler:
         self.learn = learn
         self.min_branch_samples = int(min_branch_samples)
         if rollout not in ROLLOUTS:
-            raise ValueError(f"MonteCarloScheduler: rollout must be one of {ROLLOUTS}, got {rollout!r}")
+            raise ValueError(f"MonteCarloPolicy: rollout must be one of {ROLLOUTS}, got {rollout!r}")
         self.rollout = rollout
         self.durations_ = DurationModel(net, window=window, min_samples=min_samples)
         self.rng = np.random.default_rng(random_state)
@@ -328,7 +337,7 @@ class MonteCarloScheduler:
         choices = choices[en[choices]]
         if choices.size == 0:
             raise ValueError(
-                f"MonteCarloScheduler.decide: robot {agent!r} has no enabled transition (is it free?)"
+                f"MonteCarloPolicy.decide: robot {agent!r} has no enabled transition (is it free?)"
             )
         if choices.size == 1:
             self.last_percentiles_ = {}
@@ -350,6 +359,14 @@ class MonteCarloScheduler:
         )
         self.last_percentiles_ = {self.net.transitions[j]: p for j, p in percentiles.items()}
         return int(best)
+
+    def clone(self) -> MonteCarloPolicy:
+        """A copy that `decide` and `observe` may change without touching this one: its own
+        random generator (same state) and duration model; the net is shared."""
+        new = copy.copy(self)
+        new.durations_ = self.durations_.clone()
+        new.rng = copy_generator(self.rng)
+        return new
 
     def observe(self, transition, delay: float) -> None:
         """An observed firing delay of an uncontrollable transition (7.1 online learning)."""

@@ -7,58 +7,63 @@
 
 from __future__ import annotations
 
-import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
+from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
+from hrc_drake.errors import ConfigError
 from hrc_drake.messages import EventLog, RobotCommand
-from hrc_drake.scheduling.baselines import DeterministicPlanScheduler, GreedyScheduler, RoundRobinScheduler
+from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.compiler import compile_flow
-from hrc_drake.scheduling.montecarlo import MonteCarloScheduler
+from hrc_drake.scheduling.config import (
+    DeterministicPlanScheduler,
+    GreedyScheduler,
+    MonteCarloScheduler,
+    NoScheduler,
+    RoundRobinScheduler,
+)
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
 from hrc_drake.scheduling.petri import PcTPN
 from hrc_drake.scheduling.tracker import NetTracker
 
-KINDS = ("monte_carlo", "round_robin", "greedy", "deterministic")
 
-
-def make_policy(net: PcTPN, kind: str, params: dict, seed: int):
-    """Scheduler core for a scenario option ``scheduler: {kind, params}``.
-
-    monte_carlo params: n_trials (100), horizon (20), beta (0.5), window (30), min_samples (3),
-    min_branch_samples (20), rollout ("uniform").
-    deterministic params: plan_horizon (600), n_candidates (64).
-    """
-    params = dict(params or {})
-    if kind == "monte_carlo":
-        return MonteCarloScheduler(
+def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
+    """The scheduling policy (core) a scheduler config describes, validated first."""
+    if isinstance(config, NoScheduler):
+        raise ConfigError(path, "NoScheduler describes no scheduling policy")
+    if not hasattr(config, "validate"):
+        raise ConfigError(path, f"{type(config).__name__} is not a scheduler config")
+    config.validate(path)
+    if isinstance(config, MonteCarloScheduler):
+        return MonteCarloPolicy(
             net,
-            n_trials=int(params.get("n_trials", 100)),
-            horizon=float(params.get("horizon", 20.0)),
-            beta=float(params.get("beta", 0.5)),
-            window=int(params.get("window", 30)),
-            min_samples=int(params.get("min_samples", 3)),
-            min_branch_samples=int(params.get("min_branch_samples", 20)),
-            rollout=str(params.get("rollout", "uniform")),
+            n_trials=config.n_trials,
+            horizon=config.horizon,
+            beta=config.beta,
+            window=config.window,
+            min_samples=config.min_samples,
+            learn=config.learn,
             random_state=seed,
+            min_branch_samples=config.min_branch_samples,
+            rollout=config.rollout,
         )
-    if kind == "round_robin":
-        return RoundRobinScheduler(net, random_state=seed)
-    if kind == "greedy":
-        return GreedyScheduler(net, random_state=seed)
-    if kind == "deterministic":
-        return DeterministicPlanScheduler(
-            net,
-            plan_horizon=float(params.get("plan_horizon", 600.0)),
-            n_candidates=int(params.get("n_candidates", 64)),
-            random_state=seed,
+    if isinstance(config, RoundRobinScheduler):
+        try:
+            return RoundRobinPolicy(net, programs=config.programs or None, random_state=seed)
+        except ValueError as err:
+            raise ConfigError(f"{path}.programs", str(err)) from None
+    if isinstance(config, GreedyScheduler):
+        return GreedyPolicy(net, random_state=seed)
+    if isinstance(config, DeterministicPlanScheduler):
+        return DeterministicPlanPolicy(
+            net, plan_horizon=config.plan_horizon, n_candidates=config.n_candidates, random_state=seed
         )
-    raise ValueError(f"scheduler kind {kind!r} is not one of {KINDS}")
+    raise ConfigError(path, f"{type(config).__name__} is not a scheduler config")
 
 
-def net_from_scenario(scenario) -> PcTPN:
-    """Compile the scenario's flow (scheduler param wait_quantum, default 1 s; c_R, c_H as
-    cost_robot / cost_human)."""
-    params = scenario.scheduler.params or {}
+def net_from_scenario(scenario, config) -> PcTPN:
+    """Compile the scenario's flow with the net fields of the scheduler `config` (wait_quantum
+    t_w, cost_robot c_R, cost_human c_H)."""
     robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
     return compile_flow(
         scenario.flow,
@@ -66,10 +71,31 @@ def net_from_scenario(scenario) -> PcTPN:
         scenario.operator.name,
         scenario.operator.pattern,
         robots,
-        wait_quantum=float(params.get("wait_quantum", 1.0)),
-        cost_robot=float(params.get("cost_robot", 1.0)),
-        cost_human=float(params.get("cost_human", 1.0)),
+        wait_quantum=float(config.wait_quantum),
+        cost_robot=float(config.cost_robot),
+        cost_human=float(config.cost_human),
     )
+
+
+class SchedulerCore:
+    """What a Scheduler changes during a run: the policy (learned durations, random generator,
+    program pointers), the belief of the net (NetTracker, observing into the policy), the last
+    event seq read from each log and the commands issued (an immutable EventLog). Kept frozen in
+    the Context; `clone` copies only what an update writes (copy-on-write)."""
+
+    def __init__(self, policy, tracker: NetTracker):
+        self.policy = policy
+        self.tracker = tracker
+        self.last_human = -1
+        self.last_robot = -1
+        self.commands = EventLog()
+
+    def clone(self) -> SchedulerCore:
+        new = object.__new__(SchedulerCore)
+        new.policy = self.policy.clone()
+        new.tracker = self.tracker.clone(new.policy)
+        new.last_human, new.last_robot, new.commands = self.last_human, self.last_robot, self.commands
+        return new
 
 
 class Scheduler(LeafSystem):
@@ -77,108 +103,149 @@ class Scheduler(LeafSystem):
 
     Inputs: "human_events" (EventLog of HumanEvent), "robot_events" (EventLog of RobotEvent).
     Output: "robot_commands" (EventLog of RobotCommand, seq increasing).
-    kind: monte_carlo | round_robin | greedy | deterministic; params: see `make_policy`.
-    The core (policy + belief) lives on the system: build a new Scheduler for each run.
+    config: a kind of `hrc_drake.scheduling.config` (not NoScheduler); `net` should be compiled
+    with its net fields (`net_from_scenario`). seed: of the policy's random generator.
+
+    State (in the Context, set again at initialization): abstract 0, Frozen(SchedulerCore),
+    replaced (copy-on-write) only when new events arrive. Updated at `config.rate` Hz.
     """
 
-    def __init__(
-        self, net: PcTPN, kind: str, params: dict, robot_agents: list[str], seed: int, rate: float = 10.0
-    ):
+    def __init__(self, net: PcTPN, config, robot_agents: list[str], seed: int):
         super().__init__()
-        if not 0 < rate <= 50:
-            raise ValueError(f"Scheduler: rate must be in (0, 50] Hz, got {rate}")
+        if isinstance(config, NoScheduler):
+            raise ConfigError("scheduler", "NoScheduler builds no Scheduler")
+        policy = make_policy(net, config, seed)  # validates the config
         unknown = [a for a in robot_agents if f"avail:{a}" not in net.place_index]
         if unknown:
             raise ValueError(f"Scheduler: robot agents {unknown} are not in the net")
         self.net = net
+        self.config = config
         self.robot_agents = list(robot_agents)
-        self.policy = make_policy(net, kind, params, seed)
-        self.tracker = NetTracker(net, self.policy)
-        self._commands: list[RobotCommand] = []
-        self._last_human = -1
-        self._last_robot = -1
+        self._initial_core = SchedulerCore(policy, NetTracker(net, policy))
         self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
-        self._count_index = self.DeclareDiscreteState(1)
+        self._core_index = declare_state(self, lambda context: Frozen(self._initial_core))
         self.DeclareAbstractOutputPort(
             "robot_commands",
             lambda: AbstractValue.Make(EventLog()),
             self._calc_commands,
-            prerequisites_of_calc={self.xd_ticket()},
+            # drake_helpers.state_ticket passes an int, which pydrake 1.51 refuses: the index type here
+            prerequisites_of_calc={self.abstract_state_ticket(AbstractStateIndex(self._core_index))},
         )
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / rate, 0.0, self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
 
     @classmethod
-    def from_flow(
-        cls,
-        flow,
-        buffers,
-        human_agent,
-        human_pattern,
-        robot_agents,
-        kind="monte_carlo",
-        params=None,
-        seed=0,
-        rate=10.0,
-        wait_quantum=1.0,
-    ):
-        net = compile_flow(flow, buffers, human_agent, human_pattern, robot_agents, wait_quantum)
-        return cls(net, kind, params or {}, robot_agents, seed, rate)
+    def from_flow(cls, flow, buffers, human_agent, human_pattern, robot_agents, config, seed=0):
+        """A Scheduler on the net compiled from a flow with the config's net fields."""
+        net = compile_flow(
+            flow,
+            buffers,
+            human_agent,
+            human_pattern,
+            robot_agents,
+            wait_quantum=float(config.wait_quantum),
+            cost_robot=float(config.cost_robot),
+            cost_human=float(config.cost_human),
+        )
+        return cls(net, config, robot_agents, seed)
 
-    @property
-    def commands(self) -> tuple[RobotCommand, ...]:
-        """Every RobotCommand issued so far (for tests and reports after a run)."""
-        return tuple(self._commands)
+    def core(self, context) -> SchedulerCore:
+        """The scheduler's core in `context` (read only: do not change it)."""
+        return get_state(context, self._core_index).core
+
+    def commands(self, context) -> tuple[RobotCommand, ...]:
+        """Every RobotCommand issued so far in `context`."""
+        return self.core(context).commands.events
 
     def _calc_commands(self, context, output):
-        n = int(context.get_discrete_state(self._count_index).get_value()[0])
-        output.set_value(EventLog(tuple(self._commands[:n])))
+        output.set_value(get_state(context, self._core_index).core.commands)
 
-    def _update(self, context, discrete_state):
+    def _update(self, context, state):
         t = context.get_time()
-        human = (
-            self.get_input_port(0).Eval(context) if self.get_input_port(0).HasValue(context) else EventLog()
-        )
-        robot = (
-            self.get_input_port(1).Eval(context) if self.get_input_port(1).HasValue(context) else EventLog()
-        )
+        core = get_state(context, self._core_index).core
+        human = input_or(self.get_input_port(0), context, EventLog())
+        robot = input_or(self.get_input_port(1), context, EventLog())
         # Events are applied in time order across the two logs.
-        merged = [(e.time, 0, e) for e in human.since(self._last_human)]
-        merged += [(e.time, 1, e) for e in robot.since(self._last_robot)]
+        merged = [(e.time, 0, e) for e in human.since(core.last_human)]
+        merged += [(e.time, 1, e) for e in robot.since(core.last_robot)]
+        if not merged:  # nothing new: the core stays as it is (no copy)
+            return EventStatus.DidNothing()
         merged.sort(key=lambda x: (x[0], x[1]))
+        core = core.clone()
+        tracker, net = core.tracker, self.net
         ready = []
         for _, source, e in merged:
             if source == 0:
-                self._last_human = e.seq
-                self.tracker.human_event(e.action, e.kind, e.time)
+                core.last_human = e.seq
+                tracker.human_event(e.action, e.kind, e.time)
             else:
-                self._last_robot = e.seq
+                core.last_robot = e.seq
                 if e.agent not in self.robot_agents:
                     continue
-                self.tracker.robot_event(e.agent, e.action, e.kind, e.time)
+                tracker.robot_event(e.agent, e.action, e.kind, e.time)
                 if e.kind == "ready" and e.agent not in ready:
                     ready.append(e.agent)
+        commands = list(core.commands.events)
         for agent in ready:
-            avail = self.net.place_index[f"avail:{agent}"]
-            if self.tracker.m[avail] <= 0:
+            avail = net.place_index[f"avail:{agent}"]
+            if tracker.m[avail] <= 0:
                 continue  # already commanded with a partner in this tick
-            j = int(self.policy.decide(self.tracker.m, agent, now=t, elapsed=self.tracker.elapsed(t)))
-            self.tracker.command(j, t)
-            net = self.net
+            j = int(core.policy.decide(tracker.m, agent, now=t, elapsed=tracker.elapsed(t)))
+            tracker.command(j, t)
             action = None if net.role[j] == "wait" else net.action[j]
             for a in net.agents[j]:
-                self._commands.append(
+                commands.append(
                     RobotCommand(
                         time=t,
                         agent=a,
                         action=action,
-                        seq=len(self._commands) + 1,
+                        seq=len(commands) + 1,
                         wait=net.wait_quantum if action is None else 0.0,
                     )
                 )
-        discrete_state.get_mutable_vector(self._count_index).SetFromVector(
-            np.array([float(len(self._commands))])
-        )
+        if len(commands) != len(core.commands.events):
+            core.commands = EventLog(tuple(commands))
+        set_state(state, self._core_index, Frozen(core))
+        return EventStatus.Succeeded()
 
 
-__all__ = ["Scheduler", "make_policy", "net_from_scenario", "KINDS"]
+def apply_scheduler_config(
+    config,
+    builder,
+    *,
+    human_events,
+    robot_events,
+    robot_commands_input=None,
+    net: PcTPN | None = None,
+    scenario=None,
+    robot_agents: list[str] | None = None,
+    seed: int = 0,
+) -> Scheduler | None:
+    """Add the Scheduler `config` describes to `builder` (named "scheduler"); None for NoScheduler.
+
+    human_events, robot_events: output ports of the two event logs; robot_commands_input: the
+    input port the commands go to (e.g. the task executor's), if any. The net is `net`, or
+    compiled from `scenario` with the config's net fields; robot_agents default to the
+    scenario's arms.
+    """
+    if isinstance(config, NoScheduler):
+        return None
+    if net is None:
+        if scenario is None:
+            raise ValueError("apply_scheduler_config: give the net or the scenario")
+        config.validate("scheduler")
+        net = net_from_scenario(scenario, config)
+    if robot_agents is None:
+        if scenario is None:
+            raise ValueError("apply_scheduler_config: give robot_agents or the scenario")
+        robot_agents = [arm.agent for robot in scenario.robots for arm in robot.arms]
+    scheduler = builder.AddSystem(Scheduler(net, config, robot_agents, seed))
+    scheduler.set_name("scheduler")
+    builder.Connect(human_events, scheduler.GetInputPort("human_events"))
+    builder.Connect(robot_events, scheduler.GetInputPort("robot_events"))
+    if robot_commands_input is not None:
+        builder.Connect(scheduler.GetOutputPort("robot_commands"), robot_commands_input)
+    return scheduler
+
+
+__all__ = ["Scheduler", "SchedulerCore", "apply_scheduler_config", "make_policy", "net_from_scenario"]

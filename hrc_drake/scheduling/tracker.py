@@ -4,6 +4,8 @@ and the observed delays update the duration models)."""
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from hrc_drake.scheduling.petri import PcTPN
@@ -23,6 +25,16 @@ class NetTracker:
         self.m = net.m0.copy()
         self.enabled_since = np.where(net.enabled(self.m), 0.0, np.nan)
         self.now = 0.0
+
+    def clone(self, policy=None) -> NetTracker:
+        """A copy whose marking and clocks may change without touching this one, observing
+        into `policy` (default: the same policy object)."""
+        new = copy.copy(self)
+        new.m = self.m.copy()
+        new.enabled_since = self.enabled_since.copy()
+        if policy is not None:
+            new.policy = policy
+        return new
 
     def _fire(self, j: int, t: float, observe: bool = True):
         net = self.net

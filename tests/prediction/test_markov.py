@@ -12,6 +12,7 @@ from hrc_drake.prediction import (
     VariableOrderMarkovModel,
     make_sequence_model,
 )
+from hrc_drake.prediction.config import HigherOrderMarkovPredictor, legacy_config
 from hrc_drake.prediction.markov import mtd_regression, simplex_least_squares, transition_matrices
 
 
@@ -143,18 +144,21 @@ def test_labels_and_bad_input():
 
 
 def test_one_symbol_history_and_factory():
-    model = make_sequence_model("homm", {"order": 3.0, "buffer_size": 50.0}, ["a", "b", "c"])
+    model = make_sequence_model(HigherOrderMarkovPredictor(order=3, buffer_size=50), ["a", "b", "c"])
     assert isinstance(model, HigherOrderMarkovModel) and model.order == 3
     for a in "abcabcabc":
         model.partial_fit(a)
     p = model.predict_proba(["b"])
     assert p.argmax() == 2 and p.sum() == pytest.approx(1.0)
-    with pytest.raises(ValueError, match="unknown"):
-        make_sequence_model("lstm", {}, ["a"])
+    with pytest.raises(ValueError, match="not a predictor config"):
+        make_sequence_model("lstm", ["a"])
     with pytest.raises(ValueError, match="not a parameter"):
-        make_sequence_model("markov", {"order": 2.0}, ["a"])
+        legacy_config("markov", {"order": 2.0})
     with pytest.raises(ValueError, match="integer"):
-        make_sequence_model("homm", {"order": 2.5}, ["a"])
+        legacy_config("homm", {"order": 2.5})
+    with pytest.raises(ValueError, match="integer"):
+        make_sequence_model(HigherOrderMarkovPredictor(order=2.5), ["a"])
+    assert legacy_config("homm", {"order": 2.0}) == HigherOrderMarkovPredictor(order=2)
 
 
 def test_predict_proba_many_equals_one_by_one():

@@ -9,7 +9,13 @@ from pydrake.common.value import AbstractValue  # noqa: E402
 from pydrake.systems.analysis import Simulator  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 
+from hrc_drake.errors import ConfigError  # noqa: E402
 from hrc_drake.messages import EventLog, Forecast, HumanEvent  # noqa: E402
+from hrc_drake.prediction.config import (  # noqa: E402
+    HigherOrderMarkovPredictor,
+    NoPredictor,
+    SuffixTreePredictor,
+)
 from hrc_drake.prediction.systems import ActivityPredictor  # noqa: E402
 
 
@@ -39,17 +45,18 @@ def _script(cycles):
     return events
 
 
-def _diagram(script, **kwargs):
+def _diagram(script, config=None):
     builder = DiagramBuilder()
     source = builder.AddSystem(ScriptedEvents(script))
-    predictor = builder.AddSystem(ActivityPredictor(["a", "b"], **kwargs))
+    config = config or HigherOrderMarkovPredictor(rate=10.0)
+    predictor = builder.AddSystem(ActivityPredictor(config, ["a", "b"]))
     builder.Connect(source.get_output_port(0), predictor.GetInputPort("human_events"))
     diagram = builder.Build()
     return diagram, predictor
 
 
 def test_forecast_in_a_diagram():
-    diagram, predictor = _diagram(_script(6), kind="homm", params={"order": 1, "resolution": 0.1})
+    diagram, predictor = _diagram(_script(6), HigherOrderMarkovPredictor(order=1, resolution=0.1, rate=10.0))
     simulator = Simulator(diagram)
     context = predictor.GetMyContextFromRoot(simulator.get_context())
     port = predictor.GetOutputPort("forecast")
@@ -65,11 +72,11 @@ def test_forecast_in_a_diagram():
     assert forecast.next_probabilities[1] > 0.9
     np.testing.assert_allclose(forecast.waiting_percentiles[1], [1.5, 1.5, 1.5], atol=1e-9)
     np.testing.assert_allclose(forecast.waiting_percentiles[0], [2.5, 2.5, 2.5], atol=1e-9)
-    np.testing.assert_allclose(predictor.waiting.durations("a"), [2.0] * 5)
+    np.testing.assert_allclose(predictor.core(context).waiting.durations("a"), [2.0] * 5)
 
 
 def test_suffix_tree_kind_and_bad_events():
-    diagram, predictor = _diagram(_script(3), kind="suffix_tree", params={"order": 2}, rate=5.0)
+    diagram, predictor = _diagram(_script(3), SuffixTreePredictor(order=2, rate=5.0))
     simulator = Simulator(diagram)
     simulator.AdvanceTo(8.0)
     context = predictor.GetMyContextFromRoot(simulator.get_context())
@@ -81,5 +88,9 @@ def test_suffix_tree_kind_and_bad_events():
     diagram, _ = _diagram(bad)
     with pytest.raises(ValueError, match="'c'"):
         Simulator(diagram).AdvanceTo(0.2)
-    with pytest.raises(ValueError, match="unknown"):
-        ActivityPredictor(["a"], kind="lstm")
+    with pytest.raises(ConfigError, match="predictor.order"):
+        ActivityPredictor(HigherOrderMarkovPredictor(order=11), ["a"])
+    with pytest.raises(ConfigError):
+        ActivityPredictor(NoPredictor(), ["a"])
+    with pytest.raises(ConfigError, match="not a predictor config"):
+        ActivityPredictor("lstm", ["a"])

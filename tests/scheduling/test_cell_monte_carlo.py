@@ -7,11 +7,13 @@ import pytest
 
 pytest.importorskip("pydrake")
 
+from pydrake.systems.analysis import Simulator  # noqa: E402
+
 from hrc_drake.cell.build import build_cell  # noqa: E402
-from hrc_drake.cell.run import simulate  # noqa: E402
+from hrc_drake.cell.metrics import summarize  # noqa: E402
 from hrc_drake.cell.scenario import load_scenario  # noqa: E402
 from hrc_drake.messages import RobotEvent  # noqa: E402
-from hrc_drake.scheduling.montecarlo import MonteCarloScheduler  # noqa: E402
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[2] / "diagrams" / "torch_clock.yaml"
 
@@ -22,9 +24,14 @@ def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
     scenario.scheduler.kind = "monte_carlo"
     scenario.scheduler.params = {"n_trials": 40, "horizon": 20.0}
     cell = build_cell(scenario)
-    result = simulate(cell, 120.0, progress=None)
+    # the run's commands live in its Context: simulate here and read them from it
+    simulator = Simulator(cell.diagram)
+    simulator.Initialize()
+    simulator.AdvanceTo(120.0)
+    metrics = summarize(cell.recorder.log, 120.0, cell.agents, cell.product_actions)
     scheduler = cell.systems["scheduler"]
-    commands = scheduler.commands
+    context = scheduler.GetMyContextFromRoot(simulator.get_context())
+    commands = scheduler.commands(context)
     begins = [
         e for e in cell.recorder.log.events if isinstance(e, RobotEvent) and e.kind == "begin" and e.action
     ]
@@ -44,7 +51,8 @@ def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
         waits = [c.wait for c in commands if c.agent == agent and c.action is None]
         assert all(w == scheduler.net.wait_quantum for w in waits)
     # torches and clocks get finished (the first after ~65 s: a torch takes six actions)
-    assert result.metrics["products_finished"] >= 2
-    assert cell.world.finished_products == result.metrics["products_finished"]
-    assert isinstance(scheduler.policy, MonteCarloScheduler)
-    assert scheduler.policy.n_trials == 40 and scheduler.policy.horizon == 20.0
+    assert metrics["products_finished"] >= 2
+    assert cell.world.finished_products == metrics["products_finished"]
+    policy = scheduler.core(context).policy
+    assert isinstance(policy, MonteCarloPolicy)
+    assert policy.n_trials == 40 and policy.horizon == 20.0

@@ -1,11 +1,11 @@
 import numpy as np
 
 from hrc_drake.scheduling import thesis_cells as tc
-from hrc_drake.scheduling.baselines import GreedyScheduler, RoundRobinScheduler
+from hrc_drake.scheduling.baselines import GreedyPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.learning import DurationModel
-from hrc_drake.scheduling.montecarlo import MonteCarloScheduler, simulate_trials
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy, simulate_trials
 
 
 def _net_7_6():
@@ -31,7 +31,7 @@ def test_seeded_scheduler_is_reproducible():
     net = _net_7_6()
     picks = []
     for _ in range(2):
-        s = MonteCarloScheduler(net, n_trials=60, horizon=10.0, random_state=3)
+        s = MonteCarloPolicy(net, n_trials=60, horizon=10.0, random_state=3)
         picks.append([s.decide(net.m0, "robot") for _ in range(3)] + [s.last_percentiles_])
     assert picks[0] == picks[1]
 
@@ -56,7 +56,7 @@ def test_cell_simulator_round_robin_hand_checked():
     flow.actions[1].duration.kind, flow.actions[1].duration.mean = "fixed", 3.0
     flow.actions[2].duration.kind, flow.actions[2].duration.mean = "fixed", 6.0
     net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0)
-    run = simulate_cell(net, RoundRobinScheduler(net), np.random.default_rng(0), n_cycles=3)
+    run = simulate_cell(net, RoundRobinPolicy(net), np.random.default_rng(0), n_cycles=3)
     # t=0 robot action1 (3 s), human action2 (3 s); at 3 both done, collab 3-9; cycle = 9 s
     # after the first cycle action1 runs 9-12 while the human does action2 9-12 -> cycles of 9 s
     assert np.allclose(run.cycle_times, [9.0, 9.0, 9.0])
@@ -72,7 +72,7 @@ def test_monte_carlo_runs_in_the_cell_and_is_seeded():
     runs = [
         simulate_cell(
             net,
-            MonteCarloScheduler(net, n_trials=40, horizon=20.0, random_state=1),
+            MonteCarloPolicy(net, n_trials=40, horizon=20.0, random_state=1),
             np.random.default_rng(7),
             n_cycles=1,
         )
@@ -80,5 +80,5 @@ def test_monte_carlo_runs_in_the_cell_and_is_seeded():
     ]
     assert runs[0].events == runs[1].events
     assert len(runs[0].cycle_ends) == 1 and len(runs[0].product_times) >= 1
-    greedy = simulate_cell(net, GreedyScheduler(net, random_state=0), np.random.default_rng(7), n_cycles=1)
+    greedy = simulate_cell(net, GreedyPolicy(net, random_state=0), np.random.default_rng(7), n_cycles=1)
     assert len(greedy.cycle_ends) == 1

@@ -8,6 +8,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 
 from hrc_drake.messages import EventLog, HumanEvent, RobotEvent  # noqa: E402
 from hrc_drake.scheduling import thesis_cells as tc  # noqa: E402
+from hrc_drake.scheduling.config import MonteCarloScheduler, RoundRobinScheduler  # noqa: E402
 from hrc_drake.scheduling.systems import Scheduler  # noqa: E402
 
 
@@ -37,7 +38,7 @@ def test_scheduler_answers_ready_events_in_a_diagram():
     human = builder.AddSystem(ScriptedLog(human_events))
     robot = builder.AddSystem(ScriptedLog(robot_events))
     sched = builder.AddSystem(
-        Scheduler.from_flow(flow, buffers, "human", pattern, robots, kind="round_robin", seed=0, rate=10.0)
+        Scheduler.from_flow(flow, buffers, "human", pattern, robots, RoundRobinScheduler(rate=10.0), seed=0)
     )
     builder.Connect(human.get_output_port(), sched.GetInputPort("human_events"))
     builder.Connect(robot.get_output_port(), sched.GetInputPort("robot_events"))
@@ -51,7 +52,8 @@ def test_scheduler_answers_ready_events_in_a_diagram():
     assert [(c.agent, c.action) for c in commands] == [("robot", "action1"), ("robot", "action3")]
     assert [c.seq for c in commands] == [1, 2]
     assert commands[1].time == pytest.approx(3.3)
-    m = sched.tracker.net.marking_dict(sched.tracker.m)
+    tracker = sched.core(ctx).tracker
+    m = tracker.net.marking_dict(tracker.m)
     assert m.get("cwait:action3") == 1 and m.get("hwait:1") == 1
 
 
@@ -63,8 +65,10 @@ def test_monte_carlo_scheduler_system_builds_and_answers():
     )
     human = builder.AddSystem(ScriptedLog([]))
     sched = builder.AddSystem(
-        Scheduler.from_flow(flow, buffers, "human", pattern, robots, kind="monte_carlo",
-                            params={"n_trials": 30, "horizon": 20.0}, seed=1, wait_quantum=3.0)
+        Scheduler.from_flow(
+            flow, buffers, "human", pattern, robots,
+            MonteCarloScheduler(n_trials=30, horizon=20.0, wait_quantum=3.0), seed=1,
+        )
     )
     builder.Connect(human.get_output_port(), sched.GetInputPort("human_events"))
     builder.Connect(robot.get_output_port(), sched.GetInputPort("robot_events"))

@@ -1,0 +1,209 @@
+"""Typed configs of the robot scheduler, one dataclass per kind (thesis 6-7).
+
+A scenario chooses one by its YAML tag, e.g. ``scheduler: !MonteCarloScheduler {n_trials: 100}``.
+Every kind that runs a scheduler carries the fields of the pcTPN it plans on (wait quantum t_w,
+idle costs c_R, c_H) and its update rate. No pydrake here, and real annotations (pydrake's
+typed YAML loader reads them).
+"""
+
+import math
+from dataclasses import dataclass, field
+from typing import Union
+
+from hrc_drake.errors import check
+
+#: rollout policies of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.ROLLOUTS)
+ROLLOUTS = ("uniform", "work_first")
+
+
+def _finite(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _integer(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+@dataclass
+class NoScheduler:
+    """No scheduler: every robot runs its program in a fixed order (DESIGN.md default)."""
+
+    def validate(self, path: str) -> None:
+        """Nothing to check."""
+
+
+@dataclass
+class _SchedulerCommon:
+    """The net and rate fields every scheduler kind shares."""
+
+    #: t_w, the quantum of a robot's explicit wait (s), thesis 6.3.1
+    wait_quantum: float = 1.0
+    #: c_R, cost per second of an idle robot (thesis 7.3.1, C = c_R sum W_R + c_H W_H)
+    cost_robot: float = 1.0
+    #: c_H, cost per second of the idle human
+    cost_human: float = 1.0
+    #: how often the scheduler reads the event logs (Hz); a decision answers each "ready" event
+    rate: float = 10.0
+
+    def _validate_common(self, path: str) -> None:
+        check(
+            _finite(self.wait_quantum) and 1e-3 <= self.wait_quantum <= 600,
+            f"{path}.wait_quantum",
+            f"{self.wait_quantum} must be in [0.001, 600] s",
+        )
+        for name in ("cost_robot", "cost_human"):
+            value = getattr(self, name)
+            check(_finite(value) and 0 <= value <= 1e6, f"{path}.{name}", f"{value} must be in [0, 1e6]")
+        rate_ok = _finite(self.rate) and 0 < self.rate <= 50
+        check(rate_ok, f"{path}.rate", f"{self.rate} must be in (0, 50] Hz")
+
+    def validate(self, path: str) -> None:
+        """Raise ConfigError naming `path.<field>` for a bad value."""
+        self._validate_common(path)
+
+
+@dataclass
+class RoundRobinScheduler(_SchedulerCommon):
+    """Fixed cyclic program per robot agent, joins collaborations reactively (7.5.1)."""
+
+    #: robot agent -> its program of action names; an agent left out runs its robot-only actions
+    #: in flow order
+    programs: dict[str, list[str]] = field(default_factory=dict)
+
+    def validate(self, path: str) -> None:
+        self._validate_common(path)
+        for agent, names in self.programs.items():
+            check(
+                all(isinstance(n, str) and n for n in names),
+                f"{path}.programs.{agent}",
+                "must be a list of action names",
+            )
+
+
+@dataclass
+class GreedyScheduler(_SchedulerCommon):
+    """A random enabled action of the agent, else its wait (baseline, 7.3.2)."""
+
+
+@dataclass
+class DeterministicPlanScheduler(_SchedulerCommon):
+    """Long-horizon plan on mean durations with random repair on deadlock (baseline, 7.3.2)."""
+
+    #: horizon of the offline plan (s)
+    plan_horizon: float = 600.0
+    #: deterministic rollouts the plan is chosen from
+    n_candidates: int = 64
+
+    def validate(self, path: str) -> None:
+        self._validate_common(path)
+        check(
+            _finite(self.plan_horizon) and 0 < self.plan_horizon <= 86_400,
+            f"{path}.plan_horizon",
+            f"{self.plan_horizon} must be in (0, 86400] s",
+        )
+        check(
+            _integer(self.n_candidates) and 1 <= self.n_candidates <= 100_000,
+            f"{path}.n_candidates",
+            f"{self.n_candidates} must be an integer in 1..100000",
+        )
+
+
+@dataclass
+class MonteCarloScheduler(_SchedulerCommon):
+    """Receding-horizon Monte Carlo scheduler, thesis 7.1 + 7.3.1 (Algorithm 4)."""
+
+    #: N, Monte Carlo trials per decision
+    n_trials: int = 100
+    #: T_sch, horizon of each trial (s)
+    horizon: float = 20.0
+    #: beta, percentile level of the trial costs compared by Algorithm 4 (0.5: the median)
+    beta: float = 0.5
+    #: observed delays kept per transition by the online duration model (sliding window)
+    window: int = 30
+    #: observed delays a transition needs before its empirical distribution replaces the prior
+    min_samples: int = 3
+    #: trials each child of a controllable branching below the root needs before rule (b) of
+    #: Algorithm 4 applies (1: Algorithm 4 literally)
+    min_branch_samples: int = 20
+    #: how controllable conflicts after the root are resolved: "uniform" (7.3.1) or "work_first"
+    rollout: str = "uniform"
+    #: learn the delays online from observed firings (thesis 7.1)
+    learn: bool = True
+
+    def validate(self, path: str) -> None:
+        self._validate_common(path)
+        check(
+            _integer(self.n_trials) and 1 <= self.n_trials <= 100_000,
+            f"{path}.n_trials",
+            f"{self.n_trials} must be an integer in 1..100000",
+        )
+        check(
+            _finite(self.horizon) and 0 < self.horizon <= 3600,
+            f"{path}.horizon",
+            f"{self.horizon} must be in (0, 3600] s",
+        )
+        check(_finite(self.beta) and 0 <= self.beta <= 1, f"{path}.beta", f"{self.beta} must be in [0, 1]")
+        check(
+            _integer(self.window) and 1 <= self.window <= 100_000,
+            f"{path}.window",
+            f"{self.window} must be an integer in 1..100000",
+        )
+        check(
+            _integer(self.min_samples) and 1 <= self.min_samples <= 100_000,
+            f"{path}.min_samples",
+            f"{self.min_samples} must be an integer in 1..100000",
+        )
+        check(
+            _integer(self.min_branch_samples) and 1 <= self.min_branch_samples <= 100_000,
+            f"{path}.min_branch_samples",
+            f"{self.min_branch_samples} must be an integer in 1..100000",
+        )
+        check(self.rollout in ROLLOUTS, f"{path}.rollout", f"{self.rollout!r} is not one of {ROLLOUTS}")
+
+
+#: Every scheduler kind, as a scenario field type (chosen in YAML by tag).
+SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typing.Union
+    NoScheduler,
+    RoundRobinScheduler,
+    GreedyScheduler,
+    DeterministicPlanScheduler,
+    MonteCarloScheduler,
+]
+
+#: today's scenario kind name -> config class
+SCHEDULER_KINDS: dict[str, type] = {
+    "none": NoScheduler,
+    "round_robin": RoundRobinScheduler,
+    "greedy": GreedyScheduler,
+    "deterministic": DeterministicPlanScheduler,
+    "monte_carlo": MonteCarloScheduler,
+}
+
+
+def legacy_config(kind: str, params: dict, path: str = "scheduler"):
+    """TEMPORARY: until the typed scenario schema lands. Today's scenario option
+    ``scheduler: {kind, params}`` as the typed config of that kind (validated): integral floats
+    become ints where the field is an int, unknown keys are errors."""
+    import dataclasses
+
+    from hrc_drake.errors import ConfigError
+
+    if kind not in SCHEDULER_KINDS:
+        raise ConfigError(f"{path}.kind", f"{kind!r} is not one of {sorted(SCHEDULER_KINDS)}")
+    cls = SCHEDULER_KINDS[kind]
+    fields = {f.name: f.type for f in dataclasses.fields(cls)}
+    values = {}
+    for key, value in dict(params or {}).items():
+        if key not in fields:
+            known = sorted(fields)
+            raise ConfigError(f"{path}.params.{key}", f"not a parameter of kind {kind!r}; known: {known}")
+        if fields[key] is int and isinstance(value, float):
+            if not value.is_integer():
+                raise ConfigError(f"{path}.params.{key}", f"{value} must be an integer")
+            value = int(value)
+        elif fields[key] is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        values[key] = value
+    config = cls(**values)
+    config.validate(path)
+    return config
