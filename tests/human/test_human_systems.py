@@ -38,9 +38,10 @@ def test_operator_and_camera_simulate_two_seconds():
     context = simulator.get_mutable_context()
     cam_context = camera.GetMyContextFromRoot(context)
     first = camera.GetOutputPort("skeleton_frame").Eval(cam_context)
-    assert first.time == 0.0 and first.tracked.all()  # frame 0 is measured when first read
+    assert first.time == 0.0 and first.tracked.all()
     simulator.AdvanceTo(2.0)
     src_context = source.GetMyContextFromRoot(context)
+    op = source.operator(src_context)  # the run's operator lives in the context
     log = source.GetOutputPort("human_events").Eval(src_context)
     assert isinstance(log, EventLog)
     assert [(e.kind, e.time) for e in log.events[:3]] == [("begin", 0.0), ("end", 0.8), ("begin", 0.8)]
@@ -90,7 +91,7 @@ def test_recorded_source():
         OperatorSource(None, rate=100.0)
 
 
-def test_camera_frames_are_held_and_reproducible():
+def test_camera_frames_are_pure_and_reproducible():
     frames = []
     for _ in range(2):
         op, source, camera, simulator = build()
@@ -98,15 +99,20 @@ def test_camera_frames_are_held_and_reproducible():
         context = camera.GetMyContextFromRoot(simulator.get_context())
         frames.append(camera.GetOutputPort("skeleton_frame").Eval(context))
     np.testing.assert_array_equal(frames[0].points, frames[1].points)
-    # Within one frame period the output is held, even when the pose has moved on.
+    # The frame is the pose at the context's time; within one frame period the noise is the same.
     op, source, camera, simulator = build()
     simulator.AdvanceTo(1.0)
-    context = camera.GetMyContextFromRoot(simulator.get_context())
-    held = camera.GetOutputPort("skeleton_frame").Eval(context)
+    root = simulator.get_context()
+    source_context = source.GetMyContextFromRoot(root)
+    truth = source.GetOutputPort("skeleton").Eval(source_context).reshape(8, 3)
+    frame = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(root))
+    assert frame.time == pytest.approx(1.0)
+    noise = frame.points - truth
     simulator.AdvanceTo(1.0 + 0.5 / 30.0)
-    later = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(simulator.get_context()))
-    assert later.time == held.time
-    np.testing.assert_array_equal(later.points, held.points)
+    truth = source.GetOutputPort("skeleton").Eval(source_context).reshape(8, 3)
+    later = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(root))
+    np.testing.assert_allclose(later.points - truth, noise, atol=1e-12)
     simulator.AdvanceTo(1.0 + 1.5 / 30.0)
-    nxt = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(simulator.get_context()))
-    assert nxt.time > held.time
+    truth = source.GetOutputPort("skeleton").Eval(source_context).reshape(8, 3)
+    nxt = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(root))
+    assert not np.allclose(nxt.points - truth, noise)

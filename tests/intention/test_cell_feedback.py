@@ -31,11 +31,12 @@ def box_usb_run():
     simulator = Simulator(cell.diagram)
     simulator.Initialize()
     simulator.AdvanceTo(DURATION)
-    estimator = cell.systems["intention"]
+    estimator = cell.system("intention")
     context = estimator.GetMyContextFromRoot(simulator.get_context())
     log = estimator.GetOutputPort("intention_events").Eval(context)
-    human = [e for e in cell.recorder.log.events if isinstance(e, HumanEvent)]
-    return cell, log, human
+    recorded = cell.log(simulator.get_context())
+    human = [e for e in recorded.events if isinstance(e, HumanEvent)]
+    return recorded, log, human
 
 
 def _intervals(human, action):
@@ -54,7 +55,7 @@ def test_station_is_understood_before_the_bring_action_ends(box_usb_run):
 
 
 def test_feedback_alternates_station_and_home_on_real_reaches(box_usb_run):
-    cell, log, human = box_usb_run
+    recorded, log, human = box_usb_run
     events = log.events
     assert len(events) >= 3
     assert [e.seq for e in events] == list(range(1, len(events) + 1))
@@ -72,5 +73,5 @@ def test_feedback_alternates_station_and_home_on_real_reaches(box_usb_run):
         if e.goal == "g4_station":
             assert any(b < e.time <= end for b, end in to_station), (e, to_station)
     # the cell's event log records every feedback event (replay flashes and reports read it)
-    logged = [e for e in cell.recorder.log.events if getattr(e, "agent", "") == "intention"]
+    logged = [e for e in recorded.events if getattr(e, "agent", "") == "intention"]
     assert len(logged) == len(events)

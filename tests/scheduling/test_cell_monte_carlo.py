@@ -28,12 +28,13 @@ def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
     simulator = Simulator(cell.diagram)
     simulator.Initialize()
     simulator.AdvanceTo(120.0)
-    metrics = summarize(cell.recorder.log, 120.0, cell.agents, cell.product_actions)
-    scheduler = cell.systems["scheduler"]
+    log = cell.log(simulator.get_context())
+    metrics = summarize(log, 120.0, cell.agents, cell.product_actions)
+    scheduler = cell.system("scheduler")
     context = scheduler.GetMyContextFromRoot(simulator.get_context())
     commands = scheduler.commands(context)
     begins = [
-        e for e in cell.recorder.log.events if isinstance(e, RobotEvent) and e.kind == "begin" and e.action
+        e for e in log.events if isinstance(e, RobotEvent) and e.kind == "begin" and e.action
     ]
     agents = {"yumi_left", "yumi_right"}
     assert {c.agent for c in commands} == agents
@@ -52,7 +53,7 @@ def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
         assert all(w == scheduler.net.wait_quantum for w in waits)
     # torches and clocks get finished (the first after ~65 s: a torch takes six actions)
     assert metrics["products_finished"] >= 2
-    assert cell.world.finished_products == metrics["products_finished"]
+    assert cell.world(simulator.get_context()).finished_products == metrics["products_finished"]
     policy = scheduler.core(context).policy
     assert isinstance(policy, MonteCarloPolicy)
     assert policy.n_trials == 40 and policy.horizon == 20.0
