@@ -6,12 +6,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from hrc_drake.cell.scenario import ScenarioError, load_scenario
+from hrc_drake.errors import ScenarioError
+
+# Each command imports what it uses when it runs, so `hrc-drake --help` loads neither pydrake
+# nor scipy / scikit-learn.
 
 
 def _simulate(args) -> int:
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate, write_replay, write_report
+    from hrc_drake.cell.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
@@ -69,6 +73,8 @@ def _simulate(args) -> int:
 
 
 def _validate(args) -> int:
+    from hrc_drake.cell.scenario import load_scenario
+
     scenario = load_scenario(args.scenario, check_reachability=True)
     n_robot_actions = sum(len(r.actions) for r in scenario.robots)
     print(

@@ -23,13 +23,20 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+REPO = Path(__file__).resolve().parents[1]
+BOX_USB_SCENARIO = REPO / "diagrams" / "box_usb.yaml"
+sys.path.insert(0, str(REPO))
 
+from hrc_drake.cell.intention_data import (  # noqa: E402
+    box_usb_layout,
+    random_segments,
+    record_reaches,
+    record_task_cycles,
+    second_layout,
+)
 from hrc_drake.intention.bayes import GoalIntentionEstimator  # noqa: E402
 from hrc_drake.intention.evaluation import reach_outcomes, run_estimator, table_3_1  # noqa: E402
-from hrc_drake.intention.layouts import box_usb_layout, second_layout  # noqa: E402
 from hrc_drake.intention.likelihood import default_model  # noqa: E402
-from hrc_drake.intention.recording import random_segments, record_reaches, record_task_cycles  # noqa: E402
 
 METHODS = ("M1", "M2", "M3")
 TEST_SCATTER = 0.03  # std (m) of each test operator's personal offset from the goal centres
@@ -108,7 +115,7 @@ def main(argv=None) -> int:
     n_reaches = args.reaches or (18 if args.quick else 36)
     model = default_model()
     start = time.time()
-    box = box_usb_layout()
+    box = box_usb_layout(BOX_USB_SCENARIO)
     layouts = [box, second_layout()]
     figures = {
         "operators_per_layout": n_operators,

@@ -343,12 +343,12 @@ def main() -> None:
     print("speed (8 points x 500 particles, one update)", flush=True)
     speed = bench_speed(100 if quick else 500)
 
-    from hrc_drake.cell.build import solve_named_poses
+    from hrc_drake.robots.poses import solve_named_poses
 
     print(f"pcb_occlusion.yaml in Drake: {n_cycles} robot cycles per tracker"
           + (" (elbow occluders)" if args.elbow_occluders else "")
           + (f" (operator at x = {args.operator_x} m)" if args.operator_x is not None else ""), flush=True)
-    named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False), SCENARIO)
+    named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False).robots, SCENARIO)
     cell = {kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
             for kind in ("particle_filter", "kalman")}
     pf, kf = cell["particle_filter"], cell["kalman"]

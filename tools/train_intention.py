@@ -27,17 +27,20 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+REPO = Path(__file__).resolve().parents[1]
+BOX_USB_SCENARIO = REPO / "diagrams" / "box_usb.yaml"
+sys.path.insert(0, str(REPO))
 
-from hrc_drake.intention.evaluation import choose_evidence_weight  # noqa: E402
-from hrc_drake.intention.layouts import box_usb_layout, random_layout  # noqa: E402
-from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
-from hrc_drake.intention.recording import (  # noqa: E402
+from hrc_drake.cell.intention_data import (  # noqa: E402
+    box_usb_layout,
+    random_layout,
     random_segments,
     record_reaches,
     record_task_cycles,
-    training_samples,
 )
+from hrc_drake.intention.dataset import training_samples  # noqa: E402
+from hrc_drake.intention.evaluation import choose_evidence_weight  # noqa: E402
+from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, IntentionLikelihoodLearner  # noqa: E402
 
 NOISE_LEVELS = (0.005, 0.01, 0.02)
 GAZE_NOISE_LEVELS = (0.05, 0.1, 0.2)
@@ -60,7 +63,7 @@ def record_operator(i: int, n_reaches: int, seed: int, offset: int = TRAIN_SEED_
     scatter = rng.uniform(*SCATTER_RANGE)
     segments = random_segments(rng)
     if i % 3 == 2:
-        layout = box_usb_layout()
+        layout = box_usb_layout(BOX_USB_SCENARIO)
         n_cycles = max(1, n_reaches // 12)  # a cycle of the box cell is 10-12 reaches
         recording = record_task_cycles(
             layout, segments, n_cycles, rng, noise, gaze_noise, target_scatter=scatter

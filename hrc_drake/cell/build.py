@@ -39,12 +39,13 @@ from hrc_drake.messages import EventLog
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
     RobotCapsuleKinematics,
-    add_robot,
+    add_robots,
     arm_joint_limits,
     arm_position_indices,
     set_pd_gains,
 )
 from hrc_drake.robots.path import JointPathFollower
+from hrc_drake.robots.poses import solve_named_poses
 from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
 
 
@@ -114,66 +115,7 @@ def _places(scenario: Scenario) -> dict[str, np.ndarray]:
 
 
 def _add_robots(plant, scenario: Scenario):
-    return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in scenario.robots]
-
-
-def solve_named_poses(
-    scenario: Scenario, file: str | Path = "<scenario>"
-) -> dict[tuple[str, str], np.ndarray]:
-    """Joint vectors of every named pose; Cartesian targets by Drake InverseKinematics.
-
-    Raises `ScenarioError` naming the pose when a target is out of reach.
-    """
-    from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
-
-    plant = MultibodyPlant(0.0)
-    robots = _add_robots(plant, scenario)
-    plant.Finalize()
-    context = plant.CreateDefaultContext()
-    solved: dict[tuple[str, str], np.ndarray] = {}
-    for i, (instance, robot) in enumerate(robots):
-        lower_upper = {}
-        for j, pose in enumerate(robot.poses):
-            field_path = f"robots[{i}].poses[{j}]"
-            if pose.arm not in lower_upper:
-                lower_upper[pose.arm] = arm_joint_limits(plant, instance, robot.model, pose.arm)
-            lower, upper, _ = lower_upper[pose.arm]
-            if pose.joints:
-                q = np.asarray(pose.joints, float)
-                bad = np.flatnonzero((q < lower - 1e-9) | (q > upper + 1e-9))
-                if len(bad):
-                    k = int(bad[0])
-                    raise ScenarioError(
-                        file,
-                        f"{field_path}.joints[{k}]",
-                        f"{q[k]:.4f} rad is outside the joint's limits [{lower[k]:.4f}, {upper[k]:.4f}]",
-                    )
-            else:
-                seed_q = next(
-                    (
-                        solved[(robot.name, p.name)]
-                        for p in reversed(robot.poses[:j])
-                        if p.arm == pose.arm and (robot.name, p.name) in solved
-                    ),
-                    None,
-                )
-                try:
-                    q = solve_tool_position(
-                        plant,
-                        context,
-                        instance,
-                        robot.model,
-                        pose.arm,
-                        pose.target.xyz,
-                        target_rpy=pose.target.rpy if pose.orient else None,
-                        q_seed=seed_q,
-                        tolerance=pose.tolerance,
-                        tool_z_down=not pose.orient,
-                    )
-                except InfeasibleTarget as err:
-                    raise ScenarioError(file, f"{field_path}.target", f"out of reach: {err}") from err
-            solved[(robot.name, pose.name)] = np.asarray(q, float)
-    return solved
+    return add_robots(plant, scenario.robots)
 
 
 def _product_actions(scenario: Scenario) -> dict[str, int]:
@@ -219,8 +161,8 @@ def _add_plant(builder, scenario: Scenario):
             builder, time_step=min(r.time_step for r in scenario.robots)
         )
         robots = _add_robots(plant, scenario)
-        for instance, _ in robots:
-            set_pd_gains(plant, instance)
+        for instance, robot in robots:
+            set_pd_gains(plant, instance, model=robot.model)
         plant.Finalize()
         return plant, scene_graph, robots, True
     scene_graph = builder.AddSystem(SceneGraph())
@@ -412,7 +354,7 @@ def build_cell(
         return int(rngs[k].integers(2**31))
 
     if named_poses is None:
-        named_poses = solve_named_poses(scenario, scenario_path)
+        named_poses = solve_named_poses(scenario.robots, scenario_path)
     builder = DiagramBuilder()
     plant, scene_graph, robots, dynamic = _add_plant(builder, scenario)
     executor, follower, agents, positions_port, positions_size = _add_robot_motion(

@@ -20,9 +20,9 @@ from hrc_drake.cell import schema
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError
+from hrc_drake.robots.registry import ROBOT_MODELS
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
-ROBOT_MODELS = ("yumi", "irb140")
 ROBOT_MODES = ("kinematic", "dynamic")
 HANDS = ("left", "right", "both")
 TRACKER_KINDS = ("none", "particle_filter", "kalman")
@@ -110,9 +110,9 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
         raise ScenarioError(path, "", f"cannot be read as a scenario: {err}") from err
     check_scenario(scenario, path)
     if check_reachability:
-        from hrc_drake.cell.build import solve_named_poses
+        from hrc_drake.robots.poses import solve_named_poses  # IK: pydrake's solvers, only when asked
 
-        solve_named_poses(scenario, path)
+        solve_named_poses(scenario.robots, path)
     return scenario
 
 
@@ -182,11 +182,16 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _unique(file, "robots", [r.name for r in sc.robots])
     for i, robot in enumerate(sc.robots):
         field = f"robots[{i}]"
-        _kind(file, f"{field}.model", robot.model, ROBOT_MODELS)
+        if robot.model not in ROBOT_MODELS:
+            raise ScenarioError(
+                file, f"{field}.model",
+                f"unknown robot model '{robot.model}' (known models: {', '.join(sorted(ROBOT_MODELS))})",
+            )
+        model = ROBOT_MODELS[robot.model]
         _kind(file, f"{field}.mode", robot.mode, ROBOT_MODES)
         if robot.time_step <= 0:
             raise ScenarioError(file, f"{field}.time_step", "must be positive")
-        arm_names = ("left", "right") if robot.model == "yumi" else ("arm",)
+        arm_names = model.arm_names
         poses = _unique(file, f"{field}.poses", [p.name for p in robot.poses])
         pose_arm = {}
         for j, pose in enumerate(robot.poses):
@@ -198,7 +203,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
             if bool(pose.joints) == (pose.target is not None):
                 raise ScenarioError(file, pf, "give exactly one of 'joints' or 'target'")
             if pose.joints:
-                n = 7 if robot.model == "yumi" else 6
+                n = model.num_joints(pose.arm)
                 if len(pose.joints) != n:
                     raise ScenarioError(
                         file, f"{pf}.joints", f"expected {n} joint values, got {len(pose.joints)}"

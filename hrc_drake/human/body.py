@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from hrc_drake.messages import (
     HEAD,
@@ -426,6 +425,8 @@ class BodyModel:
         def residual(q):
             err = (self._points(q)[finite] - target).ravel()
             return np.concatenate([err, regularization * (q - q_init)])
+
+        from scipy.optimize import least_squares  # lazily: scipy.optimize costs ~1 s to import
 
         result = least_squares(
             residual, q_init, bounds=(self.q_lower, self.q_upper), method="trf", x_scale=1.0,

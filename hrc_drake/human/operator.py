@@ -27,7 +27,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from hrc_drake.distributions import sample_duration, validate_distribution
 from hrc_drake.human.body import ARM_DOFS, BodyModel
@@ -244,6 +243,8 @@ class SyntheticOperator:
             if guess_arm is not None:
                 x0[1:] = np.tile(guess_arm, len(hands))
             x0 = np.clip(x0, lower + 1e-6, upper - 1e-6)
+            from scipy.optimize import least_squares  # lazily: scipy.optimize costs ~1 s to import
+
             result = least_squares(residual, x0, bounds=(lower, upper), xtol=1e-10, ftol=1e-10, max_nfev=300)
             if best is None or result.cost < best.cost:
                 best = result

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from hrc_drake.intention.bayes import GoalIntentionEstimator
-from hrc_drake.intention.recording import Recording, reaches_of
+from hrc_drake.intention.dataset import Recording, reaches_of
 
 
 def run_estimator(estimator: GoalIntentionEstimator, recording: Recording) -> np.ndarray:

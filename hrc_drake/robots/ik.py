@@ -15,7 +15,8 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.solvers import Solve
 from pydrake.systems.framework import Context
 
-from hrc_drake.robots.models import TOOL_FRAMES, arm_joint_limits, arm_position_indices
+from hrc_drake.robots.models import arm_joint_limits, arm_position_indices
+from hrc_drake.robots.registry import get_robot_model
 
 #: maximum angle (rad) between the tool z axis and the world's -z when `tool_z_down` is set
 TOOL_DOWN_ANGLE = 0.05
@@ -65,7 +66,8 @@ def solve_tool_position(
         raise ValueError(f"solve_tool_position: attempts must be >= 1, got {attempts!r}")
     arm_idx = arm_position_indices(plant, instance, model, arm)  # validates model and arm
     lower, upper, _ = arm_joint_limits(plant, instance, model, arm)
-    tool = plant.GetFrameByName(TOOL_FRAMES[(model, arm)], instance)
+    tool_frame = get_robot_model(model).arm(arm).tool_frame
+    tool = plant.GetFrameByName(tool_frame, instance)
 
     q_context = plant.GetPositions(plant_context).copy()
     if q_seed is None:
@@ -146,7 +148,7 @@ def solve_tool_position(
         result = Solve(prog, q_init)
         best = min(best, tool_distance(np.clip(result.GetSolution(q)[arm_idx], lower, upper)))
     raise InfeasibleTarget(
-        f"{model}/{arm}: no IK solution puts {TOOL_FRAMES[(model, arm)]} within {tolerance:.4f} m of "
+        f"{model}/{arm}: no IK solution puts {tool_frame} within {tolerance:.4f} m of "
         f"target {np.round(target, 4).tolist()}"
         + (f" with rpy {list(target_rpy)}" if target_rpy is not None else "")
         + (" with the tool pointing down" if tool_z_down and target_rpy is None else "")

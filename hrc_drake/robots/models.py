@@ -1,15 +1,20 @@
-"""Robot models of the cell: ABB YuMi (IRB 14000) and ABB IRB 140, built from primitives.
+"""Robot models of the cell (ABB YuMi IRB 14000, ABB IRB 140, ...), built from primitives.
 
-The URDFs in `models/` follow /work/shared/robots/KINEMATICS.md (joint origins, axes, limits and
-velocities of the public ROS descriptions); masses, inertias and capsule radii are approximations.
-This module loads them into a `MultibodyPlant`, names their arms, tools and grippers, and gives the
-capsule set used for human-robot distance computations (thesis Fig. 8.18 draws the robot links as
-capsules).
+Which robots exist, their arms, tools, grippers, PD gains and capsules is the registry
+`hrc_drake.robots.registry.ROBOT_MODELS`; their URDFs are the `hrc_drake.models` package data
+(the top-level `models/` folder, mapped into the package by pyproject.toml), read with
+`importlib.resources`. The URDFs follow /work/shared/robots/KINEMATICS.md (joint origins, axes,
+limits and velocities of the public ROS descriptions); masses, inertias and capsule radii are
+approximations. This module loads them into a `MultibodyPlant` and gives the capsule set used for
+human-robot distance computations (thesis Fig. 8.18 draws the robot links as capsules).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+from collections.abc import Iterator, Sequence
+from importlib.resources import as_file, files
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 import numpy as np
@@ -19,95 +24,35 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex, PdControllerGains
 from pydrake.systems.framework import Context
 
-MODELS_DIR: Path = Path(__file__).resolve().parents[2] / "models"
+from hrc_drake.robots.config import Robot
+from hrc_drake.robots.registry import ROBOT_MODELS, ArmModel, RobotModel, capsule_arrays, get_robot_model
 
-MODEL_FILES: dict[str, str] = {"yumi": "yumi.urdf", "irb140": "irb140.urdf"}
-
-#: the link welded to the world by `add_robot` (YuMi: the foot plane, 0.1 m below the body frame)
-ROOT_LINKS: dict[str, str] = {"yumi": "yumi_base_link", "irb140": "irb140_base_link"}
-
-_YUMI_ABB_ORDER = ("1", "2", "7", "3", "4", "5", "6")  # physical order from the body (ABB axes)
-
-#: arm joints in chain order (base to flange) for every robot model and arm
-ROBOT_ARMS: dict[str, dict[str, list[str]]] = {
-    "yumi": {
-        "right": [f"yumi_joint_{k}_r" for k in _YUMI_ABB_ORDER],
-        "left": [f"yumi_joint_{k}_l" for k in _YUMI_ABB_ORDER],
-    },
-    "irb140": {"arm": [f"irb140_joint_{k}" for k in range(1, 7)]},
-}
-
-#: tool centre point frame of every arm (YuMi: finger tips, 0.136 m from the gripper base along z)
-TOOL_FRAMES: dict[tuple[str, str], str] = {
-    ("yumi", "right"): "yumi_tool_r",
-    ("yumi", "left"): "yumi_tool_l",
-    ("irb140", "arm"): "irb140_tool",
-}
-
-#: prismatic finger joints of every arm's gripper (0 = closed, 0.025 m = open, per finger)
-GRIPPER_JOINTS: dict[tuple[str, str], list[str]] = {
-    ("yumi", "right"): ["gripper_r_joint", "gripper_r_joint_m"],
-    ("yumi", "left"): ["gripper_l_joint", "gripper_l_joint_m"],
-    ("irb140", "arm"): [],
-}
-GRIPPER_STROKE = 0.025
-
-# Capsules in body frames: (body, start, end, radius). Arm link capsules run from the link's joint
-# origin to the next joint origin (so the chain of capsules passes through every joint centre);
-# radii follow the median mesh distances of KINEMATICS.md 1.4 / 2.6. The URDF collision geometry
-# is the same capsule on every arm link; the YuMi body and the grippers collide as boxes.
-_YUMI_SEGMENTS = (
-    (1, (0.03, 0.0, 0.1), 0.060),
-    (2, (-0.03, 0.17283, 0.0), 0.055),
-    (3, (-0.04188, 0.0, 0.07873), 0.055),
-    (4, (0.0405, 0.16461, 0.0), 0.055),
-    (5, (-0.027, 0.0, 0.10039), 0.050),
-    (6, (0.027, 0.029, 0.0), 0.050),
-    (7, (0.0, 0.0, 0.007), 0.035),
-)
-YUMI_TOOL_OFFSET = 0.136
+#: the package holding the URDF / SDF model files (package data)
+MODELS_PACKAGE = "hrc_drake.models"
 
 
-def _yumi_capsules() -> list[tuple[str, np.ndarray, np.ndarray, float]]:
-    caps = [("yumi_body", np.array([-0.12, 0.0, 0.10]), np.array([-0.12, 0.0, 0.27]), 0.20)]
-    for side in ("r", "l"):
-        for index, end, radius in _YUMI_SEGMENTS:
-            caps.append((f"yumi_link_{index}_{side}", np.zeros(3), np.array(end, float), radius))
-        caps.append((f"gripper_{side}_base", np.zeros(3), np.array([0.0, 0.0, YUMI_TOOL_OFFSET]), 0.045))
-    return caps
+def model_resource(name: str) -> Traversable:
+    """A model file of the `hrc_drake.models` package data (e.g. 'yumi.urdf', 'table.sdf')."""
+    resource = files(MODELS_PACKAGE) / name
+    if not resource.is_file():
+        raise FileNotFoundError(f"no model file {name!r} in the {MODELS_PACKAGE} package data")
+    return resource
 
 
-def _irb140_capsules() -> list[tuple[str, np.ndarray, np.ndarray, float]]:
-    segments = (
-        ("irb140_base_link", (0.0, 0.0, 0.104), 0.16),
-        ("irb140_link_1", (0.07, 0.0, 0.248), 0.12),
-        ("irb140_link_2", (0.0, 0.0, 0.360), 0.11),
-        ("irb140_link_3", (0.239, 0.0, 0.0), 0.085),
-        ("irb140_link_4", (0.141, 0.0, 0.0), 0.065),
-        ("irb140_link_5", (0.065, 0.0, 0.0), 0.045),
-        ("irb140_link_6", (0.0, 0.0, 0.0), 0.035),
-    )
-    return [(body, np.zeros(3), np.array(end, float), radius) for body, end, radius in segments]
+@contextlib.contextmanager
+def model_file(name: str) -> Iterator[Path]:
+    """A file-system path of a model file for the duration of the `with` block (parsers that need one)."""
+    with as_file(model_resource(name)) as path:
+        yield path
 
 
-_STATIC_BODIES = {"yumi": {"yumi_body"}, "irb140": {"irb140_base_link"}}
+def _arm(model: str, arm: str) -> ArmModel:
+    return get_robot_model(model).arm(arm)
 
 
-def _check_model(model: str) -> None:
-    if model not in MODEL_FILES:
-        raise ValueError(f"unknown robot model {model!r}; expected one of {sorted(MODEL_FILES)}")
-
-
-def _check_arm(model: str, arm: str) -> None:
-    _check_model(model)
-    if arm not in ROBOT_ARMS[model]:
-        raise ValueError(f"robot model {model!r} has no arm {arm!r}; arms: {sorted(ROBOT_ARMS[model])}")
-
-
-def model_path(model: str) -> Path:
-    """Path of the URDF of `model` ('yumi' or 'irb140')."""
-    _check_model(model)
-    return MODELS_DIR / MODEL_FILES[model]
+def robot_model(model: str) -> RobotModel:
+    """The registry record of `model` (ValueError listing the known models)."""
+    return get_robot_model(model)
 
 
 def add_robot(
@@ -122,7 +67,7 @@ def add_robot(
     base_xyz (m) and base_rpy (rad, roll-pitch-yaw) place the root link: for the YuMi the root is
     its foot plane, so welding it at the table top gives the true geometry. Call before Finalize.
     """
-    _check_model(model)
+    record = get_robot_model(model)
     if not name:
         raise ValueError("add_robot: the model instance name must not be empty")
     if plant.is_finalized():
@@ -136,15 +81,15 @@ def add_robot(
             f"add_robot({model!r}, {name!r}): base_xyz and base_rpy must be 3 finite numbers, "
             f"got {list(base_xyz)} and {list(base_rpy)}"
         )
-    text = model_path(model).read_text()
+    text = model_resource(record.urdf).read_text()
     marker = f'<robot name="{model}"'
     if marker not in text:
-        raise ValueError(f"{model_path(model)} does not declare {marker}")
+        raise ValueError(f"{MODELS_PACKAGE}/{record.urdf} does not declare {marker}")
     text = text.replace(marker, f'<robot name="{name}"', 1)
     (instance,) = Parser(plant).AddModelsFromString(text, "urdf")
     plant.WeldFrames(
         plant.world_frame(),
-        plant.GetFrameByName(ROOT_LINKS[model], instance),
+        plant.GetFrameByName(record.root_link, instance),
         RigidTransform(RollPitchYaw(rpy), xyz),
     )
     return instance
@@ -152,8 +97,7 @@ def add_robot(
 
 def arm_joint_limits(plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str):
     """(lower, upper, velocity) limits of the arm's joints in chain order, each shape (n,)."""
-    _check_arm(model, arm)
-    joints = [plant.GetJointByName(j, instance) for j in ROBOT_ARMS[model][arm]]
+    joints = [plant.GetJointByName(j, instance) for j in _arm(model, arm).joints]
     lower = np.array([j.position_lower_limits()[0] for j in joints])
     upper = np.array([j.position_upper_limits()[0] for j in joints])
     velocity = np.array([j.velocity_upper_limits()[0] for j in joints])
@@ -169,38 +113,31 @@ def arm_position_indices(
     plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full position vector q."""
-    _check_arm(model, arm)
-    return _joint_starts(plant, instance, ROBOT_ARMS[model][arm], "position_start")
+    return _joint_starts(plant, instance, _arm(model, arm).joints, "position_start")
 
 
 def arm_velocity_indices(
     plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full velocity vector v."""
-    _check_arm(model, arm)
-    return _joint_starts(plant, instance, ROBOT_ARMS[model][arm], "velocity_start")
+    return _joint_starts(plant, instance, _arm(model, arm).joints, "velocity_start")
 
 
 def gripper_position_indices(
     plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
 ) -> np.ndarray:
     """Indices of the arm's finger joints into the plant's full position vector (empty if none)."""
-    _check_arm(model, arm)
-    return _joint_starts(plant, instance, GRIPPER_JOINTS[(model, arm)], "position_start")
+    return _joint_starts(plant, instance, _arm(model, arm).gripper_joints, "position_start")
 
 
-#: default implicit-PD gains (kp, kd) per URDF joint name: stiff enough that gravity sag stays
-#: below ~0.01 rad on a 1-10 ms discrete plant (the IRB 140 links are heavier, hence its gains)
-DEFAULT_PD_GAINS: dict[str, tuple[float, float]] = {
-    **{f"yumi_joint_{k}_{s}": (400.0, 40.0) for k in _YUMI_ABB_ORDER for s in "rl"},
-    **{j: (400.0, 10.0) for joints in GRIPPER_JOINTS.values() for j in joints},
-    "irb140_joint_1": (8000.0, 400.0),
-    "irb140_joint_2": (8000.0, 400.0),
-    "irb140_joint_3": (4000.0, 200.0),
-    "irb140_joint_4": (500.0, 25.0),
-    "irb140_joint_5": (500.0, 25.0),
-    "irb140_joint_6": (100.0, 5.0),
-}
+def _default_gains(joint: str, model: str | None) -> tuple[float, float]:
+    """(kp, kd) of `joint` from the registry (of `model`, or of the one model naming the joint)."""
+    records = [get_robot_model(model)] if model is not None else list(ROBOT_MODELS.values())
+    found = [r.pd_gains[joint] for r in records if joint in r.pd_gains]
+    if not found:
+        where = f"robot model {model!r}" if model is not None else "any robot model of the registry"
+        raise ValueError(f"set_pd_gains: no PD gains for joint {joint!r} in {where}; pass kp and kd")
+    return found[0]
 
 
 def set_pd_gains(
@@ -208,20 +145,22 @@ def set_pd_gains(
     instance: ModelInstanceIndex,
     kp: float | Sequence[float] | None = None,
     kd: float | Sequence[float] | None = None,
+    model: str | None = None,
 ) -> None:
     """Give every actuator of `instance` an implicit PD controller (discrete plants; before Finalize).
 
     Afterwards `plant.get_desired_state_input_port(instance)` must be connected with the desired
     [q_d, v_d] of the instance's actuated joints (actuator order) and the actuation input port is
     added as a feed-forward torque. kp (N m/rad or N/m) and kd may be scalars or one per actuator;
-    None takes `DEFAULT_PD_GAINS` of each joint.
+    None takes each joint's gains from the registry record of `model` (`RobotModel.pd_gains`;
+    model=None: the record whose gains name the joint).
     """
     if plant.is_finalized():
         raise ValueError("set_pd_gains must be called before the plant is finalized")
     # GetJointActuatorIndices(instance) is empty before Finalize: filter all actuators instead.
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
     actuators = [a for a in actuators if a.model_instance() == instance]
-    defaults = [DEFAULT_PD_GAINS.get(a.joint().name(), (400.0, 40.0)) for a in actuators]
+    defaults = [_default_gains(a.joint().name(), model) for a in actuators]
     gains = []
     for value, what, column in ((kp, "kp", 0), (kd, "kd", 1)):
         if value is None:
@@ -243,13 +182,9 @@ def set_pd_gains(
 def link_capsules(model: str, include_static: bool = True) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
     """Capsules (body name, p_start (3,), p_end (3,), radius) in body frames (thesis Fig. 8.18).
 
-    include_static=False drops the capsule of the body welded to the base (YuMi torso, IRB 140 base).
+    include_static=False drops the capsules of the bodies welded to the base (`RobotModel.static_bodies`).
     """
-    _check_model(model)
-    caps = _yumi_capsules() if model == "yumi" else _irb140_capsules()
-    if not include_static:
-        caps = [c for c in caps if c[0] not in _STATIC_BODIES[model]]
-    return [(body, start.copy(), end.copy(), radius) for body, start, end, radius in caps]
+    return capsule_arrays(get_robot_model(model), include_static)
 
 
 class RobotCapsuleKinematics:
@@ -299,3 +234,8 @@ class RobotCapsuleKinematics:
         start = np.einsum("kij,kj->ki", R, self._start_B) + p
         end = np.einsum("kij,kj->ki", R, self._end_B) + p
         return start, end, self.radius.copy()
+
+
+def add_robots(plant: MultibodyPlant, robots: Sequence[Robot]) -> list[tuple[ModelInstanceIndex, Robot]]:
+    """`add_robot` for every robot config (model, name, base pose); [(instance, config)] in order."""
+    return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in robots]

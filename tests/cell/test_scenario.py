@@ -89,6 +89,21 @@ BAD = {
         "seed",
         "expected a number",
     ),
+    "unknown robot model": (
+        lambda r: r["robots"][0].update(model="ur5"),
+        "robots[0].model",
+        "unknown robot model 'ur5' (known models: irb140, yumi)",
+    ),
+    "unknown arm of the model": (
+        lambda r: r["robots"][0]["poses"][0].update(arm="arm"),
+        "robots[0].poses[0].arm",
+        "unknown arm 'arm' of yumi",
+    ),
+    "joints per arm from the registry": (
+        lambda r: r["robots"][0]["poses"][0].update(joints=[0.0] * 6),
+        "robots[0].poses[0].joints",
+        "expected 7 joint values, got 6",
+    ),
     "unknown scheduler": (
         lambda r: r.update(scheduler={"kind": "psychic"}),
         "scheduler.kind",

@@ -1,11 +1,16 @@
 import numpy as np
 import pytest
 
+from hrc_drake.cell.intention_data import (
+    box_usb_layout,
+    random_layout,
+    record_reaches,
+    record_task_cycles,
+)
 from hrc_drake.intention.bayes import GoalIntentionEstimator
+from hrc_drake.intention.dataset import reaches_of, training_samples
 from hrc_drake.intention.evaluation import reach_outcomes, rises, run_estimator, table_3_1
-from hrc_drake.intention.layouts import box_usb_layout, random_layout
 from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH, default_model
-from hrc_drake.intention.recording import reaches_of, record_reaches, record_task_cycles, training_samples
 from tests.intention.intention_reaches import GOALS, straight_reach
 
 
@@ -21,9 +26,9 @@ def test_shipped_model_loads_from_json_and_recognises_a_reach():
     assert probabilities[1].argmax() == 2
 
 
-def test_recorded_reaches_are_labelled_and_give_finite_samples():
+def test_recorded_reaches_are_labelled_and_give_finite_samples(diagrams_dir):
     rng = np.random.default_rng(123)
-    layout = box_usb_layout()
+    layout = box_usb_layout(diagrams_dir / "box_usb.yaml")
     recording = record_reaches(layout, None, 4, rng, pattern=[0, 3, 0, 3])
     assert recording.points.shape == (len(recording.times), 8, 3)
     reaches = reaches_of(recording)
@@ -42,10 +47,9 @@ def test_random_layout_keeps_goals_apart():
     assert np.all(gaps[~np.eye(5, dtype=bool)] >= 0.25)
 
 
-def test_box_usb_layout_reads_the_scenario():
-    layout = box_usb_layout()
-    if layout.name != "box_usb":
-        pytest.skip("diagrams/box_usb.yaml is missing")
+def test_box_usb_layout_reads_the_scenario(diagrams_dir):
+    layout = box_usb_layout(diagrams_dir / "box_usb.yaml")
+    assert layout.name == "box_usb"
     assert layout.goal_names == ("g1_home", "g2_foam_a", "g3_foam_b", "g4_station", "g5_boxes")
     assert layout.index("g1_home") == 0 and layout.index("g4_station") == 3
     np.testing.assert_allclose(layout.centers[3], [0.52, 0.05, 0.82])
@@ -64,10 +68,9 @@ def test_box_usb_layout_reads_the_scenario():
         layout.index("g9")
 
 
-def test_task_cycles_label_two_handed_reaches_and_their_arrival():
-    layout = box_usb_layout()
-    if not layout.tasks:
-        pytest.skip("diagrams/box_usb.yaml is missing")
+def test_task_cycles_label_two_handed_reaches_and_their_arrival(diagrams_dir):
+    layout = box_usb_layout(diagrams_dir / "box_usb.yaml")
+    assert layout.tasks
     rng = np.random.default_rng(5)
     recording = record_task_cycles(layout, None, 1, rng, noise_std=0.005)
     reaches = reaches_of(recording)

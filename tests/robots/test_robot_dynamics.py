@@ -15,8 +15,8 @@ def _build(time_step):
     plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
     yumi = add_robot(plant, "yumi", "yumi", (0.0, 0.0, 0.75))
     irb = add_robot(plant, "irb140", "irb", (1.5, 0.0, 0.0))
-    set_pd_gains(plant, yumi)  # DEFAULT_PD_GAINS, as the cell builder uses them
-    set_pd_gains(plant, irb)
+    set_pd_gains(plant, yumi, model="yumi")  # the registry's gains, as the cell builder uses them
+    set_pd_gains(plant, irb)  # model=None: the record whose gains name the joints
     plant.Finalize()
     # the pose held: YuMi arms bent in front of the body, IRB 140 elbow up
     q_desired = np.zeros(plant.num_positions())

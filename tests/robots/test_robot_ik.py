@@ -6,7 +6,8 @@ from pydrake.math import RollPitchYaw
 from pydrake.multibody.plant import MultibodyPlant
 
 from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
-from hrc_drake.robots.models import TOOL_FRAMES, add_robot, arm_joint_limits, arm_position_indices
+from hrc_drake.robots.models import add_robot, arm_joint_limits, arm_position_indices
+from hrc_drake.robots.registry import ROBOT_MODELS
 
 YUMI_BASE = np.array([0.0, 0.0, 0.75])
 
@@ -25,7 +26,7 @@ def _tool_after(plant, context, instance, model, arm, q_arm):
     q = plant.GetPositions(context).copy()
     q[arm_position_indices(plant, instance, model, arm)] = q_arm
     plant.SetPositions(ctx, q)
-    return plant.GetFrameByName(TOOL_FRAMES[(model, arm)], instance).CalcPoseInWorld(ctx)
+    return plant.GetFrameByName(ROBOT_MODELS[model].arm(arm).tool_frame, instance).CalcPoseInWorld(ctx)
 
 
 @pytest.mark.parametrize(("arm", "target"), [("right", (0.40, -0.20, 0.90)), ("left", (0.35, 0.25, 0.85))])

@@ -9,16 +9,26 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from hrc_drake.robots.models import (
-    GRIPPER_JOINTS,
-    MODELS_DIR,
-    ROBOT_ARMS,
-    TOOL_FRAMES,
     RobotCapsuleKinematics,
     add_robot,
     arm_position_indices,
     gripper_position_indices,
     link_capsules,
+    model_file,
 )
+from hrc_drake.robots.registry import ROBOT_MODELS
+
+
+def arm_joints(model):  # arm name -> joints in chain order, from the registry
+    return {a.name: list(a.joints) for a in ROBOT_MODELS[model].arms}
+
+
+def tool_frame(model, arm):
+    return ROBOT_MODELS[model].arm(arm).tool_frame
+
+
+def gripper_joints(model, arm):
+    return list(ROBOT_MODELS[model].arm(arm).gripper_joints)
 
 YUMI_BASE = (0.3, -0.2, 0.75)
 IRB_BASE = (2.0, 1.0, 0.0)
@@ -104,7 +114,7 @@ def test_yumi_zero_configuration_joint_origins(kinematic_plant, zero_context, si
     gripper = plant.GetBodyByName(f"gripper_{side}_base", yumi).EvalPoseInWorld(zero_context).translation()
     assert np.linalg.norm(gripper - _world(YUMI_ORIGINS[side]["gripper"], YUMI_BASE)) < 0.002
     arm = "right" if side == "r" else "left"
-    tool = plant.GetFrameByName(TOOL_FRAMES[("yumi", arm)], yumi).CalcPoseInWorld(zero_context).translation()
+    tool = plant.GetFrameByName(tool_frame("yumi", arm), yumi).CalcPoseInWorld(zero_context).translation()
     assert np.linalg.norm(tool - _world(YUMI_ORIGINS[side]["tip"], YUMI_BASE)) < 0.002
     assert abs(np.linalg.norm(tool - gripper) - 0.136) < 1e-9
 
@@ -127,7 +137,7 @@ def test_yumi_limits_and_velocities(kinematic_plant):
             assert joint.position_upper_limits()[0] == pytest.approx(np.deg2rad(hi), abs=1e-6)
             assert joint.velocity_upper_limits()[0] == pytest.approx(np.deg2rad(vel), abs=1e-6)
             assert joint.velocity_lower_limits()[0] == pytest.approx(-np.deg2rad(vel), abs=1e-6)
-        for name in GRIPPER_JOINTS[("yumi", "right" if side == "r" else "left")]:
+        for name in gripper_joints("yumi", "right" if side == "r" else "left"):
             joint = plant.GetJointByName(name, yumi)
             assert joint.position_lower_limits()[0] == 0.0
             assert joint.position_upper_limits()[0] == pytest.approx(0.025)
@@ -135,7 +145,7 @@ def test_yumi_limits_and_velocities(kinematic_plant):
 
 def test_irb140_limits_and_velocities(kinematic_plant):
     plant, _, irb = kinematic_plant
-    for name, (lo, hi, vel) in zip(ROBOT_ARMS["irb140"]["arm"], IRB_LIMITS, strict=True):
+    for name, (lo, hi, vel) in zip(arm_joints("irb140")["arm"], IRB_LIMITS, strict=True):
         joint = plant.GetJointByName(name, irb)
         assert joint.position_lower_limits()[0] == pytest.approx(np.deg2rad(lo), abs=1e-6)
         assert joint.position_upper_limits()[0] == pytest.approx(np.deg2rad(hi), abs=1e-6)
@@ -166,9 +176,9 @@ def test_actuators_cover_arm_and_finger_joints(kinematic_plant):
         actuated = {
             plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(instance)
         }
-        for arm, joints in ROBOT_ARMS[model].items():
+        for arm, joints in arm_joints(model).items():
             assert set(joints) <= actuated
-            assert set(GRIPPER_JOINTS[(model, arm)]) <= actuated
+            assert set(gripper_joints(model, arm)) <= actuated
         for i in plant.GetJointActuatorIndices(instance):
             actuator = plant.get_joint_actuator(i)
             if actuator.joint().name().startswith("yumi_joint"):
@@ -201,7 +211,7 @@ def test_position_indices(kinematic_plant, zero_context):
     q = np.zeros(plant.num_positions())
     q[idx] = np.linspace(0.1, 0.7, 7)
     plant.SetPositions(context, q)
-    for k, name in enumerate(ROBOT_ARMS["yumi"]["left"]):
+    for k, name in enumerate(arm_joints("yumi")["left"]):
         assert plant.GetJointByName(name, yumi).get_angle(context) == pytest.approx(0.1 * (k + 1))
     assert len(set(arm_position_indices(plant, irb, "irb140", "arm")) | set(idx)) == 13
     assert gripper_position_indices(plant, irb, "irb140", "arm").size == 0
@@ -247,7 +257,7 @@ def test_capsules_follow_joint_origins_at_zero(kinematic_plant, zero_context, mo
             plant.GetJointByName(joint, instance).frame_on_child().CalcPoseInWorld(zero_context).translation()
         )
 
-    for arm, joints in ROBOT_ARMS[model].items():
+    for arm, joints in arm_joints(model).items():
         links = [plant.GetJointByName(j, instance).child_body().name() for j in joints]
         for k, link in enumerate(links):
             np.testing.assert_allclose(start[by_name[link]], origin(joints[k]), atol=1e-9)
@@ -257,7 +267,7 @@ def test_capsules_follow_joint_origins_at_zero(kinematic_plant, zero_context, mo
             side = arm[0]
             gripper = plant.GetBodyByName(f"gripper_{side}_base", instance).EvalPoseInWorld(zero_context)
             np.testing.assert_allclose(end[by_name[links[-1]]], gripper.translation(), atol=1e-9)
-            tool = plant.GetFrameByName(TOOL_FRAMES[(model, arm)], instance).CalcPoseInWorld(zero_context)
+            tool = plant.GetFrameByName(tool_frame(model, arm), instance).CalcPoseInWorld(zero_context)
             np.testing.assert_allclose(end[by_name[f"gripper_{side}_base"]], tool.translation(), atol=1e-9)
 
 
@@ -323,8 +333,9 @@ def test_link_capsules_match_urdf_collision_capsules(model):
 def test_furniture_models_parse():
     plant = MultibodyPlant(0.0)
     parser = Parser(plant)
-    (table,) = parser.AddModels(str(MODELS_DIR / "table.sdf"))
-    (bin_,) = parser.AddModels(str(MODELS_DIR / "part_bin.sdf"))
+    with model_file("table.sdf") as table_sdf, model_file("part_bin.sdf") as bin_sdf:
+        (table,) = parser.AddModels(str(table_sdf))
+        (bin_,) = parser.AddModels(str(bin_sdf))
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("table_link", table))
     plant.Finalize()
     context = plant.CreateDefaultContext()

@@ -1,51 +1,136 @@
-"""Labelled reaches recorded from the synthetic operator, for learning L_GMM (thesis 3.1.2).
+"""Synthetic intention data of a cell: goal layouts and labelled operator recordings (thesis 3.1).
 
-"We can monitor some operators during the execution of predefined sequences of tasks, collecting
-p^R(t), p^L(t), h(t), z(t); knowing the intended goal locations, a population of samples Phi is
-extracted." Here the operator is `hrc_drake.human.SyntheticOperator`, seen by a
-`DepthCameraModel` (noisy points, gaze flag F); the gaze direction gets an extra angular noise
-(a face-plane fit is far noisier than the joints).
+Generators for training and benchmarking the goal estimator (`tools/train_intention.py`,
+`tools/bench_intention.py`), built from a loaded scenario (`load_scenario`), so the goals,
+operator, camera and operator actions are the scenario's own, checked once by the loader.
+They fill the value types of `hrc_drake.intention.dataset` with runs of the synthetic operator
+(`hrc_drake.human`), seen by a `DepthCameraModel`.
+
+`box_usb_layout(path)` is the box-with-USB-pen cell of Fig. 3.4 (diagrams/box_usb.yaml: goals
+1-5 = home, foam feeders 1 and 2, collaborative station, feeder of boxes and pens);
+`second_layout()` is a cell no shipped model was trained on; `random_layout` samples goals in
+the operator's reach. The built-in tables' operator stands at `OPERATOR_BASE` facing -x (yaw
+pi): their left is -y.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.intention.features import (
-    DEFAULT_MIN_SPEED,
-    DEFAULT_SIGNIFICANCE,
-    DEFAULT_WINDOW,
-    skeleton_features,
-    trajectory_velocities,
-)
-from hrc_drake.intention.layouts import GoalLayout
+from hrc_drake.cell.build import HAND_ABOVE_BUFFER
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.human.body import BodyModel
+from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.config import Segments
+from hrc_drake.human.operator import OperatorTask, SyntheticOperator
+from hrc_drake.intention.dataset import GoalLayout, LayoutTask, Recording
 from hrc_drake.messages import HANDS, L_WRIST, R_WRIST
 
+OPERATOR_BASE = (1.05, 0.0)
+OPERATOR_YAW = np.pi
 
-@dataclass
-class Recording:
-    """A measured run of the operator at the camera rate.
 
-    times (T,); points (T, 8, 3) measured (NaN where hidden); gaze (T, 3) measured unit gaze;
-    gaze_valid (T,) flag F; true_wrists (T, 2, 3); target (T, 2) index of the goal each hand
-    (left, right) is going to, -1 when none; layout: the goals.
+def _operator_frame(forward: float, left: float, height: float) -> list[float]:
+    """World point `forward` m ahead of the operator's hips, `left` m to its left, at `height`."""
+    c, s = np.cos(OPERATOR_YAW), np.sin(OPERATOR_YAW)
+    return [OPERATOR_BASE[0] + c * forward - s * left, OPERATOR_BASE[1] + s * forward + c * left, height]
+
+
+#: An unseen second cell: goals on a shelf-like arc, higher and wider than the box cell.
+_SECOND = (
+    ("S1", _operator_frame(0.40, 0.35, 1.05), "left"),
+    ("S2", _operator_frame(0.50, 0.05, 1.10), "left"),
+    ("S3", _operator_frame(0.30, -0.10, 0.95), "right"),
+    ("S4", _operator_frame(0.45, -0.40, 1.00), "right"),
+    ("S5", _operator_frame(0.25, 0.35, 0.90), "left"),
+)
+
+
+def _from_table(name: str, table) -> GoalLayout:
+    return GoalLayout(
+        name, tuple(t[0] for t in table), np.array([t[1] for t in table]), tuple(t[2] for t in table)
+    )
+
+
+def layout_from_scenario(scenario: Scenario, name: str = "scenario") -> GoalLayout:
+    """Goals, operator base, camera and operator actions of a loaded scenario.
+
+    The usual hand of a goal is the side of the goal as seen by the operator; a buffer reached
+    by an operator action is a target `HAND_ABOVE_BUFFER` above the buffer's base, labelled -1.
     """
+    goals = scenario.layout.goals
+    if not goals:
+        raise ValueError(f"{name}: layout.goals is empty; the intention data needs goals")
+    names = tuple(g.name for g in goals)
+    centers = np.array([g.center for g in goals], dtype=float)
+    radius = float(np.mean([g.radius for g in goals]))
+    op = scenario.operator
+    xyz = np.asarray(op.base.xyz, dtype=float)
+    yaw = float(op.base.rpy[2])
+    left = np.array([-np.sin(yaw), np.cos(yaw)])
+    side = (centers[:, :2] - xyz[:2]) @ left
+    hands = tuple("left" if s >= -0.05 else "right" for s in side)
+    camera = scenario.layout.camera
+    places = {g: (centers[k], k) for k, g in enumerate(names)}
+    for b in scenario.layout.buffers:
+        places.setdefault(b.name, (np.asarray(b.position, dtype=float) + HAND_ABOVE_BUFFER, -1))
+    tasks = []
+    for action in op.actions:
+        targets = [places[g] for g in action.goals]
+        d = action.duration
+        tasks.append(
+            LayoutTask(
+                action.name,
+                np.array([t[0] for t in targets]),
+                tuple(int(t[1]) for t in targets),
+                action.hand,
+                (float(d.mean), float(d.std), float(d.low)),
+            )
+        )
+    return GoalLayout(
+        name, names, centers, hands, radius, (float(xyz[0]), float(xyz[1]), yaw),
+        tuple(float(v) for v in camera.position), tuple(float(v) for v in camera.target),
+        tuple(tasks), tuple(op.pattern),
+    )
 
-    times: np.ndarray
-    points: np.ndarray
-    gaze: np.ndarray
-    gaze_valid: np.ndarray
-    true_wrists: np.ndarray
-    target: np.ndarray
-    layout: GoalLayout
+
+def box_usb_layout(scenario_path: str | Path) -> GoalLayout:
+    """Goals 1-5 of thesis 3.1.3 (goal 1 = g1_home, goal 4 = g4_station) of diagrams/box_usb.yaml.
+
+    The scenario is read and checked by `load_scenario` (ScenarioError on any problem).
+    """
+    path = Path(scenario_path)
+    return layout_from_scenario(load_scenario(path), path.stem)
+
+
+def second_layout() -> GoalLayout:
+    """A layout no shipped model was trained on (benchmark of layout independence)."""
+    return _from_table("shelf_arc", _SECOND)
+
+
+def random_layout(rng: np.random.Generator, n_goals: int = 5, min_spacing: float = 0.25) -> GoalLayout:
+    """Goals sampled in the operator's reach (forward 0.25-0.6 m, +/-0.5 m sideways, 0.8-1.1 m high)."""
+    centers: list[list[float]] = []
+    hands = []
+    for _ in range(2000):
+        forward, left, height = rng.uniform(0.25, 0.6), rng.uniform(-0.5, 0.5), rng.uniform(0.8, 1.1)
+        point = np.array(_operator_frame(forward, left, height))
+        if all(np.linalg.norm(point - c) >= min_spacing for c in centers):
+            centers.append(point.tolist())
+            hands.append("left" if left >= 0 else "right")
+            if len(centers) == n_goals:
+                break
+    if len(centers) < n_goals:
+        raise ValueError(f"random_layout: cannot place {n_goals} goals {min_spacing} m apart")
+    return GoalLayout("random", tuple(f"R{i + 1}" for i in range(n_goals)), np.array(centers), tuple(hands))
 
 
 def random_segments(rng: np.random.Generator):
     """Anthropometrics of a random adult (+/- ~10 % around the schema defaults)."""
-    from hrc_drake.human.config import Segments
-
     scale = rng.uniform(0.9, 1.1)
     return Segments(
         torso=0.50 * scale * rng.uniform(0.95, 1.05),
@@ -85,8 +170,6 @@ def record_reaches(
     hands: the hand per goal, left|right|both (default: layout.hands). Durations are uniform in
     duration_range. target_scatter (m): std of this operator's personal offset from each centre.
     """
-    from hrc_drake.human.operator import OperatorTask
-
     n_goals = len(layout.goal_names)
     hands = tuple(hands or layout.hands)
     if len(hands) != n_goals:
@@ -124,8 +207,6 @@ def record_task_cycles(
     Each action reaches its targets with its hand(s) as in the cell (thesis 3.1.3); durations
     are normal (mean, std) truncated at `low`; the world never makes the operator wait.
     """
-    from hrc_drake.human.operator import OperatorTask
-
     if not layout.tasks or not layout.pattern:
         raise ValueError(f"record_task_cycles: layout {layout.name!r} has no operator tasks")
     tasks, labels = {}, {}
@@ -149,12 +230,6 @@ def record_task_cycles(
 
 
 def _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate) -> Recording:
-    import warnings
-
-    from hrc_drake.human.body import BodyModel
-    from hrc_drake.human.camera import DepthCameraModel
-    from hrc_drake.human.operator import SyntheticOperator
-
     x, y, yaw = layout.operator_base
     body = BodyModel(segments)
     rest_q = body.rest_q((x, y), yaw)
@@ -197,81 +272,3 @@ def _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_
     )
 
 
-def training_samples(
-    recording: Recording,
-    window: int = DEFAULT_WINDOW,
-    min_speed: float = DEFAULT_MIN_SPEED,
-    with_gaze_flag: bool = False,
-    significance: float = DEFAULT_SIGNIFICANCE,
-    approach_only: bool = True,
-):
-    """Phi (M, 4) for the true goal of every moving, labelled hand sample (thesis 3.1.2).
-
-    approach_only: keep only the samples of each reach from its start to its arrival at the goal
-    (`reaches_of`); the dwell at a goal is no reach, and a wrist lingering there teaches the
-    mixtures "close to a goal, any direction". With `with_gaze_flag` also the flag F (M,) of
-    each sample: (phi, gaze_valid).
-    """
-    wrists = recording.points[:, [L_WRIST, R_WRIST]]
-    velocity, moving = trajectory_velocities(recording.times, wrists, window, min_speed, significance)
-    phi = skeleton_features(recording.points, velocity, moving, recording.gaze, recording.layout.centers)
-    in_reach = np.ones(recording.target.shape, dtype=bool)
-    if approach_only:
-        in_reach[:] = False
-        for reach in reaches_of(recording):
-            in_reach[reach.start : reach.arrival + 1, reach.hand] = True
-    rows, flags = [], []
-    for h in range(2):
-        labelled = (
-            (recording.target[:, h] >= 0)
-            & in_reach[:, h]
-            & moving[:, h]
-            & np.all(np.isfinite(wrists[:, h]), axis=1)
-        )
-        steps = np.nonzero(labelled)[0]
-        rows.append(phi[steps, h, recording.target[steps, h], 0])
-        flags.append(recording.gaze_valid[steps])
-    samples = np.concatenate(rows)
-    flag = np.concatenate(flags).astype(bool)
-    finite = np.all(np.isfinite(samples), axis=1)
-    if with_gaze_flag:
-        return samples[finite], flag[finite]
-    return samples[finite]
-
-
-@dataclass(frozen=True)
-class Reach:
-    """One reach of a hand: from its start to its arrival at the goal (indices into a recording)."""
-
-    hand: int
-    goal: int
-    start: int
-    arrival: int
-
-
-def reaches_of(recording: Recording, arrival_margin: float = 0.03, max_offset: float = 0.2) -> list[Reach]:
-    """Runs of a constant target per hand, from the start of the run to the arrival at the goal.
-
-    Arrival: the first sample whose true wrist is within `arrival_margin` of its closest approach
-    to the centre (hands of two-handed actions stop beside the centre). Runs whose closest
-    approach is farther than `max_offset` (goal out of reach) or that start at the goal are skipped.
-    """
-    out = []
-    for h in range(2):
-        target = recording.target[:, h]
-        change = np.nonzero(np.diff(target) != 0)[0] + 1
-        starts = np.concatenate([[0], change])
-        ends = np.concatenate([change, [len(target)]])
-        for s, e in zip(starts, ends, strict=True):
-            goal = int(target[s])
-            if goal < 0:
-                continue
-            dist = np.linalg.norm(recording.true_wrists[s:e, h] - recording.layout.centers[goal], axis=1)
-            closest = float(dist.min())
-            if closest > max_offset:
-                continue
-            arrival = int(np.nonzero(dist <= closest + arrival_margin)[0][0])
-            if arrival < 3:
-                continue  # already there
-            out.append(Reach(h, goal, int(s), int(s + arrival)))
-    return out

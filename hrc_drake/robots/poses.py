@@ -1,0 +1,99 @@
+"""Named poses of the robots of a cell as joint vectors (joint values checked, Cartesian targets by IK).
+
+Reads only the robots' configs (`hrc_drake.robots.config.Robot`), so the scenario loader and the
+cell builder both use it without importing each other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
+
+from hrc_drake.errors import ConfigError, ScenarioError
+from hrc_drake.robots.config import Robot
+from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
+from hrc_drake.robots.models import add_robots, arm_joint_limits
+from hrc_drake.robots.registry import get_robot_model
+
+
+def _error(file, field: str, reason: str) -> ScenarioError:
+    return ConfigError(field, reason) if file is None else ScenarioError(file, field, reason)
+
+
+def solve_named_poses(
+    robots: Sequence[Robot], file: str | Path | None = None, field: str = "robots"
+) -> dict[tuple[str, str], np.ndarray]:
+    """Joint vectors {(robot name, pose name): q (n,)} of every named pose of `robots`.
+
+    Joint poses must lie within the arm's joint limits; Cartesian targets are solved by Drake
+    InverseKinematics (`solve_tool_position`), each seeded by the arm's previous pose. Raises
+    `ScenarioError(file, "<field>[i].poses[j]...", reason)` naming the pose at fault (an unknown
+    model or arm, a joint outside its limits, a target out of reach); `ConfigError` (no file)
+    when `file` is None.
+    """
+    for i, robot in enumerate(robots):
+        try:
+            record = get_robot_model(robot.model)
+        except ValueError as err:
+            raise _error(file, f"{field}[{i}].model", str(err)) from None
+        for j, pose in enumerate(robot.poses):
+            if pose.arm not in record.arm_names:
+                raise _error(
+                    file, f"{field}[{i}].poses[{j}].arm",
+                    f"unknown arm '{pose.arm}' of {robot.model} {record.arm_names}",
+                )
+    plant = MultibodyPlant(0.0)
+    instances = add_robots(plant, robots)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    solved: dict[tuple[str, str], np.ndarray] = {}
+    for i, (instance, robot) in enumerate(instances):
+        limits = {}
+        for j, pose in enumerate(robot.poses):
+            field_path = f"{field}[{i}].poses[{j}]"
+            if pose.arm not in limits:
+                limits[pose.arm] = arm_joint_limits(plant, instance, robot.model, pose.arm)
+            lower, upper, _ = limits[pose.arm]
+            if pose.joints:
+                q = np.asarray(pose.joints, float)
+                if q.shape != lower.shape:
+                    raise _error(
+                        file, f"{field_path}.joints", f"expected {lower.size} joint values, got {q.size}"
+                    )
+                bad = np.flatnonzero((q < lower - 1e-9) | (q > upper + 1e-9))
+                if len(bad):
+                    k = int(bad[0])
+                    raise _error(
+                        file,
+                        f"{field_path}.joints[{k}]",
+                        f"{q[k]:.4f} rad is outside the joint's limits [{lower[k]:.4f}, {upper[k]:.4f}]",
+                    )
+            else:
+                seed_q = next(
+                    (
+                        solved[(robot.name, p.name)]
+                        for p in reversed(robot.poses[:j])
+                        if p.arm == pose.arm and (robot.name, p.name) in solved
+                    ),
+                    None,
+                )
+                try:
+                    q = solve_tool_position(
+                        plant,
+                        context,
+                        instance,
+                        robot.model,
+                        pose.arm,
+                        pose.target.xyz,
+                        target_rpy=pose.target.rpy if pose.orient else None,
+                        q_seed=seed_q,
+                        tolerance=pose.tolerance,
+                        tool_z_down=not pose.orient,
+                    )
+                except InfeasibleTarget as err:
+                    raise _error(file, f"{field_path}.target", f"out of reach: {err}") from err
+            solved[(robot.name, pose.name)] = np.asarray(q, float)
+    return solved

@@ -1,0 +1,44 @@
+"""solve_named_poses: the robots' named poses as joint vectors, errors naming the field."""
+
+import numpy as np
+import pytest
+
+from hrc_drake.config_common import Pose
+from hrc_drake.errors import ConfigError, ScenarioError
+from hrc_drake.robots.config import NamedPose, Robot
+from hrc_drake.robots.poses import solve_named_poses
+
+
+def _irb(*poses, name="irb"):
+    return Robot(name=name, model="irb140", base=Pose(xyz=[0.0, 0.0, 0.0]), poses=list(poses))
+
+
+def test_joint_and_cartesian_poses():
+    robot = _irb(
+        NamedPose(name="home", arm="arm", joints=[0.0, 0.2, -0.3, 0.0, 0.5, 0.0]),
+        NamedPose(name="reach", arm="arm", target=Pose(xyz=[0.5, 0.1, 0.4])),
+    )
+    solved = solve_named_poses([robot])
+    np.testing.assert_allclose(solved[("irb", "home")], [0.0, 0.2, -0.3, 0.0, 0.5, 0.0])
+    assert solved[("irb", "reach")].shape == (6,)
+
+
+def test_errors_name_the_field():
+    bad_joint = _irb(NamedPose(name="home", arm="arm", joints=[0.0, 0.2, -0.3, 0.0, 3.0, 0.0]))
+    with pytest.raises(ConfigError) as info:
+        solve_named_poses([bad_joint])
+    assert info.value.field == "robots[0].poses[0].joints[4]"
+    assert "outside the joint's limits" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        solve_named_poses([_irb(name="other"), bad_joint], "cell.yaml", field="cell.robots")
+    assert info.value.file == "cell.yaml" and info.value.field == "cell.robots[1].poses[0].joints[4]"
+    far = _irb(NamedPose(name="far", arm="arm", target=Pose(xyz=[3.0, 0.0, 0.5])))
+    with pytest.raises(ScenarioError, match="out of reach") as info:
+        solve_named_poses([far], "cell.yaml")
+    assert info.value.field == "robots[0].poses[0].target"
+    with pytest.raises(ConfigError, match="known models: irb140, yumi") as info:
+        solve_named_poses([Robot(name="x", model="ur5")])
+    assert info.value.field == "robots[0].model"
+    with pytest.raises(ConfigError, match="unknown arm 'left' of irb140") as info:
+        solve_named_poses([_irb(NamedPose(name="p", arm="left", joints=[0.0] * 6))])
+    assert info.value.field == "robots[0].poses[0].arm"
