@@ -238,7 +238,9 @@ def _camera_model(scenario: Scenario) -> DepthCameraModel:
     )
 
 
-def _add_human(builder, scenario, scenario_path, body, robot_capsules, scene_graph, camera_seed, rng, systems):
+def _add_human(
+    builder, scenario, scenario_path, body, robot_capsules, scene_graph, camera_seed, rng, systems
+):
     """The operator (synthetic or recorded), its capsules in SceneGraph and the depth camera.
 
     Returns the camera (or recorded source), the human-capsules system, the human events port
@@ -312,7 +314,9 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
 
-def _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems):
+def _add_recorder(
+    builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems
+):
     recorder = builder.AddSystem(MetricsRecorder())
     recorder.set_name("metrics")
     builder.Connect(human_events_port, recorder.GetInputPort("human_events"))

@@ -53,20 +53,28 @@ class ReplayMarkers(LeafSystem):
         self._goals = {g.name: g for g in scenario.layout.goals}
         self._show_skeleton = show_skeleton
         self._show_swept = show_swept
-        self._lamps = {
-            "full": Rgba(0.1, 0.9, 0.1, 1.0),
-            "slow": Rgba(1.0, 0.7, 0.0, 1.0),
-            "stop": Rgba(0.9, 0.1, 0.1, 1.0),
-        } if scenario.robots else {}
+        self._lamps = (
+            {
+                "full": Rgba(0.1, 0.9, 0.1, 1.0),
+                "slow": Rgba(1.0, 0.7, 0.0, 1.0),
+                "stop": Rgba(0.9, 0.1, 0.1, 1.0),
+            }
+            if scenario.robots
+            else {}
+        )
         self._lamp_position = (
             np.asarray(scenario.robots[0].base.xyz, float) + [0.0, 0.0, 0.75] if scenario.robots else None
         )
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
-        self._frame_port = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
+        self._frame_port = self.DeclareAbstractInputPort(
+            "skeleton_frame", AbstractValue.Make(SkeletonFrame())
+        )
         self._estimate_port = self.DeclareAbstractInputPort(
             "skeleton_estimate", AbstractValue.Make(SkeletonEstimate())
         )
-        self._intention_port = self.DeclareAbstractInputPort("intention_events", AbstractValue.Make(EventLog()))
+        self._intention_port = self.DeclareAbstractInputPort(
+            "intention_events", AbstractValue.Make(EventLog())
+        )
         self._swept_port = self.DeclareAbstractInputPort("swept_volumes", AbstractValue.Make(SweptVolumes()))
         self._override_port = self.DeclareVectorInputPort("speed_override", 1)
         self._flash = declare_state(self, lambda context: FlashState())
@@ -88,7 +96,10 @@ class ReplayMarkers(LeafSystem):
                 self._hide(path)
         # Skeleton markers cost ~2 kB per replay frame: only where a tracker makes them worth it.
         if self._show_skeleton:
-            for name, color in (("measured", Rgba(0.1, 0.4, 1.0, 1.0)), ("estimated", Rgba(1.0, 0.2, 0.2, 1.0))):
+            for name, color in (
+                ("measured", Rgba(0.1, 0.4, 1.0, 1.0)),
+                ("estimated", Rgba(1.0, 0.2, 0.2, 1.0)),
+            ):
                 for k in range(8):
                     meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
                     self._visible[f"/markers/skeleton/{name}/{k}"] = True
@@ -207,7 +218,9 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
     markers.set_name("replay_markers")
     builder.Connect(systems["world"], markers.GetInputPort("world"))
     builder.Connect(systems["camera"].GetOutputPort("skeleton_frame"), markers.GetInputPort("skeleton_frame"))
-    builder.Connect(systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate"))
+    builder.Connect(
+        systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate")
+    )
     if "intention" in systems:
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events")

@@ -63,7 +63,9 @@ class HumanCapsules(LeafSystem):
             self._input = self.DeclareVectorInputPort("q", 12)
         else:
             self._input = self.DeclareVectorInputPort("skeleton", 24)
-        self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(no_capsules()), self._calc_capsules)
+        self.DeclareAbstractOutputPort(
+            "capsules", lambda: AbstractValue.Make(no_capsules()), self._calc_capsules
+        )
         self.DeclareVectorOutputPort("points", 24, self._calc_points)
 
     def _points(self, context) -> np.ndarray:
@@ -191,12 +193,15 @@ class CellWorldSystem(LeafSystem):
         self._initial = WorldRun(Frozen(world.clone()), (0,) * len(sources))
         self._run = declare_state(self, lambda context: self._initial)
         self._sources = [
-            self.DeclareAbstractInputPort(f"requests_{name}", AbstractValue.Make(EventLog())) for name in sources
+            self.DeclareAbstractInputPort(f"requests_{name}", AbstractValue.Make(EventLog()))
+            for name in sources
         ]
         self._activity = self.DeclareAbstractInputPort("robot_activity", AbstractValue.Make(AgentActivity()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
         self.DeclareAbstractOutputPort(
-            "snapshot", lambda: AbstractValue.Make(WorldSnapshot()), self._calc,
+            "snapshot",
+            lambda: AbstractValue.Make(WorldSnapshot()),
+            self._calc,
             state_ticket(self, self._run, self._activity.ticket()),
         )
 
@@ -285,8 +290,12 @@ class MetricsRecorder(LeafSystem):
             "intention_events", AbstractValue.Make(EventLog())
         )
         self._human_points = self.DeclareVectorInputPort("human_points", 24)
-        self._human_capsules = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
-        self._robot_capsules = self.DeclareAbstractInputPort("robot_capsules", AbstractValue.Make(no_capsules()))
+        self._human_capsules = self.DeclareAbstractInputPort(
+            "human_capsules", AbstractValue.Make(no_capsules())
+        )
+        self._robot_capsules = self.DeclareAbstractInputPort(
+            "robot_capsules", AbstractValue.Make(no_capsules())
+        )
         self._override = self.DeclareVectorInputPort("speed_override", 1)
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
         self._run = declare_state(self, lambda context: RecorderRun())

@@ -24,8 +24,13 @@ MAX_EVENTS_OUT = 200
 
 def empty_skeleton_frame(time: float = 0.0) -> SkeletonFrame:
     """A frame where nothing is tracked (NaN points, gaze invalid)."""
-    return SkeletonFrame(time=time, points=np.full((8, 3), np.nan), tracked=np.zeros(8, dtype=bool),
-                         gaze=np.array([1.0, 0.0, 0.0]), gaze_valid=False)
+    return SkeletonFrame(
+        time=time,
+        points=np.full((8, 3), np.nan),
+        tracked=np.zeros(8, dtype=bool),
+        gaze=np.array([1.0, 0.0, 0.0]),
+        gaze_valid=False,
+    )
 
 
 def append_window(log: EventLog, new, size: int = MAX_EVENTS_OUT) -> EventLog:
@@ -69,10 +74,18 @@ class OperatorSource(LeafSystem):
         self.DeclareVectorOutputPort("skeleton", BasicVector(24), self._calc_skeleton, pose_ticket)
         self.DeclareVectorOutputPort("q", BasicVector(12), self._calc_q, pose_ticket)
         self.DeclareVectorOutputPort("gaze", BasicVector(3), self._calc_gaze, pose_ticket)
-        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_events, state_ticket(self, self._run))
-        self.DeclareAbstractOutputPort("world_requests", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_requests, state_ticket(self, self._run))
+        self.DeclareAbstractOutputPort(
+            "human_events",
+            lambda: AbstractValue.Make(EventLog()),
+            self._calc_events,
+            state_ticket(self, self._run),
+        )
+        self.DeclareAbstractOutputPort(
+            "world_requests",
+            lambda: AbstractValue.Make(EventLog()),
+            self._calc_requests,
+            state_ticket(self, self._run),
+        )
 
     def operator(self, context) -> SyntheticOperator:
         """The operator core of `context` (read only)."""
@@ -88,11 +101,15 @@ class OperatorSource(LeafSystem):
             return EventStatus.DidNothing()
         operator = run.operator.thaw()
         events = operator.update(t, view)
-        set_state(state, self._run, OperatorRun(
-            Frozen(operator),
-            append_window(run.human_events, events),
-            append_window(run.world_requests, operator.new_requests),
-        ))
+        set_state(
+            state,
+            self._run,
+            OperatorRun(
+                Frozen(operator),
+                append_window(run.human_events, events),
+                append_window(run.world_requests, operator.new_requests),
+            ),
+        )
         return EventStatus.Succeeded()
 
     def _calc_skeleton(self, context, output):
@@ -126,8 +143,10 @@ class RecordedSkeletonSource(LeafSystem):
         points = np.asarray(points, dtype=float)
         tracked = np.asarray(tracked, dtype=bool)
         if times.size == 0 or points.shape != (times.size, 8, 3) or tracked.shape != (times.size, 8):
-            raise ValueError("RecordedSkeletonSource: need times (T,), points (T, 8, 3), tracked (T, 8) "
-                             f"with T > 0; got {times.shape}, {points.shape}, {tracked.shape}")
+            raise ValueError(
+                "RecordedSkeletonSource: need times (T,), points (T, 8, 3), tracked (T, 8) "
+                f"with T > 0; got {times.shape}, {points.shape}, {tracked.shape}"
+            )
         if np.any(np.diff(times) <= 0):
             raise ValueError("RecordedSkeletonSource: times must strictly increase")
         self.times = times
@@ -139,11 +158,22 @@ class RecordedSkeletonSource(LeafSystem):
             frame[~flags] = np.nan
             last = np.where(np.isfinite(frame), frame, last)
             held[k] = last
-            self.frames.append(SkeletonFrame(time=float(t), points=frame, tracked=flags.copy(),
-                                             gaze=np.array([1.0, 0.0, 0.0]), gaze_valid=False))
+            self.frames.append(
+                SkeletonFrame(
+                    time=float(t),
+                    points=frame,
+                    tracked=flags.copy(),
+                    gaze=np.array([1.0, 0.0, 0.0]),
+                    gaze_valid=False,
+                )
+            )
         self.held_points = held
-        self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame, {self.time_ticket()})
+        self.DeclareAbstractOutputPort(
+            "skeleton_frame",
+            lambda: AbstractValue.Make(SkeletonFrame()),
+            self._calc_frame,
+            {self.time_ticket()},
+        )
         self.DeclareVectorOutputPort("skeleton", BasicVector(24), self._calc_skeleton, {self.time_ticket()})
 
     @classmethod
@@ -181,8 +211,9 @@ class DepthCamera(LeafSystem):
         self._capsules = self.DeclareAbstractInputPort(
             "occluding_capsules", AbstractValue.Make(no_capsules())
         )
-        self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
-                                       self._calc_frame)
+        self.DeclareAbstractOutputPort(
+            "skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()), self._calc_frame
+        )
 
     def _calc_frame(self, context, output):
         t = context.get_time()

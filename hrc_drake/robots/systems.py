@@ -99,9 +99,11 @@ class PathFollower(LeafSystem):
             k = self._arm0 + 4 * request.channel
             if request.seq > x[k]:
                 if np.shape(request.waypoints)[-1] != len(self.arm_indices[request.channel]):
-                    raise ValueError(f"PathFollower: request for arm {request.channel} has waypoints of "
-                                     f"{np.shape(request.waypoints)[-1]} joints, expected "
-                                     f"{len(self.arm_indices[request.channel])}")
+                    raise ValueError(
+                        f"PathFollower: request for arm {request.channel} has waypoints of "
+                        f"{np.shape(request.waypoints)[-1]} joints, expected "
+                        f"{len(self.arm_indices[request.channel])}"
+                    )
                 idx = self.arm_indices[request.channel]
                 start = x[self._start]
                 start[idx] = q[idx]
@@ -188,14 +190,18 @@ class RobotTaskExecutor(LeafSystem):
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
         ticket = state_ticket(self, self._run)
-        self.DeclareAbstractOutputPort("path_requests", lambda: AbstractValue.Make(()),
-                                       self._calc_requests, ticket)
-        self.DeclareAbstractOutputPort("robot_events", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_events, ticket)
-        self.DeclareAbstractOutputPort("world_requests", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_world_requests, ticket)
-        self.DeclareAbstractOutputPort("activity", lambda: AbstractValue.Make(AgentActivity()),
-                                       self._calc_activity, ticket)
+        self.DeclareAbstractOutputPort(
+            "path_requests", lambda: AbstractValue.Make(()), self._calc_requests, ticket
+        )
+        self.DeclareAbstractOutputPort(
+            "robot_events", lambda: AbstractValue.Make(EventLog()), self._calc_events, ticket
+        )
+        self.DeclareAbstractOutputPort(
+            "world_requests", lambda: AbstractValue.Make(EventLog()), self._calc_world_requests, ticket
+        )
+        self.DeclareAbstractOutputPort(
+            "activity", lambda: AbstractValue.Make(AgentActivity()), self._calc_activity, ticket
+        )
 
     def executor(self, context) -> TaskExecutor:
         """The executor core of `context` (read only)."""
@@ -212,11 +218,15 @@ class RobotTaskExecutor(LeafSystem):
         executor = run.executor.thaw()
         before = len(executor.events)
         executor.update(context.get_time(), list(done), commands, view)
-        set_state(state, self._run, ExecutorRun(
-            Frozen(executor),
-            _append(run.robot_events, executor.events[before:]),
-            _append(run.world_requests, executor.new_requests),
-        ))
+        set_state(
+            state,
+            self._run,
+            ExecutorRun(
+                Frozen(executor),
+                _append(run.robot_events, executor.events[before:]),
+                _append(run.world_requests, executor.new_requests),
+            ),
+        )
         return EventStatus.Succeeded()
 
     def _calc_requests(self, context, output):
