@@ -206,13 +206,22 @@ def run_cell(scenario_path, kind: str, seed: int, duration: float) -> dict:
     from hrc_drake.cell.scenario import load_scenario
 
     warnings.filterwarnings("ignore")
+    import dataclasses
+
+    from hrc_drake.motion.config import WorstCaseMotionModel
+
     scenario = load_scenario(scenario_path)
-    scenario.motion_model.kind = kind
+    gp = scenario.motion_model  # the scenario's GP model; [107] shares its bounds
+    if kind == "worst_case":
+        common = {f.name: getattr(gp, f.name) for f in dataclasses.fields(WorstCaseMotionModel)}
+        scenario.motion_model = WorstCaseMotionModel(**common)
+    else:
+        scenario.motion_model = dataclasses.replace(gp, variant=kind[-1].upper())
     scenario.seed = int(seed)
     cell = build_cell(scenario, scenario_path)
     start = time.perf_counter()
     result = simulate(cell, duration, progress=None)
-    log = cell.recorder.log
+    log = result.log
     stores = sorted(e.time for e in log.events
                     if getattr(e, "action", "") == "L_store" and getattr(e, "kind", "") == "end")
     distances = np.asarray(log.distances, dtype=float)

@@ -147,7 +147,7 @@ def bench_lego(files_limit: int, windows_per_file: int) -> dict:
             if len(skel) < warm + length + 10:
                 continue
             start = int(rng.integers(0, len(skel) - warm - length - 1))
-            seq = skel[start:start + warm + length + 10]
+            seq = skel[start : start + warm + length + 10]
             side = rng.choice(["left", "right"])
             case = rng.choice(["wrist", "elbow", "both"])
             wrist, elbow = (L_WRIST, L_ELBOW) if side == "left" else (R_WRIST, R_ELBOW)
@@ -170,10 +170,16 @@ def bench_lego(files_limit: int, windows_per_file: int) -> dict:
             if np.isfinite(e_pf):
                 by_case[case][0] += 1
                 by_case[case][1] += int(e_pf < e_kf)
-        print(f"  lego file {f_i + 1}/{len(files)} {path.relative_to(root)}: running PF "
-              f"{rms(all_err['particle_filter']):.3f} m, KF {rms(all_err['kalman']):.3f} m", flush=True)
-    return {"rms_pf": rms(all_err["particle_filter"]), "rms_kf": rms(all_err["kalman"]),
-            "windows_pf_better": {k: f"{v[1]}/{v[0]}" for k, v in by_case.items()}}
+        print(
+            f"  lego file {f_i + 1}/{len(files)} {path.relative_to(root)}: running PF "
+            f"{rms(all_err['particle_filter']):.3f} m, KF {rms(all_err['kalman']):.3f} m",
+            flush=True,
+        )
+    return {
+        "rms_pf": rms(all_err["particle_filter"]),
+        "rms_kf": rms(all_err["kalman"]),
+        "windows_pf_better": {k: f"{v[1]}/{v[0]}" for k, v in by_case.items()},
+    }
 
 
 # ------------------------------------------------------------------------------ cell
@@ -183,8 +189,10 @@ CYCLE_AGENT, CYCLE_ACTION = "yumi_left", "L_carry"
 ROBOT_ACTIONS = ("L_carry", "R_assemble", "L_unload")
 #: --elbow-occluders: shelves 1.35 m tall (1.22 m in the scenario), shelf_green widened to y >= 0.20;
 #: with the scenario's camera they hide elbow and wrist together (case 3), see the closing report.
-ELBOW_OCCLUDERS = {"shelf_fuses": ([0.60, -0.33, 1.085], [0.06, 0.30, 0.53]),
-                   "shelf_green": ([0.62, 0.365, 1.085], [0.06, 0.33, 0.53])}
+ELBOW_OCCLUDERS = {
+    "shelf_fuses": ([0.60, -0.33, 1.085], [0.06, 0.30, 0.53]),
+    "shelf_green": ([0.62, 0.365, 1.085], [0.06, 0.33, 0.53]),
+}
 ARMS = ((L_ELBOW, L_WRIST), (R_ELBOW, R_WRIST))
 
 
@@ -197,8 +205,8 @@ class OcclusionProbe:
     optional second `SkeletonTracker` fed the same frames (the KF on the PF run's frames).
     """
 
-    def __init__(self, operator, camera_model, shadow=None):
-        self.operator = operator
+    def __init__(self, truth, camera_model, shadow=None):
+        self.truth = truth
         self.camera = camera_model
         self.shadow = shadow
         self.frames = 0
@@ -210,7 +218,7 @@ class OcclusionProbe:
         self.shadow_errors: list = []
 
     def __call__(self, frame, estimate) -> None:
-        truth = self.operator.points(frame.time)
+        truth = self.truth(frame.time)
         lost = ~(np.asarray(frame.tracked, bool) & np.all(np.isfinite(frame.points), axis=1))
         self.frames += 1
         self.hidden += lost
@@ -233,15 +241,20 @@ def error_stats(errors) -> dict:
     e = np.concatenate(errors) if errors else np.zeros(0)
     if not e.size:
         return {"rms": float("nan"), "median": float("nan"), "p95": float("nan"), "n": 0}
-    return {"rms": float(np.sqrt(np.mean(e**2))), "median": float(np.median(e)),
-            "p95": float(np.percentile(e, 95)), "n": int(e.size)}
+    return {
+        "rms": float(np.sqrt(np.mean(e**2))),
+        "median": float(np.median(e)),
+        "p95": float(np.percentile(e, 95)),
+        "n": int(e.size),
+    }
 
 
 def load_pcb_scenario(kind: str, elbow_occluders: bool, operator_x: float | None = None):
     from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.perception.config import KalmanTracker, ParticleFilterTracker
 
     scenario = load_scenario(SCENARIO)
-    scenario.tracker.kind = kind
+    scenario.tracker = ParticleFilterTracker(particles=500) if kind == "particle_filter" else KalmanTracker()
     if operator_x is not None:
         scenario.operator.base.xyz[0] = float(operator_x)
     if elbow_occluders:
@@ -255,18 +268,25 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
     """Simulate pcb_occlusion.yaml with tracker `kind` until n_cycles robot cycles are complete."""
     from pydrake.systems.analysis import Simulator
 
-    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.build import build_cell, camera_model
 
     scenario = load_pcb_scenario(kind, elbow_occluders, operator_x)
     cell = build_cell(scenario, SCENARIO, named_poses=named_poses)
     lay = scenario.layout
     shadow = None
     if kind == "particle_filter":
-        shadow = SkeletonTracker("kalman", dict(scenario.tracker.params), None, lay.workspace_center,
-                                 lay.workspace_size, lay.camera.rate)
-    probe = OcclusionProbe(cell.systems["operator"].operator, cell.systems["camera_model"], shadow)
-    cell.systems["tracker"].listeners.append(probe)
+        shadow = SkeletonTracker(
+            "kalman", {}, None, lay.workspace_center, lay.workspace_size, lay.camera.rate
+        )
     simulator = Simulator(cell.diagram)
+    source = cell.system("operator")
+    source_context = source.GetMyContextFromRoot(simulator.get_context())
+
+    def truth(t):  # the true skeleton: the run's operator, in the simulator's context
+        return source.operator(source_context).points(t)
+
+    probe = OcclusionProbe(truth, camera_model(scenario), shadow)
+    cell.system("tracker").listeners.append(probe)
     simulator.set_target_realtime_rate(0.0)
     simulator.Initialize()
     start_wall = time.perf_counter()
@@ -275,14 +295,20 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
     while len(begins) < n_cycles + 1 and t < max_time:
         t += 2.0
         simulator.AdvanceTo(t)
-        new = [e.time for e in cell.recorder.log.events
-               if getattr(e, "agent", "") == CYCLE_AGENT and e.action == CYCLE_ACTION and e.kind == "begin"]
+        new = [
+            e.time
+            for e in cell.log(simulator.get_context()).events
+            if getattr(e, "agent", "") == CYCLE_AGENT and e.action == CYCLE_ACTION and e.kind == "begin"
+        ]
         if len(new) > len(begins) and len(new) > 1:
-            print(f"  {kind}: cycle {len(new) - 1}/{n_cycles} took {new[-1] - new[-2]:5.1f} s "
-                  f"(t = {t:6.0f} s, wall {time.perf_counter() - start_wall:5.0f} s)", flush=True)
+            print(
+                f"  {kind}: cycle {len(new) - 1}/{n_cycles} took {new[-1] - new[-2]:5.1f} s "
+                f"(t = {t:6.0f} s, wall {time.perf_counter() - start_wall:5.0f} s)",
+                flush=True,
+            )
         begins = new
     wall = time.perf_counter() - start_wall
-    log = cell.recorder.log
+    log = cell.log(simulator.get_context())
     cycles = np.diff(begins)[:n_cycles]
     end = begins[min(len(begins) - 1, n_cycles)] if len(begins) > 1 else t
     times = np.asarray(log.times)
@@ -300,14 +326,21 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
             elif e.kind == "end" and e.action in open_begin:
                 durations[e.action].append(e.time - open_begin.pop(e.action))
     result = {
-        "kind": kind, "cycles": cycles.tolist(), "simulated_s": float(end), "wall_s": wall,
-        "min_distance_m": float(distances[arg]), "min_distance_at_s": float(times[in_run][arg]),
-        "below_safety_fraction": float(np.mean(distances < safety)), "safety_distance_m": safety,
+        "kind": kind,
+        "cycles": cycles.tolist(),
+        "simulated_s": float(end),
+        "wall_s": wall,
+        "min_distance_m": float(distances[arg]),
+        "min_distance_at_s": float(times[in_run][arg]),
+        "below_safety_fraction": float(np.mean(distances < safety)),
+        "safety_distance_m": safety,
         "slowed_fraction": float(np.mean(overrides < 1.0)),
         "robot_action_mean_s": {a: float(np.mean(v)) if v else float("nan") for a, v in durations.items()},
-        "frames": probe.frames, "hidden_frames": probe.hidden.tolist(),
+        "frames": probe.frames,
+        "hidden_frames": probe.hidden.tolist(),
         "hidden_by_box": probe.by_box.tolist(),
-        "hidden_out_of_view": probe.by_view.tolist(), "arm_cases": dict(probe.cases),
+        "hidden_out_of_view": probe.by_view.tolist(),
+        "arm_cases": dict(probe.cases),
         "error": error_stats(probe.errors),
     }
     if shadow is not None:
@@ -327,14 +360,22 @@ def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
         rows.append(f"  {lo:7.1f} - {hi:6.1f} " + " ".join(f"{'#' * c:>16s}" for c in counts))
     return rows
 
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, under a minute")
     parser.add_argument("--cycles", type=int, default=None, help="robot cycles per tracker (30; --quick 2)")
-    parser.add_argument("--elbow-occluders", action="store_true",
-                        help="taller/wider shelves that also hide the elbows (case 3), see ELBOW_OCCLUDERS")
-    parser.add_argument("--operator-x", type=float, default=None,
-                        help="operator base x (m; the scenario has 1.0, 1.1 keeps the safety distance)")
+    parser.add_argument(
+        "--elbow-occluders",
+        action="store_true",
+        help="taller/wider shelves that also hide the elbows (case 3), see ELBOW_OCCLUDERS",
+    )
+    parser.add_argument(
+        "--operator-x",
+        type=float,
+        default=None,
+        help="operator base x (m; the scenario has 1.0, 1.1 keeps the safety distance)",
+    )
     args = parser.parse_args()
     quick = args.quick
     n_cycles = args.cycles if args.cycles is not None else (2 if quick else 30)
@@ -345,12 +386,17 @@ def main() -> None:
 
     from hrc_drake.robots.poses import solve_named_poses
 
-    print(f"pcb_occlusion.yaml in Drake: {n_cycles} robot cycles per tracker"
-          + (" (elbow occluders)" if args.elbow_occluders else "")
-          + (f" (operator at x = {args.operator_x} m)" if args.operator_x is not None else ""), flush=True)
+    print(
+        f"pcb_occlusion.yaml in Drake: {n_cycles} robot cycles per tracker"
+        + (" (elbow occluders)" if args.elbow_occluders else "")
+        + (f" (operator at x = {args.operator_x} m)" if args.operator_x is not None else ""),
+        flush=True,
+    )
     named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False).robots, SCENARIO)
-    cell = {kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
-            for kind in ("particle_filter", "kalman")}
+    cell = {
+        kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
+        for kind in ("particle_filter", "kalman")
+    }
     pf, kf = cell["particle_filter"], cell["kalman"]
 
     print("lego_assembly_arm with synthetic occluders", flush=True)
@@ -365,34 +411,45 @@ def main() -> None:
     print(f"  of {pf['frames']} frames; arm occlusion cases (frames x arms): {json.dumps(pf['arm_cases'])}")
     print()
     print(f"{'figure':52s} {'PF':>10s} {'KF':>10s}")
-    for key, label in [("occluded_kalman", "update 8x500, wrist hidden (ms, median)"),
-                       ("seen_kalman", "update 8x500, all seen (ms, median)"),
-                       ("occluded_bootstrap", "same, literal bootstrap mode, hidden (ms)"),
-                       ("seen_bootstrap", "same, literal bootstrap mode, all seen (ms)")]:
+    for key, label in [
+        ("occluded_kalman", "update 8x500, wrist hidden (ms, median)"),
+        ("seen_kalman", "update 8x500, all seen (ms, median)"),
+        ("occluded_bootstrap", "same, literal bootstrap mode, hidden (ms)"),
+        ("seen_bootstrap", "same, literal bootstrap mode, all seen (ms)"),
+    ]:
         print(f"{label:52s} {speed[key]:10.3f}")
     shadow = pf["shadow_kf_error"]
     for stat in ("rms", "median", "p95"):
-        print(f"{'cell (a): ' + stat + ' error of lost points, same frames (m)':52s} "
-              f"{pf['error'][stat]:10.3f} {shadow[stat]:10.3f}")
-    print(f"{'cell (a): rms error of lost points, own runs (m)':52s} {pf['error']['rms']:10.3f} "
-          f"{kf['error']['rms']:10.3f}")
+        print(
+            f"{'cell (a): ' + stat + ' error of lost points, same frames (m)':52s} "
+            f"{pf['error'][stat]:10.3f} {shadow[stat]:10.3f}"
+        )
+    print(
+        f"{'cell (a): rms error of lost points, own runs (m)':52s} {pf['error']['rms']:10.3f} "
+        f"{kf['error']['rms']:10.3f}"
+    )
     if not lego.get("skipped"):
-        print(f"{'lego (b): RMS error occluded points (m)':52s} {lego['rms_pf']:10.3f} "
-              f"{lego['rms_kf']:10.3f}")
+        print(
+            f"{'lego (b): RMS error occluded points (m)':52s} {lego['rms_pf']:10.3f} {lego['rms_kf']:10.3f}"
+        )
         print(f"{'lego (b): windows where PF beats KF':52s} {json.dumps(lego['windows_pf_better'])}")
-    rows = [("robot cycles", lambda r: float(len(r["cycles"]))),
-            ("cycle time mean (s)", lambda r: float(np.mean(r["cycles"]))),
-            ("cycle time median (s)", lambda r: float(np.median(r["cycles"]))),
-            ("cycle time std (s)", lambda r: float(np.std(r["cycles"]))),
-            ("L_carry + R_assemble + L_unload mean (s)", lambda r: sum(r["robot_action_mean_s"].values())),
-            ("share of time slowed by the 9.1.3 rule", lambda r: r["slowed_fraction"]),
-            ("true min human-robot distance (m)", lambda r: r["min_distance_m"]),
-            ("share of samples below safety distance", lambda r: r["below_safety_fraction"]),
-            ("wall time of the run (s)", lambda r: r["wall_s"])]
+    rows = [
+        ("robot cycles", lambda r: float(len(r["cycles"]))),
+        ("cycle time mean (s)", lambda r: float(np.mean(r["cycles"]))),
+        ("cycle time median (s)", lambda r: float(np.median(r["cycles"]))),
+        ("cycle time std (s)", lambda r: float(np.std(r["cycles"]))),
+        ("L_carry + R_assemble + L_unload mean (s)", lambda r: sum(r["robot_action_mean_s"].values())),
+        ("share of time slowed by the 9.1.3 rule", lambda r: r["slowed_fraction"]),
+        ("true min human-robot distance (m)", lambda r: r["min_distance_m"]),
+        ("share of samples below safety distance", lambda r: r["below_safety_fraction"]),
+        ("wall time of the run (s)", lambda r: r["wall_s"]),
+    ]
     for label, get in rows:
         print(f"{'Fig. 9.7: ' + label:52s} {get(pf):10.3f} {get(kf):10.3f}")
-    print(f"  safety distance of the scenario: {pf['safety_distance_m']} m; minimum at t = "
-          f"{pf['min_distance_at_s']:.1f} s (PF), {kf['min_distance_at_s']:.1f} s (KF)")
+    print(
+        f"  safety distance of the scenario: {pf['safety_distance_m']} m; minimum at t = "
+        f"{pf['min_distance_at_s']:.1f} s (PF), {kf['min_distance_at_s']:.1f} s (KF)"
+    )
     print("robot cycle-time histogram (Fig. 9.7):")
     for row in histogram_rows({"PF": pf["cycles"], "KF": kf["cycles"]}):
         print(row)

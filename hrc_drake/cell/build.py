@@ -36,6 +36,7 @@ from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.systems import DepthCamera
 from hrc_drake.messages import EventLog
+from hrc_drake.perception.config import NoTracker
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
     RobotCapsuleKinematics,
@@ -47,6 +48,7 @@ from hrc_drake.robots.models import (
 from hrc_drake.robots.path import JointPathFollower
 from hrc_drake.robots.poses import solve_named_poses
 from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
+from hrc_drake.scheduling.config import NoScheduler
 
 
 @dataclass
@@ -225,7 +227,8 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
     return executor, follower, agents, plant.get_state_output_port(), plant.num_multibody_states()
 
 
-def _camera_model(scenario: Scenario) -> DepthCameraModel:
+def camera_model(scenario: Scenario) -> DepthCameraModel:
+    """The depth camera of the scenario's layout (thesis 9.1 measurement model)."""
     cam = scenario.layout.camera
     return DepthCameraModel(
         cam.position,
@@ -246,8 +249,8 @@ def _add_human(
     Returns the camera (or recorded source), the human-capsules system, the human events port
     and the operator source (None for a recorded skeleton).
     """
-    camera_model = _camera_model(scenario)
-    systems["camera_model"] = camera_model
+    model = camera_model(scenario)
+    systems["camera_model"] = model
     operator_source = None
     if scenario.operator.recorded:
         # A recorded skeleton is already a measurement: it stands for the camera.
@@ -264,7 +267,7 @@ def _add_human(
         human_events_port = operator_source.GetOutputPort("human_events")
         human_capsules = builder.AddSystem(HumanCapsules(body, source="q"))
         builder.Connect(operator_source.GetOutputPort("q"), human_capsules.get_input_port())
-        camera = builder.AddSystem(DepthCamera(camera_model, camera_seed))
+        camera = builder.AddSystem(DepthCamera(model, camera_seed))
         camera.set_name("depth_camera")
         builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
         builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
@@ -273,7 +276,7 @@ def _add_human(
     systems["camera"] = camera
     systems["human_events"] = human_events_port
     # A translucent body lets the replay show the tracker's markers inside it.
-    color = [0.95, 0.65, 0.45, 0.45] if scenario.tracker.kind != "none" else [0.95, 0.65, 0.45, 1.0]
+    color = [0.95, 0.65, 0.45, 0.45] if _has_tracker(scenario) else [0.95, 0.65, 0.45, 1.0]
     human_geometry = builder.AddSystem(HumanGeometry(scene_graph, body, color=color))
     human_geometry.set_name("human_geometry")
     builder.Connect(human_capsules.GetOutputPort("capsules"), human_geometry.get_input_port())
@@ -281,6 +284,10 @@ def _add_human(
         human_geometry.get_output_port(), scene_graph.get_source_pose_port(human_geometry.source_id)
     )
     return camera, human_capsules, human_events_port, operator_source
+
+
+def _has_tracker(scenario: Scenario) -> bool:
+    return not isinstance(scenario.tracker, NoTracker)
 
 
 def _add_world(builder, scenario: Scenario, operator_source, executor):
@@ -362,7 +369,13 @@ def build_cell(
     builder = DiagramBuilder()
     plant, scene_graph, robots, dynamic = _add_plant(builder, scenario)
     executor, follower, agents, positions_port, positions_size = _add_robot_motion(
-        builder, plant, scene_graph, robots, dynamic, named_poses, scenario.scheduler.kind != "none"
+        builder,
+        plant,
+        scene_graph,
+        robots,
+        dynamic,
+        named_poses,
+        not isinstance(scenario.scheduler, NoScheduler),
     )
     capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))
@@ -382,7 +395,7 @@ def build_cell(
     estimate_port = plugins.add_tracker(
         builder, scenario, camera, systems["camera_model"], robot_capsules, systems, overrides, seed(2)
     )
-    plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems)
+    plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems, seed(5))
     plugins.add_predictor(builder, scenario, human_events_port, systems)
     plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, seed(3))
     plugins.add_motion(

@@ -22,6 +22,7 @@ from hrc_drake.messages import (
     SweptVolumes,
     WorldSnapshot,
 )
+from hrc_drake.perception.config import NoTracker
 
 #: a goal flashes this long (s) after the intention estimator understood it (Fig. 3.6)
 FLASH_TIME = 0.6
@@ -211,7 +212,7 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
             scenario,
             meshcat,
             fps,
-            show_skeleton=scenario.tracker.kind != "none",
+            show_skeleton=not isinstance(scenario.tracker, NoTracker),
             show_swept="motion_predictor" in systems,
         )
     )

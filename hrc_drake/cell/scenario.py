@@ -17,7 +17,7 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.cell import schema
-from hrc_drake.cell.schema import Scenario
+from hrc_drake.cell.schema import SYSTEM_FIELDS, Scenario
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError
 from hrc_drake.robots.registry import ROBOT_MODELS
@@ -25,11 +25,6 @@ from hrc_drake.robots.registry import ROBOT_MODELS
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
 HANDS = ("left", "right", "both")
-TRACKER_KINDS = ("none", "particle_filter", "kalman")
-INTENTION_KINDS = ("none", "gmm")
-PREDICTOR_KINDS = ("none", "homm", "suffix_tree", "markov")
-SCHEDULER_KINDS = ("none", "round_robin", "monte_carlo", "greedy", "deterministic")
-MOTION_KINDS = ("none", "gp_a", "gp_b", "gp_c", "worst_case")
 
 
 def scenario_relative(scenario_path: str | Path, name: str) -> Path:
@@ -39,20 +34,91 @@ def scenario_relative(scenario_path: str | Path, name: str) -> Path:
     return (base / name).resolve()
 
 
-def _unwrap_optional(tp):
+class Tagged(dict):
+    """A YAML mapping written with a tag (`!ClassName {...}`): the tag chooses a Union member."""
+
+    def __init__(self, tag: str, mapping: dict):
+        super().__init__(mapping)
+        self.tag = tag
+
+
+class _ScenarioYamlLoader(yaml.SafeLoader):
+    """Safe YAML that keeps `!Tag` mappings as `Tagged` and refuses duplicate keys."""
+
+
+def _mapping(loader, node, deep=False):
+    loader.flatten_mapping(node)
+    out = {}
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in out:
+            raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        out[key] = loader.construct_object(value_node, deep=deep)
+    return out
+
+
+def _tagged(loader, suffix, node):
+    if isinstance(node, yaml.MappingNode):
+        return Tagged(suffix, _mapping(loader, node, deep=True))
+    if isinstance(node, yaml.ScalarNode) and node.value == "":
+        return Tagged(suffix, {})
+    raise yaml.constructor.ConstructorError(
+        None, None, f"the tag !{suffix} must mark a mapping", node.start_mark
+    )
+
+
+_ScenarioYamlLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
+_ScenarioYamlLoader.add_multi_constructor("!", _tagged)
+
+
+def _union_members(tp) -> tuple:
     if typing.get_origin(tp) in (typing.Union, types.UnionType):
-        args = [a for a in typing.get_args(tp) if a is not type(None)]
-        if len(args) == 1:
-            return args[0]
-    return tp
+        return tuple(a for a in typing.get_args(tp) if a is not type(None))
+    return ()
+
+
+def _unwrap_optional(tp):
+    members = _union_members(tp)
+    return members[0] if len(members) == 1 else tp
+
+
+def _check_union(node, members: tuple, path: str, file: str) -> None:
+    """A system field: a `!Kind {...}` mapping naming one of `members`."""
+    names = {m.__name__: m for m in members}
+    tags = ", ".join(f"!{n}" for n in names)
+    if isinstance(node, Tagged):
+        if node.tag not in names:
+            raise ScenarioError(file, path, f"unknown kind !{node.tag} (one of {tags})")
+        _check_keys(dict(node), names[node.tag], path, file)
+        return
+    if isinstance(node, dict) and "kind" in node:
+        from hrc_drake.cell.legacy import new_spelling
+
+        raise ScenarioError(
+            file,
+            path,
+            "the old spelling {kind: ..., params: ...} is no longer read; write instead:  "
+            + new_spelling(path, node),
+        )
+    raise ScenarioError(
+        file, path, f"choose a kind with a tag, e.g. {path}: !{next(iter(names))} {{}} ({tags})"
+    )
 
 
 def _check_keys(node, cls, path: str, file: str) -> None:
     """Walk the raw YAML against the dataclass tree; raise on unknown keys and wrong shapes."""
+    members = _union_members(cls)
+    if len(members) > 1 and all(dataclasses.is_dataclass(m) for m in members):
+        _check_union(node, members, path, file)
+        return
     cls = _unwrap_optional(cls)
     if dataclasses.is_dataclass(cls):
         if node is None:
             return
+        if isinstance(node, Tagged) and node.tag != cls.__name__:
+            raise ScenarioError(
+                file, path or "<top>", f"unexpected tag !{node.tag} (expected a {cls.__name__})"
+            )
         if not isinstance(node, dict):
             raise ScenarioError(file, path or "<top>", f"expected a mapping, got {type(node).__name__}")
         hints = typing.get_type_hints(cls)
@@ -96,9 +162,12 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(path, "", "no such file")
-    text = path.read_text()
     try:
-        raw = yaml.safe_load(text)
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start}): save the file as UTF-8") from None
+    try:
+        raw = yaml.load(text, Loader=_ScenarioYamlLoader)  # noqa: S506 (a SafeLoader subclass)
     except yaml.YAMLError as err:
         raise ScenarioError(path, "", f"not valid YAML: {err}") from err
     if not isinstance(raw, dict):
@@ -184,7 +253,8 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         field = f"robots[{i}]"
         if robot.model not in ROBOT_MODELS:
             raise ScenarioError(
-                file, f"{field}.model",
+                file,
+                f"{field}.model",
                 f"unknown robot model '{robot.model}' (known models: {', '.join(sorted(ROBOT_MODELS))})",
             )
         model = ROBOT_MODELS[robot.model]
@@ -269,15 +339,23 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                 raise ScenarioError(file, f"operator.pattern[{k}]", f"unknown operator action '{name}'")
 
     _check_flow(sc, file, agents, buffers)
-    _kind(file, "tracker.kind", sc.tracker.kind, TRACKER_KINDS)
-    _kind(file, "intention.kind", sc.intention.kind, INTENTION_KINDS)
+    _check_systems(sc, file)
+
+
+def _check_systems(sc: Scenario, file) -> None:
+    """Each optional system's config validates itself; the names it refers to exist."""
+    for name in (*SYSTEM_FIELDS, "speed_scaling"):
+        try:
+            getattr(sc, name).validate(name)
+        except ScenarioError as err:
+            raise ScenarioError(file, err.field, err.reason) from None
     goal_names = {g.name for g in sc.layout.goals}
-    for k, name in enumerate(sc.intention.names):
+    for k, name in enumerate(getattr(sc.intention, "feedback_sequence", [])):
         if name not in goal_names:
-            raise ScenarioError(file, f"intention.names[{k}]", f"unknown goal '{name}'")
-    _kind(file, "predictor.kind", sc.predictor.kind, PREDICTOR_KINDS)
-    _kind(file, "scheduler.kind", sc.scheduler.kind, SCHEDULER_KINDS)
-    _kind(file, "motion_model.kind", sc.motion_model.kind, MOTION_KINDS)
+            raise ScenarioError(file, f"intention.feedback_sequence[{k}]", f"unknown goal '{name}'")
+    model = getattr(sc.intention, "model", "")
+    if model and str(file) != "<scenario>" and not scenario_relative(file, model).is_file():
+        raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
 
 
 def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None:

@@ -9,9 +9,15 @@ loads and validates it.
 """
 
 from dataclasses import dataclass, field
+from typing import Union
 
 from hrc_drake.human.config import Camera, Occluder, Operator
+from hrc_drake.intention.config import GmmBayesIntention, NoIntention
+from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
+from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
+from hrc_drake.scheduling.config import NoScheduler, SchedulerConfig
 from hrc_drake.scheduling.flow import Buffer, Flow
 
 
@@ -44,21 +50,20 @@ class Layout:
     workspace_size: list[float] = field(default_factory=lambda: [0.5, 0.8, 0.6])
 
 
-@dataclass
-class SystemOptions:
-    """Which implementation of a subsystem to use, and its parameters."""
-
-    kind: str = "none"
-    params: dict[str, float] = field(default_factory=dict)
-    #: optional data file (model weights, training data) relative to the scenario
-    model: str = ""
-    #: names the system needs, e.g. the goal sequence of the intention feedback (Fig. 3.6)
-    names: list[str] = field(default_factory=list)
+#: Each optional system's kinds, as scenario field types (one dataclass per kind, owned by its
+#: area, chosen in YAML by tag: ``tracker: !ParticleFilterTracker {particles: 500}``).
+Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
+Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
+MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007
 
 
 @dataclass
 class Scenario:
+    """A cell: its seed, layout, robots, operator, assembly flow and optional systems."""
+
+    #: the one seed of every random choice of a run (same seed, same run)
     seed: int = 0
+    #: default simulated time of `hrc-drake simulate` (s)
     duration: float = 600.0
     description: str = ""
     layout: Layout = field(default_factory=Layout)
@@ -67,8 +72,19 @@ class Scenario:
     flow: Flow = field(default_factory=Flow)
     #: minimum human-robot distance the cell must keep (m), for reports
     safety_distance: float = 0.1
-    tracker: SystemOptions = field(default_factory=SystemOptions)
-    intention: SystemOptions = field(default_factory=SystemOptions)
-    predictor: SystemOptions = field(default_factory=SystemOptions)
-    scheduler: SystemOptions = field(default_factory=SystemOptions)
-    motion_model: SystemOptions = field(default_factory=SystemOptions)
+    #: the skeleton tracker (thesis Ch. 9); none: the estimate is the measurement
+    tracker: Tracker = field(default_factory=NoTracker)
+    #: the intended-goal estimator (thesis 3.1)
+    intention: Intention = field(default_factory=NoIntention)
+    #: the activity predictor (thesis Ch. 5)
+    predictor: PredictorConfig = field(default_factory=NoPredictor)
+    #: the robots' scheduler (thesis Ch. 6-7); none: every arm runs its program in order
+    scheduler: SchedulerConfig = field(default_factory=NoScheduler)
+    #: the human motion model of the swept volumes (thesis 8.1); none: no speed scaling
+    motion_model: MotionModel = field(default_factory=NoMotionModel)
+    #: the speed and separation rule applied to the swept volumes (8.1.3), with a motion model
+    speed_scaling: SeparationSpeedScaling = field(default_factory=SeparationSpeedScaling)
+
+
+#: the scenario fields that choose a system by tag
+SYSTEM_FIELDS = ("tracker", "intention", "predictor", "scheduler", "motion_model")

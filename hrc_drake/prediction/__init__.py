@@ -3,22 +3,34 @@
 Cores only (no pydrake); the Drake adapter is `hrc_drake.prediction.systems.ActivityPredictor`.
 """
 
-from .base import SequenceModel
-from .factory import make_sequence_model, make_waiting_predictor
-from .markov import ChingHigherOrderModel, HigherOrderMarkovModel, MarkovChainModel
-from .suffix_tree import SuffixTreeModel
-from .vomm import VariableOrderMarkovModel
-from .waiting import WaitingTimePredictor, percentiles_from_cdf
+from importlib import import_module
 
-__all__ = [
-    "ChingHigherOrderModel",
-    "HigherOrderMarkovModel",
-    "MarkovChainModel",
-    "SequenceModel",
-    "SuffixTreeModel",
-    "VariableOrderMarkovModel",
-    "WaitingTimePredictor",
-    "make_sequence_model",
-    "make_waiting_predictor",
-    "percentiles_from_cdf",
-]
+#: public name -> core module defining it; imported on first use (PEP 562), so importing
+#: `hrc_drake.prediction.config` for the scenario schema does not load scipy
+_EXPORTS = {
+    "SequenceModel": "base",
+    "make_sequence_model": "factory",
+    "make_waiting_predictor": "factory",
+    "ChingHigherOrderModel": "markov",
+    "HigherOrderMarkovModel": "markov",
+    "MarkovChainModel": "markov",
+    "SuffixTreeModel": "suffix_tree",
+    "VariableOrderMarkovModel": "vomm",
+    "WaitingTimePredictor": "waiting",
+    "percentiles_from_cdf": "waiting",
+}
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(import_module(f"hrc_drake.prediction.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'hrc_drake.prediction' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))
+
+
+__all__ = sorted(_EXPORTS)

@@ -104,12 +104,77 @@ BAD = {
         "robots[0].poses[0].joints",
         "expected 7 joint values, got 6",
     ),
-    "unknown scheduler": (
+    "old spelling of an unknown scheduler": (
         lambda r: r.update(scheduler={"kind": "psychic"}),
-        "scheduler.kind",
-        "unknown kind 'psychic'",
+        "scheduler",
+        "the old spelling {kind: ..., params: ...} is no longer read",
+    ),
+    "old spelling of a scheduler": (
+        lambda r: r.update(scheduler={"kind": "monte_carlo", "params": {"n_trials": 40, "wait_quantum": 2}}),
+        "scheduler",
+        "scheduler: !MonteCarloScheduler {wait_quantum: 2.0, n_trials: 40}",
+    ),
+    "a system without a tag": (
+        lambda r: r.update(tracker={"particles": 30}),
+        "tracker",
+        "choose a kind with a tag",
     ),
 }
+
+
+TAGGED_BAD = {
+    "unknown kind": ("tracker: !Psychic {}", "tracker", "unknown kind !Psychic"),
+    "unknown field of a kind": (
+        "scheduler: !MonteCarloScheduler {n_trails: 40}",
+        "scheduler.n_trails",
+        "unknown key 'n_trails'",
+    ),
+    "bad value of a kind": (
+        "tracker: !ParticleFilterTracker {particles: 0}",
+        "tracker.particles",
+        "particles",
+    ),
+    "wrong type in a kind": (
+        "predictor: !HigherOrderMarkovPredictor {order: 2.5}",
+        "predictor.order",
+        "integer",
+    ),
+    "feedback names a goal that is not there": (
+        "intention: !GmmBayesIntention {feedback_sequence: [nowhere]}",
+        "intention.feedback_sequence[0]",
+        "unknown goal 'nowhere'",
+    ),
+    "a motion model's bad variant": (
+        "motion_model: !GPMotionModel {variant: D}",
+        "motion_model.variant",
+        "D",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(TAGGED_BAD))
+def test_bad_tagged_systems_name_file_field_and_reason(tmp_path, torch_raw, case):
+    line, field, reason = TAGGED_BAD[case]
+    path = write(tmp_path, torch_raw)
+    path.write_text(path.read_text() + line + "\n")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert str(path) in str(info.value)
+    assert info.value.field == field
+    assert reason in str(info.value)
+
+
+def test_every_kind_of_every_system_is_reachable_by_its_tag(tmp_path, torch_raw):
+    import typing
+
+    from hrc_drake.cell.schema import SYSTEM_FIELDS, Scenario
+
+    hints = typing.get_type_hints(Scenario)
+    for name in SYSTEM_FIELDS:
+        for kind in typing.get_args(hints[name]):
+            path = write(tmp_path, torch_raw)
+            path.write_text(path.read_text() + f"{name}: !{kind.__name__} {{}}\n")
+            assert type(getattr(load_scenario(path), name)) is kind, (name, kind)
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
@@ -153,3 +218,35 @@ def test_validate_command(tmp_path, torch_raw, diagrams_dir, capsys):
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err
     assert "operator.actions[1].goals[1]" in err and "nowhere" in err
+
+
+def test_the_migrated_scenarios_keep_their_old_parameters(diagrams_dir):
+    from hrc_drake.cell.legacy import translate
+
+    old = {
+        "box_pcb_coexistence.yaml": {
+            "motion_model": {
+                "kind": "gp_c",
+                "params": {
+                    "order": 2,
+                    "horizon": 0.3,
+                    "clearance": 0.05,
+                    "reaction_time": 0.1,
+                    "stopping_time": 0.15,
+                    "robot_speed": 1.0,
+                    "base_speed": 0.2,
+                    "base_accel": 0.5,
+                },
+            }
+        },
+        "pcb_occlusion.yaml": {"tracker": {"kind": "particle_filter", "params": {"particles": 500}}},
+        "box_usb.yaml": {
+            "intention": {"kind": "gmm", "names": ["g4_station", "g1_home"]},
+            "predictor": {"kind": "homm", "params": {"order": 2}},
+        },
+    }
+    for file, fields in old.items():
+        scenario = load_scenario(diagrams_dir / file)
+        for field, raw in fields.items():
+            for name, config in translate(field, raw):
+                assert getattr(scenario, name) == config, (file, name)

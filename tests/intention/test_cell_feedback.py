@@ -25,8 +25,7 @@ def box_usb_run():
     from hrc_drake.cell.scenario import load_scenario
 
     scenario = load_scenario(SCENARIO)
-    scenario.intention.kind = "gmm"
-    scenario.intention.names = ["g4_station", "g1_home"]
+    assert scenario.intention.feedback_sequence == ["g4_station", "g1_home"]
     cell = build_cell(scenario, SCENARIO)
     simulator = Simulator(cell.diagram)
     simulator.Initialize()
