@@ -88,3 +88,21 @@ def state_ticket(system: LeafSystem, index: int, *more) -> set:
 def input_or(port, context: Context, default: Any) -> Any:
     """The value on `port`, or `default` when the port is not connected or fixed."""
     return port.Eval(context) if port.HasValue(context) else default
+
+
+def declare_periodic_discrete_update(
+    system: LeafSystem, period: float, offset: float, update: Callable[[Context, Any], EventStatus]
+) -> None:
+    """A periodic update of discrete state only, `update(context, discrete_values)`, declared
+    as an unrestricted update.
+
+    Why: at one event time Drake applies every unrestricted update before it computes the
+    discrete ones, so a discrete update reads outputs again, recomputed from the new state
+    (an expensive chain, e.g. camera -> estimate, is then evaluated twice per tick). With every
+    periodic update of the house unrestricted, all read one pre-update context.
+    """
+
+    def _unrestricted(context: Context, state: State) -> EventStatus:
+        return update(context, state.get_mutable_discrete_state())
+
+    system.DeclarePeriodicUnrestrictedUpdateEvent(period, offset, _unrestricted)

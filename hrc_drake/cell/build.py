@@ -35,7 +35,9 @@ from hrc_drake.cell.world import CellWorld
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.systems import DepthCamera
+from hrc_drake.intention.config import NoIntention
 from hrc_drake.messages import EventLog
+from hrc_drake.motion.config import NoMotionModel
 from hrc_drake.perception.config import NoTracker
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
@@ -55,7 +57,8 @@ from hrc_drake.scheduling.config import NoScheduler
 class Cell:
     """A built cell: the diagram (a description; every run lives in its own Context) and what
     a run needs to read back. Systems are found by name (`system`); the diagram exports its main
-    ports: "skeleton_estimate", "human_events", "robot_events", "speed_override", "positions",
+    ports: "human_events", "robot_events", "speed_override", "positions", "skeleton_estimate" (where the
+    cell perceives the human: a tracker, intention or motion model),
     "world" (the truth's `WorldSnapshot`)."""
 
     diagram: object
@@ -290,6 +293,16 @@ def _has_tracker(scenario: Scenario) -> bool:
     return not isinstance(scenario.tracker, NoTracker)
 
 
+def _perceives(scenario: Scenario) -> bool:
+    """Whether the cell estimates the skeleton: a tracker, or a system that reads the estimate
+    (without them a "no tracker" estimate would measure the camera for nobody)."""
+    return (
+        _has_tracker(scenario)
+        or not isinstance(scenario.intention, NoIntention)
+        or not isinstance(scenario.motion_model, NoMotionModel)
+    )
+
+
 def _add_world(builder, scenario: Scenario, operator_source, executor):
     """The truth (`CellWorldSystem`): arbitrates the agents' requests, tells them the answers."""
     world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)
@@ -392,9 +405,11 @@ def build_cell(
     systems["world"] = world_system.GetOutputPort("snapshot")
 
     overrides = []
-    estimate_port = plugins.add_tracker(
-        builder, scenario, camera, systems["camera_model"], robot_capsules, systems, overrides, seed(2)
-    )
+    estimate_port = None
+    if _perceives(scenario):
+        estimate_port = plugins.add_tracker(
+            builder, scenario, camera, systems["camera_model"], robot_capsules, systems, overrides, seed(2)
+        )
     plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems, seed(5))
     plugins.add_predictor(builder, scenario, human_events_port, systems)
     plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, seed(3))
@@ -406,7 +421,8 @@ def build_cell(
     visualizer = None
     if meshcat is not None:
         visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, systems, replay_fps)
-    builder.ExportOutput(estimate_port, "skeleton_estimate")
+    if estimate_port is not None:
+        builder.ExportOutput(estimate_port, "skeleton_estimate")
     builder.ExportOutput(human_events_port, "human_events")
     builder.ExportOutput(executor.GetOutputPort("robot_events"), "robot_events")
     builder.ExportOutput(systems["speed_override"], "speed_override")

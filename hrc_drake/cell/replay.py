@@ -53,6 +53,8 @@ class ReplayMarkers(LeafSystem):
         self._buffers = {b.name: b for b in scenario.layout.buffers if b.kind == "intermediate"}
         self._goals = {g.name: g for g in scenario.layout.goals}
         self._show_skeleton = show_skeleton
+        #: whether the skeleton (measured and estimated points) is drawn
+        self.show_skeleton = show_skeleton
         self._show_swept = show_swept
         self._lamps = (
             {
@@ -218,10 +220,13 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
     )
     markers.set_name("replay_markers")
     builder.Connect(systems["world"], markers.GetInputPort("world"))
-    builder.Connect(systems["camera"].GetOutputPort("skeleton_frame"), markers.GetInputPort("skeleton_frame"))
-    builder.Connect(
-        systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate")
-    )
+    if markers.show_skeleton:
+        builder.Connect(
+            systems["camera"].GetOutputPort("skeleton_frame"), markers.GetInputPort("skeleton_frame")
+        )
+        builder.Connect(
+            systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate")
+        )
     if "intention" in systems:
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events")

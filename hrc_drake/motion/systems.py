@@ -13,7 +13,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, set_state
+from hrc_drake.drake_helpers import (
+    Frozen,
+    declare_periodic_discrete_update,
+    declare_state,
+    get_state,
+    set_state,
+)
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
 from hrc_drake.motion.reactive import ReactiveMotionPredictor
@@ -120,7 +126,7 @@ class SpeedScaler(LeafSystem):
                                      prerequisites_of_calc=ticket)
         self.DeclareVectorOutputPort("min_distance", BasicVector(1), self._calc_distance,
                                      prerequisites_of_calc=ticket)
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / config.rate, 0.0, self._update)
+        declare_periodic_discrete_update(self, 1.0 / config.rate, 0.0, self._update)
         self.DeclareInitializationDiscreteUpdateEvent(self._update)
 
     def _update(self, context, discrete_state):

@@ -11,7 +11,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, set_state
+from hrc_drake.drake_helpers import (
+    Frozen,
+    declare_periodic_discrete_update,
+    declare_state,
+    get_state,
+    set_state,
+)
 from hrc_drake.messages import SkeletonEstimate, SkeletonFrame, no_capsules
 from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.perception.tracker import SkeletonTracker, speed_override
@@ -135,7 +141,7 @@ class MeasurementAsEstimate(LeafSystem):
         self._lo = np.asarray(workspace_center, float) - 0.5 * np.asarray(workspace_size, float)
         self._hi = np.asarray(workspace_center, float) + 0.5 * np.asarray(workspace_size, float)
         self._held = self.DeclareDiscreteState(np.full(24, np.nan))
-        self.DeclarePeriodicDiscreteUpdateEvent(1.0 / float(rate), float(offset), self._update)
+        declare_periodic_discrete_update(self, 1.0 / float(rate), float(offset), self._update)
         self.DeclareAbstractOutputPort(
             "skeleton_estimate", lambda: AbstractValue.Make(SkeletonEstimate()), self._calc,
             {self._frame.ticket(), self.discrete_state_ticket(self._held)},

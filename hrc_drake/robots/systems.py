@@ -13,7 +13,15 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
+from hrc_drake.drake_helpers import (
+    Frozen,
+    declare_periodic_discrete_update,
+    declare_state,
+    get_state,
+    input_or,
+    set_state,
+    state_ticket,
+)
 from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, WorldSnapshot
 from hrc_drake.robots.executor import TaskExecutor
 from hrc_drake.robots.path import ArmPath, JointPathFollower
@@ -57,7 +65,7 @@ class PathFollower(LeafSystem):
         self._paths: dict = {}
         self._requests = self.DeclareAbstractInputPort("path_requests", AbstractValue.Make(()))
         self._override = self.DeclareVectorInputPort("speed_override", 1)
-        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._tick)
+        declare_periodic_discrete_update(self, self.period, 0.0, self._tick)
         smooth = {self.time_ticket(), self.xd_ticket(), self._requests.ticket()}
         ticked = {self.xd_ticket(), self._requests.ticket()}
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
