@@ -10,19 +10,22 @@ from tests.contract import SystemExample
 
 
 def path_follower() -> SystemExample:
-    """Two arms of two joints each. A: arm 0 moves out and arm 1 back at full speed;
-    B: arm 0 moves elsewhere at half speed (arm 1 has no path). In 1 s arm 1 of A finishes its path
-    (path_done (0, 1)), so the runs cross both a path start and a path end."""
-    follower = JointPathFollower(np.zeros(4), [np.array([0, 1]), np.array([2, 3])], [np.ones(2), np.ones(2)])
+    """Two arms of two joints each, both at 70 % speed. A and B ask the same waypoints and differ
+    only in the dwells of arm 0 (A pauses 0.1 s at its first waypoint, B 0.6 s), so a path
+    memoised on the system under a key that leaves out the dwells makes B follow A's path and the
+    two runs equal. In 1 s arm 0 of A finishes its path (path_done (1, 0)) while B's still
+    lingers at its first waypoint, so the runs cross a path start, a dwell and a path end."""
+    follower = JointPathFollower(np.zeros(4), [np.array([0, 1]), np.array([2, 3])],
+                                 [np.full(2, 4.0), np.ones(2)])
     system = PathFollower(follower, period=0.02, lookahead=0.1)
-    out = PathRequest(channel=0, seq=1, waypoints=np.array([[0.4, 0.2], [0.1, 0.5]]),
-                      dwells=np.array([0.1, 0.0]))
+    out = np.array([[0.4, 0.2], [0.1, 0.5]])
     back = PathRequest(channel=1, seq=1, waypoints=np.array([[-0.3, 0.3]]), dwells=np.zeros(1))
-    other = PathRequest(channel=0, seq=1, waypoints=np.array([[-0.5, 0.1]]), dwells=np.zeros(1))
+    pause = PathRequest(channel=0, seq=1, waypoints=out, dwells=np.array([0.1, 0.0]))
+    linger = PathRequest(channel=0, seq=1, waypoints=out, dwells=np.array([0.6, 0.0]))
     return SystemExample(
         system,
-        {"path_requests": (out, back), "speed_override": [1.0]},
-        {"path_requests": (other,), "speed_override": [0.5]},
+        {"path_requests": (pause, back), "speed_override": [0.7]},
+        {"path_requests": (linger, back), "speed_override": [0.7]},
         duration=1.0,
     )
 
