@@ -41,7 +41,9 @@ def test_recording_systems_keep_their_runs_in_their_contexts(factory):
         "the example's two input sets record the same run: it cannot catch shared state"
     )
     # Reading the record changes nothing; a restart on a reset context records the same run.
+    before = state_values(alone)
     assert values_equal(first, recorded(example, alone))
+    assert all(x is y for x, y in zip(before, state_values(alone), strict=True))
     alone.SetTime(0.0)
     example.system.SetDefaultContext(alone)
     simulator.Initialize()
