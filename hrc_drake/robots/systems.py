@@ -77,14 +77,19 @@ class PathFollower(LeafSystem):
         self.DeclareVectorOutputPort("speed_override_applied", 1, self._calc_applied, {self.xd_ticket()})
 
     def _path(self, request, start: np.ndarray) -> ArmPath:
-        """The path of `request` from `start` (a pure function of both, memoised)."""
-        key = (request.channel, request.seq, start.tobytes(), request.waypoints.tobytes())
+        """The path of `request` from `start` (a pure function of both, memoised).
+
+        The memo is shared by every context of the system: its key holds everything the path
+        depends on (the waypoints and the dwells), or two contexts asking paths with the same
+        channel and seq would share one."""
+        waypoints = np.atleast_2d(np.asarray(request.waypoints, dtype=float))
+        dwells = np.broadcast_to(np.asarray(request.dwells, dtype=float), len(waypoints))
+        key = (request.channel, request.seq, start.tobytes(), waypoints.shape, waypoints.tobytes(),
+               dwells.tobytes())
         path = self._paths.get(key)
         if path is None:
             if len(self._paths) > 256:
                 self._paths.clear()
-            waypoints = np.atleast_2d(np.asarray(request.waypoints, dtype=float))
-            dwells = np.broadcast_to(np.asarray(request.dwells, dtype=float), len(waypoints))
             path = ArmPath(start, waypoints, dwells, self.v_max[request.channel], self.fraction)
             self._paths[key] = path
         return path

@@ -12,6 +12,7 @@ from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator
 from hrc_drake.human.systems import DepthCamera, OperatorSource, RecordedSkeletonSource
 from hrc_drake.messages import EventLog, SkeletonFrame
+from tests.human.system_examples import MORE_EXAMPLES
 
 
 def build(capsules=None):
@@ -116,3 +117,24 @@ def test_camera_frames_are_pure_and_reproducible():
     truth = source.GetOutputPort("skeleton").Eval(source_context).reshape(8, 3)
     nxt = camera.GetOutputPort("skeleton_frame").Eval(camera.GetMyContextFromRoot(root))
     assert not np.allclose(nxt.points - truth, noise)
+
+
+def test_operator_contexts_granted_and_refused_stay_independent():
+    """The request protocol: a context whose world grants starts acting, one whose world refuses
+    waits, even advanced in lockstep (the contract example with a granting world)."""
+    example = MORE_EXAMPLES["operator_granting"]()
+    source = example.system
+    sims = []
+    for inputs in (example.inputs_a, example.inputs_b):
+        context = source.CreateDefaultContext()
+        source.GetInputPort("world").FixValue(context, AbstractValue.Make(inputs["world"]))
+        sims.append(Simulator(source, context))
+        sims[-1].Initialize()
+    for t in (0.1, 0.2, 0.5):
+        for sim in sims:
+            sim.AdvanceTo(t)
+    granted, refused = (source.GetOutputPort("human_events").Eval(s.get_context()).events for s in sims)
+    assert [e.kind for e in granted][:2] == ["begin", "end"]
+    assert [e.kind for e in refused] == ["wait_begin"]
+    requests = source.GetOutputPort("world_requests").Eval(sims[1].get_context()).events
+    assert [(r.action, r.kind) for r in requests] == [("pick", "start")]

@@ -1,0 +1,67 @@
+"""The cell systems without output ports keep the contract on what they record.
+
+`tests/test_system_contract.py` compares outputs; `MetricsRecorder` and `ReplayMarkers` have
+none, so their examples there set inputs_matter=False. Here the same examples are run against
+the same contract, comparing what each run recorded: the recorder's `log(context)`, the
+markers' state (the goals flashing after intention events).
+"""
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from hrc_drake.cell.systems import HumanCapsules, MetricsRecorder
+from tests.cell.system_examples import EXAMPLES, MORE_EXAMPLES, metrics_recorder, replay_markers
+from tests.contract import new_context, output_values, simulate, state_values, values_equal
+
+
+def recorded(example, context):
+    if isinstance(example.system, MetricsRecorder):
+        return example.system.log(context)
+    return state_values(context)
+
+
+@pytest.mark.parametrize("factory", [metrics_recorder, replay_markers], ids=lambda f: f.__name__)
+def test_recording_systems_keep_their_runs_in_their_contexts(factory):
+    example = factory()
+    assert example.system.num_output_ports() == 0
+    context_a = new_context(example, example.inputs_a)
+    context_b = new_context(example, example.inputs_b)
+    sim_a, sim_b = Simulator(example.system, context_a), Simulator(example.system, context_b)
+    sim_a.Initialize()
+    sim_b.Initialize()
+    for k in range(1, 5):
+        sim_a.AdvanceTo(example.duration * k / 4)
+        sim_b.AdvanceTo(example.duration * k / 4)
+    alone = new_context(example, example.inputs_a)
+    simulator = simulate(example, alone, example.duration)
+    first = recorded(example, alone)
+    assert values_equal(first, recorded(example, context_a)), "a context run alone vs beside another"
+    assert not values_equal(recorded(example, context_a), recorded(example, context_b)), (
+        "the example's two input sets record the same run: it cannot catch shared state"
+    )
+    # Reading the record changes nothing; a restart on a reset context records the same run.
+    before = state_values(alone)
+    assert values_equal(first, recorded(example, alone))
+    assert all(x is y for x, y in zip(before, state_values(alone), strict=True))
+    alone.SetTime(0.0)
+    example.system.SetDefaultContext(alone)
+    simulator.Initialize()
+    simulator.AdvanceTo(example.duration)
+    assert values_equal(first, recorded(example, alone)), "after a restart on a reset context"
+
+
+def test_human_capsules_from_points_match_the_body_model():
+    """The "points" source (a recorded skeleton) gives the capsules of the "q" source through
+    the same pose, and both examples' input sets give different capsules."""
+    q_example = EXAMPLES[HumanCapsules]()
+    p_example = MORE_EXAMPLES["human_capsules_from_points"]()
+    outs = []
+    for inputs in ("inputs_a", "inputs_b"):
+        q_out = output_values(q_example, new_context(q_example, getattr(q_example, inputs)))
+        p_out = output_values(p_example, new_context(p_example, getattr(p_example, inputs)))
+        np.testing.assert_array_equal(q_out["points"], p_out["points"])
+        for x, y in zip(q_out["capsules"], p_out["capsules"], strict=True):
+            np.testing.assert_allclose(x, y, atol=1e-12)
+        outs.append(p_out["capsules"])
+    assert not np.allclose(outs[0].start, outs[1].start)
