@@ -66,7 +66,7 @@ class OperatorSource(LeafSystem):
             raise ValueError(f"OperatorSource: rate must be in (0, 50] Hz, got {rate!r}")
         if operator.world is not None:
             raise ValueError("OperatorSource: the operator must not hold a world (use the 'world' input)")
-        self._initial = OperatorRun(Frozen(operator))
+        self._initial = OperatorRun(Frozen(operator.clone()))
         self._run = declare_state(self, lambda context: self._initial)
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, self._update)
