@@ -88,6 +88,29 @@ def _motion(kind: str, params: dict):
     return [("motion_model", config), ("speed_scaling", scaling)]
 
 
+def _kinds():
+    """The old kind names of the predictor and scheduler -> their config classes."""
+    from hrc_drake.prediction import config as prediction
+    from hrc_drake.scheduling import config as scheduling
+
+    predictors = {
+        "none": prediction.NoPredictor,
+        "homm": prediction.HigherOrderMarkovPredictor,
+        "markov": prediction.MarkovChainPredictor,
+        "ching": prediction.ChingPredictor,
+        "vomm": prediction.VariableOrderMarkovPredictor,
+        "suffix_tree": prediction.SuffixTreePredictor,
+    }
+    schedulers = {
+        "none": scheduling.NoScheduler,
+        "round_robin": scheduling.RoundRobinScheduler,
+        "greedy": scheduling.GreedyScheduler,
+        "deterministic": scheduling.DeterministicPlanScheduler,
+        "monte_carlo": scheduling.MonteCarloScheduler,
+    }
+    return {"predictor": predictors, "scheduler": schedulers}
+
+
 def translate(field: str, raw: dict) -> list[tuple[str, object]]:
     """(scenario field, typed config) pairs that an old-spelling mapping of `field` stands for."""
     kind = str(raw.get("kind", "none"))
@@ -98,14 +121,11 @@ def translate(field: str, raw: dict) -> list[tuple[str, object]]:
         return _intention(kind, params, raw)
     if field == "motion_model":
         return _motion(kind, params)
-    if field == "predictor":
-        from hrc_drake.prediction.config import legacy_config
-
-        return [("predictor", legacy_config(kind, params, field))]
-    if field == "scheduler":
-        from hrc_drake.scheduling.config import legacy_config
-
-        return [("scheduler", legacy_config(kind, params, field))]
+    if field in ("predictor", "scheduler"):
+        kinds = _kinds()[field]
+        if kind not in kinds:
+            raise ConfigError(f"{field}.kind", f"unknown kind {kind!r} (one of {sorted(kinds)})")
+        return [(field, _typed(kinds[kind], params, field))]
     raise ConfigError(field, "not a system field")
 
 

@@ -14,7 +14,6 @@ import pytest
 import hrc_drake.prediction.config as config_module
 from hrc_drake.errors import ConfigError
 from hrc_drake.prediction.config import (
-    PREDICTOR_KINDS,
     ChingPredictor,
     HigherOrderMarkovPredictor,
     MarkovChainPredictor,
@@ -22,7 +21,6 @@ from hrc_drake.prediction.config import (
     PredictorConfig,
     SuffixTreePredictor,
     VariableOrderMarkovPredictor,
-    legacy_config,
 )
 from hrc_drake.prediction.factory import make_sequence_model, make_waiting_predictor
 
@@ -32,7 +30,7 @@ KINDS = [HigherOrderMarkovPredictor, MarkovChainPredictor, ChingPredictor, Varia
 
 
 def test_every_field_is_typed_and_documented():
-    for cls in PREDICTOR_KINDS.values():
+    for cls in [NoPredictor, *KINDS]:
         for f in dataclasses.fields(cls):
             assert f.type in (int, float, str, bool, list[float], list[list[str]]), (cls, f.name)
     lines = Path(config_module.__file__).read_text().splitlines()
@@ -84,10 +82,13 @@ def test_defaults_are_todays():
     for cls in KINDS:
         cls().validate("predictor")
         assert cls().rate == 2.0  # cell/plugins.py default before the typed configs
-    assert legacy_config("homm", {"order": 2}) == HigherOrderMarkovPredictor(order=2)
-    assert legacy_config("none", {}) == NoPredictor()
+    from hrc_drake.cell.legacy import translate
+
+    old = {"kind": "homm", "params": {"order": 2}}
+    assert translate("predictor", old) == [("predictor", HigherOrderMarkovPredictor(order=2))]
+    assert translate("predictor", {"kind": "none"}) == [("predictor", NoPredictor())]
     with pytest.raises(ConfigError, match="predictor.kind"):
-        legacy_config("lstm", {})
+        translate("predictor", {"kind": "lstm"})
 
 
 @pytest.mark.parametrize("cls", KINDS)

@@ -12,7 +12,7 @@ from hrc_drake.prediction import (
     VariableOrderMarkovModel,
     make_sequence_model,
 )
-from hrc_drake.prediction.config import HigherOrderMarkovPredictor, legacy_config
+from hrc_drake.prediction.config import HigherOrderMarkovPredictor
 from hrc_drake.prediction.markov import mtd_regression, simplex_least_squares, transition_matrices
 
 
@@ -152,13 +152,8 @@ def test_one_symbol_history_and_factory():
     assert p.argmax() == 2 and p.sum() == pytest.approx(1.0)
     with pytest.raises(ValueError, match="not a predictor config"):
         make_sequence_model("lstm", ["a"])
-    with pytest.raises(ValueError, match="not a parameter"):
-        legacy_config("markov", {"order": 2.0})
-    with pytest.raises(ValueError, match="integer"):
-        legacy_config("homm", {"order": 2.5})
     with pytest.raises(ValueError, match="integer"):
         make_sequence_model(HigherOrderMarkovPredictor(order=2.5), ["a"])
-    assert legacy_config("homm", {"order": 2.0}) == HigherOrderMarkovPredictor(order=2)
 
 
 def test_predict_proba_many_equals_one_by_one():

@@ -11,21 +11,19 @@ from hrc_drake.errors import ConfigError
 from hrc_drake.scheduling import thesis_cells as tc
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.config import (
-    SCHEDULER_KINDS,
     DeterministicPlanScheduler,
     GreedyScheduler,
     MonteCarloScheduler,
     NoScheduler,
     RoundRobinScheduler,
     SchedulerConfig,
-    legacy_config,
 )
 
 KINDS = [RoundRobinScheduler, GreedyScheduler, DeterministicPlanScheduler, MonteCarloScheduler]
 
 
 def test_fields_are_typed():
-    for cls in SCHEDULER_KINDS.values():
+    for cls in [NoScheduler, *KINDS]:
         for f in dataclasses.fields(cls):
             assert f.type in (int, float, str, bool, dict[str, list[str]]), (cls, f.name)
 
@@ -64,12 +62,13 @@ def test_validate_names_the_field(config, field_path):
 
 
 def test_legacy_params_and_defaults():
-    assert legacy_config("monte_carlo", {"n_trials": 40.0, "horizon": 20}) == MonteCarloScheduler(
-        n_trials=40, horizon=20.0
-    )
-    assert legacy_config("none", {}) == NoScheduler()
+    from hrc_drake.cell.legacy import translate
+
+    old = {"kind": "monte_carlo", "params": {"n_trials": 40.0, "horizon": 20}}
+    assert translate("scheduler", old) == [("scheduler", MonteCarloScheduler(n_trials=40, horizon=20.0))]
+    assert translate("scheduler", {"kind": "none"}) == [("scheduler", NoScheduler())]
     with pytest.raises(ConfigError, match="scheduler.params.bogus"):
-        legacy_config("greedy", {"bogus": 1.0})
+        translate("scheduler", {"kind": "greedy", "params": {"bogus": 1.0}})
     for cls in KINDS:
         config = cls()
         config.validate("scheduler")
