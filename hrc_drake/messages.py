@@ -154,6 +154,12 @@ class EventLog(Immutable):
 
     events: tuple = ()
 
+    def appended(self, new, keep: int) -> EventLog:
+        """This log with the events `new` appended, keeping the last `keep` (itself if none)."""
+        if not new:
+            return self
+        return EventLog((self.events + tuple(new))[-keep:])
+
     def since(self, seq: int) -> tuple:
         """Events with a sequence number greater than `seq`."""
         out = []

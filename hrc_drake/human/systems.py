@@ -33,13 +33,6 @@ def empty_skeleton_frame(time: float = 0.0) -> SkeletonFrame:
     )
 
 
-def append_window(log: EventLog, new, size: int = MAX_EVENTS_OUT) -> EventLog:
-    """`log` with the events `new` appended, keeping the last `size`."""
-    if not new:
-        return log
-    return EventLog((log.events + tuple(new))[-size:])
-
-
 @dataclass(frozen=True)
 class OperatorRun(Immutable):
     """The operator's run state: its core (plans, indices) and what it emitted so far."""
@@ -106,8 +99,8 @@ class OperatorSource(LeafSystem):
             self._run,
             OperatorRun(
                 Frozen(operator),
-                append_window(run.human_events, events),
-                append_window(run.world_requests, operator.new_requests),
+                run.human_events.appended(events, MAX_EVENTS_OUT),
+                run.world_requests.appended(operator.new_requests, MAX_EVENTS_OUT),
             ),
         )
         return EventStatus.Succeeded()

@@ -100,7 +100,7 @@ class IntentionEstimator(LeafSystem):
             new = tuple(IntentionEvent(time=time, hand=hand, goal=goal, seq=run.count + k + 1)
                         for k, (hand, goal) in enumerate(understood))
             run.count += len(new)
-            run.log = EventLog((run.log.events + new)[-MAX_EVENTS_OUT:])
+            run.log = run.log.appended(new, MAX_EVENTS_OUT)
         run.belief = GoalBelief(time=time, goals=self.goal_names, probabilities=np.array(probabilities),
                                 understood=understood)
         set_state(state, self._run, Frozen(run))

@@ -236,8 +236,8 @@ class RobotTaskExecutor(LeafSystem):
             self._run,
             ExecutorRun(
                 Frozen(executor),
-                _append(run.robot_events, executor.events[before:]),
-                _append(run.world_requests, executor.new_requests),
+                run.robot_events.appended(executor.events[before:], EVENT_WINDOW),
+                run.world_requests.appended(executor.new_requests, EVENT_WINDOW),
             ),
         )
         return EventStatus.Succeeded()
@@ -255,8 +255,3 @@ class RobotTaskExecutor(LeafSystem):
     def _calc_activity(self, context, output):
         output.set_value(AgentActivity(tuple(self.executor(context).activity().items())))
 
-
-def _append(log: EventLog, new) -> EventLog:
-    if not new:
-        return log
-    return EventLog((log.events + tuple(new))[-EVENT_WINDOW:])
