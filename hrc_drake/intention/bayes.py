@@ -15,14 +15,13 @@ move to the next one, and the feedback machine of Fig. 3.6 needs goal 1 after go
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 
 import numpy as np
 
 from hrc_drake.intention.features import PSI_COLUMNS, WristVelocityEstimator, angle_between, skeleton_features
 from hrc_drake.intention.likelihood import IntentionModel, default_model
-from hrc_drake.messages import HANDS, HEAD, L_WRIST, R_WRIST
+from hrc_drake.messages import HANDS, HEAD, L_WRIST, R_WRIST, shallow_copy
 from hrc_drake.rng import clone_generator
 
 METHODS = ("M1", "M2", "M3")
@@ -200,7 +199,7 @@ class GoalIntentionEstimator:
         """A copy for copy-on-write state. `update` rebinds every array it changes (never
         writes one in place), so the copy shares them; the velocity window and, when goal
         centres are sampled, the generator are copied."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new._velocity = self._velocity.clone()
         if self.n_goal_samples > 0 and np.any(self.goal_std > 0):
             new.rng = clone_generator(self.rng)
@@ -343,7 +342,7 @@ class FeedbackStateMachine:
 
     def clone(self) -> FeedbackStateMachine:
         """A copy for copy-on-write state (`step` rebinds `_armed`, never writes it in place)."""
-        return copy.copy(self)
+        return shallow_copy(self)
 
     def reset(self) -> None:
         self.state = 0  # 0: initial (no human yet); j >= 1 waits for sequence[j - 1]

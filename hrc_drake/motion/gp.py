@@ -19,12 +19,11 @@ set's mean and standard deviation, so one RBF length fits features of different 
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 from scipy.linalg import cho_solve, cholesky
 from threadpoolctl import ThreadpoolController
 
+from hrc_drake.messages import shallow_copy
 from hrc_drake.rng import clone_generator
 
 N_DOF = 12
@@ -206,7 +205,7 @@ class GPMotionModel:
         """A copy for copy-on-write state. Training never writes an array in place (it builds new
         ones), so the copy shares the training set and the fitted buckets; its generator is
         `rng`, else a copy of this model's."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         if hasattr(self, "_rng"):
             new._rng = rng if rng is not None else clone_generator(self._rng)
             if self.random_state is self._rng:

@@ -16,12 +16,11 @@ capsule, so their noise alone can make the swept volumes tens of centimetres too
 
 from __future__ import annotations
 
-import copy
 import time as _time
 
 import numpy as np
 
-from hrc_drake.messages import SweptVolumes
+from hrc_drake.messages import SweptVolumes, shallow_copy
 from hrc_drake.motion.geometry import bounding_capsules
 from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth
@@ -207,7 +206,7 @@ class JointStateEstimator:
     def clone(self) -> JointStateEstimator:
         """A copy for copy-on-write state: the filter's tracks and the window lists are copied
         (the stored means and covariances are never written, so they are shared)."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.filter = self.filter.clone()
         new.means_ = list(self.means_)
         new.covs_ = list(self.covs_)
@@ -407,7 +406,7 @@ class ReactiveMotionPredictor:
         """A copy for copy-on-write state: the joint filter, the history, the generator (shared
         by the GP model, as in the original) and the GP model are copied; the GP shares its
         training set, which training never writes in place."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.estimator = self.estimator.clone()
         new.rng = clone_generator(self.rng)
         if self.model_ is not None:

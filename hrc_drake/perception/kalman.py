@@ -19,11 +19,12 @@ the KF baseline of 9.1.3 does under occlusion.
 
 from __future__ import annotations
 
-import copy
 from functools import lru_cache
 from math import factorial
 
 import numpy as np
+
+from hrc_drake.messages import shallow_copy
 
 
 class ChainOfIntegrators:
@@ -129,7 +130,7 @@ class KalmanFilter:
 
     def clone(self) -> KalmanFilter:
         """A copy that shares only what never changes (the model): the tracks are copied."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.x_ = self.x_.copy()
         new.P_ = self.P_.copy()
         new.initialized_ = self.initialized_.copy()

@@ -54,12 +54,11 @@ where both ends are seen), or given.
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable
 
 import numpy as np
 
-from hrc_drake.messages import SKELETON_PARENTS
+from hrc_drake.messages import SKELETON_PARENTS, shallow_copy
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
 from hrc_drake.rng import clone_generator
 
@@ -187,7 +186,7 @@ class SkeletonParticleFilter:
         """A copy for copy-on-write state: what `step` writes in place is copied (particles,
         means, flags, calibration, the Kalman tracks, the constraint cache, the generator);
         the model and the constants are shared."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.particles_ = self.particles_.copy()
         new.initialized_ = self.initialized_.copy()
         new.means_ = self.means_.copy()

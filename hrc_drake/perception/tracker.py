@@ -19,12 +19,11 @@ fraction 1 (unknown counts as possibly inside the workspace).
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable
 
 import numpy as np
 
-from hrc_drake.messages import SKELETON_PARENTS, SkeletonEstimate, SkeletonFrame
+from hrc_drake.messages import SKELETON_PARENTS, SkeletonEstimate, SkeletonFrame, shallow_copy
 from hrc_drake.perception.geometry import points_in_box
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, unit_ball_samples
 from hrc_drake.perception.particle_filter import DEFAULT_INITIAL_STD, DEFAULT_SIGMA, SkeletonParticleFilter
@@ -153,7 +152,7 @@ class SkeletonTracker:
     def clone(self) -> SkeletonTracker:
         """A copy for copy-on-write state: the filter and what `update` writes in place are
         copied, the configuration is shared."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         if self._pf is not None:
             new._pf = self._pf.clone()
         if self._kf is not None:

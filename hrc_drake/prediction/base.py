@@ -8,13 +8,14 @@ column indices (`classes_`). Models learn from a FIFO buffer of recent actions (
 
 from __future__ import annotations
 
-import copy
 import itertools
 from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Hashable, Iterable, Sequence
 
 import numpy as np
+
+from hrc_drake.messages import shallow_copy
 
 #: every change of a model's learned state takes a fresh id, so caches keyed on it never go stale
 _STATE_IDS = itertools.count(1)
@@ -110,7 +111,7 @@ class SequenceModel(ABC):
         only ever replaced, memo caches keyed on `state_id_`); copies the FIFO buffer and what
         `_clone_state` names. Cheaper than a deep copy (used by the Drake systems' state).
         """
-        new = copy.copy(self)
+        new = shallow_copy(self)
         if hasattr(self, "buffer_"):
             new.buffer_ = deque(self.buffer_)
             new._clone_state()

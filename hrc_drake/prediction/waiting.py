@@ -18,12 +18,13 @@ convolved with the duration pmfs in one FFT call.
 
 from __future__ import annotations
 
-import copy
 from collections import deque
 from collections.abc import Hashable, Mapping, Sequence
 
 import numpy as np
 from scipy import fft as sp_fft
+
+from hrc_drake.messages import shallow_copy
 
 from .base import SequenceModel
 
@@ -98,7 +99,7 @@ class WaitingTimePredictor:
         """A copy that `observe_duration` may change without touching this one (copy-on-write),
         around `model` (default: the same model object). The memo of next-action predictions is
         shared while the model is the same object (its entries are functions of the model)."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new._samples = dict(self._samples)
         if model is not None and model is not self.model:
             new.model = model

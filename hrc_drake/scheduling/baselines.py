@@ -8,10 +8,9 @@ human-robot action only when the human already waits for it (as the round robin 
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
+from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.learning import DurationModel
 from hrc_drake.scheduling.montecarlo import copy_generator, simulate_trials
 from hrc_drake.scheduling.petri import PcTPN
@@ -66,7 +65,7 @@ class _Policy:
     def clone(self):
         """A copy that `decide` may change without touching this one: its own random generator
         (same state) and program pointers; the net, programs and plan are shared (read only)."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.rng = copy_generator(self.rng)
         if hasattr(self, "pointer"):
             new.pointer = dict(self.pointer)

@@ -3,7 +3,6 @@ the durations of the tasks and refines the distributions d; 7.3.1: empirical dis
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 from collections import deque
@@ -11,6 +10,7 @@ from collections import deque
 import numpy as np
 
 from hrc_drake.distributions import mean_duration, sample_duration
+from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.petri import PcTPN
 
 
@@ -45,7 +45,7 @@ class DurationModel:
 
     def clone(self) -> DurationModel:
         """A copy that `partial_fit` may change without touching this one (copy-on-write)."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.samples_ = list(self.samples_)
         return new
 

@@ -21,12 +21,12 @@ Two departures from a literal reading of 7.3.1, both measured on use case a (7.5
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.learning import DurationModel
 from hrc_drake.scheduling.petri import PcTPN
 
@@ -363,7 +363,7 @@ class MonteCarloPolicy:
     def clone(self) -> MonteCarloPolicy:
         """A copy that `decide` and `observe` may change without touching this one: its own
         random generator (same state) and duration model; the net is shared."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.durations_ = self.durations_.clone()
         new.rng = copy_generator(self.rng)
         return new

@@ -4,10 +4,9 @@ and the observed delays update the duration models)."""
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
+from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.petri import PcTPN
 
 
@@ -29,7 +28,7 @@ class NetTracker:
     def clone(self, policy=None) -> NetTracker:
         """A copy whose marking and clocks may change without touching this one, observing
         into `policy` (default: the same policy object)."""
-        new = copy.copy(self)
+        new = shallow_copy(self)
         new.m = self.m.copy()
         new.enabled_since = self.enabled_since.copy()
         if policy is not None:
