@@ -266,19 +266,19 @@ def baseline_tree(rev: str) -> Iterator[Path]:
     """A temporary detached worktree of `rev`, removed on exit (also on error)."""
     tmp = Path(tempfile.mkdtemp(prefix="bench_cell_baseline_"))
     tree = tmp / "tree"
-    subprocess.run(
-        ["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(tree), rev],
-        check=True,
-        capture_output=True,
-        text=True,
-    )
     try:
+        add = subprocess.run(
+            ["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(tree), rev],
+            capture_output=True,
+            text=True,
+        )
+        if add.returncode != 0:
+            raise RuntimeError(f"git worktree add of {rev!r} failed: {add.stderr.strip()}")
         yield tree
     finally:
         subprocess.run(
             ["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)], capture_output=True
         )
-        subprocess.run(["git", "-C", str(REPO), "worktree", "prune"], capture_output=True)
         shutil.rmtree(tmp, ignore_errors=True)
 
 
