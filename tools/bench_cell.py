@@ -1,93 +1,380 @@
-"""Benchmark: realtime factor of the torch-and-clock cell (kinematic / dynamic, replay on / off).
+"""Benchmark: realtime factor of every cell in diagrams/, current code against a baseline, side by side.
 
-Prints a table, then as its last line one JSON object with the figures.
-Usage: python tools/bench_cell.py [--quick] [--duration S] [--scenario FILE]
+For each scenario `diagrams/<name>.yaml` (found by glob) the script measures the current checkout
+and a baseline revision (default 3b262b1, the commit before the Drake-native rework) in the same
+run. The baseline is checked out with `git worktree add --detach` into a temporary directory,
+which is removed at the end (also on error or Ctrl-C). Each tree is measured with its own
+`diagrams/<name>.yaml` (the scenario format changed between the versions; the cells are the same).
+
+One measurement is a fresh subprocess (`sys.executable -c ...`, PYTHONPATH and cwd = the tree)
+that loads the scenario, builds the cell (robots as the scenario says: kinematic by default) and
+times `simulate(cell, duration, progress=None)` with `time.perf_counter()` (wall) and
+`time.process_time()` (CPU of that process), then prints one JSON line. Import and build times are
+not included. Runs are interleaved (for each repeat, for each scenario: current, then baseline)
+so that load on the shared machine hits both alike; the median of wall seconds and of CPU seconds
+are kept separately. RTF = simulated seconds / median seconds. `cpu_change_percent_<name>` =
+100 * (current CPU s / baseline CPU s - 1): positive means the current code is slower.
+
+For the current code it also reports the per-update copy cost of the largest abstract state: after
+20 s of simulation (in the first current-code subprocess of each scenario, after its timed run), it
+walks the diagram's leaf systems, times `copy.deepcopy(value)` of every abstract state value (Drake
+does this twice per unrestricted update) and `thaw()` of every `Frozen` value in it or in its
+attributes (the copy-on-write copy an update makes), medians over many repeats, in microseconds.
+
+Prints progress lines, a table, then as its last line one JSON object with the figures.
+
+Usage:
+    PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N]
+                                             [--baseline REV | --no-baseline]
+
+--quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
+trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
+A full run (120 s, 3 repeats) takes roughly 10-15 minutes.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
-import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+DEFAULT_BASELINE = "3b262b1"
+PROBE_DURATION = 20.0
+
+# Run in a fresh interpreter with PYTHONPATH and cwd = the tree measured. argv: scenario path,
+# duration, probe flag ("1": also time the copies of the abstract state, current code only).
+MEASURE_CODE = r"""
+import copy, json, statistics, sys, time, warnings
+warnings.simplefilter("ignore")
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.build import build_cell
+from hrc_drake.cell.run import simulate
+
+path, duration, probe = sys.argv[1], float(sys.argv[2]), sys.argv[3] == "1"
+scenario = load_scenario(path)
+cell = build_cell(scenario, path)
+wall0, cpu0 = time.perf_counter(), time.process_time()
+result = simulate(cell, duration, progress=None)
+wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+out = {
+    "wall_s": wall,
+    "cpu_s": cpu,
+    "products": result.metrics["products_finished"],
+    "min_distance": result.metrics["min_human_robot_distance"],
+    "robot_modes": [str(getattr(r, "mode", "?")) for r in scenario.robots],
+}
 
 
-def run_once(scenario_path: Path, duration: float, mode: str, record: bool) -> dict:
-    from pydrake.geometry import Meshcat
-
-    from hrc_drake.cell.build import build_cell
-    from hrc_drake.cell.run import simulate
-    from hrc_drake.cell.scenario import load_scenario
-
-    scenario = load_scenario(scenario_path)
-    for robot in scenario.robots:
-        robot.mode = mode
-        robot.time_step = 0.01
-    meshcat = Meshcat() if record else None
+def median_us(fn, budget=0.2, max_reps=300):
     start = time.perf_counter()
-    cell = build_cell(scenario, scenario_path, meshcat=meshcat)
-    build_time = time.perf_counter() - start
-    result = simulate(cell, duration, progress=None, record=record)
-    replay_bytes = len(meshcat.StaticHtml()) if record else 0
+    fn()
+    first = time.perf_counter() - start
+    reps = int(min(max_reps, max(7, budget / max(first, 1e-7))))
+    times = []
+    for _ in range(reps):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return 1e6 * statistics.median(times)
+
+
+def frozen_parts(value):
+    # The values with a thaw() method: the value itself, else its attributes (one level, and the
+    # items of tuple/list attributes).
+    if callable(getattr(value, "thaw", None)):
+        return [value]
+    attrs = []
+    if isinstance(value, (tuple, list)):
+        attrs = list(value)
+    else:
+        names = set(getattr(value, "__dict__", {}))
+        for klass in type(value).__mro__:
+            slots = klass.__dict__.get("__slots__", ())
+            names.update([slots] if isinstance(slots, str) else slots)
+        attrs = [getattr(value, n) for n in sorted(names) if hasattr(value, n)]
+    parts = []
+    for a in attrs:
+        items = a if isinstance(a, (tuple, list)) else [a]
+        parts += [x for x in items if callable(getattr(x, "thaw", None))]
+    return parts
+
+
+if probe:
+    from pydrake.systems.framework import LeafSystem
+    if duration != PROBE_DURATION:
+        result = simulate(cell, PROBE_DURATION, progress=None)
+    states = []
+    for system in cell.diagram.GetSystems():
+        if not isinstance(system, LeafSystem):
+            continue
+        ctx = system.GetMyContextFromRoot(result.context)
+        for i in range(ctx.num_abstract_states()):
+            value = ctx.get_abstract_state(i).get_value()
+            parts = frozen_parts(value)
+            entry = {
+                "system": system.get_name(),
+                "index": i,
+                "type": type(value).__name__,
+                "deepcopy_us": median_us(lambda: copy.deepcopy(value)),
+                "clone_us": None,
+                "frozen": [repr(p) for p in parts],
+            }
+            if parts:
+                entry["clone_us"] = median_us(lambda: [p.thaw() for p in parts])
+            states.append(entry)
+    out["states"] = states
+print(json.dumps(out))
+""".replace("PROBE_DURATION", repr(PROBE_DURATION))
+
+
+def median(values: list[float]) -> float:
+    """The median of a non-empty list."""
+    return statistics.median(values)
+
+
+def last_json_line(text: str) -> dict:
+    """The JSON object on the last non-empty line of `text`."""
+    lines = [line for line in text.splitlines() if line.strip()]
+    if not lines:
+        raise ValueError("no output")
+    return json.loads(lines[-1])
+
+
+def change_percent(current_s: float, baseline_s: float) -> float:
+    """100 * (current / baseline - 1): positive when the current code takes longer."""
+    return 100.0 * (current_s / baseline_s - 1.0)
+
+
+def summarize_runs(runs: list[dict], duration: float) -> dict:
+    """Median wall and CPU seconds of `runs` (separately), their RTFs, and the products seen."""
+    wall = median([r["wall_s"] for r in runs])
+    cpu = median([r["cpu_s"] for r in runs])
+    products = [r["products"] for r in runs]
     return {
-        "mode": mode,
-        "record": record,
-        "build_s": round(build_time, 2),
-        "wall_s": round(result.wall_time, 2),
-        "realtime_factor": round(duration / result.wall_time, 1),
-        "products": result.metrics["products_finished"],
-        "replay_mb": round(replay_bytes / 1e6, 1),
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "rtf": duration / wall,
+        "rtf_cpu": duration / cpu,
+        "products": int(median(products)),
+        "products_all": products,
+        "min_distance": median([r["min_distance"] for r in runs]),
+        "robot_modes": sorted({m for r in runs for m in r.get("robot_modes", [])}),
     }
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="60 s of simulated time instead of 600 s")
-    parser.add_argument("--duration", type=float, default=None)
-    parser.add_argument("--scenario", default=str(REPO / "diagrams" / "torch_clock.yaml"))
-    parser.add_argument(
-        "--repeats", type=int, default=3, help="kinematic runs per configuration (median kept)"
+def largest_states(states: list[dict]) -> tuple[dict | None, dict | None]:
+    """The abstract state with the largest deepcopy time, and the one with the largest clone time."""
+    by_copy = max(states, key=lambda s: s["deepcopy_us"], default=None)
+    cloned = [s for s in states if s.get("clone_us") is not None]
+    by_clone = max(cloned, key=lambda s: s["clone_us"], default=None)
+    return by_copy, by_clone
+
+
+def figures_json(
+    names: list[str],
+    current: dict[str, dict],
+    baseline: dict[str, dict] | None,
+    states: list[dict],
+    duration: float,
+    repeats: int,
+    baseline_rev: str | None,
+    load_start: float,
+    load_end: float,
+) -> dict:
+    """The last line's figures. `current`/`baseline`: {scenario: summarize_runs(...)}; `states`:
+    the probe entries of every scenario, each with "system" already prefixed by its scenario."""
+    out: dict = {}
+    for name in names:
+        cur = current[name]
+        out[f"rtf_{name}_kinematic"] = round(cur["rtf"], 2)
+        out[f"rtf_cpu_{name}_kinematic"] = round(cur["rtf_cpu"], 2)
+        if baseline is not None:
+            base = baseline[name]
+            out[f"baseline_rtf_{name}_kinematic"] = round(base["rtf"], 2)
+            out[f"baseline_rtf_cpu_{name}_kinematic"] = round(base["rtf_cpu"], 2)
+            out[f"cpu_change_percent_{name}"] = round(change_percent(cur["cpu_s"], base["cpu_s"]), 1)
+        out[f"products_{name}"] = cur["products"]
+        if baseline is not None:
+            out[f"baseline_products_{name}"] = baseline[name]["products"]
+    by_copy, by_clone = largest_states(states)
+    out["deepcopy_us_largest_state"] = round(by_copy["deepcopy_us"], 2) if by_copy else None
+    out["deepcopy_largest_state_system"] = by_copy["system"] if by_copy else None
+    out["clone_us_largest_state"] = round(by_clone["clone_us"], 2) if by_clone else None
+    out["clone_largest_state_system"] = by_clone["system"] if by_clone else None
+    out["duration_s"] = duration
+    out["repeats"] = repeats
+    out["baseline_rev"] = baseline_rev
+    out["load_average_1min"] = {"start": round(load_start, 2), "end": round(load_end, 2)}
+    return out
+
+
+def format_table(names: list[str], current: dict[str, dict], baseline: dict[str, dict] | None) -> str:
+    """The readable table: one row per scenario, RTF = simulated s / median s."""
+
+    def num(x, fmt):
+        return format(x, fmt) if x is not None else "-"
+
+    head = (
+        f"{'scenario':22s} {'cur RTF':>8s} {'cur CPU':>8s} {'base RTF':>8s} {'base CPU':>8s} "
+        f"{'CPU chg %':>9s} {'products cur/base':>17s} {'min dist cur/base m':>19s}"
     )
-    args = parser.parse_args()
-    duration = args.duration or (60.0 if args.quick else 600.0)
-    warnings.simplefilter("ignore")
-    rows = []
-    for mode in ("kinematic", "dynamic"):
-        for record in (False, True):
-            # Kinematic runs are short: repeat them and keep the median, as the machine is shared.
-            repeats = args.repeats if mode == "kinematic" else 1
-            runs = []
-            for k in range(repeats):
-                print(
-                    f"running {mode:9s} replay={'on' if record else 'off':3s} ({k + 1}/{repeats}) "
-                    f"for {duration:.0f} s of simulated time ...",
-                    flush=True,
-                )
-                runs.append(run_once(Path(args.scenario), duration, mode, record))
-            runs.sort(key=lambda r: r["realtime_factor"])
-            rows.append(runs[len(runs) // 2])
-    print()
-    print(
-        f"{'mode':10s} {'replay':>6s} {'build s':>8s} {'wall s':>8s} {'RTF':>7s} "
-        f"{'products':>8s} {'replay MB':>9s}"
-    )
-    for r in rows:
-        print(
-            f"{r['mode']:10s} {('on' if r['record'] else 'off'):>6s} {r['build_s']:8.2f} {r['wall_s']:8.2f} "
-            f"{r['realtime_factor']:7.1f} {r['products']:8d} {r['replay_mb']:9.1f}"
+    rows = [head, "-" * len(head)]
+    for name in names:
+        cur = current[name]
+        base = baseline[name] if baseline is not None else None
+        chg = change_percent(cur["cpu_s"], base["cpu_s"]) if base else None
+        products = f"{cur['products']}/{base['products'] if base else '-'}"
+        dist = f"{cur['min_distance']:.3f}/{num(base['min_distance'] if base else None, '.3f')}"
+        rows.append(
+            f"{name:22s} {cur['rtf']:8.1f} {cur['rtf_cpu']:8.1f} "
+            f"{num(base['rtf'] if base else None, '8.1f'):>8s} "
+            f"{num(base['rtf_cpu'] if base else None, '8.1f'):>8s} "
+            f"{num(chg, '+9.1f'):>9s} {products:>17s} {dist:>19s}"
         )
-    figures = {"scenario": Path(args.scenario).name, "simulated_s": duration}
-    for r in rows:
-        key = f"rtf_{r['mode']}_{'replay' if r['record'] else 'noreplay'}"
-        figures[key] = r["realtime_factor"]
-    figures["replay_mb"] = max(r["replay_mb"] for r in rows)
-    figures["load_average_1min"] = round(os.getloadavg()[0], 2)
-    figures["products_kinematic"] = rows[0]["products"]
-    print(json.dumps(figures))
+    return "\n".join(rows)
+
+
+def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) -> dict:
+    """One measurement in a fresh subprocess running the code of `tree`."""
+    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
+    proc = subprocess.run(
+        [sys.executable, "-c", MEASURE_CODE, str(scenario), repr(duration), "1" if probe else "0"],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    if proc.returncode != 0:
+        tail = "\n".join(proc.stderr.strip().splitlines()[-15:])
+        raise RuntimeError(f"measurement of {scenario} in {tree} failed (exit {proc.returncode}):\n{tail}")
+    return last_json_line(proc.stdout)
+
+
+@contextlib.contextmanager
+def baseline_tree(rev: str) -> Iterator[Path]:
+    """A temporary detached worktree of `rev`, removed on exit (also on error)."""
+    tmp = Path(tempfile.mkdtemp(prefix="bench_cell_baseline_"))
+    tree = tmp / "tree"
+    try:
+        add = subprocess.run(
+            ["git", "-C", str(REPO), "worktree", "add", "--detach", "--quiet", str(tree), rev],
+            capture_output=True,
+            text=True,
+        )
+        if add.returncode != 0:
+            raise RuntimeError(f"git worktree add of {rev!r} failed: {add.stderr.strip()}")
+        yield tree
+    finally:
+        subprocess.run(
+            ["git", "-C", str(REPO), "worktree", "remove", "--force", str(tree)], capture_output=True
+        )
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _sigterm(signum, frame):
+    raise SystemExit(128 + signum)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--quick", action="store_true", help="20 s of simulated time, 1 repeat")
+    parser.add_argument("--duration", type=float, default=None, help="simulated s per run (default 120)")
+    parser.add_argument("--repeats", type=int, default=None, help="runs per scenario and tree (default 3)")
+    parser.add_argument("--baseline", default=DEFAULT_BASELINE, help="baseline git revision")
+    parser.add_argument("--no-baseline", action="store_true", help="measure the current code only")
+    args = parser.parse_args(argv)
+    duration = args.duration or (20.0 if args.quick else 120.0)
+    repeats = args.repeats or (1 if args.quick else 3)
+    if duration <= 0 or repeats < 1:
+        parser.error("--duration must be positive and --repeats at least 1")
+    signal.signal(signal.SIGTERM, _sigterm)
+
+    names = sorted(p.stem for p in (REPO / "diagrams").glob("*.yaml"))
+    if not names:
+        sys.exit(f"no scenarios in {REPO / 'diagrams'}")
+    load_start = os.getloadavg()[0]
+    t_start = time.perf_counter()
+    rev = None if args.no_baseline else args.baseline
+    print(
+        f"bench_cell: {len(names)} scenarios {names}, {duration:g} s simulated, {repeats} repeat(s), "
+        f"baseline {rev or 'none'}, load average {load_start:.2f}",
+        flush=True,
+    )
+
+    runs: dict[str, dict[str, list[dict]]] = {
+        label: {n: [] for n in names} for label in ("current", "baseline")
+    }
+    states: list[dict] = []
+    with contextlib.ExitStack() as stack:
+        trees = {"current": REPO}
+        if rev is not None:
+            trees["baseline"] = stack.enter_context(baseline_tree(rev))
+            print(f"baseline {rev} checked out in {trees['baseline']}", flush=True)
+        for k in range(repeats):
+            for name in names:
+                for label, tree in trees.items():
+                    scenario = tree / "diagrams" / f"{name}.yaml"
+                    probe = label == "current" and k == 0
+                    start = time.perf_counter()
+                    r = measure(tree, scenario, duration, probe=probe)
+                    runs[label][name].append(r)
+                    for s in r.pop("states", []):
+                        states.append(dict(s, system=f"{name}:{s['system']}"))
+                    print(
+                        f"  [{k + 1}/{repeats}] {name:22s} {label:8s} sim {r['wall_s']:6.1f} s wall "
+                        f"{r['cpu_s']:6.1f} s CPU  RTF {duration / r['wall_s']:6.1f}  "
+                        f"products {r['products']:3d}  (subprocess {time.perf_counter() - start:5.1f} s"
+                        f"{', + state copy probe' if probe else ''})",
+                        flush=True,
+                    )
+
+    current = {n: summarize_runs(runs["current"][n], duration) for n in names}
+    baseline = {n: summarize_runs(runs["baseline"][n], duration) for n in names} if rev else None
+    load_end = os.getloadavg()[0]
+
+    print()
+    print(f"Realtime factors (simulated s / median s, {repeats} run(s) of {duration:g} s), kinematic robots")
+    print(format_table(names, current, baseline))
+    by_copy, by_clone = largest_states(states)
+    print()
+    print("Per-update copy cost of abstract state (current code, after 20 s), median us:")
+    for s in sorted(states, key=lambda s: -s["deepcopy_us"])[:5]:
+        clone = f"{s['clone_us']:9.1f}" if s["clone_us"] is not None else "        -"
+        print(f"  deepcopy {s['deepcopy_us']:9.2f}  thaw {clone}  {s['system']}[{s['index']}] {s['type']}")
+    if by_clone is not None:
+        print(f"  largest thaw/clone: {by_clone['clone_us']:.1f} us  {by_clone['system']} "
+              f"{by_clone['frozen']}")
+    notes = []
+    for name in names:
+        modes = set(current[name]["robot_modes"]) | set(baseline[name]["robot_modes"] if baseline else [])
+        if modes - {"kinematic"}:
+            notes.append(f"{name}: robot modes {sorted(modes)} (not all kinematic)")
+        if baseline is not None and current[name]["products"] != baseline[name]["products"]:
+            notes.append(
+                f"{name}: products differ, current {current[name]['products_all']} vs baseline "
+                f"{baseline[name]['products_all']}"
+            )
+    for note in notes:
+        print(f"note: {note}")
+    print(f"total {time.perf_counter() - t_start:.0f} s, load average {load_start:.2f} -> {load_end:.2f}")
+    print(
+        json.dumps(
+            figures_json(names, current, baseline, states, duration, repeats, rev, load_start, load_end)
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -1,0 +1,70 @@
+"""The pure helpers of tools/bench_cell.py (no subprocess, no timing assertions)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_cell", REPO / "tools" / "bench_cell.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run(wall, cpu, products=1, dist=0.2):
+    return {"wall_s": wall, "cpu_s": cpu, "products": products, "min_distance": dist,
+            "robot_modes": ["kinematic"]}
+
+
+def test_last_json_line(bench):
+    assert bench.last_json_line('noise\n{"a": 1}\n\n') == {"a": 1}
+    with pytest.raises(ValueError):
+        bench.last_json_line("\n")
+
+
+def test_change_percent_sign(bench):
+    assert bench.change_percent(2.0, 1.0) == pytest.approx(100.0)  # current slower: positive
+    assert bench.change_percent(1.0, 2.0) == pytest.approx(-50.0)
+
+
+def test_summarize_runs_medians_wall_and_cpu_separately(bench):
+    s = bench.summarize_runs([run(1.0, 3.0), run(2.0, 1.0), run(4.0, 2.0)], duration=20.0)
+    assert s["wall_s"] == 2.0 and s["cpu_s"] == 2.0
+    assert s["rtf"] == pytest.approx(10.0) and s["rtf_cpu"] == pytest.approx(10.0)
+
+
+def test_largest_states(bench):
+    states = [
+        {"system": "a", "deepcopy_us": 5.0, "clone_us": None},
+        {"system": "b", "deepcopy_us": 1.0, "clone_us": 30.0},
+        {"system": "c", "deepcopy_us": 2.0, "clone_us": 10.0},
+    ]
+    by_copy, by_clone = bench.largest_states(states)
+    assert by_copy["system"] == "a" and by_clone["system"] == "b"
+    assert bench.largest_states([]) == (None, None)
+
+
+def test_figures_json_keys_and_table(bench):
+    names = ["torch_clock"]
+    current = {"torch_clock": bench.summarize_runs([run(1.0, 1.0, products=3)], 20.0)}
+    baseline = {"torch_clock": bench.summarize_runs([run(2.0, 2.0, products=2)], 20.0)}
+    states = [{"system": "torch_clock:world", "deepcopy_us": 1.0, "clone_us": 4.0}]
+    fig = bench.figures_json(names, current, baseline, states, 20.0, 1, "3b262b1", 1.0, 1.5)
+    assert fig["rtf_torch_clock_kinematic"] == 20.0
+    assert fig["baseline_rtf_cpu_torch_clock_kinematic"] == 10.0
+    assert fig["cpu_change_percent_torch_clock"] == -50.0
+    assert fig["products_torch_clock"] == 3 and fig["baseline_products_torch_clock"] == 2
+    assert fig["clone_largest_state_system"] == "torch_clock:world"
+    json.dumps(fig)
+    no_base = bench.figures_json(names, current, None, states, 20.0, 1, None, 1.0, 1.5)
+    assert "baseline_rtf_torch_clock_kinematic" not in no_base
+    assert "torch_clock" in bench.format_table(names, current, baseline)
+    assert "torch_clock" in bench.format_table(names, current, None)
