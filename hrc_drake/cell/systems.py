@@ -213,11 +213,11 @@ class CellWorldSystem(LeafSystem):
         run = get_state(context, self._run)
         new, seen = [], list(run.seen)
         for k, port in enumerate(self._sources):
-            if port.HasValue(context):
+            events = port.Eval(context).events
+            if events and events[-1].seq > seen[k]:
                 fresh = port.Eval(context).since(seen[k])
-                if fresh:
-                    seen[k] = fresh[-1].seq
-                    new.extend(fresh)
+                seen[k] = fresh[-1].seq
+                new.extend(fresh)
         if not new:  # nothing changed since the last tick: a pending start still cannot start
             return EventStatus.DidNothing()
         world = run.world.thaw()

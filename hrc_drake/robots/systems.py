@@ -79,19 +79,18 @@ class PathFollower(LeafSystem):
     def _path(self, request, start: np.ndarray) -> ArmPath:
         """The path of `request` from `start` (a pure function of both, memoised).
 
-        The memo is shared by every context of the system: its key holds everything the path
-        depends on (the waypoints and the dwells), or two contexts asking paths with the same
-        channel and seq would share one."""
+        The memo is shared by every context of the system, so it is keyed on the request object
+        itself (held by the entry, so its id is not reused while cached) and checked against
+        the start: two contexts asking different paths never share one."""
+        entry = self._paths.get(id(request))
+        if entry is not None and entry[0] is request and np.array_equal(entry[1], start):
+            return entry[2]
+        if len(self._paths) > 256:
+            self._paths.clear()
         waypoints = np.atleast_2d(np.asarray(request.waypoints, dtype=float))
         dwells = np.broadcast_to(np.asarray(request.dwells, dtype=float), len(waypoints))
-        key = (request.channel, request.seq, start.tobytes(), waypoints.shape, waypoints.tobytes(),
-               dwells.tobytes())
-        path = self._paths.get(key)
-        if path is None:
-            if len(self._paths) > 256:
-                self._paths.clear()
-            path = ArmPath(start, waypoints, dwells, self.v_max[request.channel], self.fraction)
-            self._paths[key] = path
+        path = ArmPath(start, waypoints, dwells, self.v_max[request.channel], self.fraction)
+        self._paths[id(request)] = (request, start.copy(), path)
         return path
 
     def _active(self, x: np.ndarray, requests):
