@@ -61,8 +61,8 @@ class ArmPath:
         if segment >= len(self.move_times):
             return self.points[-1].copy()
         a, b = self.points[segment], self.points[segment + 1]
-        s = min_jerk_profile(phase / self.move_times[segment])
-        return a + (b - a) * s
+        u = min(max(phase / self.move_times[segment], 0.0), 1.0)  # scalar min-jerk: no numpy call
+        return a + (b - a) * (u * u * u * (10.0 + u * (-15.0 + 6.0 * u)))
 
     def advance(self, dt: float) -> np.ndarray:
         """Advance by `dt` seconds of full-speed time; return the arm's joint positions."""

@@ -177,6 +177,20 @@ class ExecutorRun(Immutable):
     executor: Frozen
     robot_events: EventLog = EventLog()
     world_requests: EventLog = EventLog()
+    #: the outputs that are functions of the core alone, computed once per change
+    path_requests: tuple = ()
+    activity: AgentActivity = AgentActivity()
+
+    @staticmethod
+    def of(executor: TaskExecutor, robot_events: EventLog, world_requests: EventLog) -> ExecutorRun:
+        requests = executor.path_requests
+        return ExecutorRun(
+            Frozen(executor),
+            robot_events,
+            world_requests,
+            tuple(requests[k] for k in sorted(requests)),
+            AgentActivity(tuple(executor.activity().items())),
+        )
 
 
 class RobotTaskExecutor(LeafSystem):
@@ -195,7 +209,7 @@ class RobotTaskExecutor(LeafSystem):
             raise ValueError("RobotTaskExecutor: the executor must not hold a world (use the 'world' input)")
         self.period = float(period)
         self._channels = max((a.channel for a in executor.agents), default=-1) + 1
-        self._initial = ExecutorRun(Frozen(executor.clone()))
+        self._initial = ExecutorRun.of(executor.clone(), EventLog(), EventLog())
         self._run = declare_state(self, lambda context: self._initial)
         self._done = self.DeclareAbstractInputPort("path_done", AbstractValue.Make(PathStatus()))
         self._commands = self.DeclareAbstractInputPort("robot_commands", AbstractValue.Make(EventLog()))
@@ -233,8 +247,8 @@ class RobotTaskExecutor(LeafSystem):
         set_state(
             state,
             self._run,
-            ExecutorRun(
-                Frozen(executor),
+            ExecutorRun.of(
+                executor,
                 run.robot_events.appended(executor.events[before:], EVENT_WINDOW),
                 run.world_requests.appended(executor.new_requests, EVENT_WINDOW),
             ),
@@ -242,8 +256,7 @@ class RobotTaskExecutor(LeafSystem):
         return EventStatus.Succeeded()
 
     def _calc_requests(self, context, output):
-        requests = self.executor(context).path_requests
-        output.set_value(tuple(requests[k] for k in sorted(requests)))
+        output.set_value(get_state(context, self._run).path_requests)
 
     def _calc_events(self, context, output):
         output.set_value(get_state(context, self._run).robot_events)
@@ -252,5 +265,5 @@ class RobotTaskExecutor(LeafSystem):
         output.set_value(get_state(context, self._run).world_requests)
 
     def _calc_activity(self, context, output):
-        output.set_value(AgentActivity(tuple(self.executor(context).activity().items())))
+        output.set_value(get_state(context, self._run).activity)
 
