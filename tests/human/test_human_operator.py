@@ -225,3 +225,30 @@ def test_tasks_from_schema():
     assert tasks["pick"].duration_sampler(np.random.default_rng()) == 2
     with pytest.raises(ValueError, match="unknown goal 'goal'"):
         tasks_from_schema(op_schema, {"buf": BUFFER})
+
+
+def test_request_protocol_waits_for_the_worlds_answer():
+    from hrc_drake.messages import WorldSnapshot
+
+    op = make_operator()
+    nobody = WorldSnapshot()
+    assert op.update(0.0, nobody) == [] and op.state == "requesting"
+    (request,) = op.new_requests
+    assert (request.kind, request.action, request.agent, request.seq) == ("start", "pick_place", "human", 1)
+    # no answer yet: nothing happens, no request is repeated
+    assert op.update(0.1, nobody) == [] and op.new_requests == ()
+    assert not op.will_change(0.1, nobody)
+    # refused: the operator waits, once
+    refused = WorldSnapshot(refused={"human": 1})
+    assert [e.kind for e in op.update(0.2, refused)] == ["wait_begin"] and op.state == "waiting"
+    assert op.update(0.3, refused) == []
+    # granted: the wait ends and the action begins at the time the operator learns it
+    granted = WorldSnapshot(granted={"human": 1}, refused={"human": 1})
+    assert op.will_change(0.4, granted)
+    events = op.update(0.4, granted)
+    assert [(e.kind, e.time) for e in events] == [("wait_end", 0.4), ("begin", 0.4)]
+    # at its end the operator reports the finish and asks for the next action
+    end = events[-1].time + 10.0
+    events = op.update(end, granted)
+    assert [e.kind for e in events] == ["end"]
+    assert [(r.kind, r.action) for r in op.new_requests] == [("finish", "pick_place"), ("start", "screw")]
