@@ -15,9 +15,16 @@ from hrc_drake.cell.systems import RobotCapsules
 
 def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
     """The skeleton tracker of Ch. 9 (or the measurement itself); returns the estimate port."""
+    from hrc_drake.perception.config import NoTracker
     from hrc_drake.perception.systems import apply_tracker_config
 
     lay = scenario.layout
+    rate = lay.camera.rate
+    if isinstance(scenario.tracker, NoTracker):
+        # The measurement stands for the estimate: refresh what it holds at the rate of the
+        # fastest system that reads it, so those reads find the camera frame already measured.
+        readers = [getattr(c, "rate", 0.0) for c in (scenario.intention, scenario.motion_model)]
+        rate = min(rate, max(readers)) if max(readers) > 0 else rate
     tracker = apply_tracker_config(
         scenario.tracker,
         builder,
@@ -26,7 +33,7 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsule
         is_hidden=camera_model.is_hidden,
         workspace_center=lay.workspace_center,
         workspace_size=lay.workspace_size,
-        rate=lay.camera.rate,
+        rate=rate,
         seed=seed,
     )
     if tracker.HasOutputPort("speed_override"):
