@@ -29,11 +29,15 @@ FLASH_TIME = 0.6
 
 
 @dataclass(frozen=True)
-class FlashState(Immutable):
-    """Goals flashing in the replay: goal -> time the flash ends; the last intention seq seen."""
+class MarkerState(Immutable):
+    """What the replay shows: goals flashing (goal -> time the flash ends), the last intention
+    seq seen, and the marker paths visible at this tick and at the one before (the publish
+    sends only the difference)."""
 
     until: tuple[tuple[str, float], ...] = ()
     last_seq: int = 0
+    shown: frozenset = frozenset()
+    shown_before: frozenset = frozenset()
 
 
 class ReplayMarkers(LeafSystem):
@@ -41,15 +45,13 @@ class ReplayMarkers(LeafSystem):
     intention flashes and a speed lamp as Meshcat objects (recorded with the replay).
 
     Inputs "world" (WorldSnapshot), "skeleton_frame", "skeleton_estimate", "intention_events",
-    "swept_volumes", "speed_override" (1,). State: the flashing goals (updated at `fps`); the
-    drawing is a publish event. What Meshcat shows is mirrored on the system only to skip
-    redundant messages; the mirror is cleared at initialization, so a new run redraws all.
+    "swept_volumes", "speed_override" (1,). State: a `MarkerState`, updated at `fps`; the
+    drawing is a publish event that sends what changed since the previous tick.
     """
 
     def __init__(self, scenario: Scenario, meshcat, fps: float, show_skeleton: bool, show_swept: bool):
         super().__init__()
         self.meshcat = meshcat
-        self._visible: dict[str, bool] = {}
         self._buffers = {b.name: b for b in scenario.layout.buffers if b.kind == "intermediate"}
         self._goals = {g.name: g for g in scenario.layout.goals}
         self._show_skeleton = show_skeleton
@@ -80,15 +82,15 @@ class ReplayMarkers(LeafSystem):
         )
         self._swept_port = self.DeclareAbstractInputPort("swept_volumes", AbstractValue.Make(SweptVolumes()))
         self._override_port = self.DeclareVectorInputPort("speed_override", 1)
-        self._flash = declare_state(self, lambda context: FlashState())
+        initial = frozenset(self._initially_shown())
+        self._markers = declare_state(self, lambda context: MarkerState(shown=initial, shown_before=initial))
         self.DeclareInitializationPublishEvent(self._setup)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / fps, 0.0, self._update_flashes)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / fps, 0.0, self._update)
         self.DeclarePeriodicPublishEvent(1.0 / fps, 0.0, self._publish)
 
     def _setup(self, context):
         """Create every marker object (hidden where it has nothing to show yet)."""
         meshcat = self.meshcat
-        self._visible = {}
         for b in self._buffers.values():
             shown = min(b.capacity, 4)
             for k in range(shown):
@@ -105,7 +107,6 @@ class ReplayMarkers(LeafSystem):
             ):
                 for k in range(8):
                     meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
-                    self._visible[f"/markers/skeleton/{name}/{k}"] = True
             # The belief's spread around a lost point: a unit sphere scaled to 2 standard deviations.
             for k in range(8):
                 path = f"/markers/skeleton/spread/{k}"
@@ -128,50 +129,68 @@ class ReplayMarkers(LeafSystem):
             meshcat.SetObject(path, Sphere(0.04), color)
             meshcat.SetTransform(path, RigidTransform(self._lamp_position))
             meshcat.SetProperty(path, "visible", name == "full")
-            self._visible[path] = name == "full"
         return EventStatus.Succeeded()
 
     def _hide(self, path: str) -> None:
         self.meshcat.SetProperty(path, "visible", False)
-        self._visible[path] = False
 
-    def _update_flashes(self, context, state):
-        if not self._intention_port.HasValue(context):
-            return EventStatus.DidNothing()
-        flash = get_state(context, self._flash)
-        new = self._intention_port.Eval(context).since(flash.last_seq)
-        if not new:
-            return EventStatus.DidNothing()
-        until = dict(flash.until)
-        for event in new:
-            until[event.goal] = context.get_time() + FLASH_TIME
-        set_state(state, self._flash, FlashState(tuple(sorted(until.items())), new[-1].seq))
+    def _initially_shown(self):
+        """The paths `_setup` leaves visible: skeleton points and the full-speed lamp."""
+        if self._show_skeleton:
+            yield from (f"/markers/skeleton/{n}/{k}" for n in ("measured", "estimated") for k in range(8))
+        if self._lamps:
+            yield "/markers/speed_lamp/full"
+
+    def _update(self, context, state):
+        """Flashes from new intention events, and the set of visible markers at this tick."""
+        t = context.get_time()
+        markers = get_state(context, self._markers)
+        until, last_seq = dict(markers.until), markers.last_seq
+        if self._intention_port.HasValue(context):
+            new = self._intention_port.Eval(context).since(last_seq)
+            for event in new:
+                until[event.goal] = t + FLASH_TIME
+            if new:
+                last_seq = new[-1].seq
+        shown = frozenset(self._visible_paths(context, until, t))
+        set_state(
+            state, self._markers, MarkerState(tuple(sorted(until.items())), last_seq, shown, markers.shown)
+        )
         return EventStatus.Succeeded()
 
-    def _set_visible(self, path: str, visible: bool, t: float) -> None:
-        if self._visible.get(path) != visible:
-            self.meshcat.SetProperty(path, "visible", visible, t)
-            self._visible[path] = visible
+    def _visible_paths(self, context, until: dict, t: float):
+        parts = input_or(self._world, context, WorldSnapshot()).buffers
+        for name, b in self._buffers.items():
+            count = min(parts.get(name, 0), b.capacity, 4)
+            yield from (f"/markers/parts/{name}/{k}" for k in range(count))
+        if self._show_skeleton:
+            for port, name in ((self._frame_port, "measured"), (self._estimate_port, "estimated")):
+                if port.HasValue(context):
+                    for k, (shown, lost) in enumerate(_skeleton_flags(port.Eval(context), name)):
+                        if shown:
+                            yield f"/markers/skeleton/{name}/{k}"
+                        if lost:
+                            yield f"/markers/skeleton/spread/{k}"
+        yield from (f"/markers/flash/{goal}" for goal in self._goals if until.get(goal, -1.0) > t)
+        if self._show_swept and self._swept_port.HasValue(context):
+            yield from (
+                f"/markers/swept/{k}" for k in range(min(6, len(self._swept_port.Eval(context).radius)))
+            )
+        if self._lamps and self._override_port.HasValue(context):
+            level = float(self._override_port.Eval(context)[0])
+            yield "/markers/speed_lamp/" + (
+                "full" if level >= 0.99 else ("stop" if level <= 0.01 else "slow")
+            )
 
     def _publish(self, context):
         t = context.get_time()
-        parts = input_or(self._world, context, WorldSnapshot()).buffers
-        for name, b in self._buffers.items():
-            count = parts.get(name, 0)
-            for k in range(min(b.capacity, 4)):
-                self._set_visible(f"/markers/parts/{name}/{k}", k < count, t)
+        markers = get_state(context, self._markers)
         if self._show_skeleton:
             self._publish_skeleton(context, t)
-        flashing = dict(get_state(context, self._flash).until)
-        for goal in self._goals:
-            self._set_visible(f"/markers/flash/{goal}", flashing.get(goal, -1.0) > t, t)
         if self._show_swept and self._swept_port.HasValue(context):
             self._publish_swept(self._swept_port.Eval(context), t)
-        if self._lamps and self._override_port.HasValue(context):
-            level = float(self._override_port.Eval(context)[0])
-            state = "full" if level >= 0.99 else ("stop" if level <= 0.01 else "slow")
-            for name in self._lamps:
-                self._set_visible(f"/markers/speed_lamp/{name}", name == state, t)
+        for path in markers.shown ^ markers.shown_before:
+            self.meshcat.SetProperty(path, "visible", path in markers.shown, t)
         return EventStatus.Succeeded()
 
     def _publish_skeleton(self, context, t: float) -> None:
@@ -179,32 +198,33 @@ class ReplayMarkers(LeafSystem):
             if not port.HasValue(context):
                 continue
             value = port.Eval(context)
-            for k in range(8):
-                path = f"/markers/skeleton/{name}/{k}"
-                p = value.points[k]
-                shown = bool(np.all(np.isfinite(p))) and (name == "estimated" or bool(value.tracked[k]))
+            for k, (shown, lost) in enumerate(_skeleton_flags(value, name)):
                 if shown:
-                    self.meshcat.SetTransform(path, RigidTransform(p), t)
-                self._set_visible(path, shown, t)
-                if name == "estimated":
+                    self.meshcat.SetTransform(
+                        f"/markers/skeleton/{name}/{k}", RigidTransform(value.points[k]), t
+                    )
+                if lost:
+                    radius = float(np.clip(2.0 * value.spread[k], 0.03, 0.6))
                     spread_path = f"/markers/skeleton/spread/{k}"
-                    lost = shown and not bool(value.tracked[k]) and np.isfinite(value.spread[k])
-                    if lost:
-                        radius = float(np.clip(2.0 * value.spread[k], 0.03, 0.6))
-                        self.meshcat.SetTransform(spread_path, RigidTransform(p), t)
-                        self.meshcat.SetProperty(spread_path, "scale", [radius] * 3, t)
-                    self._set_visible(spread_path, lost, t)
+                    self.meshcat.SetTransform(spread_path, RigidTransform(value.points[k]), t)
+                    self.meshcat.SetProperty(spread_path, "scale", [radius] * 3, t)
 
     def _publish_swept(self, swept, t: float) -> None:
-        for k in range(6):
+        for k in range(min(6, len(swept.radius))):
             path = f"/markers/swept/{k}"
-            shown = k < len(swept.radius)
-            if shown:
-                start, end, radius = swept.start[k], swept.end[k], float(swept.radius[k])
-                length = float(np.linalg.norm(end - start)) + 2.0 * radius
-                self.meshcat.SetTransform(path, segment_pose(start, end), t)
-                self.meshcat.SetProperty(path, "scale", [radius, radius, length], t)
-            self._set_visible(path, shown, t)
+            start, end, radius = swept.start[k], swept.end[k], float(swept.radius[k])
+            length = float(np.linalg.norm(end - start)) + 2.0 * radius
+            self.meshcat.SetTransform(path, segment_pose(start, end), t)
+            self.meshcat.SetProperty(path, "scale", [radius, radius, length], t)
+
+
+def _skeleton_flags(value, name: str):
+    """Per point: (drawn, drawn with its spread sphere). A measured point is drawn where tracked;
+    an estimated one wherever finite, with a spread sphere where the camera lost it."""
+    for k in range(8):
+        shown = bool(np.all(np.isfinite(value.points[k]))) and (name == "estimated" or bool(value.tracked[k]))
+        lost = name == "estimated" and shown and not bool(value.tracked[k]) and np.isfinite(value.spread[k])
+        yield shown, bool(lost)
 
 
 def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps: float) -> ReplayMarkers:

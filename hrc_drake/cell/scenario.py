@@ -71,6 +71,17 @@ _ScenarioYamlLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_T
 _ScenarioYamlLoader.add_multi_constructor("!", _tagged)
 
 
+def _raw_document(text: str):
+    """The document as plain mappings, lists and scalars, only to name the field at fault in
+    errors (safe constructors only: `_ScenarioYamlLoader` is a SafeLoader). The scenario itself
+    is read by pydrake's typed loader."""
+    loader = _ScenarioYamlLoader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
+
+
 def _union_members(tp) -> tuple:
     if typing.get_origin(tp) in (typing.Union, types.UnionType):
         return tuple(a for a in typing.get_args(tp) if a is not type(None))
@@ -167,7 +178,7 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start}): save the file as UTF-8") from None
     try:
-        raw = yaml.load(text, Loader=_ScenarioYamlLoader)  # noqa: S506 (a SafeLoader subclass)
+        raw = _raw_document(text)
     except yaml.YAMLError as err:
         raise ScenarioError(path, "", f"not valid YAML: {err}") from err
     if not isinstance(raw, dict):
