@@ -104,6 +104,18 @@ def _check_buffer(value, path: str) -> None:
     )
 
 
+def _validate_mtd(config, path: str) -> None:
+    """The fields of both MTD models (HOMM and Ching's): order, FIFO length, refit period."""
+    config._validate_common(path)
+    _check_order(config.order, f"{path}.order", 1)
+    _check_buffer(config.buffer_size, f"{path}.buffer_size")
+    check(
+        _integer(config.refit_every) and 1 <= config.refit_every <= 10_000,
+        f"{path}.refit_every",
+        f"{config.refit_every} must be an integer in 1..10000",
+    )
+
+
 @dataclass
 class HigherOrderMarkovPredictor(_PredictorCommon):
     """Higher-order Markov model with MTD weights, eqs. (5.7)-(5.9) (kind "homm")."""
@@ -116,14 +128,7 @@ class HigherOrderMarkovPredictor(_PredictorCommon):
     refit_every: int = 1
 
     def validate(self, path: str) -> None:
-        self._validate_common(path)
-        _check_order(self.order, f"{path}.order", 1)
-        _check_buffer(self.buffer_size, f"{path}.buffer_size")
-        check(
-            _integer(self.refit_every) and 1 <= self.refit_every <= 10_000,
-            f"{path}.refit_every",
-            f"{self.refit_every} must be an integer in 1..10000",
-        )
+        _validate_mtd(self, path)
 
 
 @dataclass
@@ -150,14 +155,7 @@ class ChingPredictor(_PredictorCommon):
     refit_every: int = 1
 
     def validate(self, path: str) -> None:
-        self._validate_common(path)
-        _check_order(self.order, f"{path}.order", 1)
-        _check_buffer(self.buffer_size, f"{path}.buffer_size")
-        check(
-            _integer(self.refit_every) and 1 <= self.refit_every <= 10_000,
-            f"{path}.refit_every",
-            f"{self.refit_every} must be an integer in 1..10000",
-        )
+        _validate_mtd(self, path)
 
 
 @dataclass
