@@ -4,7 +4,7 @@ Every import statement counts, at module level or inside a function:
 (a) pydrake is imported only by `*/systems.py`, `hrc_drake/robots/`, `hrc_drake/cell/`,
     `hrc_drake/drake_helpers.py` and `hrc_drake/cli.py`;
 (b) nothing imports from a higher layer. Layers from the bottom:
-    0 `messages`, `errors`, `distributions`, `config_common`, `drake_helpers`, `rng`;
+    0 `messages`, `errors`, `distributions`, `config_common`, `drake_helpers`, `rng`, `allocator`;
     1 the cores: every module of human, perception, intention, prediction, scheduling, motion and
       robots except each `systems.py` (and the robots' Drake modules); cores of one area may
       import cores of another area when no cycle results;
@@ -29,7 +29,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
-LAYER0 = {"messages", "errors", "distributions", "config_common", "drake_helpers", "rng"}
+LAYER0 = {"messages", "errors", "distributions", "config_common", "drake_helpers", "rng", "allocator"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}

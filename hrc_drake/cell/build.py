@@ -18,6 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
+from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell import plugins
 from hrc_drake.cell.replay import add_replay_markers
 from hrc_drake.cell.scenario import ScenarioError, scenario_relative
@@ -371,7 +372,12 @@ def build_cell(
     replay_fps: float = 10.0,
     named_poses: dict | None = None,
 ) -> Cell:
-    """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay)."""
+    """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay).
+
+    Also keeps freed heap memory in the process (`allocator.keep_freed_memory`), for simulators
+    the caller makes.
+    """
+    keep_freed_memory()
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
 
     def seed(k: int) -> int:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pydrake.systems.analysis import Simulator
 
+from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
 from hrc_drake.cell.metrics import MetricsLog, plot_gantt, summarize, write_events_csv
 
@@ -40,6 +41,7 @@ def simulate(
     """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
+    keep_freed_memory()
     simulator = Simulator(cell.diagram)
     context = simulator.get_context()
     world_system = cell.world_system
