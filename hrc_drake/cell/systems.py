@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -17,7 +17,7 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
 from hrc_drake.cell.metrics import AppendOnly, LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
@@ -50,7 +50,8 @@ class HumanCapsules(LeafSystem):
     source "q": input "q" (12,), capsules of the body model at q.
     source "points": input "skeleton" (24,), capsules through those 8 points (e.g. a recorded
     skeleton with lost points held, `RecordedSkeletonSource`). Outputs "capsules" and "points"
-    (24,). Stateless.
+    (24,), both read from one cache entry (the body's kinematics run once per input value).
+    Stateless.
     """
 
     def __init__(self, body_model, source: str = "q"):
@@ -63,24 +64,38 @@ class HumanCapsules(LeafSystem):
             self._input = self.DeclareVectorInputPort("q", 12)
         else:
             self._input = self.DeclareVectorInputPort("skeleton", 24)
-        self.DeclareAbstractOutputPort(
-            "capsules", lambda: AbstractValue.Make(no_capsules()), self._calc_capsules
+        self._body = self.DeclareCacheEntry(
+            "points and capsules",
+            ValueProducer(allocate=lambda: AbstractValue.Make(_BodyGeometry()), calc=self._calc_body),
+            {self._input.ticket()},
         )
-        self.DeclareVectorOutputPort("points", 24, self._calc_points)
+        self.DeclareAbstractOutputPort(
+            "capsules", lambda: AbstractValue.Make(no_capsules()), self._calc_capsules, {self._body.ticket()}
+        )
+        self.DeclareVectorOutputPort("points", 24, self._calc_points, {self._body.ticket()})
 
-    def _points(self, context) -> np.ndarray:
+    def _calc_body(self, context, value):
         if self.source == "q":
-            return self.body.points(self._input.Eval(context))
-        return self._input.Eval(context).reshape(8, 3)
+            points, capsules = self.body.points_and_capsules(self._input.Eval(context))
+            capsules = Capsules(*capsules)
+        else:
+            points = self._input.Eval(context).reshape(8, 3)
+            capsules = Capsules(*self.body.capsules_from_points(points))
+        value.set_value(_BodyGeometry(points.ravel(), capsules))
 
     def _calc_capsules(self, context, output):
-        if self.source == "q":
-            output.set_value(Capsules(*self.body.capsules(self._input.Eval(context))))
-        else:
-            output.set_value(Capsules(*self.body.capsules_from_points(self._points(context))))
+        output.set_value(self._body.Eval(context).capsules)
 
     def _calc_points(self, context, output: BasicVector):
-        output.SetFromVector(self._points(context).ravel())
+        output.SetFromVector(self._body.Eval(context).points)
+
+
+@dataclass(frozen=True)
+class _BodyGeometry(Immutable):
+    """The cache value of `HumanCapsules`: points (24,) and the capsules through them."""
+
+    points: np.ndarray = field(default_factory=lambda: np.zeros(24))
+    capsules: Capsules = field(default_factory=no_capsules)
 
 
 class HumanGeometry(LeafSystem):

@@ -298,6 +298,8 @@ class BodyModel:
         shoulder -> elbow, forearms elbow -> wrist extended by a hand length.
         """
         q = self._check_q(q, "BodyModel.capsules")
+        if q.ndim == 1:
+            return self.points_and_capsules(q)[1]
         _, hip, thorax, axis = self._frames(q)
         pts, l_dir, r_dir = self._points(q, with_fore_dir=True)
         head = pts[..., HEAD, :]
@@ -311,6 +313,23 @@ class BodyModel:
              pts[..., R_WRIST, :] + self.hand_length * r_dir], -2
         )
         return start, end, self.capsule_radius.copy()
+
+    def points_and_capsules(self, q):
+        """The 8 points (8, 3) and the capsules (as `capsules`) of one q (12,), from one
+        forward-kinematics pass (the torso axis is thorax - hip over the torso length)."""
+        q = self._check_q(q, "BodyModel.points_and_capsules")
+        if q.ndim != 1:
+            raise ValueError(f"BodyModel.points_and_capsules: q must have shape (12,), got {q.shape}")
+        pts, l_dir, r_dir = self._points_single(q, with_fore_dir=True)
+        hip = np.array([q[0], q[1], self.hip_height])
+        thorax = pts[THORAX]
+        axis = (thorax - hip) / self.torso
+        head = pts[HEAD]
+        start = np.array([hip, head - 0.06 * axis, pts[L_SHOULDER], pts[R_SHOULDER],
+                          pts[L_ELBOW], pts[R_ELBOW]])
+        end = np.array([thorax, head + 0.06 * axis, pts[L_ELBOW], pts[R_ELBOW],
+                        pts[L_WRIST] + self.hand_length * l_dir, pts[R_WRIST] + self.hand_length * r_dir])
+        return pts, (start, end, self.capsule_radius.copy())
 
     def capsules_from_points(self, points):
         """Body capsules (CAPSULE_NAMES order) from the 8 skeleton points, e.g. of a recorded frame.
