@@ -98,8 +98,11 @@ def declare_periodic_discrete_update(
 
     Why: at one event time Drake applies every unrestricted update before it computes the
     discrete ones, so a discrete update reads outputs again, recomputed from the new state
-    (an expensive chain, e.g. camera -> estimate, is then evaluated twice per tick). With every
-    periodic update of the house unrestricted, all read one pre-update context.
+    (an expensive chain, e.g. camera -> estimate, is then evaluated twice per tick). Declared
+    unrestricted, it reads the same pre-update context as the other systems. A system whose
+    inputs no unrestricted update of its time recomputes dearly (the path follower) uses a true
+    discrete update instead: then a tick at which no unrestricted update succeeds copies no
+    abstract state.
     """
 
     def _unrestricted(context: Context, state: State) -> EventStatus:

@@ -291,6 +291,19 @@ def _intention_to_logged(event) -> LoggedEvent:
     return LoggedEvent(event.time, "intention", f"{event.goal} ({event.hand} hand)", event.kind, event.seq)
 
 
+class _Recording:
+    """The recorder's cache value: the `RecorderRun` so far (replaced by each sample, never
+    changed in place, so a copy of the Context shares it and goes on independently)."""
+
+    __slots__ = ("run",)
+
+    def __init__(self, run: RecorderRun | None = None):
+        self.run = run if run is not None else RecorderRun()
+
+    def __deepcopy__(self, memo):
+        return _Recording(self.run)
+
+
 @dataclass(frozen=True)
 class RecorderRun(Immutable):
     """What the recorder has recorded so far: append-only logs and the last seq seen per source."""
@@ -306,8 +319,14 @@ class MetricsRecorder(LeafSystem):
 
     Inputs "human_events", "robot_events", "intention_events" (EventLog), "human_points" (24,),
     "human_capsules", "robot_capsules" (`messages.Capsules`), "speed_override" (1,), "world"
-    (`WorldSnapshot`). State: a `RecorderRun`; `log(context)` gives the `MetricsLog` of a run,
-    with a last sample at the context's time.
+    (`WorldSnapshot`). `log(context)` gives the `MetricsLog` of a run, with a last sample at
+    the context's time.
+
+    A recorder, as Drake's `VectorLogSink`: what it recorded is a `RecorderRun` in a cache entry
+    of the Context that its periodic publish event replaces (the entry depends on nothing, so
+    Drake never recomputes it), cleared by an initialization publish event. It reads every input
+    after the updates of the same time and changes no state, so recording costs the
+    simulation no state copies (DESIGN.md, performance rules).
     """
 
     def __init__(self, period: float = 0.1):
@@ -326,8 +345,20 @@ class MetricsRecorder(LeafSystem):
         )
         self._override = self.DeclareVectorInputPort("speed_override", 1)
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
-        self._run = declare_state(self, lambda context: RecorderRun())
-        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._record)
+        self._record_entry = self.DeclareCacheEntry(
+            "recorded run",
+            ValueProducer(allocate=lambda: AbstractValue.Make(_Recording()), calc=lambda *_: None),
+            {self.nothing_ticket()},
+        )
+        self.DeclareInitializationPublishEvent(self._clear)
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
+
+    def _recording(self, context) -> _Recording:
+        return self._record_entry.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+
+    def _clear(self, context):
+        self._recording(context).run = RecorderRun()
+        return EventStatus.Succeeded()
 
     def _sample(self, context, run: RecorderRun) -> RecorderRun:
         t = context.get_time()
@@ -359,16 +390,16 @@ class MetricsRecorder(LeafSystem):
         sample = (t, distance, override, world.buffers, world.finished_products, points)
         return RecorderRun(run.samples.append(sample), events, tuple(seen), t)
 
-    def _record(self, context, state):
-        run = get_state(context, self._run)
-        if context.get_time() <= run.last_time:
+    def _record(self, context):
+        recording = self._recording(context)
+        if context.get_time() <= recording.run.last_time:
             return EventStatus.DidNothing()
-        set_state(state, self._run, self._sample(context, run))
+        recording.run = self._sample(context, recording.run)
         return EventStatus.Succeeded()
 
     def log(self, context) -> MetricsLog:
         """The run recorded in `context`, closed by a sample at the context's time (not stored)."""
-        run = get_state(context, self._run)
+        run = self._recording(context).run
         if context.get_time() > run.last_time:
             run = self._sample(context, run)
         log = MetricsLog(events=list(run.events))

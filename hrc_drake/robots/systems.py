@@ -15,7 +15,6 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
 from hrc_drake.drake_helpers import (
     Frozen,
-    declare_periodic_discrete_update,
     declare_state,
     get_state,
     input_or,
@@ -43,6 +42,11 @@ class PathFollower(LeafSystem):
     Discrete state (all numbers): [applied override, last tick time, q (nq), per arm
     (requested seq, done seq, segment, phase), the start of each arm's path (nq)]. A path's
     geometry is the request itself (the input) from that start: `robots.path.ArmPath`, memoised.
+
+    The tick is a Drake discrete update: at one time Drake applies the unrestricted updates of
+    the agents first, so the follower starts a path in the tick the executor requests it, and
+    a tick changes no abstract state (it is the one update that succeeds at every tick; as an
+    unrestricted update it made Drake copy every abstract state of the diagram each tick).
     """
 
     def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1):
@@ -65,7 +69,7 @@ class PathFollower(LeafSystem):
         self._paths: dict = {}
         self._requests = self.DeclareAbstractInputPort("path_requests", AbstractValue.Make(()))
         self._override = self.DeclareVectorInputPort("speed_override", 1)
-        declare_periodic_discrete_update(self, self.period, 0.0, self._tick)
+        self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._tick)
         smooth = {self.time_ticket(), self.xd_ticket(), self._requests.ticket()}
         ticked = {self.xd_ticket(), self._requests.ticket()}
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
