@@ -121,6 +121,8 @@ class HumanEvent(Immutable):
 
     kind: "begin", "end", "wait_begin" or "wait_end".
     seq: strictly increasing number per source, so readers can skip what they have seen.
+    hand, goal: for a perceived event (`intention.detector`), the hand ("left"/"right") whose
+        entry or exit made it and the goal region G_a; "" for the operator's own events.
     """
 
     time: float
@@ -128,6 +130,8 @@ class HumanEvent(Immutable):
     kind: str
     seq: int
     agent: str = HUMAN_AGENT
+    hand: str = ""
+    goal: str = ""
 
 
 @dataclass(frozen=True)

@@ -68,3 +68,22 @@ def test_figures_json_keys_and_table(bench):
     assert "baseline_rtf_torch_clock_kinematic" not in no_base
     assert "torch_clock" in bench.format_table(names, current, baseline)
     assert "torch_clock" in bench.format_table(names, current, None)
+
+
+def test_collected_instructions_reads_the_callgrind_report(bench):
+    report = ("==12== Events    : Ir\n==12== Collected : 1680278510\n==12==\n"
+              "==12== I   refs:      1,680,278,510\n")
+    assert bench.collected_instructions(report) == 1680278510
+    with pytest.raises(ValueError):
+        bench.collected_instructions("==12== no count here\n")
+
+
+def test_instruction_figures_keys_and_change(bench):
+    counts = {"current": {"torch_clock": 1_500_000_000}, "baseline": {"torch_clock": 1_200_000_000}}
+    fig = bench.instruction_figures(["torch_clock"], counts, 30.0)
+    assert fig["instructions_g_torch_clock"] == 1.5
+    assert fig["baseline_instructions_g_torch_clock"] == 1.2
+    assert fig["instructions_change_percent_torch_clock"] == pytest.approx(25.0)
+    assert fig["instructions_duration_s"] == 30.0
+    only = bench.instruction_figures(["torch_clock"], {"current": counts["current"]}, 30.0)
+    assert "instructions_change_percent_torch_clock" not in only

@@ -21,11 +21,20 @@ walks the diagram's leaf systems, times `copy.deepcopy(value)` of every abstract
 does this twice per unrestricted update) and `thaw()` of every `Frozen` value in it or in its
 attributes (the copy-on-write copy an update makes), medians over many repeats, in microseconds.
 
+With `--instructions S` it also counts, for every scenario and tree, the machine instructions
+executed inside Drake's `Simulator::AdvanceTo` over S simulated seconds (one run under valgrind's
+callgrind, collection switched on only inside AdvanceTo, so import and build are left out; the
+two trees run side by side). The count does not depend on the load of a shared machine, where
+single wall-time runs vary by +-20 %: it is the figure to compare two versions by a few percent
+(a run takes ~50x its native time; valgrind must be installed: `apt-get install valgrind`).
+Keys `instructions_g_<name>` (10^9 instructions), `baseline_instructions_g_<name>` and
+`instructions_change_percent_<name>` = 100 * (current / baseline - 1).
+
 Prints progress lines, a table, then as its last line one JSON object with the figures.
 
 Usage:
     PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N]
-                                             [--baseline REV | --no-baseline]
+                                             [--baseline REV | --no-baseline] [--instructions S]
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
@@ -261,6 +270,66 @@ def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) ->
     return last_json_line(proc.stdout)
 
 
+#: valgrind's callgrind counting instructions only inside Simulator::AdvanceTo
+CALLGRIND = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=*Simulator*AdvanceTo*"]
+
+
+def collected_instructions(valgrind_stderr: str) -> int:
+    """The "Collected : N" count of a callgrind run's report."""
+    for line in valgrind_stderr.splitlines():
+        if "Collected" in line and ":" in line:
+            return int(line.split(":")[-1].strip().replace(",", ""))
+    raise ValueError("no 'Collected' line in the valgrind report")
+
+
+def start_instruction_count(tree: Path, scenario: Path, duration: float, out_dir: Path) -> subprocess.Popen:
+    """Start one callgrind run of `scenario` in `tree` (a subprocess; see `collected_instructions`)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
+    out_file = out_dir / f"callgrind.{tree.name}.{scenario.stem}.out"
+    return subprocess.Popen(
+        [*CALLGRIND, f"--callgrind-out-file={out_file}", sys.executable, "-c", MEASURE_CODE,
+         str(scenario), repr(duration), "0"],
+        cwd=tree, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+
+
+def count_instructions(
+    trees: dict[str, Path], names: list[str], duration: float
+) -> dict[str, dict[str, int]]:
+    """{label: {scenario: instructions in AdvanceTo}}, the trees of one scenario run side by side."""
+    counts: dict[str, dict[str, int]] = {label: {} for label in trees}
+    with tempfile.TemporaryDirectory(prefix="bench_cell_callgrind_") as out_dir:
+        for name in names:
+            start = time.perf_counter()
+            procs = {label: start_instruction_count(tree, tree / "diagrams" / f"{name}.yaml", duration,
+                                                    Path(out_dir))
+                     for label, tree in trees.items()}
+            for label, proc in procs.items():
+                _, err = proc.communicate()
+                if proc.returncode != 0:
+                    tail = "\n".join(err.strip().splitlines()[-15:])
+                    raise RuntimeError(
+                        f"callgrind run of {name} ({label}) failed (exit {proc.returncode}):\n{tail}"
+                    )
+                counts[label][name] = collected_instructions(err)
+            line = "  ".join(f"{label} {counts[label][name] / 1e9:8.4f} G" for label in trees)
+            print(f"  instructions {name:22s} {line}  ({time.perf_counter() - start:5.0f} s)", flush=True)
+    return counts
+
+
+def instruction_figures(names: list[str], counts: dict[str, dict[str, int]], duration: float) -> dict:
+    """The JSON keys of `--instructions`: counts in 10^9 and the change against the baseline."""
+    out: dict = {"instructions_duration_s": duration}
+    for name in names:
+        cur = counts["current"][name]
+        out[f"instructions_g_{name}"] = round(cur / 1e9, 4)
+        if "baseline" in counts:
+            base = counts["baseline"][name]
+            out[f"baseline_instructions_g_{name}"] = round(base / 1e9, 4)
+            out[f"instructions_change_percent_{name}"] = round(change_percent(cur, base), 2)
+    return out
+
+
 @contextlib.contextmanager
 def baseline_tree(rev: str) -> Iterator[Path]:
     """A temporary detached worktree of `rev`, removed on exit (also on error)."""
@@ -295,11 +364,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--repeats", type=int, default=None, help="runs per scenario and tree (default 3)")
     parser.add_argument("--baseline", default=DEFAULT_BASELINE, help="baseline git revision")
     parser.add_argument("--no-baseline", action="store_true", help="measure the current code only")
+    parser.add_argument("--instructions", type=float, default=0.0, metavar="S",
+                        help="also count instructions in AdvanceTo over S simulated s (valgrind)")
     args = parser.parse_args(argv)
     duration = args.duration or (20.0 if args.quick else 120.0)
     repeats = args.repeats or (1 if args.quick else 3)
     if duration <= 0 or repeats < 1:
         parser.error("--duration must be positive and --repeats at least 1")
+    if not (args.instructions >= 0 and args.instructions < float("inf")):
+        parser.error("--instructions takes a finite number of simulated seconds >= 0")
+    if args.instructions and shutil.which("valgrind") is None:
+        parser.error("--instructions needs valgrind on PATH (apt-get install valgrind)")
     signal.signal(signal.SIGTERM, _sigterm)
 
     names = sorted(p.stem for p in (REPO / "diagrams").glob("*.yaml"))
@@ -340,6 +415,7 @@ def main(argv: list[str] | None = None) -> None:
                         f"{', + state copy probe' if probe else ''})",
                         flush=True,
                     )
+        counts = count_instructions(trees, names, args.instructions) if args.instructions else None
 
     current = {n: summarize_runs(runs["current"][n], duration) for n in names}
     baseline = {n: summarize_runs(runs["baseline"][n], duration) for n in names} if rev else None
@@ -369,12 +445,19 @@ def main(argv: list[str] | None = None) -> None:
             )
     for note in notes:
         print(f"note: {note}")
+    figures = figures_json(names, current, baseline, states, duration, repeats, rev, load_start, load_end)
+    if counts is not None:
+        print()
+        print(f"Instructions in Simulator::AdvanceTo over {args.instructions:g} simulated s "
+              "(callgrind), 10^9:")
+        for name in names:
+            base = counts.get("baseline", {}).get(name)
+            chg = f"{change_percent(counts['current'][name], base):+6.2f} %" if base else ""
+            base_text = f"{base / 1e9:9.4f}" if base else "        -"
+            print(f"  {name:22s} current {counts['current'][name] / 1e9:9.4f}  baseline {base_text}  {chg}")
+        figures.update(instruction_figures(names, counts, args.instructions))
     print(f"total {time.perf_counter() - t_start:.0f} s, load average {load_start:.2f} -> {load_end:.2f}")
-    print(
-        json.dumps(
-            figures_json(names, current, baseline, states, duration, repeats, rev, load_start, load_end)
-        )
-    )
+    print(json.dumps(figures))
 
 
 if __name__ == "__main__":

@@ -102,3 +102,50 @@ class GmmBayesIntention:
 
 #: Every intention kind a scenario can choose.
 IntentionConfig = NoIntention | GmmBayesIntention
+
+
+@dataclass
+class NoActionDetector:
+    """No action detector in the cell: nothing perceives the operator's actions."""
+
+    def validate(self, path: str) -> None:
+        """Nothing to check."""
+
+
+@dataclass
+class GoalRegionActionDetector:
+    """Actions perceived from the hands entering and leaving their goal regions G_a (thesis Ch. 2
+    preamble: spheres of centre C_a and radius r_a), with the hysteresis, minimum dwell and
+    lost-point rules of `intention.detector.GoalRegionDetector`."""
+
+    #: A wrist enters G_a within entry_scale * r_a of C_a.
+    entry_scale: float = 1.0
+    #: It leaves only beyond exit_scale * r_a (>= entry_scale): the hysteresis band.
+    exit_scale: float = 1.3
+    #: Seconds a wrist must stay before an entry is an action (a hand passing through is not).
+    min_dwell: float = 0.2
+    #: Largest spread (m) of a wrist estimate still used; a larger one is a lost point.
+    max_spread: float = 0.1
+    #: Seconds a wrist may stay lost inside a region before its action ends (at the loss).
+    lost_timeout: float = 2.0
+    #: Update rate (Hz), at most 50: the camera's, normally.
+    rate: float = 30.0
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the detector cannot use."""
+        check(math.isfinite(self.entry_scale) and 0.0 < self.entry_scale <= 10.0, f"{path}.entry_scale",
+              f"must be in (0, 10], got {self.entry_scale!r}")
+        check(math.isfinite(self.exit_scale) and self.entry_scale <= self.exit_scale <= 10.0,
+              f"{path}.exit_scale", f"must be in [entry_scale, 10], got {self.exit_scale!r}")
+        check(math.isfinite(self.min_dwell) and 0.0 <= self.min_dwell <= 60.0, f"{path}.min_dwell",
+              f"must be in [0, 60] s, got {self.min_dwell!r}")
+        check(math.isfinite(self.max_spread) and 0.0 < self.max_spread <= 10.0, f"{path}.max_spread",
+              f"must be in (0, 10] m, got {self.max_spread!r}")
+        check(math.isfinite(self.lost_timeout) and 0.0 < self.lost_timeout <= 600.0,
+              f"{path}.lost_timeout", f"must be in (0, 600] s, got {self.lost_timeout!r}")
+        check(math.isfinite(self.rate) and 0.0 < self.rate <= MAX_RATE, f"{path}.rate",
+              f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
+
+
+#: Every action-detector kind a scenario can choose.
+ActionDetectorConfig = NoActionDetector | GoalRegionActionDetector

@@ -1,5 +1,6 @@
-"""Drake adapter of the intended-goal estimator (thesis 3.1): `IntentionEstimator`, and
-`apply_intention_config`.
+"""Drake adapters of the intention area: the intended-goal estimator (thesis 3.1),
+`IntentionEstimator` and `apply_intention_config`; the action detector on goal regions (thesis
+Ch. 2), `ActionDetector` and `apply_action_detector_config`.
 
 The run lives in the Context (DESIGN.md): the estimator, the feedback machine, the last belief
 and the event log are one abstract state value (`Frozen(IntentionRun)`), cloned by each update
@@ -8,6 +9,7 @@ and the event log are one abstract state value (`Frozen(IntentionRun)`), cloned 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +18,15 @@ from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSyste
 
 from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
 from hrc_drake.intention.bayes import FeedbackStateMachine, GoalIntentionEstimator, IntentionEvent
-from hrc_drake.intention.config import MAX_RATE, GmmBayesIntention, NoIntention
-from hrc_drake.messages import EventLog, GoalBelief, SkeletonEstimate
+from hrc_drake.intention.config import (
+    MAX_RATE,
+    GmmBayesIntention,
+    GoalRegionActionDetector,
+    NoActionDetector,
+    NoIntention,
+)
+from hrc_drake.intention.detector import GoalRegionDetector
+from hrc_drake.messages import EventLog, GoalBelief, Immutable, SkeletonEstimate
 
 #: the intention_events output keeps at most this many of the latest events
 MAX_EVENTS_OUT = 200
@@ -141,3 +150,79 @@ def apply_intention_config(config: NoIntention | GmmBayesIntention, builder, *, 
     estimator.set_name("intention")
     builder.Connect(skeleton_estimate, estimator.GetInputPort("skeleton_estimate"))
     return estimator
+
+
+@dataclass(frozen=True)
+class DetectorRun(Immutable):
+    """What changes during a run of `ActionDetector`: the detector (an immutable value) and the
+    log of the events it emitted (the last MAX_EVENTS_OUT)."""
+
+    detector: GoalRegionDetector
+    log: EventLog = EventLog()
+
+
+class ActionDetector(LeafSystem):
+    """The operator's actions perceived from the skeleton estimate: begin when a wrist enters
+    the goal region G_a of an action and stays `min_dwell` s, end when it leaves (thesis Ch. 2;
+    `intention.detector.GoalRegionDetector`), at `config.rate` Hz.
+
+    Input "skeleton_estimate" (abstract `SkeletonEstimate`; a wrist whose spread exceeds
+    `config.max_spread` is lost). Output "human_events" (abstract `EventLog` of `HumanEvent`,
+    with hand and goal, the last MAX_EVENTS_OUT): the perceived events, read as the operator's
+    own `human_events` are. State: one abstract value `DetectorRun`, replaced only by an update
+    at which a hand changes phase.
+    """
+
+    def __init__(self, config: GoalRegionActionDetector, goal_names, goal_centers, goal_radii,
+                 actions=None, agent: str = "human"):
+        super().__init__()
+        config.validate("action_detector")
+        self.config = config
+        self._initial = DetectorRun(GoalRegionDetector(
+            tuple(goal_names), np.asarray(goal_centers, float), np.asarray(goal_radii, float),
+            actions=tuple(actions) if actions else (), entry_scale=config.entry_scale,
+            exit_scale=config.exit_scale, min_dwell=config.min_dwell, max_spread=config.max_spread,
+            lost_timeout=config.lost_timeout, agent=agent))
+        self._input = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                    AbstractValue.Make(SkeletonEstimate()))
+        self._run = declare_state(self, lambda context: self._initial)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
+        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_events,
+                                       {self.abstract_state_ticket(AbstractStateIndex(self._run))})
+
+    def detector(self, context) -> GoalRegionDetector:
+        """The detector of `context` (read only): e.g. `.active()`."""
+        return get_state(context, self._run).detector
+
+    def _update(self, context, state):
+        estimate = input_or(self._input, context, None)
+        if estimate is None:
+            return EventStatus.DidNothing()
+        run = get_state(context, self._run)
+        wrists, known = run.detector.known_wrists(estimate.points, estimate.spread)
+        detector, events = run.detector.update(context.get_time(), wrists, known)
+        if detector is run.detector:
+            return EventStatus.DidNothing()
+        set_state(state, self._run, DetectorRun(detector, run.log.appended(events, MAX_EVENTS_OUT)))
+        return EventStatus.Succeeded()
+
+    def _calc_events(self, context, output):
+        output.set_value(get_state(context, self._run).log)
+
+
+def apply_action_detector_config(config: NoActionDetector | GoalRegionActionDetector, builder, *,
+                                 skeleton_estimate, goal_names, goal_centers, goal_radii,
+                                 actions=None) -> ActionDetector | None:
+    """Add the action detector of `config` to `builder`, named "action_detector", fed by the
+    `skeleton_estimate` output port; None for `NoActionDetector`.
+
+    goal_names, goal_centers (G, 3), goal_radii (G,): the goal regions of the perceived actions;
+    actions: the action of each goal (default: the goal names).
+    """
+    if isinstance(config, NoActionDetector):
+        return None
+    detector = builder.AddSystem(ActionDetector(config, goal_names, goal_centers, goal_radii, actions))
+    detector.set_name("action_detector")
+    builder.Connect(skeleton_estimate, detector.GetInputPort("skeleton_estimate"))
+    return detector

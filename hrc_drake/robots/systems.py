@@ -44,9 +44,10 @@ class PathFollower(LeafSystem):
     geometry is the request itself (the input) from that start: `robots.path.ArmPath`, memoised.
 
     The tick is a Drake discrete update: at one time Drake applies the unrestricted updates of
-    the agents first, so the follower starts a path in the tick the executor requests it, and
-    a tick changes no abstract state (it is the one update that succeeds at every tick; as an
-    unrestricted update it made Drake copy every abstract state of the diagram each tick).
+    the other systems first, so the follower starts a path in the tick the executor requests
+    it and applies the speed override computed at that tick; and a tick changes no abstract
+    state (it is the one update that succeeds at every tick: as an unrestricted update it made
+    Drake copy every abstract state of the diagram at each tick).
     """
 
     def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1):

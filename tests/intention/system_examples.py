@@ -1,7 +1,9 @@
 """Contract examples of the intention systems (see tests/contract.py)."""
 
-from hrc_drake.intention.config import GmmBayesIntention
-from hrc_drake.intention.systems import IntentionEstimator
+import numpy as np
+
+from hrc_drake.intention.config import GmmBayesIntention, GoalRegionActionDetector
+from hrc_drake.intention.systems import ActionDetector, IntentionEstimator
 from hrc_drake.messages import SkeletonEstimate
 from tests.contract import SystemExample
 from tests.intention.intention_reaches import GOALS, straight_reach
@@ -23,4 +25,19 @@ def intention_estimator() -> SystemExample:
                          {"skeleton_estimate": _estimate(GOALS[2], 20)}, duration=0.3, inputs_matter=False)
 
 
-EXAMPLES = {IntentionEstimator: intention_estimator}
+def _wrists_at(left, right) -> SkeletonEstimate:
+    points = np.zeros((8, 3))
+    points[6], points[7] = left, right
+    return SkeletonEstimate(time=0.0, points=points, spread=np.zeros(8))
+
+
+def action_detector() -> SystemExample:
+    """A: the left wrist in goal A's region (begins "a"); B: the right wrist in goal C's."""
+    away = [0.0, 0.0, 2.0]
+    system = ActionDetector(GoalRegionActionDetector(min_dwell=0.1), ["A", "B", "C"], GOALS,
+                            [0.05, 0.05, 0.05], actions=["a", "b", "c"])
+    return SystemExample(system, {"skeleton_estimate": _wrists_at(GOALS[0], away)},
+                         {"skeleton_estimate": _wrists_at(away, GOALS[2])}, duration=0.5)
+
+
+EXAMPLES = {IntentionEstimator: intention_estimator, ActionDetector: action_detector}
