@@ -36,7 +36,7 @@ from hrc_drake.cell.world import CellWorld
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.systems import DepthCamera
-from hrc_drake.intention.config import NoIntention
+from hrc_drake.intention.config import NoActionDetector, NoIntention
 from hrc_drake.messages import EventLog
 from hrc_drake.motion.config import NoMotionModel
 from hrc_drake.perception.config import NoTracker
@@ -58,8 +58,9 @@ from hrc_drake.scheduling.config import NoScheduler
 class Cell:
     """A built cell: the diagram (a description; every run lives in its own Context) and what
     a run needs to read back. Systems are found by name (`system`); the diagram exports its main
-    ports: "human_events", "robot_events", "speed_override", "positions", "skeleton_estimate" (where the
-    cell perceives the human: a tracker, intention or motion model),
+    ports: "human_events" (the truth), "robot_events", "speed_override", "positions",
+    "skeleton_estimate" (where the cell perceives the human: a tracker, intention, action
+    detector or motion model), "perceived_events" (where it has an action detector),
     "world" (the truth's `WorldSnapshot`)."""
 
     diagram: object
@@ -300,6 +301,7 @@ def _perceives(scenario: Scenario) -> bool:
     return (
         _has_tracker(scenario)
         or not isinstance(scenario.intention, NoIntention)
+        or not isinstance(scenario.action_detector, NoActionDetector)
         or not isinstance(scenario.motion_model, NoMotionModel)
     )
 
@@ -351,6 +353,8 @@ def _add_recorder(
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), recorder.GetInputPort("intention_events")
         )
+    if "perceived_events" in systems:
+        builder.Connect(systems["perceived_events"], recorder.GetInputPort("perceived_events"))
     return recorder
 
 
@@ -417,8 +421,10 @@ def build_cell(
             builder, scenario, camera, systems["camera_model"], robot_capsules, systems, overrides, seed(2)
         )
     plugins.add_intention(builder, scenario, scenario_path, estimate_port, systems, seed(5))
-    plugins.add_predictor(builder, scenario, human_events_port, systems)
-    plugins.add_scheduler(builder, scenario, human_events_port, executor, systems, seed(3))
+    plugins.add_action_detector(builder, scenario, estimate_port, systems)
+    decision_events = plugins.decision_events(scenario, human_events_port, systems)
+    plugins.add_predictor(builder, scenario, decision_events, systems)
+    plugins.add_scheduler(builder, scenario, decision_events, executor, systems, seed(3))
     plugins.add_motion(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
@@ -430,6 +436,8 @@ def build_cell(
     if estimate_port is not None:
         builder.ExportOutput(estimate_port, "skeleton_estimate")
     builder.ExportOutput(human_events_port, "human_events")
+    if "perceived_events" in systems:
+        builder.ExportOutput(systems["perceived_events"], "perceived_events")
     builder.ExportOutput(executor.GetOutputPort("robot_events"), "robot_events")
     builder.ExportOutput(systems["speed_override"], "speed_override")
     builder.ExportOutput(follower.GetOutputPort("positions"), "positions")

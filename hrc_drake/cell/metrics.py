@@ -74,9 +74,11 @@ class AppendOnly:
 
 @dataclass
 class MetricsLog:
-    """What a run recorded: events of every agent and periodic samples."""
+    """What a run recorded: events of every agent (the truth), the action detector's perceived
+    human events (empty without one), and periodic samples."""
 
     events: list = field(default_factory=list)
+    perceived_events: list = field(default_factory=list)
     times: list[float] = field(default_factory=list)
     distances: list[float] = field(default_factory=list)
     overrides: list[float] = field(default_factory=list)
@@ -168,18 +170,35 @@ def summarize(
         "min_human_robot_distance": round(min(finite), 4) if finite else None,
         "mean_speed_override": round(float(np.mean(log.overrides)), 4) if log.overrides else None,
     }
+    if log.perceived_events:
+        out["detection"] = detection_summary(log.events, log.perceived_events)
     if wall_time is not None:
         out["wall_time"] = round(wall_time, 3)
         out["realtime_factor"] = round(end_time / wall_time, 2) if wall_time > 0 else None
     return out
 
 
-def write_events_csv(path: Path, events) -> None:
+def detection_summary(events, perceived_events) -> dict:
+    """`intention.detector.detection_quality` of the perceived human events against the true
+    events of the same agents (rounded, for metrics.json)."""
+    from hrc_drake.intention.detector import detection_quality
+
+    agents = {_agent_of(e) for e in perceived_events}
+    truth = [e for e in events if _agent_of(e) in agents and e.kind in ("begin", "end")]
+    quality = detection_quality(truth, perceived_events)
+    return {k: (round(v, 4) if isinstance(v, float) and np.isfinite(v) else v) for k, v in quality.items()}
+
+
+def write_events_csv(path: Path, events, perceived_events=()) -> None:
+    """Every event in time order, one global `seq` (the row number); `source` says "truth" (what
+    the agents did) or "perceived" (the action detector), `source_seq` the source's own seq."""
+    rows = [(e, "truth") for e in events] + [(e, "perceived") for e in perceived_events]
+    rows.sort(key=lambda row: (row[0].time, row[1] != "truth", _agent_of(row[0]), row[0].seq))
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["time", "agent", "action", "kind", "seq"])
-        for e in sorted(events, key=lambda e: (e.time, _agent_of(e), e.seq)):
-            writer.writerow([f"{e.time:.3f}", _agent_of(e), e.action, e.kind, e.seq])
+        writer.writerow(["time", "agent", "action", "kind", "seq", "source", "source_seq"])
+        for k, (e, source) in enumerate(rows, start=1):
+            writer.writerow([f"{e.time:.3f}", _agent_of(e), e.action, e.kind, k, source, e.seq])
 
 
 def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], title: str = "") -> None:

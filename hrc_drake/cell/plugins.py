@@ -60,6 +60,39 @@ def add_intention(builder, scenario: Scenario, scenario_path, estimate_port, sys
         systems["intention"] = estimator
 
 
+def add_action_detector(builder, scenario: Scenario, estimate_port, systems):
+    """The action detector on the goal regions of the operator's actions (thesis Ch. 2), if the
+    scenario has one; systems["perceived_events"] is then its events port."""
+    from hrc_drake.cell.scenario import action_regions
+    from hrc_drake.intention.config import NoActionDetector
+    from hrc_drake.intention.systems import apply_action_detector_config
+
+    if isinstance(scenario.action_detector, NoActionDetector):
+        return
+    regions = action_regions(scenario)
+    goals = {g.name: g for g in scenario.layout.goals}
+    detector = apply_action_detector_config(
+        scenario.action_detector,
+        builder,
+        skeleton_estimate=estimate_port,
+        goal_names=[goal for _, goal in regions],
+        goal_centers=np.array([goals[goal].center for _, goal in regions], float).reshape(-1, 3),
+        goal_radii=[goals[goal].radius for _, goal in regions],
+        actions=[action for action, _ in regions],
+        agent=scenario.operator.name,
+    )
+    if detector is not None:
+        systems["action_detector"] = detector
+        systems["perceived_events"] = detector.GetOutputPort("human_events")
+
+
+def decision_events(scenario: Scenario, human_events_port, systems):
+    """The human events the predictor and the scheduler read (scenario `human_events`)."""
+    perceived = scenario.human_events == "perceived" or (
+        scenario.human_events == "auto" and "perceived_events" in systems)
+    return systems["perceived_events"] if perceived else human_events_port
+
+
 def add_predictor(builder, scenario: Scenario, human_events_port, systems):
     """The activity predictor of Ch. 5 on the human events, if the scenario has one."""
     from hrc_drake.prediction.systems import apply_predictor_config

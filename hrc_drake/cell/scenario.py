@@ -25,6 +25,8 @@ from hrc_drake.robots.registry import ROBOT_MODELS
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
 HANDS = ("left", "right", "both")
+#: the sources of the human events the predictor and the scheduler read
+HUMAN_EVENT_SOURCES = ("auto", "perceived", "truth")
 
 
 def scenario_relative(scenario_path: str | Path, name: str) -> Path:
@@ -367,6 +369,40 @@ def _check_systems(sc: Scenario, file) -> None:
     model = getattr(sc.intention, "model", "")
     if model and str(file) != "<scenario>" and not scenario_relative(file, model).is_file():
         raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
+    _check_perceived_events(sc, file)
+
+
+def _check_perceived_events(sc: Scenario, file) -> None:
+    """`human_events` names a known source; an action detector needs a synthetic operator whose
+    every action has its own goal sphere (one region per action, thesis Ch. 2)."""
+    from hrc_drake.intention.config import NoActionDetector
+
+    _kind(file, "human_events", sc.human_events, HUMAN_EVENT_SOURCES)
+    has_detector = not isinstance(sc.action_detector, NoActionDetector)
+    if sc.human_events == "perceived" and not has_detector:
+        raise ScenarioError(file, "human_events", "'perceived' needs an action_detector (e.g. "
+                                                  "action_detector: !GoalRegionActionDetector {})")
+    if not has_detector:
+        return
+    if sc.operator.recorded:
+        raise ScenarioError(file, "action_detector", "a recorded skeleton has no true actions to perceive")
+    goals = {g.name for g in sc.layout.goals}
+    owner: dict[str, str] = {}
+    for i, action in enumerate(sc.operator.actions):
+        region, where = (action.region, f"operator.actions[{i}].region") if action.region else (
+            action.goals[0], f"operator.actions[{i}].goals[0]")
+        if region not in goals:
+            raise ScenarioError(file, where, f"'{region}' is not a goal sphere of layout.goals: the "
+                                             "action detector needs one (set region)")
+        if region in owner:
+            raise ScenarioError(file, where, f"goal '{region}' already marks action '{owner[region]}': "
+                                             "each action needs its own region")
+        owner[region] = action.name
+
+
+def action_regions(sc: Scenario) -> list[tuple[str, str]]:
+    """(action, goal sphere) of every operator action, for the action detector."""
+    return [(a.name, a.region or a.goals[0]) for a in sc.operator.actions]
 
 
 def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None:

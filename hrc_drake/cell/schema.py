@@ -12,7 +12,12 @@ from dataclasses import dataclass, field
 from typing import Union
 
 from hrc_drake.human.config import Camera, Occluder, Operator
-from hrc_drake.intention.config import GmmBayesIntention, NoIntention
+from hrc_drake.intention.config import (
+    GmmBayesIntention,
+    GoalRegionActionDetector,
+    NoActionDetector,
+    NoIntention,
+)
 from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
 from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
@@ -54,6 +59,7 @@ class Layout:
 #: area, chosen in YAML by tag: ``tracker: !ParticleFilterTracker {particles: 500}``).
 Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
 Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
+ActionDetector = Union[NoActionDetector, GoalRegionActionDetector]  # noqa: UP007
 MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007
 
 
@@ -76,6 +82,12 @@ class Scenario:
     tracker: Tracker = field(default_factory=NoTracker)
     #: the intended-goal estimator (thesis 3.1)
     intention: Intention = field(default_factory=NoIntention)
+    #: the detector of the operator's actions from the skeleton estimate (thesis Ch. 2 goal regions)
+    action_detector: ActionDetector = field(default_factory=NoActionDetector)
+    #: which human events the predictor and the scheduler read: "perceived" (the action
+    #: detector's), "truth" (the simulated operator's own) or "auto" (perceived where the cell
+    #: has an action detector, truth otherwise); metrics always use the truth
+    human_events: str = "auto"
     #: the activity predictor (thesis Ch. 5)
     predictor: PredictorConfig = field(default_factory=NoPredictor)
     #: the robots' scheduler (thesis Ch. 6-7); none: every arm runs its program in order
@@ -87,4 +99,4 @@ class Scenario:
 
 
 #: the scenario fields that choose a system by tag
-SYSTEM_FIELDS = ("tracker", "intention", "predictor", "scheduler", "motion_model")
+SYSTEM_FIELDS = ("tracker", "intention", "action_detector", "predictor", "scheduler", "motion_model")

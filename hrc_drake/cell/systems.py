@@ -310,14 +310,17 @@ class RecorderRun(Immutable):
 
     samples: AppendOnly = AppendOnly()
     events: AppendOnly = AppendOnly()
-    seen: tuple[int, int, int] = (0, 0, 0)
+    perceived: AppendOnly = AppendOnly()
+    #: the last seq read from human, robot, intention and perceived events
+    seen: tuple[int, int, int, int] = (0, 0, 0, 0)
     last_time: float = -np.inf
 
 
 class MetricsRecorder(LeafSystem):
     """Collects events, buffer contents and the true human-robot distance (periodic, `period` s).
 
-    Inputs "human_events", "robot_events", "intention_events" (EventLog), "human_points" (24,),
+    Inputs "human_events", "robot_events", "intention_events", "perceived_events" (EventLog: the
+    action detector's, kept apart from the truth), "human_points" (24,),
     "human_capsules", "robot_capsules" (`messages.Capsules`), "speed_override" (1,), "world"
     (`WorldSnapshot`). `log(context)` gives the `MetricsLog` of a run, with a last sample at
     the context's time.
@@ -335,6 +338,9 @@ class MetricsRecorder(LeafSystem):
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
         self._intention_events = self.DeclareAbstractInputPort(
             "intention_events", AbstractValue.Make(EventLog())
+        )
+        self._perceived_events = self.DeclareAbstractInputPort(
+            "perceived_events", AbstractValue.Make(EventLog())
         )
         self._human_points = self.DeclareVectorInputPort("human_points", 24)
         self._human_capsules = self.DeclareAbstractInputPort(
@@ -375,6 +381,12 @@ class MetricsRecorder(LeafSystem):
                 if new:
                     seen[k] = new[-1].seq
                     events = events.extend(map(convert, new) if convert else new)
+        perceived = run.perceived
+        if self._perceived_events.HasValue(context):
+            new = self._perceived_events.Eval(context).since(seen[3])
+            if new:
+                seen[3] = new[-1].seq
+                perceived = perceived.extend(new)
         distance = np.inf
         points = self._human_points.Eval(context).copy() if self._human_points.HasValue(context) else None
         if self._human_capsules.HasValue(context) and self._robot_capsules.HasValue(context):
@@ -388,7 +400,7 @@ class MetricsRecorder(LeafSystem):
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
         world = input_or(self._world, context, WorldSnapshot())
         sample = (t, distance, override, world.buffers, world.finished_products, points)
-        return RecorderRun(run.samples.append(sample), events, tuple(seen), t)
+        return RecorderRun(run.samples.append(sample), events, perceived, tuple(seen), t)
 
     def _record(self, context):
         recording = self._recording(context)
@@ -402,7 +414,7 @@ class MetricsRecorder(LeafSystem):
         run = self._recording(context).run
         if context.get_time() > run.last_time:
             run = self._sample(context, run)
-        log = MetricsLog(events=list(run.events))
+        log = MetricsLog(events=list(run.events), perceived_events=list(run.perceived))
         for t, distance, override, buffers, products, points in run.samples:
             log.record(t, distance, override, buffers, products, points)
         return log

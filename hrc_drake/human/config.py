@@ -33,6 +33,9 @@ class OperatorAction:
     goals: list[str] = field(default_factory=list)
     hand: str = "right"
     duration: Distribution = field(default_factory=Distribution)
+    #: the goal sphere G_a whose entry by a hand marks this action for an action detector
+    #: (thesis Ch. 2); "" means the action's first goal, which must then be a goal sphere
+    region: str = ""
 
 
 @dataclass

@@ -213,16 +213,16 @@ class ActionDetector(LeafSystem):
 
 def apply_action_detector_config(config: NoActionDetector | GoalRegionActionDetector, builder, *,
                                  skeleton_estimate, goal_names, goal_centers, goal_radii,
-                                 actions=None) -> ActionDetector | None:
+                                 actions=None, agent: str = "human") -> ActionDetector | None:
     """Add the action detector of `config` to `builder`, named "action_detector", fed by the
     `skeleton_estimate` output port; None for `NoActionDetector`.
 
     goal_names, goal_centers (G, 3), goal_radii (G,): the goal regions of the perceived actions;
-    actions: the action of each goal (default: the goal names).
+    actions: the action of each goal (default: the goal names); agent: the perceived events' agent.
     """
     if isinstance(config, NoActionDetector):
         return None
-    detector = builder.AddSystem(ActionDetector(config, goal_names, goal_centers, goal_radii, actions))
+    detector = builder.AddSystem(ActionDetector(config, goal_names, goal_centers, goal_radii, actions, agent))
     detector.set_name("action_detector")
     builder.Connect(skeleton_estimate, detector.GetInputPort("skeleton_estimate"))
     return detector

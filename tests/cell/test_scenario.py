@@ -172,9 +172,27 @@ def test_every_kind_of_every_system_is_reachable_by_its_tag(tmp_path, torch_raw)
     hints = typing.get_type_hints(Scenario)
     for name in SYSTEM_FIELDS:
         for kind in typing.get_args(hints[name]):
+            if name == "action_detector" and kind.__name__ != "NoActionDetector":
+                continue  # torch_clock's actions reach buffers, not goal spheres: see the next test
             path = write(tmp_path, torch_raw)
             path.write_text(path.read_text() + f"{name}: !{kind.__name__} {{}}\n")
             assert type(getattr(load_scenario(path), name)) is kind, (name, kind)
+
+
+def test_an_action_detector_is_reachable_by_its_tag(tmp_path, diagrams_dir):
+    from hrc_drake.intention.config import GoalRegionActionDetector
+
+    text = (diagrams_dir / "box_usb.yaml").read_text()
+    text = text.replace("goals: [g4_station, g1_home],", "goals: [g4_station, g1_home], region: g1_home,")
+    path = tmp_path / "box_usb_perceived.yaml"
+    path.write_text(text + "action_detector: !GoalRegionActionDetector {min_dwell: 0.3}\n"
+                    "human_events: perceived\n")
+    scenario = load_scenario(path)
+    assert scenario.action_detector == GoalRegionActionDetector(min_dwell=0.3)
+    assert scenario.human_events == "perceived"
+    path.write_text(text + "action_detector: !GoalRegionActionDetector {exit_scale: 0.5}\n")
+    with pytest.raises(ScenarioError, match="action_detector.exit_scale"):
+        load_scenario(path)
 
 
 @pytest.mark.parametrize("case", sorted(BAD))
