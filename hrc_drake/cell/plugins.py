@@ -119,6 +119,7 @@ def add_scheduler(builder, scenario: Scenario, human_events_port, executor, syst
         robot_commands_input=executor.GetInputPort("robot_commands"),
         scenario=scenario,
         seed=seed,
+        forecast=systems["predictor"].GetOutputPort("forecast") if "predictor" in systems else None,
     )
     if scheduler is not None:
         systems["scheduler"] = scheduler

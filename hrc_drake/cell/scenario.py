@@ -370,6 +370,33 @@ def _check_systems(sc: Scenario, file) -> None:
     if model and str(file) != "<scenario>" and not scenario_relative(file, model).is_file():
         raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
     _check_perceived_events(sc, file)
+    _check_collaboration_scheduler(sc, file)
+
+
+def _check_collaboration_scheduler(sc: Scenario, file) -> None:
+    """A use case a scheduler names a robot agent, robot actions of its arm's program and an
+    operator action; the predictive one reads the activity predictor's forecast."""
+    from hrc_drake.prediction.config import NoPredictor
+    from hrc_drake.scheduling.config import COLLABORATION_SCHEDULERS, PredictiveRobotScheduler
+
+    config = sc.scheduler
+    if not isinstance(config, COLLABORATION_SCHEDULERS):
+        return
+    programs = {arm.agent: list(arm.program) for robot in sc.robots for arm in robot.arms}
+    if config.agent not in programs:
+        raise ScenarioError(file, "scheduler.agent",
+                            f"unknown robot agent '{config.agent}' ({sorted(programs)})")
+    for name, value in [("autonomous_action", config.autonomous_action)] + [
+            (f"assist_actions[{k}]", a) for k, a in enumerate(config.assist_actions)]:
+        if value not in programs[config.agent]:
+            raise ScenarioError(file, f"scheduler.{name}", f"'{value}' is not in the program of "
+                                                             f"'{config.agent}' {programs[config.agent]}")
+    if config.request_action not in {a.name for a in sc.operator.actions}:
+        raise ScenarioError(file, "scheduler.request_action",
+                            f"unknown operator action '{config.request_action}'")
+    if isinstance(config, PredictiveRobotScheduler) and isinstance(sc.predictor, NoPredictor):
+        raise ScenarioError(file, "scheduler", "the predictive robot reads a forecast: the cell needs a "
+                                               "predictor (e.g. predictor: !HigherOrderMarkovPredictor {})")
 
 
 def _check_perceived_events(sc: Scenario, file) -> None:

@@ -130,9 +130,14 @@ class GoalRegionActionDetector:
     lost_timeout: float = 2.0
     #: Update rate (Hz), at most 50: the camera's, normally.
     rate: float = 30.0
+    #: How an action ends: "exit" (the last hand leaves its region) or "next" (another action
+    #: begins: for actions that take a part at their region and go on elsewhere).
+    end_rule: str = "exit"
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the detector cannot use."""
+        check(self.end_rule in ("exit", "next"), f"{path}.end_rule",
+              f"must be 'exit' or 'next', got {self.end_rule!r}")
         check(math.isfinite(self.entry_scale) and 0.0 < self.entry_scale <= 10.0, f"{path}.entry_scale",
               f"must be in (0, 10], got {self.entry_scale!r}")
         check(math.isfinite(self.exit_scale) and self.entry_scale <= self.exit_scale <= 10.0,

@@ -32,6 +32,8 @@ from hrc_drake.messages import HANDS, L_WRIST, R_WRIST, HumanEvent, Immutable
 WRIST_POINTS = (L_WRIST, R_WRIST)
 
 OUTSIDE, ENTERING, INSIDE = "outside", "entering", "inside"
+#: how a perceived action ends (`GoalRegionDetector.end_rule`)
+END_RULES = ("exit", "next")
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,10 @@ class GoalRegionDetector(Immutable):
     the hysteresis band, entry at entry_scale * r_a, exit beyond exit_scale * r_a
     (0 < entry_scale <= exit_scale). min_dwell (s >= 0), max_spread (m > 0: the largest
     estimate spread still used), lost_timeout (s > 0): see the module docstring. agent: the
-    events' agent.
+    events' agent. end_rule: "exit" (an action ends when the last hand leaves its region) or
+    "next" (an action lasts until another action begins: for actions that go on beyond their
+    region, e.g. take a part there and work elsewhere; a region left and entered again
+    continues the action; the thesis dates only the begin by the entry).
     """
 
     goals: tuple[str, ...]
@@ -68,8 +73,11 @@ class GoalRegionDetector(Immutable):
     max_spread: float = 0.1
     lost_timeout: float = 2.0
     agent: str = "human"
+    end_rule: str = "exit"
     hands: tuple[HandTrack, ...] = (HandTrack(), HandTrack())
     seq: int = 0
+    #: with end_rule "next": the action begun last and not yet ended (-1: none)
+    current: int = -1
 
     def __post_init__(self):
         goals = tuple(str(g) for g in self.goals)
@@ -87,6 +95,9 @@ class GoalRegionDetector(Immutable):
         if not (0.0 < self.entry_scale <= self.exit_scale < math.inf):
             raise ValueError(f"GoalRegionDetector: need 0 < entry_scale <= exit_scale < inf, got "
                              f"{self.entry_scale!r}, {self.exit_scale!r}")
+        if self.end_rule not in END_RULES:
+            raise ValueError(f"GoalRegionDetector: end_rule must be one of {END_RULES}, "
+                             f"got {self.end_rule!r}")
         if not 0.0 <= self.min_dwell < math.inf:
             raise ValueError(f"GoalRegionDetector: min_dwell must be >= 0, got {self.min_dwell!r}")
         for name in ("max_spread", "lost_timeout"):
@@ -122,8 +133,8 @@ class GoalRegionDetector(Immutable):
                        for h in range(2))
         if tracks == self.hands:
             return self, []
-        events, seq = self._merge(hand_events)
-        return replace(self, hands=tracks, seq=seq), events
+        events, seq, current = self._merge(hand_events)
+        return replace(self, hands=tracks, seq=seq, current=current), events
 
     def known_wrists(self, points, spread, tracked=None):
         """(wrists (2, 3), known (2,)) of a skeleton estimate: points (8, 3), spread (8,) (m);
@@ -177,23 +188,34 @@ class GoalRegionDetector(Immutable):
             return HandTrack(INSIDE, goal, time)
         return HandTrack(ENTERING, goal, time)
 
-    def _merge(self, hand_events: list) -> tuple[list[HumanEvent], int]:
+    def _merge(self, hand_events: list) -> tuple[list[HumanEvent], int, int]:
         """Hand-level transitions to action events: an action begins with the first hand inside
-        its region and ends when the last one leaves."""
+        its region and ends when the last one leaves ("exit"), or when another begins ("next")."""
         inside = [0] * len(self.goals)
         for track in self.hands:
             if track.phase == INSIDE:
                 inside[track.goal] += 1
         events: list[HumanEvent] = []
-        seq = self.seq
+        seq, current = self.seq, self.current
+
+        def emit(time, h, kind, goal):
+            nonlocal seq
+            seq += 1
+            events.append(HumanEvent(time=time, action=self.actions[goal], kind=kind, seq=seq,
+                                     agent=self.agent, hand=HANDS[h], goal=self.goals[goal]))
+
         for time, h, kind, goal in sorted(hand_events, key=lambda e: (e[0], e[2] != "end")):
             inside[goal] += 1 if kind == "begin" else -1
             if inside[goal] != (1 if kind == "begin" else 0):
                 continue  # the other hand began this action already, or is still inside
-            seq += 1
-            events.append(HumanEvent(time=time, action=self.actions[goal], kind=kind, seq=seq,
-                                     agent=self.agent, hand=HANDS[h], goal=self.goals[goal]))
-        return events, seq
+            if self.end_rule == "exit":
+                emit(time, h, kind, goal)
+            elif kind == "begin" and goal != current:
+                if current >= 0:
+                    emit(time, h, "end", current)
+                emit(time, h, "begin", goal)
+                current = goal
+        return events, seq, current
 
 
 def _instances(events) -> list[tuple[str, float, float]]:

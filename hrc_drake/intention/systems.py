@@ -182,7 +182,7 @@ class ActionDetector(LeafSystem):
             tuple(goal_names), np.asarray(goal_centers, float), np.asarray(goal_radii, float),
             actions=tuple(actions) if actions else (), entry_scale=config.entry_scale,
             exit_scale=config.exit_scale, min_dwell=config.min_dwell, max_spread=config.max_spread,
-            lost_timeout=config.lost_timeout, agent=agent))
+            lost_timeout=config.lost_timeout, agent=agent, end_rule=config.end_rule))
         self._input = self.DeclareAbstractInputPort("skeleton_estimate",
                                                     AbstractValue.Make(SkeletonEstimate()))
         self._run = declare_state(self, lambda context: self._initial)

@@ -161,6 +161,98 @@ class MonteCarloScheduler(_SchedulerCommon):
         check(self.rollout in ROLLOUTS, f"{path}.rollout", f"{self.rollout!r} is not one of {ROLLOUTS}")
 
 
+@dataclass
+class _CollaborationCommon:
+    """The fields of the use case a robots (thesis 5.4.1, Fig. 5.14): one robot agent chooses, at
+    each decision, between its autonomous task and assisting the human's collaboration; every
+    other robot agent runs its program in order."""
+
+    #: the robot agent that chooses (e.g. "yumi_right")
+    agent: str = ""
+    #: its autonomous task (the quality check of use case a)
+    autonomous_action: str = ""
+    #: its part of the collaboration, in order (e.g. place the PCB, then close and store)
+    assist_actions: list[str] = field(default_factory=list)
+    #: the human action whose begin initiates the collaboration (taking an enclosure)
+    request_action: str = ""
+    #: how long the autonomous task takes (s), the duration the waiting time is compared with
+    autonomous_duration: float = 10.0
+    #: the human action whose end gives the autonomous task its part (the IC insertion fills the
+    #: feeder); "" when the autonomous task always has work. Without a part the robot waits,
+    #: ready to assist
+    supplied_by: str = ""
+    #: parts for the autonomous task in stock at the start
+    initial_supply: int = 0
+    #: results of the autonomous task in stock at the start (checked PCBs) when each assist uses
+    #: one: without one the robot runs its autonomous task before it assists; -1: the assist
+    #: uses none
+    autonomous_stock: int = -1
+    #: how long the robot pauses before it decides again when it can neither assist nor work (s)
+    wait_quantum: float = 0.5
+    #: how often the decision system reads the event logs (Hz)
+    rate: float = 10.0
+
+    def _validate_collaboration(self, path: str) -> None:
+        for name in ("agent", "autonomous_action", "request_action"):
+            value = getattr(self, name)
+            check(isinstance(value, str) and value != "", f"{path}.{name}", "must be a name")
+        check(len(self.assist_actions) > 0 and all(isinstance(a, str) and a for a in self.assist_actions),
+              f"{path}.assist_actions", "must list at least one robot action")
+        check(_finite(self.autonomous_duration) and 0 < self.autonomous_duration <= 3600,
+              f"{path}.autonomous_duration", f"{self.autonomous_duration} must be in (0, 3600] s")
+        check(_finite(self.rate) and 0 < self.rate <= 50, f"{path}.rate",
+              f"{self.rate} must be in (0, 50] Hz")
+        check(isinstance(self.supplied_by, str), f"{path}.supplied_by", "must be an action name or \"\"")
+        check(_integer(self.initial_supply) and 0 <= self.initial_supply <= 1_000_000,
+              f"{path}.initial_supply", f"{self.initial_supply} must be an integer >= 0")
+        check(_finite(self.wait_quantum) and 1e-3 <= self.wait_quantum <= 600, f"{path}.wait_quantum",
+              f"{self.wait_quantum} must be in [0.001, 600] s")
+        check(_integer(self.autonomous_stock) and -1 <= self.autonomous_stock <= 1_000_000,
+              f"{path}.autonomous_stock", f"{self.autonomous_stock} must be an integer >= -1")
+
+    def validate(self, path: str) -> None:
+        """Raise ConfigError naming `path.<field>` for a bad value."""
+        self._validate_collaboration(path)
+
+
+@dataclass
+class PredictiveRobotScheduler(_CollaborationCommon):
+    """Fig. 5.14: start the autonomous task when the p-percentile t_p of the predicted waiting
+    time until `request_action` (the activity predictor's forecast, thesis 5.3) exceeds
+    `autonomous_duration`; otherwise wait, ready to assist. Needs a predictor in the cell."""
+
+    #: p, the percentile level of the waiting time (one of the predictor's levels, or between)
+    percentile: float = 0.8
+
+    def validate(self, path: str) -> None:
+        self._validate_collaboration(path)
+        check(_finite(self.percentile) and 0 < self.percentile < 1, f"{path}.percentile",
+              f"{self.percentile} must be in (0, 1)")
+
+
+@dataclass
+class ReactiveRobotScheduler(_CollaborationCommon):
+    """The reactive robot of 5.4.1: the autonomous task unless the human has already initiated
+    the collaboration."""
+
+
+@dataclass
+class DataDrivenRobotScheduler(_CollaborationCommon):
+    """The data-driven robot of Fig. 5.17: the rule of Fig. 5.14 with t_p the p-percentile of
+    the observed intervals between consecutive collaboration requests."""
+
+    #: p, the percentile level of the observed intervals
+    percentile: float = 0.8
+
+    def validate(self, path: str) -> None:
+        self._validate_collaboration(path)
+        check(_finite(self.percentile) and 0 < self.percentile < 1, f"{path}.percentile",
+              f"{self.percentile} must be in (0, 1)")
+
+
+#: The use case a decision systems (no pcTPN; `scheduling.systems.CollaborationScheduler`).
+COLLABORATION_SCHEDULERS = (PredictiveRobotScheduler, ReactiveRobotScheduler, DataDrivenRobotScheduler)
+
 #: Every scheduler kind, as a scenario field type (chosen in YAML by tag).
 SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typing.Union
     NoScheduler,
@@ -168,4 +260,7 @@ SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typi
     GreedyScheduler,
     DeterministicPlanScheduler,
     MonteCarloScheduler,
+    PredictiveRobotScheduler,
+    ReactiveRobotScheduler,
+    DataDrivenRobotScheduler,
 ]

@@ -7,19 +7,34 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
 from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
 from hrc_drake.errors import ConfigError
-from hrc_drake.messages import EventLog, RobotCommand
+from hrc_drake.messages import EventLog, Forecast, Immutable, RobotCommand
 from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
+from hrc_drake.scheduling.collaboration import (
+    ASSIST,
+    AUTONOMOUS,
+    WAIT,
+    CollaborationDecision,
+    DataDrivenPercentilePolicy,
+    PredictiveRobotPolicy,
+    ReactiveRobotPolicy,
+)
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.config import (
+    COLLABORATION_SCHEDULERS,
+    DataDrivenRobotScheduler,
     DeterministicPlanScheduler,
     GreedyScheduler,
     MonteCarloScheduler,
     NoScheduler,
+    PredictiveRobotScheduler,
+    ReactiveRobotScheduler,
     RoundRobinScheduler,
 )
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
@@ -209,6 +224,142 @@ class Scheduler(LeafSystem):
         return EventStatus.Succeeded()
 
 
+@dataclass(frozen=True)
+class CollaborationRun(Immutable):
+    """What a `CollaborationScheduler` changes during a run: its policy (immutable), the last
+    event seq read from each log, the collaboration requests seen and the assists begun, the
+    position of every agent in its program, the commands issued and the decisions taken."""
+
+    policy: object
+    last_human: int = 0
+    last_robot: int = 0
+    requests: int = 0
+    assists: int = 0
+    #: parts supplied to the autonomous task so far (initial stock included) and tasks commanded
+    supplied: int = 0
+    autonomous: int = 0
+    position: tuple = ()
+    commands: EventLog = EventLog()
+    decisions: tuple = ()
+
+
+class CollaborationScheduler(LeafSystem):
+    """The robot's decision system of use case a (thesis 5.4.1, Fig. 5.14; `scheduling.collaboration`).
+
+    Inputs "human_events" (EventLog of HumanEvent: perceived or true, as the scenario says),
+    "robot_events" (EventLog of RobotEvent) and, for `PredictiveRobotScheduler`, "forecast"
+    (the activity predictor's `Forecast`). Output "robot_commands" (EventLog of RobotCommand).
+    When `config.agent` is ready it assists (its `assist_actions`, in order) if the human has
+    begun `request_action` more often than the robot began assisting, and otherwise asks its
+    policy: the autonomous task, or the assist (the executor then waits for the human's parts,
+    "ready to assist"). Without a part for the autonomous task it assists; without a result of
+    the autonomous task for the assist it works first; with neither it pauses `wait_quantum` s
+    and decides again. Every other agent gets its program in order. The decisions are kept
+    (`decisions(context)`: (time, choice, t_p)). State: one abstract value `CollaborationRun`.
+    """
+
+    def __init__(self, config, programs: dict[str, list[str]]):
+        super().__init__()
+        config.validate("scheduler")
+        if config.agent not in programs:
+            raise ConfigError("scheduler.agent", f"unknown robot agent '{config.agent}' ({sorted(programs)})")
+        self.config = config
+        self.agents = tuple(programs)
+        self.programs = {a: tuple(p) for a, p in programs.items()}
+        self._initial = CollaborationRun(_collaboration_policy(config), position=(0,) * len(self.agents),
+                                         supplied=config.initial_supply)
+        self._human = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
+        self._robot = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
+        self._forecast = self.DeclareAbstractInputPort("forecast", AbstractValue.Make(Forecast()))
+        self._run = declare_state(self, lambda context: self._initial)
+        self.DeclareAbstractOutputPort("robot_commands", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_commands,
+                                       {self.abstract_state_ticket(AbstractStateIndex(self._run))})
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
+
+    def decisions(self, context) -> tuple:
+        """(time, choice, t_p) of every decision of `config.agent` in `context`."""
+        return get_state(context, self._run).decisions
+
+    def _calc_commands(self, context, output):
+        output.set_value(get_state(context, self._run).commands)
+
+    def _update(self, context, state):
+        run = get_state(context, self._run)
+        human = input_or(self._human, context, EventLog()).since(run.last_human)
+        robot = input_or(self._robot, context, EventLog()).since(run.last_robot)
+        if not human and not robot:
+            return EventStatus.DidNothing()
+        t = context.get_time()
+        policy, requests, assists = run.policy, run.requests, run.assists
+        supplied, autonomous = run.supplied, run.autonomous
+        for e in human:
+            if e.action == self.config.request_action and e.kind == "begin":
+                requests += 1
+                if isinstance(policy, DataDrivenPercentilePolicy):
+                    policy = policy.observe(e.time)
+            if e.action == self.config.supplied_by and e.kind == "end":
+                supplied += 1
+        position = list(run.position)
+        commands, decisions = list(run.commands.events), list(run.decisions)
+        ready = [e.agent for e in robot if e.kind == "ready" and e.agent in self.programs]
+        for agent in dict.fromkeys(ready):
+            k = self.agents.index(agent)
+            if agent == self.config.agent:
+                has_work = not self.config.supplied_by or supplied > autonomous
+                stock = self.config.autonomous_stock
+                can_assist = stock < 0 or stock + autonomous > assists
+                action, position[k], assists, decision = self._choose(
+                    t, policy, position[k], requests, assists, has_work, can_assist, context)
+                autonomous += action == self.config.autonomous_action
+                decisions.append((t, decision.choice, decision.waiting_time))
+            elif self.programs[agent]:
+                program = self.programs[agent]
+                action, position[k] = program[position[k] % len(program)], position[k] + 1
+            else:
+                continue  # an agent without a program stays idle
+            commands.append(RobotCommand(time=t, agent=agent, action=action, seq=len(commands) + 1,
+                                         wait=self.config.wait_quantum if action is None else 0.0))
+        set_state(state, self._run, CollaborationRun(
+            policy, human[-1].seq if human else run.last_human, robot[-1].seq if robot else run.last_robot,
+            requests, assists, supplied, autonomous, tuple(position), EventLog(tuple(commands)),
+            tuple(decisions)))
+        return EventStatus.Succeeded()
+
+    def _choose(self, t, policy, step, requests, assists, has_work, can_assist, context):
+        """(action, next assist step, assists begun, decision) of the choosing agent: inside an
+        assist sequence the next assist action; without a part for the autonomous task, the
+        assist (waiting for the human); without a result of it for the assist, the autonomous
+        task first; else the policy's choice (Fig. 5.14)."""
+        sequence = self.config.assist_actions
+        if step > 0:  # in the middle of an assist: its next action
+            return sequence[step], (step + 1) % len(sequence), assists, CollaborationDecision(ASSIST)
+        forecast = input_or(self._forecast, context, Forecast())
+        decision = policy.decide(t, requests > assists, forecast)
+        if decision.choice == AUTONOMOUS and not has_work:
+            decision = CollaborationDecision(WAIT, decision.waiting_time, "nothing to check: ready to assist")
+        elif decision.choice != AUTONOMOUS and not can_assist:
+            if not has_work:  # nothing to assist with, nothing to work on: pause, decide again
+                return None, 0, assists, CollaborationDecision(WAIT, decision.waiting_time,
+                                                               "nothing to do yet")
+            decision = CollaborationDecision(AUTONOMOUS, decision.waiting_time,
+                                             "no checked part for the assist: the autonomous task first")
+        if decision.choice == AUTONOMOUS:
+            return self.config.autonomous_action, 0, assists, decision
+        return sequence[0], 1 % len(sequence), assists + 1, decision
+
+
+def _collaboration_policy(config):
+    """The core of a use case a scheduler config."""
+    if isinstance(config, PredictiveRobotScheduler):
+        return PredictiveRobotPolicy(config.request_action, config.autonomous_duration, config.percentile)
+    if isinstance(config, DataDrivenRobotScheduler):
+        return DataDrivenPercentilePolicy(config.autonomous_duration, config.percentile)
+    if isinstance(config, ReactiveRobotScheduler):
+        return ReactiveRobotPolicy()
+    raise ConfigError("scheduler", f"{type(config).__name__} is not a use case a scheduler")
+
+
 def apply_scheduler_config(
     config,
     builder,
@@ -220,16 +371,32 @@ def apply_scheduler_config(
     scenario=None,
     robot_agents: list[str] | None = None,
     seed: int = 0,
-) -> Scheduler | None:
+    forecast=None,
+) -> Scheduler | CollaborationScheduler | None:
     """Add the Scheduler `config` describes to `builder` (named "scheduler"); None for NoScheduler.
 
     human_events, robot_events: output ports of the two event logs; robot_commands_input: the
     input port the commands go to (e.g. the task executor's), if any. The net is `net`, or
     compiled from `scenario` with the config's net fields; robot_agents default to the
-    scenario's arms.
+    scenario's arms. A use case a kind (`COLLABORATION_SCHEDULERS`) builds a
+    `CollaborationScheduler` instead, on the arms' programs, reading `forecast` (the predictor's
+    output port) where given.
     """
     if isinstance(config, NoScheduler):
         return None
+    if isinstance(config, COLLABORATION_SCHEDULERS):
+        if scenario is None:
+            raise ValueError("apply_scheduler_config: a use case a scheduler needs the scenario")
+        programs = {arm.agent: list(arm.program) for robot in scenario.robots for arm in robot.arms}
+        scheduler = builder.AddSystem(CollaborationScheduler(config, programs))
+        scheduler.set_name("scheduler")
+        builder.Connect(human_events, scheduler.GetInputPort("human_events"))
+        builder.Connect(robot_events, scheduler.GetInputPort("robot_events"))
+        if forecast is not None:
+            builder.Connect(forecast, scheduler.GetInputPort("forecast"))
+        if robot_commands_input is not None:
+            builder.Connect(scheduler.GetOutputPort("robot_commands"), robot_commands_input)
+        return scheduler
     if net is None:
         if scenario is None:
             raise ValueError("apply_scheduler_config: give the net or the scenario")
@@ -248,4 +415,5 @@ def apply_scheduler_config(
     return scheduler
 
 
-__all__ = ["Scheduler", "SchedulerCore", "apply_scheduler_config", "make_policy", "net_from_scenario"]
+__all__ = ["CollaborationScheduler", "Scheduler", "SchedulerCore", "apply_scheduler_config", "make_policy",
+           "net_from_scenario"]

@@ -168,12 +168,15 @@ def test_every_kind_of_every_system_is_reachable_by_its_tag(tmp_path, torch_raw)
     import typing
 
     from hrc_drake.cell.schema import SYSTEM_FIELDS, Scenario
+    from hrc_drake.scheduling.config import COLLABORATION_SCHEDULERS
 
     hints = typing.get_type_hints(Scenario)
     for name in SYSTEM_FIELDS:
         for kind in typing.get_args(hints[name]):
             if name == "action_detector" and kind.__name__ != "NoActionDetector":
                 continue  # torch_clock's actions reach buffers, not goal spheres: see the next test
+            if kind in COLLABORATION_SCHEDULERS:
+                continue  # the use case a robots name its actions: see test_use_case_a_robots_...
             path = write(tmp_path, torch_raw)
             path.write_text(path.read_text() + f"{name}: !{kind.__name__} {{}}\n")
             assert type(getattr(load_scenario(path), name)) is kind, (name, kind)
@@ -192,6 +195,26 @@ def test_an_action_detector_is_reachable_by_its_tag(tmp_path, diagrams_dir):
     assert scenario.human_events == "perceived"
     path.write_text(text + "action_detector: !GoalRegionActionDetector {exit_scale: 0.5}\n")
     with pytest.raises(ScenarioError, match="action_detector.exit_scale"):
+        load_scenario(path)
+
+
+def test_use_case_a_robots_are_reachable_by_their_tags(tmp_path, diagrams_dir):
+    from hrc_drake.scheduling.config import COLLABORATION_SCHEDULERS
+
+    text = (diagrams_dir / "pcb_ic.yaml").read_text()
+    assert "scheduler: !PredictiveRobotScheduler" in text
+    for kind in COLLABORATION_SCHEDULERS:
+        edited = text.replace("!PredictiveRobotScheduler", f"!{kind.__name__}")
+        if not hasattr(kind(), "percentile"):
+            edited = edited.replace("  percentile: 0.8\n", "")
+        path = tmp_path / f"{kind.__name__}.yaml"
+        path.write_text(edited)
+        assert type(load_scenario(path).scheduler) is kind
+    path.write_text(text.replace("autonomous_action: R_check", "autonomous_action: R_nothing"))
+    with pytest.raises(ScenarioError, match="scheduler.autonomous_action"):
+        load_scenario(path)
+    path.write_text(text.replace("predictor: !HigherOrderMarkovPredictor {order: 2}", ""))
+    with pytest.raises(ScenarioError, match="needs a predictor"):
         load_scenario(path)
 
 

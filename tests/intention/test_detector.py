@@ -196,3 +196,16 @@ def test_detection_quality_matches_perceived_to_true_actions():
     perfect = detection_quality(truth, truth)
     assert perfect["event_precision"] == perfect["event_recall"] == 1.0
     assert perfect["event_latency_p90_s"] == 0.0
+
+
+def test_end_rule_next_ends_an_action_when_the_next_begins():
+    # take a part at region A, work elsewhere (outside every region), come back to A, then go to B
+    left = path((FAR, 3), (CENTERS[0], 10), (FAR, 20), (CENTERS[0], 10), (FAR, 5), (CENTERS[1], 10), (FAR, 3))
+    _, events = run(detector(end_rule="next"), left)
+    assert [(e.kind, e.action) for e in events] == [("begin", "take_a"), ("end", "take_a"),
+                                                    ("begin", "take_b")]
+    assert events[1].time == pytest.approx(events[2].time) == pytest.approx(48 * DT)
+    _, exits = run(detector(), left)  # "exit": every stay in a region is an action
+    assert [e.action for e in exits if e.kind == "begin"] == ["take_a", "take_a", "take_b"]
+    with pytest.raises(ValueError):
+        detector(end_rule="never")

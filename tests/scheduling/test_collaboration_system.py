@@ -1,0 +1,68 @@
+"""The use case a decision system (Fig. 5.14) in Drake, on fixed inputs, and in its cell."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from hrc_drake.cell.build import build_cell
+from hrc_drake.cell.run import simulate
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.messages import EventLog, HumanEvent, RobotEvent
+from tests.conftest import DIAGRAMS
+from tests.contract import fix_inputs
+from tests.scheduling.system_examples import use_case_a_forecast, use_case_a_scheduler
+
+SUPPLIED = EventLog((HumanEvent(0.0, "ic_insert", "begin", 1), HumanEvent(0.0, "ic_insert", "end", 2)))
+READY = EventLog((RobotEvent(0.0, "yumi_right", "", "ready", 1),))
+
+
+def commands_after(system, **inputs):
+    simulator = Simulator(system)
+    fix_inputs(system, simulator.get_mutable_context(), inputs)
+    simulator.AdvanceTo(0.3)
+    context = simulator.get_context()
+    return system.GetOutputPort("robot_commands").Eval(context).events, system.decisions(context)
+
+
+def test_the_predictive_robot_waits_when_the_forecast_says_the_collaboration_is_near():
+    commands, decisions = commands_after(use_case_a_scheduler(), human_events=SUPPLIED, robot_events=READY,
+                                         forecast=use_case_a_forecast(3.0))
+    assert [(c.agent, c.action) for c in commands] == [("yumi_right", "R_place")]
+    assert decisions[0][1] == "wait" and decisions[0][2] == pytest.approx(3.0)
+
+
+def test_the_predictive_robot_checks_when_the_collaboration_is_far():
+    commands, decisions = commands_after(use_case_a_scheduler(), human_events=SUPPLIED, robot_events=READY,
+                                         forecast=use_case_a_forecast(40.0))
+    assert [c.action for c in commands] == ["R_check"] and decisions[0][1] == "autonomous"
+
+
+def test_the_robot_assists_once_the_human_requested_and_pauses_with_nothing_to_do():
+    requested = EventLog(SUPPLIED.events + (HumanEvent(0.1, "enclosure", "begin", 3),))
+    commands, _ = commands_after(use_case_a_scheduler(), human_events=requested, robot_events=READY,
+                                 forecast=use_case_a_forecast(40.0))
+    assert [c.action for c in commands] == ["R_place"]
+    nothing = use_case_a_scheduler(autonomous_stock=0)  # no checked PCB, no PCB to check
+    commands, _ = commands_after(nothing, human_events=EventLog(), robot_events=READY,
+                                 forecast=use_case_a_forecast(3.0))
+    assert [(c.action, c.wait) for c in commands] == [(None, 0.5)]
+
+
+@pytest.mark.slow
+def test_use_case_a_cell_closes_the_loop():
+    """camera -> tracker -> detector -> HOMM -> waiting time -> the robot's choice, 90 s."""
+    path = DIAGRAMS / "pcb_ic.yaml"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cell = build_cell(load_scenario(path), path)
+        result = simulate(cell, 90.0, progress=None)
+    assert result.metrics["products_finished"] >= 2
+    assert result.metrics["detection"]["event_recall"] >= 0.8
+    scheduler = cell.system("scheduler")
+    decisions = scheduler.decisions(scheduler.GetMyContextFromRoot(result.context))
+    assert {choice for _, choice, _ in decisions} >= {"autonomous"}
+    forecast_decisions = [tp for _, choice, tp in decisions if choice in ("wait", "autonomous") and tp == tp]
+    assert forecast_decisions, "no decision read the forecast"
