@@ -87,3 +87,13 @@ def test_instruction_figures_keys_and_change(bench):
     assert fig["instructions_duration_s"] == 30.0
     only = bench.instruction_figures(["torch_clock"], {"current": counts["current"]}, 30.0)
     assert "instructions_change_percent_torch_clock" not in only
+
+
+def test_a_scenario_new_since_the_baseline_is_reported_on_the_current_code_only(bench):
+    names = ["pcb_ic", "torch_clock"]
+    current = {n: bench.summarize_runs([run(1.0, 1.0)], 20.0) for n in names}
+    baseline = {"torch_clock": bench.summarize_runs([run(2.0, 2.0)], 20.0)}
+    fig = bench.figures_json(names, current, baseline, [], 20.0, 1, "3b262b1", 1.0, 1.0)
+    assert fig["rtf_pcb_ic_kinematic"] == 20.0 and "cpu_change_percent_pcb_ic" not in fig
+    assert fig["cpu_change_percent_torch_clock"] == pytest.approx(-50.0)
+    assert "pcb_ic" in bench.format_table(names, current, baseline)

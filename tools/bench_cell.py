@@ -208,13 +208,13 @@ def figures_json(
         cur = current[name]
         out[f"rtf_{name}_kinematic"] = round(cur["rtf"], 2)
         out[f"rtf_cpu_{name}_kinematic"] = round(cur["rtf_cpu"], 2)
-        if baseline is not None:
+        if baseline is not None and name in baseline:
             base = baseline[name]
             out[f"baseline_rtf_{name}_kinematic"] = round(base["rtf"], 2)
             out[f"baseline_rtf_cpu_{name}_kinematic"] = round(base["rtf_cpu"], 2)
             out[f"cpu_change_percent_{name}"] = round(change_percent(cur["cpu_s"], base["cpu_s"]), 1)
         out[f"products_{name}"] = cur["products"]
-        if baseline is not None:
+        if baseline is not None and name in baseline:
             out[f"baseline_products_{name}"] = baseline[name]["products"]
     by_copy, by_clone = largest_states(states)
     out["deepcopy_us_largest_state"] = round(by_copy["deepcopy_us"], 2) if by_copy else None
@@ -241,7 +241,7 @@ def format_table(names: list[str], current: dict[str, dict], baseline: dict[str,
     rows = [head, "-" * len(head)]
     for name in names:
         cur = current[name]
-        base = baseline[name] if baseline is not None else None
+        base = baseline.get(name) if baseline is not None else None
         chg = change_percent(cur["cpu_s"], base["cpu_s"]) if base else None
         products = f"{cur['products']}/{base['products'] if base else '-'}"
         dist = f"{cur['min_distance']:.3f}/{num(base['min_distance'] if base else None, '.3f')}"
@@ -303,7 +303,7 @@ def count_instructions(
             start = time.perf_counter()
             procs = {label: start_instruction_count(tree, tree / "diagrams" / f"{name}.yaml", duration,
                                                     Path(out_dir))
-                     for label, tree in trees.items()}
+                     for label, tree in trees.items() if (tree / "diagrams" / f"{name}.yaml").is_file()}
             for label, proc in procs.items():
                 _, err = proc.communicate()
                 if proc.returncode != 0:
@@ -312,7 +312,7 @@ def count_instructions(
                         f"callgrind run of {name} ({label}) failed (exit {proc.returncode}):\n{tail}"
                     )
                 counts[label][name] = collected_instructions(err)
-            line = "  ".join(f"{label} {counts[label][name] / 1e9:8.4f} G" for label in trees)
+            line = "  ".join(f"{label} {counts[label][name] / 1e9:8.4f} G" for label in procs)
             print(f"  instructions {name:22s} {line}  ({time.perf_counter() - start:5.0f} s)", flush=True)
     return counts
 
@@ -323,7 +323,7 @@ def instruction_figures(names: list[str], counts: dict[str, dict[str, int]], dur
     for name in names:
         cur = counts["current"][name]
         out[f"instructions_g_{name}"] = round(cur / 1e9, 4)
-        if "baseline" in counts:
+        if name in counts.get("baseline", {}):
             base = counts["baseline"][name]
             out[f"baseline_instructions_g_{name}"] = round(base / 1e9, 4)
             out[f"instructions_change_percent_{name}"] = round(change_percent(cur, base), 2)
@@ -402,6 +402,10 @@ def main(argv: list[str] | None = None) -> None:
             for name in names:
                 for label, tree in trees.items():
                     scenario = tree / "diagrams" / f"{name}.yaml"
+                    if not scenario.is_file():
+                        if k == 0:
+                            print(f"  {name}: not in the {label} tree, measured on the current code only")
+                        continue
                     probe = label == "current" and k == 0
                     start = time.perf_counter()
                     r = measure(tree, scenario, duration, probe=probe)
@@ -418,7 +422,9 @@ def main(argv: list[str] | None = None) -> None:
         counts = count_instructions(trees, names, args.instructions) if args.instructions else None
 
     current = {n: summarize_runs(runs["current"][n], duration) for n in names}
-    baseline = {n: summarize_runs(runs["baseline"][n], duration) for n in names} if rev else None
+    # a scenario the baseline revision does not have is measured on the current code only
+    baseline = {n: summarize_runs(runs["baseline"][n], duration) for n in names if runs["baseline"][n]} \
+        if rev else None
     load_end = os.getloadavg()[0]
 
     print()
@@ -435,10 +441,11 @@ def main(argv: list[str] | None = None) -> None:
               f"{by_clone['frozen']}")
     notes = []
     for name in names:
-        modes = set(current[name]["robot_modes"]) | set(baseline[name]["robot_modes"] if baseline else [])
+        base = (baseline or {}).get(name)
+        modes = set(current[name]["robot_modes"]) | set(base["robot_modes"] if base else [])
         if modes - {"kinematic"}:
             notes.append(f"{name}: robot modes {sorted(modes)} (not all kinematic)")
-        if baseline is not None and current[name]["products"] != baseline[name]["products"]:
+        if base is not None and current[name]["products"] != base["products"]:
             notes.append(
                 f"{name}: products differ, current {current[name]['products_all']} vs baseline "
                 f"{baseline[name]['products_all']}"
