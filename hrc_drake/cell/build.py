@@ -355,6 +355,8 @@ def _add_recorder(
         )
     if "perceived_events" in systems:
         builder.Connect(systems["perceived_events"], recorder.GetInputPort("perceived_events"))
+    if "predictor" in systems:
+        builder.Connect(systems["predictor"].GetOutputPort("forecast"), recorder.GetInputPort("forecast"))
     return recorder
 
 

@@ -79,6 +79,8 @@ class MetricsLog:
 
     events: list = field(default_factory=list)
     perceived_events: list = field(default_factory=list)
+    #: (time, Forecast) of the activity predictor, where it changed (empty without one)
+    forecasts: list = field(default_factory=list)
     times: list[float] = field(default_factory=list)
     distances: list[float] = field(default_factory=list)
     overrides: list[float] = field(default_factory=list)
@@ -272,6 +274,68 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
         ax3.legend(loc="upper right", fontsize=7)
     ax2.set_xlabel("time [s]")
     ax2.set_xlim(0, end_time)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def time_to_next(begins: list[float], times) -> np.ndarray:
+    """For each time t, the time until the first begin after t (inf when none follows)."""
+    begins = np.sort(np.asarray(begins, dtype=float))
+    times = np.asarray(times, dtype=float)
+    k = np.searchsorted(begins, times, side="right")
+    out = np.full(times.shape, np.inf)
+    has = k < len(begins)
+    out[has] = begins[k[has]] - times[has]
+    return out
+
+
+def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str, robot: str,
+                       request_action: str, collaborative_actions=(), title: str = "") -> None:
+    """Thesis Fig. 5.15: the activities of the human and of the robot (top: autonomous blue and
+    red, `collaborative_actions` and the request green, waits hatched) and the predicted time to
+    the next collaboration request, the band between the forecast's lowest and highest
+    percentile and its middle level, against the true time (bottom)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    spans = [i for i in intervals(log.events, end_time) if i.agent in (human, robot)]
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(12, 5.5), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+    for row, agent in enumerate((human, robot)):
+        for i in spans:
+            if i.agent != agent:
+                continue
+            collab = i.action == request_action or i.action in collaborative_actions
+            color = "tab:green" if collab else ("tab:blue" if agent == human else "tab:red")
+            ax.barh(row, i.end - i.start, left=i.start, height=0.6, color=color,
+                    hatch="//" if i.kind == "wait" else None, alpha=0.35 if i.kind == "wait" else 0.9,
+                    edgecolor="k", linewidth=0.3)
+    ax.set_yticks([0, 1], [human, robot])
+    ax.set_title(title or "activities and the predicted time to collaboration")
+    times = np.array([t for t, _ in log.forecasts], float)
+    rows = []
+    for _, forecast in log.forecasts:
+        if request_action in forecast.actions and forecast.percentile_levels.size:
+            rows.append(np.asarray(forecast.waiting_percentiles)[forecast.actions.index(request_action)])
+        else:
+            rows.append(np.full(1, np.inf))
+    if rows and times.size:
+        width = max(len(r) for r in rows)
+        band = np.array([np.pad(r, (0, width - len(r)), constant_values=np.inf) for r in rows])
+        finite = np.where(np.isfinite(band), band, np.nan)
+        ax2.fill_between(times, finite[:, 0], finite[:, -1], color="tab:orange", alpha=0.3,
+                         label="predicted (lowest to highest percentile)")
+        ax2.plot(times, finite[:, width // 2], color="tab:orange", label="predicted (middle percentile)")
+    begins = [e.time for e in log.events if getattr(e, "agent", "") == human and e.action == request_action
+              and e.kind == "begin"]
+    grid = np.linspace(0.0, end_time, 600)
+    truth = time_to_next(begins, grid)
+    ax2.plot(grid, np.where(np.isfinite(truth), truth, np.nan), color="k", label="true")
+    ax2.set_xlabel("time (s)")
+    ax2.set_ylabel(f"time to '{request_action}' (s)")
+    ax2.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -12,7 +12,7 @@ from pydrake.systems.analysis import Simulator
 
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
-from hrc_drake.cell.metrics import MetricsLog, plot_gantt, summarize, write_events_csv
+from hrc_drake.cell.metrics import MetricsLog, plot_collaboration, plot_gantt, summarize, write_events_csv
 
 
 @dataclass
@@ -88,7 +88,8 @@ def write_replay(cell: Cell, path: Path) -> int:
 
 
 def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
-    """metrics.json, events.csv and gantt.png in `out_dir`."""
+    """metrics.json, events.csv and gantt.png in `out_dir`; with a use case a robot and a
+    predictor also collaboration.png (thesis Fig. 5.15)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     metrics_path = out_dir / "metrics.json"
@@ -98,4 +99,11 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     gantt_path = out_dir / "gantt.png"
     title = cell.scenario.description or "cell"
     plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title)
-    return [metrics_path, events_path, gantt_path]
+    paths = [metrics_path, events_path, gantt_path]
+    scheduler = cell.scenario.scheduler
+    if hasattr(scheduler, "request_action") and result.log.forecasts:
+        collaboration_path = out_dir / "collaboration.png"
+        plot_collaboration(collaboration_path, result.log, result.simulated_time, cell.scenario.operator.name,
+                           scheduler.agent, scheduler.request_action, scheduler.assist_actions, title=title)
+        paths.append(collaboration_path)
+    return paths

@@ -23,7 +23,15 @@ from hrc_drake.cell.metrics import AppendOnly, LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 from hrc_drake.human.camera import segment_segment_distance
-from hrc_drake.messages import AgentActivity, Capsules, EventLog, Immutable, WorldSnapshot, no_capsules
+from hrc_drake.messages import (
+    AgentActivity,
+    Capsules,
+    EventLog,
+    Forecast,
+    Immutable,
+    WorldSnapshot,
+    no_capsules,
+)
 
 HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
 GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]
@@ -311,16 +319,21 @@ class RecorderRun(Immutable):
     samples: AppendOnly = AppendOnly()
     events: AppendOnly = AppendOnly()
     perceived: AppendOnly = AppendOnly()
+    #: (time, Forecast) at every sample whose forecast differs from the last one kept
+    forecasts: AppendOnly = AppendOnly()
     #: the last seq read from human, robot, intention and perceived events
     seen: tuple[int, int, int, int] = (0, 0, 0, 0)
     last_time: float = -np.inf
+    #: the last forecast kept (None before the first)
+    last_forecast: object = None
 
 
 class MetricsRecorder(LeafSystem):
     """Collects events, buffer contents and the true human-robot distance (periodic, `period` s).
 
     Inputs "human_events", "robot_events", "intention_events", "perceived_events" (EventLog: the
-    action detector's, kept apart from the truth), "human_points" (24,),
+    action detector's, kept apart from the truth), "forecast" (the activity predictor's, kept
+    at each sample where it changed), "human_points" (24,),
     "human_capsules", "robot_capsules" (`messages.Capsules`), "speed_override" (1,), "world"
     (`WorldSnapshot`). `log(context)` gives the `MetricsLog` of a run, with a last sample at
     the context's time.
@@ -342,6 +355,7 @@ class MetricsRecorder(LeafSystem):
         self._perceived_events = self.DeclareAbstractInputPort(
             "perceived_events", AbstractValue.Make(EventLog())
         )
+        self._forecast = self.DeclareAbstractInputPort("forecast", AbstractValue.Make(Forecast()))
         self._human_points = self.DeclareVectorInputPort("human_points", 24)
         self._human_capsules = self.DeclareAbstractInputPort(
             "human_capsules", AbstractValue.Make(no_capsules())
@@ -381,6 +395,11 @@ class MetricsRecorder(LeafSystem):
                 if new:
                     seen[k] = new[-1].seq
                     events = events.extend(map(convert, new) if convert else new)
+        forecasts, last_forecast = run.forecasts, run.last_forecast
+        if self._forecast.HasValue(context):
+            forecast = self._forecast.Eval(context)
+            if forecast is not last_forecast:
+                forecasts, last_forecast = forecasts.append((t, forecast)), forecast
         perceived = run.perceived
         if self._perceived_events.HasValue(context):
             new = self._perceived_events.Eval(context).since(seen[3])
@@ -400,7 +419,8 @@ class MetricsRecorder(LeafSystem):
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
         world = input_or(self._world, context, WorldSnapshot())
         sample = (t, distance, override, world.buffers, world.finished_products, points)
-        return RecorderRun(run.samples.append(sample), events, perceived, tuple(seen), t)
+        return RecorderRun(run.samples.append(sample), events, perceived, forecasts, tuple(seen), t,
+                           last_forecast)
 
     def _record(self, context):
         recording = self._recording(context)
@@ -414,7 +434,8 @@ class MetricsRecorder(LeafSystem):
         run = self._recording(context).run
         if context.get_time() > run.last_time:
             run = self._sample(context, run)
-        log = MetricsLog(events=list(run.events), perceived_events=list(run.perceived))
+        log = MetricsLog(events=list(run.events), perceived_events=list(run.perceived),
+                         forecasts=list(run.forecasts))
         for t, distance, override, buffers, products, points in run.samples:
             log.record(t, distance, override, buffers, products, points)
         return log

@@ -8,7 +8,7 @@ import pytest
 from pydrake.systems.analysis import Simulator
 
 from hrc_drake.cell.build import build_cell
-from hrc_drake.cell.run import simulate
+from hrc_drake.cell.run import simulate, write_report
 from hrc_drake.cell.scenario import load_scenario
 from hrc_drake.messages import EventLog, HumanEvent, RobotEvent
 from tests.conftest import DIAGRAMS
@@ -52,13 +52,18 @@ def test_the_robot_assists_once_the_human_requested_and_pauses_with_nothing_to_d
 
 
 @pytest.mark.slow
-def test_use_case_a_cell_closes_the_loop():
-    """camera -> tracker -> detector -> HOMM -> waiting time -> the robot's choice, 90 s."""
+def test_use_case_a_cell_closes_the_loop(tmp_path):
+    """camera -> tracker -> detector -> HOMM -> waiting time -> the robot's choice, 90 s; the
+    report has the Fig. 5.15 plot."""
     path = DIAGRAMS / "pcb_ic.yaml"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cell = build_cell(load_scenario(path), path)
         result = simulate(cell, 90.0, progress=None)
+        written = write_report(cell, result, tmp_path)
+    plot = tmp_path / "collaboration.png"
+    assert plot in written and plot.stat().st_size > 10_000
+    assert result.log.forecasts and all(f.actions for _, f in result.log.forecasts)
     assert result.metrics["products_finished"] >= 2
     assert result.metrics["detection"]["event_recall"] >= 0.8
     scheduler = cell.system("scheduler")
@@ -66,3 +71,9 @@ def test_use_case_a_cell_closes_the_loop():
     assert {choice for _, choice, _ in decisions} >= {"autonomous"}
     forecast_decisions = [tp for _, choice, tp in decisions if choice in ("wait", "autonomous") and tp == tp]
     assert forecast_decisions, "no decision read the forecast"
+
+
+def test_time_to_next_request():
+    from hrc_drake.cell.metrics import time_to_next
+
+    assert list(time_to_next([10.0, 30.0], [0.0, 10.0, 25.0, 31.0])) == [10.0, 20.0, 5.0, float("inf")]
