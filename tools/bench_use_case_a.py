@@ -144,7 +144,18 @@ def main(argv: list[str] | None = None) -> None:
         print(f"reactive {longer:+.1f} % longer than predictive (thesis: +17 %, 133.4 s vs 113.6 s): "
               f"the claim {holds} here; Wilcoxon one-sided p = {out['wilcoxon_p']:.3g}")
     print(f"total {time.perf_counter() - start:.0f} s")
-    print(json.dumps(out))
+    print(json.dumps(_strict(out)))
+
+
+def _strict(value):
+    """`value` with NaN and inf as null, so the last line is strict JSON."""
+    if isinstance(value, float):
+        return value if value == value and abs(value) != float("inf") else None
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_strict(v) for v in value]
+    return value
 
 
 if __name__ == "__main__":
