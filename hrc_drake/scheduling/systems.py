@@ -338,7 +338,7 @@ class CollaborationScheduler(LeafSystem):
         decision = policy.decide(t, requests > assists, forecast)
         if decision.choice == AUTONOMOUS and not has_work:
             decision = CollaborationDecision(WAIT, decision.waiting_time, "nothing to check: ready to assist")
-        elif decision.choice != AUTONOMOUS and not can_assist:
+        if decision.choice != AUTONOMOUS and not can_assist:
             if not has_work:  # nothing to assist with, nothing to work on: pause, decide again
                 return None, 0, assists, CollaborationDecision(WAIT, decision.waiting_time,
                                                                "nothing to do yet")

@@ -77,3 +77,15 @@ def test_time_to_next_request():
     from hrc_drake.cell.metrics import time_to_next
 
     assert list(time_to_next([10.0, 30.0], [0.0, 10.0, 25.0, 31.0])) == [10.0, 20.0, 5.0, float("inf")]
+
+
+def test_the_reactive_robot_with_nothing_to_check_and_no_checked_part_pauses():
+    from hrc_drake.scheduling.config import ReactiveRobotScheduler
+    from hrc_drake.scheduling.systems import CollaborationScheduler
+
+    config = ReactiveRobotScheduler(agent="yumi_right", autonomous_action="R_check",
+                                    assist_actions=["R_place", "R_close"], request_action="enclosure",
+                                    supplied_by="ic_insert", autonomous_stock=0)
+    system = CollaborationScheduler(config, {"yumi_right": ["R_check", "R_place", "R_close"]})
+    commands, decisions = commands_after(system, human_events=EventLog(), robot_events=READY)
+    assert [(c.action, c.wait) for c in commands] == [(None, 0.5)] and decisions[0][1] == "wait"
