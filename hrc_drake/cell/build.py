@@ -51,7 +51,7 @@ from hrc_drake.robots.models import (
 from hrc_drake.robots.path import JointPathFollower
 from hrc_drake.robots.poses import solve_named_poses
 from hrc_drake.robots.systems import PathFollower, RobotTaskExecutor
-from hrc_drake.scheduling.config import NoScheduler
+from hrc_drake.scheduling.config import COLLABORATION_SCHEDULERS, NoScheduler
 
 
 @dataclass
@@ -338,8 +338,11 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
 
 
 def _add_recorder(
-    builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems
+    builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
+    record_forecast: bool = False,
 ):
+    """The metrics recorder; `record_forecast`: also the predictor's forecasts (only the use case
+    a report plots them: elsewhere the log would grow for nothing)."""
     recorder = builder.AddSystem(MetricsRecorder())
     recorder.set_name("metrics")
     builder.Connect(human_events_port, recorder.GetInputPort("human_events"))
@@ -355,7 +358,7 @@ def _add_recorder(
         )
     if "perceived_events" in systems:
         builder.Connect(systems["perceived_events"], recorder.GetInputPort("perceived_events"))
-    if "predictor" in systems:
+    if "predictor" in systems and record_forecast:
         builder.Connect(systems["predictor"].GetOutputPort("forecast"), recorder.GetInputPort("forecast"))
     return recorder
 
@@ -431,7 +434,8 @@ def build_cell(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
     _add_speed_override(builder, overrides, follower, systems)
-    _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems)
+    _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
+                  record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS))
     visualizer = None
     if meshcat is not None:
         visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, systems, replay_fps)

@@ -131,15 +131,15 @@ class GoalRegionDetector(Immutable):
         hand_events: list[tuple[float, int, str, int]] = []  # (time, hand, kind, goal)
         tracks = tuple(self._step_hand(self.hands[h], h, time, distance[h], bool(known[h]), hand_events)
                        for h in range(2))
-        if tracks == self.hands:
-            return self, []
+        if all(new is old for new, old in zip(tracks, self.hands, strict=True)):
+            return self, []  # a hand's track is replaced only at a transition
         events, seq, current = self._merge(hand_events)
         return replace(self, hands=tracks, seq=seq, current=current), events
 
-    def known_wrists(self, points, spread, tracked=None):
+    def known_wrists(self, points, spread):
         """(wrists (2, 3), known (2,)) of a skeleton estimate: points (8, 3), spread (8,) (m);
-        a wrist is known when finite and its spread is at most max_spread (`tracked` is not
-        needed: a tracker's estimate of an occluded point is usable while its spread is small)."""
+        a wrist is known when finite and its spread is at most max_spread (not when the camera
+        saw it: a tracker's estimate of an occluded point is usable while its spread is small)."""
         points = np.asarray(points, dtype=float).reshape(8, 3)
         spread = np.asarray(spread, dtype=float).reshape(8)
         wrists = points[list(WRIST_POINTS)]
