@@ -161,6 +161,10 @@ class MonteCarloScheduler(_SchedulerCommon):
         check(self.rollout in ROLLOUTS, f"{path}.rollout", f"{self.rollout!r} is not one of {ROLLOUTS}")
 
 
+#: Where a use case a robot takes the duration of its autonomous task from.
+AUTONOMOUS_DURATION_SOURCES = ("config", "observed")
+
+
 @dataclass
 class _CollaborationCommon:
     """The fields of the use case a robots (thesis 5.4.1, Fig. 5.14): one robot agent chooses, at
@@ -177,9 +181,14 @@ class _CollaborationCommon:
     request_action: str = ""
     #: how long the autonomous task takes (s), the duration the waiting time is compared with
     autonomous_duration: float = 10.0
+    #: "config": `autonomous_duration` throughout (the thesis: the duration is known to the robot
+    #: program); "observed": the median of the robot's own completed autonomous tasks in this
+    #: run, `autonomous_duration` until the first one ends (a variant, for a task whose duration
+    #: varies with the robot's speed scaling)
+    autonomous_duration_from: str = "config"
     #: the human action whose end gives the autonomous task its part (the IC insertion fills the
-    #: feeder); "" when the autonomous task always has work. Without a part the robot waits,
-    #: ready to assist
+    #: feeder); "" when the autonomous task always has work. Without a part the robot pauses
+    #: `wait_quantum` and decides again
     supplied_by: str = ""
     #: parts for the autonomous task in stock at the start
     initial_supply: int = 0
@@ -200,6 +209,9 @@ class _CollaborationCommon:
               f"{path}.assist_actions", "must list at least one robot action")
         check(_finite(self.autonomous_duration) and 0 < self.autonomous_duration <= 3600,
               f"{path}.autonomous_duration", f"{self.autonomous_duration} must be in (0, 3600] s")
+        check(self.autonomous_duration_from in AUTONOMOUS_DURATION_SOURCES,
+              f"{path}.autonomous_duration_from",
+              f"{self.autonomous_duration_from!r} must be one of {list(AUTONOMOUS_DURATION_SOURCES)}")
         check(_finite(self.rate) and 0 < self.rate <= 50, f"{path}.rate",
               f"{self.rate} must be in (0, 50] Hz")
         check(isinstance(self.supplied_by, str), f"{path}.supplied_by", "must be an action name or \"\"")

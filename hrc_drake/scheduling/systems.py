@@ -7,8 +7,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
+import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
@@ -227,17 +229,25 @@ class Scheduler(LeafSystem):
 @dataclass(frozen=True)
 class CollaborationRun(Immutable):
     """What a `CollaborationScheduler` changes during a run: its policy (immutable), the last
-    event seq read from each log, the collaboration requests seen and the assists begun, the
-    position of every agent in its program, the commands issued and the decisions taken."""
+    event seq read from each log, whether a collaboration request waits for an assist and
+    whether an assist is under way, the assists begun, the position of every agent in its
+    program, the commands issued and the decisions taken."""
 
     policy: object
     last_human: int = 0
     last_robot: int = 0
-    requests: int = 0
+    #: the human initiated a collaboration that no assist has taken up yet
+    request_pending: bool = False
+    #: from the commitment to an assist until its last action is done: a request seen meanwhile
+    #: is the one this assist serves (the robot may commit before the human initiates)
+    in_assist: bool = False
     assists: int = 0
     #: parts supplied to the autonomous task so far (initial stock included) and tasks commanded
     supplied: int = 0
     autonomous: int = 0
+    #: begin time of the autonomous task under way (nan: none) and the durations of those done
+    autonomous_begin: float = math.nan
+    autonomous_durations: tuple = ()
     position: tuple = ()
     commands: EventLog = EventLog()
     decisions: tuple = ()
@@ -250,12 +260,15 @@ class CollaborationScheduler(LeafSystem):
     "robot_events" (EventLog of RobotEvent) and, for `PredictiveRobotScheduler`, "forecast"
     (the activity predictor's `Forecast`). Output "robot_commands" (EventLog of RobotCommand).
     When `config.agent` is ready it assists (its `assist_actions`, in order) if the human has
-    begun `request_action` more often than the robot began assisting, and otherwise asks its
-    policy: the autonomous task, or the assist (the executor then waits for the human's parts,
-    "ready to assist"). Without a part for the autonomous task it assists; without a result of
-    the autonomous task for the assist it works first; with neither it pauses `wait_quantum` s
-    and decides again. Every other agent gets its program in order. The decisions are kept
-    (`decisions(context)`: (time, choice, t_p)). State: one abstract value `CollaborationRun`.
+    begun `request_action` since the robot last committed to an assist (a request seen while an
+    assist is under way is the one it serves: one missed or late request does not shift every
+    later one), and otherwise asks its policy: the autonomous task, or the assist (the executor
+    then waits for the human's parts, "ready to assist"). When the autonomous task is chosen
+    but has no part yet, it pauses `wait_quantum` s and decides again; without a result of the
+    autonomous task for the assist it works first; with neither it pauses too. Every other
+    agent gets its program in order. The decisions are kept (`decisions(context)`: (time,
+    choice, t_p)). With `autonomous_duration_from: observed` the rule compares t_p with the
+    median of the robot's completed autonomous tasks. State: one abstract value `CollaborationRun`.
     """
 
     def __init__(self, config, programs: dict[str, list[str]]):
@@ -291,15 +304,25 @@ class CollaborationScheduler(LeafSystem):
         if not human and not robot:
             return EventStatus.DidNothing()
         t = context.get_time()
-        policy, requests, assists = run.policy, run.requests, run.assists
+        policy, pending, in_assist, assists = run.policy, run.request_pending, run.in_assist, run.assists
         supplied, autonomous = run.supplied, run.autonomous
         for e in human:
             if e.action == self.config.request_action and e.kind == "begin":
-                requests += 1
+                pending = pending or not in_assist
                 if isinstance(policy, DataDrivenPercentilePolicy):
                     policy = policy.observe(e.time)
             if e.action == self.config.supplied_by and e.kind == "end":
                 supplied += 1
+        begun, durations = run.autonomous_begin, run.autonomous_durations
+        for e in robot:
+            if e.agent == self.config.agent and e.action == self.config.autonomous_action:
+                if e.kind == "begin":
+                    begun = e.time
+                elif e.kind == "end" and begun == begun:
+                    begun, durations = math.nan, durations + (e.time - begun,)
+        if durations != run.autonomous_durations and self.config.autonomous_duration_from == "observed" \
+                and hasattr(policy, "autonomous_duration"):
+            policy = replace(policy, autonomous_duration=float(np.median(durations)))
         position = list(run.position)
         commands, decisions = list(run.commands.events), list(run.decisions)
         ready = [e.agent for e in robot if e.kind == "ready" and e.agent in self.programs]
@@ -309,8 +332,11 @@ class CollaborationScheduler(LeafSystem):
                 has_work = not self.config.supplied_by or supplied > autonomous
                 stock = self.config.autonomous_stock
                 can_assist = stock < 0 or stock + autonomous > assists
-                action, position[k], assists, decision = self._choose(
-                    t, policy, position[k], requests, assists, has_work, can_assist, context)
+                in_assist = in_assist and position[k] > 0  # back at step 0: the assist is done
+                action, position[k], committed, decision = self._choose(
+                    t, policy, position[k], pending, has_work, can_assist, context)
+                if committed:
+                    pending, in_assist, assists = False, True, assists + 1
                 autonomous += action == self.config.autonomous_action
                 decisions.append((t, decision.choice, decision.waiting_time))
             elif self.programs[agent]:
@@ -322,31 +348,33 @@ class CollaborationScheduler(LeafSystem):
                                          wait=self.config.wait_quantum if action is None else 0.0))
         set_state(state, self._run, CollaborationRun(
             policy, human[-1].seq if human else run.last_human, robot[-1].seq if robot else run.last_robot,
-            requests, assists, supplied, autonomous, tuple(position), EventLog(tuple(commands)),
-            tuple(decisions)))
+            pending, in_assist, assists, supplied, autonomous, begun, durations, tuple(position),
+            EventLog(tuple(commands)), tuple(decisions)))
         return EventStatus.Succeeded()
 
-    def _choose(self, t, policy, step, requests, assists, has_work, can_assist, context):
-        """(action, next assist step, assists begun, decision) of the choosing agent: inside an
-        assist sequence the next assist action; without a part for the autonomous task, the
-        assist (waiting for the human); without a result of it for the assist, the autonomous
-        task first; else the policy's choice (Fig. 5.14)."""
+    def _choose(self, t, policy, step, pending, has_work, can_assist, context):
+        """(action, next assist step, whether it commits to a new assist, decision) of the
+        choosing agent: inside an assist sequence the next assist action; else the policy's
+        choice (Fig. 5.14), with a pause (action None) when that is the autonomous task and it has
+        no part, and the autonomous task first when the assist would need a result of it that is
+        not there."""
         sequence = self.config.assist_actions
         if step > 0:  # in the middle of an assist: its next action
-            return sequence[step], (step + 1) % len(sequence), assists, CollaborationDecision(ASSIST)
+            return sequence[step], (step + 1) % len(sequence), False, CollaborationDecision(ASSIST)
         forecast = input_or(self._forecast, context, Forecast())
-        decision = policy.decide(t, requests > assists, forecast)
+        decision = policy.decide(t, pending, forecast)
         if decision.choice == AUTONOMOUS and not has_work:
-            decision = CollaborationDecision(WAIT, decision.waiting_time, "nothing to check: ready to assist")
+            # The autonomous task is the choice but its part has not come: decide again when it
+            # may have (the reactive robot "keeps executing its autonomous task", 5.4.1).
+            return None, 0, False, CollaborationDecision(WAIT, decision.waiting_time, "nothing to check yet")
         if decision.choice != AUTONOMOUS and not can_assist:
             if not has_work:  # nothing to assist with, nothing to work on: pause, decide again
-                return None, 0, assists, CollaborationDecision(WAIT, decision.waiting_time,
-                                                               "nothing to do yet")
+                return None, 0, False, CollaborationDecision(WAIT, decision.waiting_time, "nothing to do yet")
             decision = CollaborationDecision(AUTONOMOUS, decision.waiting_time,
                                              "no checked part for the assist: the autonomous task first")
         if decision.choice == AUTONOMOUS:
-            return self.config.autonomous_action, 0, assists, decision
-        return sequence[0], 1 % len(sequence), assists + 1, decision
+            return self.config.autonomous_action, 0, False, decision
+        return sequence[0], 1 % len(sequence), True, decision
 
 
 def _collaboration_policy(config):

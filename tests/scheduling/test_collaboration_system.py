@@ -89,3 +89,77 @@ def test_the_reactive_robot_with_nothing_to_check_and_no_checked_part_pauses():
     system = CollaborationScheduler(config, {"yumi_right": ["R_check", "R_place", "R_close"]})
     commands, decisions = commands_after(system, human_events=EventLog(), robot_events=READY)
     assert [(c.action, c.wait) for c in commands] == [(None, 0.5)] and decisions[0][1] == "wait"
+
+
+def run_script(system, script):
+    """Simulate `system` through `script`: (until_time, {input: value}) steps, each fixing the
+    inputs before advancing to its time; returns the commands and decisions at the end."""
+    simulator = Simulator(system)
+    for until, inputs in script:
+        fix_inputs(system, simulator.get_mutable_context(), inputs)
+        simulator.AdvanceTo(until)
+    context = simulator.get_context()
+    return system.GetOutputPort("robot_commands").Eval(context).events, system.decisions(context)
+
+
+def ready(*times):
+    return EventLog(tuple(RobotEvent(t, "yumi_right", "", "ready", k + 1) for k, t in enumerate(times)))
+
+
+def test_an_assist_committed_before_the_request_does_not_swallow_the_next_request():
+    """The robot commits to the assist on the forecast, the human's request is never perceived,
+    the collaboration ends; the human's next request makes the robot assist, not check."""
+    far = use_case_a_forecast(40.0)
+    commands, _ = run_script(use_case_a_scheduler(), [
+        (0.25, dict(human_events=SUPPLIED, robot_events=ready(0.0), forecast=use_case_a_forecast(3.0))),
+        (1.25, dict(robot_events=ready(0.0, 1.0), forecast=far)),  # R_place done: R_close
+        (2.25, dict(robot_events=ready(0.0, 1.0, 2.0))),  # the assist is done: far, so the check
+        (3.25, dict(human_events=EventLog(SUPPLIED.events + (HumanEvent(3.0, "enclosure", "begin", 3),)),
+                    robot_events=ready(0.0, 1.0, 2.0, 3.1))),
+    ])
+    assert [c.action for c in commands] == ["R_place", "R_close", "R_check", "R_place"]
+
+
+def test_a_request_seen_during_its_assist_is_served_by_that_assist():
+    """Committed on the forecast, the request is perceived while the robot places the PCB: once
+    the assist is done and the forecast says far, the robot checks instead of assisting again."""
+    requested = EventLog(SUPPLIED.events + (HumanEvent(0.5, "enclosure", "begin", 3),))
+    commands, _ = run_script(use_case_a_scheduler(), [
+        (0.25, dict(human_events=SUPPLIED, robot_events=ready(0.0), forecast=use_case_a_forecast(3.0))),
+        (1.25, dict(human_events=requested, robot_events=ready(0.0, 1.0), forecast=use_case_a_forecast(40.0))),
+        (2.25, dict(robot_events=ready(0.0, 1.0, 2.0))),
+    ])
+    assert [c.action for c in commands] == ["R_place", "R_close", "R_check"]
+
+
+def test_the_reactive_robot_without_a_part_to_check_pauses_and_checks_when_one_comes():
+    """It "keeps executing its autonomous task" (5.4.1): with a checked PCB but nothing to check
+    it does not commit to the assist; it decides again and checks the part the human supplies."""
+    from hrc_drake.scheduling.config import ReactiveRobotScheduler
+    from hrc_drake.scheduling.systems import CollaborationScheduler
+
+    config = ReactiveRobotScheduler(agent="yumi_right", autonomous_action="R_check",
+                                    assist_actions=["R_place", "R_close"], request_action="enclosure",
+                                    supplied_by="ic_insert", autonomous_stock=1)
+    system = CollaborationScheduler(config, {"yumi_right": ["R_check", "R_place", "R_close"]})
+    commands, decisions = run_script(system, [
+        (0.25, dict(human_events=EventLog(), robot_events=ready(0.0))),
+        (0.75, dict(human_events=SUPPLIED, robot_events=ready(0.0, 0.6))),
+    ])
+    assert [(c.action, c.wait) for c in commands] == [(None, 0.5), ("R_check", 0.0)]
+    assert [choice for _, choice, _ in decisions] == ["wait", "autonomous"]
+
+
+def test_the_observed_duration_of_the_autonomous_task_replaces_the_configured_one():
+    """With autonomous_duration_from: observed, a 20 s check makes a t_p of 15 s too short for
+    another one (configured 11.5 s: it would check)."""
+    events = EventLog((RobotEvent(0.0, "yumi_right", "R_check", "begin", 1),
+                       RobotEvent(20.0, "yumi_right", "R_check", "end", 2),
+                       RobotEvent(20.0, "yumi_right", "", "ready", 3)))
+    two_parts = EventLog(SUPPLIED.events + (HumanEvent(0.0, "ic_insert", "begin", 3),
+                                            HumanEvent(0.0, "ic_insert", "end", 4)))
+    for source, expected in (("config", "R_check"), ("observed", "R_place")):
+        commands, _ = commands_after(use_case_a_scheduler(autonomous_duration_from=source),
+                                     human_events=two_parts, robot_events=events,
+                                     forecast=use_case_a_forecast(15.0))
+        assert [c.action for c in commands] == [expected], source
