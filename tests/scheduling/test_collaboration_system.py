@@ -71,6 +71,15 @@ def test_use_case_a_cell_closes_the_loop(tmp_path):
     assert {choice for _, choice, _ in decisions} >= {"autonomous"}
     forecast_decisions = [tp for _, choice, tp in decisions if choice in ("wait", "autonomous") and tp == tp]
     assert forecast_decisions, "no decision read the forecast"
+    # the predictive robot waits on a near forecast: it commits to the assist before the human's
+    # perceived request, which then comes within the forecast's t_p
+    commands = scheduler.GetOutputPort("robot_commands").Eval(
+        scheduler.GetMyContextFromRoot(result.context)).events
+    requests = [e.time for e in result.log.perceived_events if e.action == "enclosure" and e.kind == "begin"]
+    proactive = [(t, tp) for t, choice, tp in decisions if choice == "wait" and tp < float("inf")
+                 and any(c.time == t and c.action == "R_place" for c in commands)
+                 and any(t < r <= t + tp + 3.0 for r in requests)]
+    assert proactive, f"the robot never waited for a request it forecast: {decisions}"
 
 
 def test_time_to_next_request():
@@ -124,9 +133,10 @@ def test_a_request_seen_during_its_assist_is_served_by_that_assist():
     """Committed on the forecast, the request is perceived while the robot places the PCB: once
     the assist is done and the forecast says far, the robot checks instead of assisting again."""
     requested = EventLog(SUPPLIED.events + (HumanEvent(0.5, "enclosure", "begin", 3),))
+    far = use_case_a_forecast(40.0)
     commands, _ = run_script(use_case_a_scheduler(), [
         (0.25, dict(human_events=SUPPLIED, robot_events=ready(0.0), forecast=use_case_a_forecast(3.0))),
-        (1.25, dict(human_events=requested, robot_events=ready(0.0, 1.0), forecast=use_case_a_forecast(40.0))),
+        (1.25, dict(human_events=requested, robot_events=ready(0.0, 1.0), forecast=far)),
         (2.25, dict(robot_events=ready(0.0, 1.0, 2.0))),
     ])
     assert [c.action for c in commands] == ["R_place", "R_close", "R_check"]

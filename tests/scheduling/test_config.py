@@ -15,6 +15,7 @@ from hrc_drake.scheduling.config import (
     GreedyScheduler,
     MonteCarloScheduler,
     NoScheduler,
+    PredictiveRobotScheduler,
     RoundRobinScheduler,
     SchedulerConfig,
 )
@@ -53,6 +54,8 @@ def test_yaml_tags_choose_the_kind():
         (GreedyScheduler(cost_robot=-1.0), "s.cost_robot"),
         (RoundRobinScheduler(rate=100.0), "s.rate"),
         (DeterministicPlanScheduler(n_candidates=0), "s.n_candidates"),
+        (PredictiveRobotScheduler(agent="r", autonomous_action="a", assist_actions=["b"], request_action="h",
+                                  autonomous_duration_from="guess"), "s.autonomous_duration_from"),
     ],
 )
 def test_validate_names_the_field(config, field_path):
