@@ -3,13 +3,81 @@
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
+import tempfile
+import traceback
 from pathlib import Path
 
+from hrc_drake.config_common import MAX_SIMULATED_DURATION
 from hrc_drake.errors import ScenarioError
+
+#: Exit codes: a finished run, an internal error, bad input (file or argument), Ctrl-C.
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 # Each command imports what it uses when it runs, so `hrc-drake --help` loads neither pydrake
 # nor scipy / scikit-learn.
+
+
+def _duration(text: str) -> float:
+    value = _number(text)
+    if not (math.isfinite(value) and 0 < value <= MAX_SIMULATED_DURATION):
+        raise argparse.ArgumentTypeError(
+            f"must be a finite number of seconds in (0, {MAX_SIMULATED_DURATION:g}], got {text!r}")
+    return value
+
+
+def _fps(text: str) -> float:
+    value = _number(text)
+    if not (math.isfinite(value) and 0 < value <= 120):
+        raise argparse.ArgumentTypeError(f"must be a number of frames per second in (0, 120], got {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2^32), got {text!r}")
+    return value
+
+
+def _rate(text: str) -> float:
+    value = _number(text)
+    if not (math.isfinite(value) and 0 <= value <= 1000):
+        raise argparse.ArgumentTypeError(f"must be in [0, 1000] (0: as fast as possible), got {text!r}")
+    return value
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+
+
+def _check_writable_dir(option: str, path: Path) -> None:
+    """`path` is, or can be made, a folder we can write in; else ScenarioError on `option`."""
+    if path.exists() and not path.is_dir():
+        raise ScenarioError(path, option, "exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as err:
+        raise ScenarioError(path, option, f"cannot write there: {err.strerror or err}") from None
+
+
+def _check_writable_file(option: str, path: Path) -> None:
+    """`path` can be written as a file (its folder made if needed); else ScenarioError."""
+    if path.is_dir():
+        raise ScenarioError(path, option, "is a folder; give a file name, e.g. replay.html")
+    _check_writable_dir(option, path.parent if str(path.parent) else Path("."))
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ScenarioError(path, option, "exists and is not writable")
 
 
 def _simulate(args) -> int:
@@ -17,17 +85,21 @@ def _simulate(args) -> int:
     from hrc_drake.cell.run import simulate, write_replay, write_report
     from hrc_drake.cell.scenario import load_scenario
 
+    # Output paths are checked before anything is built, so a bad one costs no simulation.
+    if args.out:
+        _check_writable_dir("--out", Path(args.out))
+    if args.replay:
+        _check_writable_file("--replay", Path(args.replay))
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario.seed = args.seed
     duration = args.duration if args.duration is not None else scenario.duration
-    if duration <= 0:
-        raise ScenarioError(args.scenario, "--duration", f"must be positive, got {duration}")
     meshcat = None
     if args.meshcat or args.replay:
-        from pydrake.geometry import Meshcat
+        from pydrake.geometry import Meshcat, MeshcatParams
 
-        meshcat = Meshcat()
+        # localhost only: the live view and the replay's recorder are not for the network
+        meshcat = Meshcat(MeshcatParams(host="localhost"))
         if args.meshcat:
             print(f"Meshcat live view: {meshcat.web_url()}", flush=True)
     print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
@@ -60,6 +132,10 @@ def _simulate(args) -> int:
     if args.out:
         paths = write_report(cell, result, Path(args.out))
         print("report            " + ", ".join(str(p) for p in paths))
+    if result.interrupted:
+        print(f"interrupted at t = {result.simulated_time:.1f} s of {duration:g} s: the figures and files "
+              "cover the time simulated so far", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.meshcat:
         print("Meshcat is still serving the live view; press Ctrl-C to quit.", flush=True)
         try:
@@ -90,17 +166,17 @@ def main(argv: list[str] | None = None) -> int:
     sim = sub.add_parser("simulate", help="simulate a scenario and report its metrics")
     sim.add_argument("scenario", help="scenario YAML file")
     sim.add_argument(
-        "--duration", type=float, default=None, help="simulated seconds (default: the scenario's)"
+        "--duration", type=_duration, default=None, help="simulated seconds (default: the scenario's)"
     )
-    sim.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    sim.add_argument("--seed", type=_seed, default=None, help="override the scenario's seed (>= 0)")
     sim.add_argument("--replay", default=None, help="write a self-contained HTML replay to this file")
     sim.add_argument(
-        "--replay-fps", type=float, default=10.0, help="frames per second of the replay (default 10)"
+        "--replay-fps", type=_fps, default=10.0, help="frames per second of the replay (default 10)"
     )
     sim.add_argument("--meshcat", action="store_true", help="serve a live Meshcat view on localhost")
     sim.add_argument(
         "--realtime-rate",
-        type=float,
+        type=_rate,
         default=None,
         help="pace the run: 1 = wall-clock speed (default with --meshcat), 0 = as fast as possible",
     )
@@ -116,7 +192,20 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as err:  # noqa: BLE001 - one line for the user, the traceback in a log
+        return _internal_error(err)
+
+
+def _internal_error(err: Exception) -> int:
+    """Write the traceback to a log file; print one line naming it."""
+    with tempfile.NamedTemporaryFile("w", prefix="hrc-drake-error-", suffix=".log", delete=False) as log:
+        log.write(traceback.format_exc())
+    print(f"internal error: {type(err).__name__}: {err} (traceback in {log.name})", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -24,6 +24,8 @@ class RunResult:
     simulated_time: float
     log: MetricsLog
     context: object
+    #: the run was stopped (Ctrl-C) before `duration`: the figures cover `simulated_time` only
+    interrupted: bool = False
 
 
 def simulate(
@@ -37,7 +39,8 @@ def simulate(
     """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent).
 
     realtime_rate: 0 runs as fast as possible; 1 paces the run with the wall clock (live view).
-    Every call runs in a new Context: one built cell can be simulated again.
+    Every call runs in a new Context: one built cell can be simulated again. Ctrl-C stops the
+    run: the result then covers the time simulated so far, with `interrupted` set.
     """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
@@ -53,29 +56,37 @@ def simulate(
     interactive = progress is not None and getattr(progress, "isatty", lambda: False)()
     start = time.perf_counter()
     simulator.Initialize()
-    for k in range(1, chunks + 1):
-        simulator.AdvanceTo(duration * k / chunks)
-        if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
-            wall = time.perf_counter() - start
-            t = simulator.get_context().get_time()
-            lead = "\r" if interactive else ""
-            print(
-                f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
-                f"   products = {world_system.world(world_context).finished_products:3d}"
-                f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
-                end="" if interactive else "\n",
-                file=progress,
-                flush=True,
-            )
+    interrupted = False
+    try:
+        for k in range(1, chunks + 1):
+            simulator.AdvanceTo(duration * k / chunks)
+            if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
+                wall = time.perf_counter() - start
+                t = simulator.get_context().get_time()
+                lead = "\r" if interactive else ""
+                print(
+                    f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
+                    f"   products = {world_system.world(world_context).finished_products:3d}"
+                    f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
+                    end="" if interactive else "\n",
+                    file=progress,
+                    flush=True,
+                )
+    except KeyboardInterrupt:
+        interrupted = True
     wall = time.perf_counter() - start
     if interactive:
         print(file=progress)
     if record and cell.visualizer is not None:
         cell.visualizer.StopRecording()
         cell.visualizer.PublishRecording()
+    end_time = context.get_time() if interrupted else duration
     log = cell.log(context)
-    metrics = summarize(log, duration, cell.agents, cell.product_actions, wall_time=wall)
-    return RunResult(metrics=metrics, wall_time=wall, simulated_time=duration, log=log, context=context)
+    metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall)
+    if interrupted:
+        metrics["interrupted"] = True
+    return RunResult(metrics=metrics, wall_time=wall, simulated_time=end_time, log=log, context=context,
+                     interrupted=interrupted)
 
 
 def write_replay(cell: Cell, path: Path) -> int:

@@ -18,6 +18,7 @@ from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.cell import schema
 from hrc_drake.cell.schema import SYSTEM_FIELDS, Scenario
+from hrc_drake.config_common import MAX_SIMULATED_DURATION
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError
 from hrc_drake.robots.registry import ROBOT_MODELS
@@ -229,8 +230,11 @@ def _kind(file, field, value, allowed):
 
 def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     """Semantic checks: names resolve, durations positive, the flow can supply every action."""
-    if sc.duration <= 0:
-        raise ScenarioError(file, "duration", f"must be positive, got {sc.duration}")
+    if not (math.isfinite(sc.duration) and 0 < sc.duration <= MAX_SIMULATED_DURATION):
+        raise ScenarioError(file, "duration", f"must be a finite number of seconds in (0, "
+                                              f"{MAX_SIMULATED_DURATION:g}], got {sc.duration}")
+    if isinstance(sc.seed, bool) or not isinstance(sc.seed, int) or not 0 <= sc.seed < 2**32:
+        raise ScenarioError(file, "seed", f"must be an integer in [0, 2^32), got {sc.seed!r}")
     lay = sc.layout
     goals = _unique(file, "layout.goals", [g.name for g in lay.goals])
     for i, g in enumerate(lay.goals):

@@ -1,0 +1,98 @@
+"""The command line: bad arguments are refused before anything is built, output paths are
+checked before the run, Ctrl-C writes what was simulated, an internal error is one line."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from hrc_drake.cli import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, main
+from tests.conftest import DIAGRAMS
+
+TORCH = str(DIAGRAMS / "torch_clock.yaml")
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--duration", "nan"), ("--duration", "inf"), ("--duration", "-1"), ("--duration", "0"),
+    ("--duration", "1e9"), ("--duration", "ten"),
+    ("--replay-fps", "0"), ("--replay-fps", "-1"), ("--replay-fps", "nan"), ("--replay-fps", "1e6"),
+    ("--seed", "-1"), ("--seed", "1.5"), ("--seed", str(2**32)),
+    ("--realtime-rate", "-1"), ("--realtime-rate", "nan"), ("--realtime-rate", "inf"),
+])
+def test_bad_arguments_are_refused_with_the_option_named(option, value, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["simulate", TORCH, option, value])
+    assert exit_.value.code == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert option in err and "must be" in err and "Traceback" not in err
+
+
+def test_an_out_path_that_is_a_file_is_refused_before_the_run(tmp_path, capsys):
+    blocker = tmp_path / "taken"
+    blocker.write_text("x")
+    assert main(["simulate", TORCH, "--duration", "1", "--out", str(blocker)]) == EXIT_BAD_INPUT
+    captured = capsys.readouterr()
+    assert "--out" in captured.err and "not a folder" in captured.err
+    assert "Building" not in captured.out  # refused before the cell was built
+
+
+def test_a_replay_path_that_is_a_folder_is_refused_before_the_run(tmp_path, capsys):
+    assert main(["simulate", TORCH, "--duration", "1", "--replay", str(tmp_path)]) == EXIT_BAD_INPUT
+    captured = capsys.readouterr()
+    assert "--replay" in captured.err and "folder" in captured.err and "Building" not in captured.out
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes everywhere")
+def test_an_unwritable_out_folder_is_refused(tmp_path, capsys):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    assert main(["simulate", TORCH, "--duration", "1", "--out", str(locked / "run")]) == EXIT_BAD_INPUT
+
+
+def test_a_bad_scenario_seed_or_duration_is_refused_by_validate(tmp_path):
+    text = (DIAGRAMS / "torch_clock.yaml").read_text()
+    for bad in ("seed: -1", "duration: .nan", "duration: .inf"):
+        field = bad.split(":")[0]
+        lines = [bad if line.startswith(field + ":") else line for line in text.splitlines()]
+        path = tmp_path / f"{field}.yaml"
+        path.write_text("\n".join(lines) + "\n")
+        assert main(["validate", str(path)]) == EXIT_BAD_INPUT, bad
+
+
+def test_an_internal_error_is_one_line_with_the_log_of_its_traceback(monkeypatch, capsys):
+    import hrc_drake.cell.scenario as scenario
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(scenario, "load_scenario", broken)
+    assert main(["validate", TORCH]) == EXIT_INTERNAL
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("internal error: RuntimeError: boom") and len(err.splitlines()) == 1
+    log = err.rsplit("traceback in ", 1)[1].rstrip(")")
+    assert "Traceback" in open(log).read()
+    os.unlink(log)
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_run_and_writes_what_it_has(tmp_path):
+    """SIGINT during a long run: exit 130, a note, and the report over the time simulated."""
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "hrc_drake.cli", "simulate", TORCH, "--duration", "100000",
+                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("Building")
+    time.sleep(8.0)  # past the build, inside the simulation
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_INTERRUPTED, stderr
+    assert "interrupted at t = " in stderr and "Traceback" not in stderr
+    import json
+
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["interrupted"] is True and 0 < metrics["simulated_time"] < 100000
+    assert (out / "events.csv").stat().st_size > 0 and (out / "gantt.png").exists()
