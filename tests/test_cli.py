@@ -3,6 +3,7 @@ checked before the run, Ctrl-C writes what was simulated, an internal error is o
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -91,8 +92,17 @@ def test_ctrl_c_stops_the_run_and_writes_what_it_has(tmp_path):
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == EXIT_INTERRUPTED, stderr
     assert "interrupted at t = " in stderr and "Traceback" not in stderr
-    import json
-
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["interrupted"] is True and 0 < metrics["simulated_time"] < 100000
     assert (out / "events.csv").stat().st_size > 0 and (out / "gantt.png").exists()
+
+
+def test_deeply_nested_or_huge_files_are_refused_cleanly(tmp_path, capsys):
+    deep = tmp_path / "deep.yaml"
+    deep.write_text("seed: " + "[" * 20000 + "]" * 20000 + "\n")
+    huge = tmp_path / "huge.yaml"
+    huge.write_text("seed: 1\n" + "#" * 3_000_000 + "\n")
+    assert main(["validate", str(deep)]) == EXIT_BAD_INPUT
+    assert "nested too deeply" in capsys.readouterr().err
+    assert main(["validate", str(huge)]) == EXIT_BAD_INPUT
+    assert "too large" in capsys.readouterr().err

@@ -26,6 +26,9 @@ from hrc_drake.robots.registry import ROBOT_MODELS
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
 HANDS = ("left", "right", "both")
+#: The largest scenario file read (bytes): scenarios are a few kB, and PyYAML takes minutes
+#: and gigabytes on a file of tens of MB.
+MAX_SCENARIO_BYTES = 2_000_000
 #: the sources of the human events the predictor and the scheduler read
 HUMAN_EVENT_SOURCES = ("auto", "perceived", "truth")
 
@@ -176,6 +179,10 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(path, "", "no such file")
+    size = path.stat().st_size
+    if size > MAX_SCENARIO_BYTES:
+        raise ScenarioError(path, "", f"{size / 1e6:.1f} MB is too large for a scenario (at most "
+                                      f"{MAX_SCENARIO_BYTES / 1e6:g} MB; data go in their own files)")
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as err:
@@ -184,6 +191,8 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
         raw = _raw_document(text)
     except yaml.YAMLError as err:
         raise ScenarioError(path, "", f"not valid YAML: {err}") from err
+    except RecursionError:
+        raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
     if not isinstance(raw, dict):
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
     _check_keys(raw, Scenario, "", str(path))
