@@ -106,3 +106,16 @@ def test_deeply_nested_or_huge_files_are_refused_cleanly(tmp_path, capsys):
     assert "nested too deeply" in capsys.readouterr().err
     assert main(["validate", str(huge)]) == EXIT_BAD_INPUT
     assert "too large" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda t: t.replace("name: bench,", "name: station_A,").replace(" bench,", " station_A,"),
+     "layout.goals[0].name"),
+    (lambda t: t.replace("program: [R1, R3, R2, R4]", "program: [R1, R3, R2]"), "flow.actions[10].agents"),
+    (lambda t: t.replace("agent: yumi_left,", "agent: yumi_right,"), "robots[0].arms[1].agent"),
+])
+def test_name_collisions_and_actions_no_program_runs_are_refused(edit, field, tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    path.write_text(edit((DIAGRAMS / "torch_clock.yaml").read_text()))
+    assert main(["validate", str(path)]) == EXIT_BAD_INPUT
+    assert field in capsys.readouterr().err

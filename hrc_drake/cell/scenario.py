@@ -260,6 +260,10 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
             raise ScenarioError(
                 file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}"
             )
+    for i, g in enumerate(lay.goals):
+        if g.name in buffers:
+            raise ScenarioError(file, f"layout.goals[{i}].name", f"'{g.name}' names a goal and a buffer: "
+                                                                 "an operator goal would be ambiguous")
     places = goals | buffers
     for i, o in enumerate(lay.occluders):
         _check_vec(file, f"layout.occluders[{i}].center", o.center)
@@ -365,7 +369,47 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                 raise ScenarioError(file, f"operator.pattern[{k}]", f"unknown operator action '{name}'")
 
     _check_flow(sc, file, agents, buffers)
+    _check_names_apart(sc, file, places)
+    _check_programs_cover_the_flow(sc, file)
     _check_systems(sc, file)
+
+
+def _check_names_apart(sc: Scenario, file, places: set[str]) -> None:
+    """Agents, places (goals and buffers) and actions have names of their own."""
+    agents = [(f"robots[{i}].arms[{j}].agent", arm.agent) for i, r in enumerate(sc.robots)
+              for j, arm in enumerate(r.arms)] + [("operator.name", sc.operator.name)]
+    seen: dict[str, str] = {}
+    for where, name in agents:
+        if name in seen:
+            raise ScenarioError(file, where, f"agent '{name}' is also {seen[name]}")
+        seen[name] = where
+    actions = {a.name for a in sc.flow.actions} | {a.name for a in sc.operator.actions} | {
+        a.name for r in sc.robots for a in r.actions}
+    for where, name in agents:
+        if name in places:
+            raise ScenarioError(file, where, f"'{name}' names an agent and a goal or buffer")
+        if name in actions:
+            raise ScenarioError(file, where, f"'{name}' names an agent and an action")
+    for i, a in enumerate(sc.flow.actions):
+        if a.name in places:
+            raise ScenarioError(file, f"flow.actions[{i}].name",
+                                f"'{a.name}' names an action and a goal or buffer")
+
+
+def _check_programs_cover_the_flow(sc: Scenario, file) -> None:
+    """Without a scheduler the arms follow their programs: a flow action assigned only to robot
+    agents must be in the program of one of them, or it never runs."""
+    from hrc_drake.scheduling.config import NoScheduler
+
+    if not isinstance(sc.scheduler, NoScheduler):
+        return
+    programs = {arm.agent: set(arm.program) for r in sc.robots for arm in r.arms}
+    for i, a in enumerate(sc.flow.actions):
+        if a.agents and all(agent in programs for agent in a.agents) and not any(
+                a.name in programs[agent] for agent in a.agents):
+            raise ScenarioError(file, f"flow.actions[{i}].agents",
+                                f"'{a.name}' is assigned to {a.agents}, but no program of theirs lists it: "
+                                "it would never run (add it to a program, or add a scheduler)")
 
 
 def _check_systems(sc: Scenario, file) -> None:
