@@ -78,6 +78,8 @@ class GoalRegionDetector(Immutable):
     seq: int = 0
     #: with end_rule "next": the action begun last and not yet ended (-1: none)
     current: int = -1
+    #: time of the last transition: an earlier (or not finite) frame time is ignored
+    last_transition: float = -math.inf
 
     def __post_init__(self):
         goals = tuple(str(g) for g in self.goals)
@@ -122,11 +124,14 @@ class GoalRegionDetector(Immutable):
         """Advance both hands to `time` with wrists (2, 3) (left, right) and known (2,) bool
         (False: the estimate is lost); returns (the next detector, its events, oldest first).
 
-        A wrist that is not finite counts as lost. Call `known_wrists` to apply max_spread to a
-        `SkeletonEstimate`."""
+        A wrist that is not finite counts as lost. A frame whose time is not finite or earlier
+        than the last transition changes nothing (a stream may repeat or reorder frames). Call
+        `known_wrists` to apply max_spread to a `SkeletonEstimate`."""
+        time = float(time)
+        if not time >= self.last_transition or math.isinf(time):
+            return self, []
         wrists = np.asarray(wrists, dtype=float).reshape(2, 3)
         known = np.asarray(known, dtype=bool).reshape(2) & np.all(np.isfinite(wrists), axis=1)
-        time = float(time)
         distance = np.sqrt(np.sum((wrists[:, None, :] - self.centers[None, :, :]) ** 2, axis=-1))  # (2, G)
         hand_events: list[tuple[float, int, str, int]] = []  # (time, hand, kind, goal)
         tracks = tuple(self._step_hand(self.hands[h], h, time, distance[h], bool(known[h]), hand_events)
@@ -134,7 +139,7 @@ class GoalRegionDetector(Immutable):
         if all(new is old for new, old in zip(tracks, self.hands, strict=True)):
             return self, []  # a hand's track is replaced only at a transition
         events, seq, current = self._merge(hand_events)
-        return replace(self, hands=tracks, seq=seq, current=current), events
+        return replace(self, hands=tracks, seq=seq, current=current, last_transition=time), events
 
     def known_wrists(self, points, spread):
         """(wrists (2, 3), known (2,)) of a skeleton estimate: points (8, 3), spread (8,) (m);
