@@ -238,9 +238,9 @@ class CollaborationRun(Immutable):
     last_robot: int = 0
     #: the human initiated a collaboration that no assist has taken up yet
     request_pending: bool = False
-    #: from the commitment to an assist until its last action is done: a request seen meanwhile
-    #: is the one this assist serves (the robot may commit before the human initiates)
-    in_assist: bool = False
+    #: the robot committed to an assist before the human initiated it (on the forecast): until
+    #: that assist is done, the next request seen is the one it serves
+    awaiting_request: bool = False
     assists: int = 0
     #: parts supplied to the autonomous task so far (initial stock included) and tasks commanded
     supplied: int = 0
@@ -260,15 +260,16 @@ class CollaborationScheduler(LeafSystem):
     "robot_events" (EventLog of RobotEvent) and, for `PredictiveRobotScheduler`, "forecast"
     (the activity predictor's `Forecast`). Output "robot_commands" (EventLog of RobotCommand).
     When `config.agent` is ready it assists (its `assist_actions`, in order) if the human has
-    begun `request_action` since the robot last committed to an assist (a request seen while an
-    assist is under way is the one it serves: one missed or late request does not shift every
-    later one), and otherwise asks its policy: the autonomous task, or the assist (the executor
-    then waits for the human's parts, "ready to assist"). When the autonomous task is chosen
-    but has no part yet, it pauses `wait_quantum` s and decides again; without a result of the
-    autonomous task for the assist it works first; with neither it pauses too. Every other
-    agent gets its program in order. The decisions are kept (`decisions(context)`: (time,
-    choice, t_p)). With `autonomous_duration_from: observed` the rule compares t_p with the
-    median of the robot's completed autonomous tasks. State: one abstract value `CollaborationRun`.
+    begun `request_action` and no assist has taken the request up (an assist committed before
+    the request serves the first request seen until it is done: one missed or late request does
+    not shift every later one), and otherwise asks its policy: the autonomous task, or the
+    assist (the executor then waits for the human's parts, "ready to assist"). When the
+    autonomous task is chosen but has no part yet, it pauses `wait_quantum` s and decides
+    again; without a result of the autonomous task for the assist it works first; with neither
+    it pauses too. Every other agent gets its program in order. The decisions are kept
+    (`decisions(context)`: (time, choice, t_p)). With `autonomous_duration_from: observed` the
+    rule compares t_p with the median of the robot's completed autonomous tasks. State: one
+    abstract value `CollaborationRun`.
     """
 
     def __init__(self, config, programs: dict[str, list[str]]):
@@ -304,11 +305,15 @@ class CollaborationScheduler(LeafSystem):
         if not human and not robot:
             return EventStatus.DidNothing()
         t = context.get_time()
-        policy, pending, in_assist, assists = run.policy, run.request_pending, run.in_assist, run.assists
+        policy, assists = run.policy, run.assists
+        pending, awaiting = run.request_pending, run.awaiting_request
         supplied, autonomous = run.supplied, run.autonomous
         for e in human:
             if e.action == self.config.request_action and e.kind == "begin":
-                pending = pending or not in_assist
+                if awaiting:
+                    awaiting = False  # the request the committed assist was waiting for
+                else:
+                    pending = True
                 if isinstance(policy, DataDrivenPercentilePolicy):
                     policy = policy.observe(e.time)
             if e.action == self.config.supplied_by and e.kind == "end":
@@ -332,11 +337,11 @@ class CollaborationScheduler(LeafSystem):
                 has_work = not self.config.supplied_by or supplied > autonomous
                 stock = self.config.autonomous_stock
                 can_assist = stock < 0 or stock + autonomous > assists
-                in_assist = in_assist and position[k] > 0  # back at step 0: the assist is done
+                awaiting = awaiting and position[k] > 0  # back at step 0: the assist is done
                 action, position[k], committed, decision = self._choose(
                     t, policy, position[k], pending, has_work, can_assist, context)
                 if committed:
-                    pending, in_assist, assists = False, True, assists + 1
+                    awaiting, pending, assists = not pending, False, assists + 1
                 autonomous += action == self.config.autonomous_action
                 decisions.append((t, decision.choice, decision.waiting_time))
             elif self.programs[agent]:
@@ -348,7 +353,7 @@ class CollaborationScheduler(LeafSystem):
                                          wait=self.config.wait_quantum if action is None else 0.0))
         set_state(state, self._run, CollaborationRun(
             policy, human[-1].seq if human else run.last_human, robot[-1].seq if robot else run.last_robot,
-            pending, in_assist, assists, supplied, autonomous, begun, durations, tuple(position),
+            pending, awaiting, assists, supplied, autonomous, begun, durations, tuple(position),
             EventLog(tuple(commands)), tuple(decisions)))
         return EventStatus.Succeeded()
 

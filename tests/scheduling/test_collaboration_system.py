@@ -173,3 +173,17 @@ def test_the_observed_duration_of_the_autonomous_task_replaces_the_configured_on
                                      human_events=two_parts, robot_events=events,
                                      forecast=use_case_a_forecast(15.0))
         assert [c.action for c in commands] == [expected], source
+
+
+def test_a_request_seen_during_an_assist_it_did_not_start_waits_for_the_next_assist():
+    """Pattern 2: the human begins the second collaboration while the robot closes the first
+    one (which the first request started); once done, the robot assists again."""
+    first = EventLog(SUPPLIED.events + (HumanEvent(0.0, "enclosure", "begin", 3),))
+    second = EventLog(first.events + (HumanEvent(1.5, "enclosure", "begin", 4),))
+    commands, _ = run_script(use_case_a_scheduler(), [
+        (0.25, dict(human_events=first, robot_events=ready(0.0), forecast=use_case_a_forecast(40.0))),
+        (1.25, dict(robot_events=ready(0.0, 1.0))),  # R_place done: R_close
+        (1.75, dict(human_events=second)),  # the next request, during R_close
+        (2.25, dict(robot_events=ready(0.0, 1.0, 2.0))),  # the assist is done
+    ])
+    assert [c.action for c in commands] == ["R_place", "R_close", "R_place"]
