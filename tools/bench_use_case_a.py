@@ -91,6 +91,8 @@ def run_arm(arm: Arm, seed: int, duration: float, warmup: int) -> dict:
         scenario.operator.pattern = list(PATTERN_2)
     if arm.percentile is not None:
         scenario.scheduler.percentile = arm.percentile
+        levels = scenario.predictor.percentile_levels  # the forecast must carry that level
+        scenario.predictor.percentile_levels = sorted(set(levels) | {arm.percentile})
     check_action = scenario.scheduler.autonomous_action
     if arm.check_dwell is not None:
         for robot in scenario.robots:

@@ -454,6 +454,14 @@ def _check_collaboration_scheduler(sc: Scenario, file) -> None:
     if isinstance(config, PredictiveRobotScheduler) and isinstance(sc.predictor, NoPredictor):
         raise ScenarioError(file, "scheduler", "the predictive robot reads a forecast: the cell needs a "
                                                "predictor (e.g. predictor: !HigherOrderMarkovPredictor {})")
+    levels = getattr(sc.predictor, "percentile_levels", None)
+    if isinstance(config, PredictiveRobotScheduler) and levels and not (
+            min(levels) <= config.percentile <= max(levels)):
+        # outside the forecast's levels t_p is unknown (inf): the robot would always work, as the
+        # reactive one does
+        raise ScenarioError(file, "scheduler.percentile",
+                            f"{config.percentile} is outside the predictor's percentile_levels {levels}: "
+                            "add it to predictor.percentile_levels")
 
 
 def _check_perceived_events(sc: Scenario, file) -> None:

@@ -67,14 +67,15 @@ def _set(node, path, value):
     node[path[-1]] = value
 
 
-def all_mutants(path: Path):
-    """(label, YAML text) of every mutation of every leaf of the scenario file at `path`."""
+def mutation_sites(path: Path) -> list[tuple[str, tuple, object]]:
+    """(label, leaf path, new value) of every mutation of every leaf of the scenario at `path`."""
     document = _raw_document(Path(path).read_text())
-    for where, value in leaves(document):
-        if not where:
-            continue
-        for name, new in mutations(value):
-            mutant = _copy(document)
-            _set(mutant, where, new)
-            label = f"{Path(path).name}:{'.'.join(map(str, where))}:{name}"
-            yield label, yaml.dump(mutant, Dumper=_Dumper, sort_keys=False)
+    return [(f"{Path(path).name}:{'.'.join(map(str, where))}:{name}", where, new)
+            for where, value in leaves(document) if where for name, new in mutations(value)]
+
+
+def mutant_text(path: Path, where: tuple, new) -> str:
+    """The scenario at `path` with the leaf at `where` set to `new`, as YAML."""
+    mutant = _copy(_raw_document(Path(path).read_text()))
+    _set(mutant, where, new)
+    return yaml.dump(mutant, Dumper=_Dumper, sort_keys=False)
