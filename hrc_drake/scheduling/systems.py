@@ -230,8 +230,9 @@ class Scheduler(LeafSystem):
 class CollaborationRun(Immutable):
     """What a `CollaborationScheduler` changes during a run: its policy (immutable), the last
     event seq read from each log, whether a collaboration request waits for an assist and
-    whether an assist is under way, the assists begun, the position of every agent in its
-    program, the commands issued and the decisions taken."""
+    whether a committed assist waits for its request, the assists begun, the autonomous tasks'
+    durations, the position of every agent in its program, the commands issued and the
+    decisions taken."""
 
     policy: object
     last_human: int = 0
@@ -318,16 +319,7 @@ class CollaborationScheduler(LeafSystem):
                     policy = policy.observe(e.time)
             if e.action == self.config.supplied_by and e.kind == "end":
                 supplied += 1
-        begun, durations = run.autonomous_begin, run.autonomous_durations
-        for e in robot:
-            if e.agent == self.config.agent and e.action == self.config.autonomous_action:
-                if e.kind == "begin":
-                    begun = e.time
-                elif e.kind == "end" and begun == begun:
-                    begun, durations = math.nan, durations + (e.time - begun,)
-        if durations != run.autonomous_durations and self.config.autonomous_duration_from == "observed" \
-                and hasattr(policy, "autonomous_duration"):
-            policy = replace(policy, autonomous_duration=float(np.median(durations)))
+        begun, durations, policy = self._observe_autonomous(run, robot, policy)
         position = list(run.position)
         commands, decisions = list(run.commands.events), list(run.decisions)
         ready = [e.agent for e in robot if e.kind == "ready" and e.agent in self.programs]
@@ -356,6 +348,21 @@ class CollaborationScheduler(LeafSystem):
             pending, awaiting, assists, supplied, autonomous, begun, durations, tuple(position),
             EventLog(tuple(commands)), tuple(decisions)))
         return EventStatus.Succeeded()
+
+    def _observe_autonomous(self, run: CollaborationRun, robot, policy):
+        """(begin time of the autonomous task under way, durations of those done, policy): with
+        `autonomous_duration_from: observed` the policy compares with their median."""
+        begun, durations = run.autonomous_begin, run.autonomous_durations
+        for e in robot:
+            if e.agent == self.config.agent and e.action == self.config.autonomous_action:
+                if e.kind == "begin":
+                    begun = e.time
+                elif e.kind == "end" and begun == begun:
+                    begun, durations = math.nan, durations + (e.time - begun,)
+        if durations != run.autonomous_durations and self.config.autonomous_duration_from == "observed" \
+                and hasattr(policy, "autonomous_duration"):
+            policy = replace(policy, autonomous_duration=float(np.median(durations)))
+        return begun, durations, policy
 
     def _choose(self, t, policy, step, pending, has_work, can_assist, context):
         """(action, next assist step, whether it commits to a new assist, decision) of the
