@@ -119,3 +119,17 @@ def test_name_collisions_and_actions_no_program_runs_are_refused(edit, field, tm
     path.write_text(edit((DIAGRAMS / "torch_clock.yaml").read_text()))
     assert main(["validate", str(path)]) == EXIT_BAD_INPUT
     assert field in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda t: t.replace("size: [1.1, 1.5, 0.04]", "size: [-1.1, 1.5, 0.04]"), "layout.table.size"),
+    (lambda t: t.replace("height: 0.75}", "height: .nan}"), "layout.table"),
+    (lambda t: t.replace("target: [0.75, 0.0, 0.8]", "target: [0.3, 0.0, 2.2]"), "layout.camera.target"),
+])
+def test_a_table_or_camera_drake_cannot_build_is_refused_by_validate(edit, field, tmp_path, capsys):
+    path = tmp_path / "bad.yaml"
+    text = (DIAGRAMS / "pcb_ic.yaml").read_text()
+    assert edit(text) != text
+    path.write_text(edit(text))
+    assert main(["validate", str(path)]) == EXIT_BAD_INPUT
+    assert field in capsys.readouterr().err

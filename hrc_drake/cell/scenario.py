@@ -270,8 +270,21 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         _check_vec(file, f"layout.occluders[{i}].size", o.size)
         if min(o.size) <= 0:
             raise ScenarioError(file, f"layout.occluders[{i}].size", "sizes must be positive")
+    _check_vec(file, "layout.table.center", lay.table.center)
+    _check_vec(file, "layout.table.size", lay.table.size)
+    if not all(math.isfinite(x) for x in (*lay.table.center, *lay.table.size, lay.table.height)):
+        raise ScenarioError(file, "layout.table", "center, size and height must be finite")
+    if min(lay.table.size) <= 0:
+        raise ScenarioError(file, "layout.table.size", f"sizes must be positive, got {lay.table.size}")
+    if not 0 < lay.table.height <= 3.0:
+        raise ScenarioError(file, "layout.table.height", f"must be in (0, 3] m, got {lay.table.height}")
     _check_vec(file, "layout.camera.position", lay.camera.position)
     _check_vec(file, "layout.camera.target", lay.camera.target)
+    if not all(math.isfinite(x) for x in (*lay.camera.position, *lay.camera.target)):
+        raise ScenarioError(file, "layout.camera", "position and target must be finite")
+    if math.dist(lay.camera.position, lay.camera.target) < 1e-3:
+        raise ScenarioError(file, "layout.camera.target", "must differ from the camera's position (the "
+                                                          "camera looks from its position at the target)")
     if not 0 < lay.camera.rate <= 120:
         raise ScenarioError(file, "layout.camera.rate", f"must be in (0, 120] Hz, got {lay.camera.rate}")
     if lay.camera.noise_std < 0:
