@@ -1,7 +1,7 @@
 """Random generators as run state (the bottom layer, beside `messages`).
 
 A core that keeps a `numpy.random.Generator` in a Context's state is cloned at every update
-(copy-on-write, `drake_helpers.Frozen`); `clone_generator` copies a generator in ~10 us, where
+(copy-on-write, `hrc_drake.systems.Frozen`); `clone_generator` copies a generator in ~10 us, where
 `copy.deepcopy` costs ~50-150 us and a fresh `PCG64()` ~35 us (it hashes a seed first).
 """
 

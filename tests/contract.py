@@ -104,7 +104,7 @@ def values_equal(a, b) -> bool:
         )
     if hasattr(a, "GetAsMatrix4"):
         return bool(np.array_equal(a.GetAsMatrix4(), b.GetAsMatrix4()))
-    if hasattr(a, "core"):  # drake_helpers.Frozen
+    if hasattr(a, "core"):  # hrc_drake.systems.Frozen
         return values_equal(vars_of(a.core), vars_of(b.core))
     if hasattr(a, "__dict__"):
         return values_equal(vars_of(a), vars_of(b))

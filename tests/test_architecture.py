@@ -2,9 +2,10 @@
 
 Every import statement counts, at module level or inside a function:
 (a) pydrake is imported only by `*/systems.py`, `hrc_drake/robots/`, `hrc_drake/cell/`,
-    `hrc_drake/drake_helpers.py` and `hrc_drake/cli.py`;
+    `hrc_drake/systems.py` and `hrc_drake/cli.py`;
 (b) nothing imports from a higher layer. Layers from the bottom:
-    0 `messages`, `errors`, `distributions`, `config_common`, `drake_helpers`, `rng`, `allocator`;
+    0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
+      `allocator`;
     1 the cores: every module of human, perception, intention, prediction, scheduling, motion and
       robots except each `systems.py` (and the robots' Drake modules); cores of one area may
       import cores of another area when no cycle results;
@@ -29,11 +30,11 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
-LAYER0 = {"messages", "errors", "distributions", "config_common", "drake_helpers", "rng", "allocator"}
+LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}
-PYDRAKE_ALLOWED = ("hrc_drake/drake_helpers.py", "hrc_drake/cli.py", "hrc_drake/robots/", "hrc_drake/cell/")
+PYDRAKE_ALLOWED = ("hrc_drake/systems.py", "hrc_drake/cli.py", "hrc_drake/robots/", "hrc_drake/cell/")
 
 #: (importing file, imported module) pairs tolerated for now. Each names a file another engineer
 #: owns on this branch's base and is TO BE REMOVED once that file no longer makes the import.

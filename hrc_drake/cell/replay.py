@@ -13,7 +13,6 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import segment_pose
-from hrc_drake.drake_helpers import declare_state, get_state, input_or, set_state
 from hrc_drake.messages import (
     EventLog,
     Immutable,
@@ -23,6 +22,7 @@ from hrc_drake.messages import (
     WorldSnapshot,
 )
 from hrc_drake.perception.config import NoTracker
+from hrc_drake.systems import declare_state, get_state, input_or, set_state
 
 #: a goal flashes this long (s) after the intention estimator understood it (Fig. 3.6)
 FLASH_TIME = 0.6

@@ -21,7 +21,6 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 
 from hrc_drake.cell.metrics import AppendOnly, LoggedEvent, MetricsLog
 from hrc_drake.cell.schema import Scenario
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 from hrc_drake.human.camera import segment_segment_distance
 from hrc_drake.messages import (
     AgentActivity,
@@ -32,6 +31,7 @@ from hrc_drake.messages import (
     WorldSnapshot,
     no_capsules,
 )
+from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 
 HUMAN_COLOR = [0.95, 0.65, 0.45, 1.0]
 GOAL_COLOR = [0.2, 0.8, 0.3, 0.35]

@@ -51,7 +51,7 @@ class CellWorld:
         self.refused: dict[str, int] = {}
 
     def clone(self) -> CellWorld:
-        """A copy an update may change (`drake_helpers.Frozen`): copies the counters, shares the
+        """A copy an update may change (`hrc_drake.systems.Frozen`): copies the counters, shares the
         immutable description (buffers, actions) and the completions tuple."""
         other = shallow_copy(self)
         other.parts = dict(self.parts)

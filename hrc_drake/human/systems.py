@@ -12,11 +12,11 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.operator import SyntheticOperator
 from hrc_drake.human.recorded import frame_at, load_skeleton_csv
 from hrc_drake.messages import EventLog, Immutable, SkeletonFrame, WorldSnapshot, no_capsules
+from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 
 #: the human_events and world_requests outputs keep at most this many of the latest events
 MAX_EVENTS_OUT = 200

@@ -16,7 +16,6 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
 from hrc_drake.intention.bayes import FeedbackStateMachine, GoalIntentionEstimator, IntentionEvent
 from hrc_drake.intention.config import (
     MAX_RATE,
@@ -27,6 +26,7 @@ from hrc_drake.intention.config import (
 )
 from hrc_drake.intention.detector import GoalRegionDetector
 from hrc_drake.messages import EventLog, GoalBelief, Immutable, SkeletonEstimate
+from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
 
 #: the intention_events output keeps at most this many of the latest events
 MAX_EVENTS_OUT = 200

@@ -13,17 +13,17 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import (
+from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
+from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
+from hrc_drake.motion.reactive import ReactiveMotionPredictor
+from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
+from hrc_drake.systems import (
     Frozen,
     declare_periodic_discrete_update,
     declare_state,
     get_state,
     set_state,
 )
-from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
-from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
-from hrc_drake.motion.reactive import ReactiveMotionPredictor
-from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
 
 #: Fields of `WorstCaseMotionModel` passed on to `ReactiveMotionPredictor`.
 _WORST_CASE_FIELDS = ("horizon", "process_std", "torso_process_std", "base_process_std", "point_std",

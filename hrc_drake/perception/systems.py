@@ -11,16 +11,16 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import (
+from hrc_drake.messages import SkeletonEstimate, SkeletonFrame, no_capsules
+from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+from hrc_drake.perception.tracker import SkeletonTracker, speed_override
+from hrc_drake.systems import (
     Frozen,
     declare_periodic_discrete_update,
     declare_state,
     get_state,
     set_state,
 )
-from hrc_drake.messages import SkeletonEstimate, SkeletonFrame, no_capsules
-from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
-from hrc_drake.perception.tracker import SkeletonTracker, speed_override
 
 
 def tracker_params(config: ParticleFilterTracker | KalmanTracker) -> tuple[str, dict]:

@@ -8,9 +8,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from ..drake_helpers import Frozen, declare_state, get_state, set_state
 from ..errors import ConfigError
 from ..messages import HUMAN_AGENT, EventLog, Forecast
+from ..systems import Frozen, declare_state, get_state, set_state
 from .config import NoPredictor
 from .factory import make_sequence_model, make_waiting_predictor
 

@@ -1,7 +1,7 @@
 """Drake systems of the robots: task executor and path follower.
 
 Both tick their pure core (`TaskExecutor`, `JointPathFollower`) with a periodic update and keep
-it in the Context as an immutable value (`drake_helpers.Frozen`): an update that changes the
+it in the Context as an immutable value (`hrc_drake.systems.Frozen`): an update that changes the
 core works on a copy, so one built diagram can be simulated again and two contexts never share.
 """
 
@@ -13,7 +13,10 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import (
+from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, WorldSnapshot
+from hrc_drake.robots.executor import TaskExecutor
+from hrc_drake.robots.path import ArmPath, JointPathFollower
+from hrc_drake.systems import (
     Frozen,
     declare_state,
     get_state,
@@ -21,9 +24,6 @@ from hrc_drake.drake_helpers import (
     set_state,
     state_ticket,
 )
-from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, WorldSnapshot
-from hrc_drake.robots.executor import TaskExecutor
-from hrc_drake.robots.path import ArmPath, JointPathFollower
 
 EVENT_WINDOW = 400
 

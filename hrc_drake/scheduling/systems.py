@@ -14,7 +14,6 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSystem
 
-from hrc_drake.drake_helpers import Frozen, declare_state, get_state, input_or, set_state
 from hrc_drake.errors import ConfigError
 from hrc_drake.messages import EventLog, Forecast, Immutable, RobotCommand
 from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
@@ -42,6 +41,7 @@ from hrc_drake.scheduling.config import (
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
 from hrc_drake.scheduling.petri import PcTPN
 from hrc_drake.scheduling.tracker import NetTracker
+from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
 
 
 def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
@@ -146,7 +146,7 @@ class Scheduler(LeafSystem):
             "robot_commands",
             lambda: AbstractValue.Make(EventLog()),
             self._calc_commands,
-            # drake_helpers.state_ticket passes an int, which pydrake 1.51 refuses: the index type here
+            # hrc_drake.systems.state_ticket passes an int, which pydrake 1.51 refuses: the index type here
             prerequisites_of_calc={self.abstract_state_ticket(AbstractStateIndex(self._core_index))},
         )
         self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
