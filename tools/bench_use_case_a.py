@@ -214,13 +214,18 @@ def main(argv: list[str] | None = None) -> None:
     arms = [Arm("predictive"), Arm("reactive"), Arm("data_driven"), Arm("predictive", "truth"),
             Arm("reactive", "truth"), Arm("predictive", pattern2=True), Arm("reactive", pattern2=True),
             Arm("data_driven", pattern2=True)]
-    percentile_pairs = [(p, Arm("predictive", percentile=p), Arm("reactive")) for p in SWEEP_PERCENTILES]
+    from hrc_drake.cell.scenario import load_scenario
+
+    scenario_percentile = load_scenario(SCENARIO).scheduler.percentile  # that arm is the main one
+    percentile_pairs = [(p, Arm("predictive", percentile=None if p == scenario_percentile else p),
+                         Arm("reactive")) for p in SWEEP_PERCENTILES]
     dwell_pairs = [(d, Arm("predictive", check_dwell=d), Arm("reactive", check_dwell=d))
                    for d in SWEEP_CHECK_DWELLS]
     jobs = [(arm, seed) for arm in arms for seed in seeds]
     sweep_seeds = seeds[:max(1, args.sweep_seeds)]
     if args.sweep:
-        sweep_arms = [a for _, a, _ in percentile_pairs] + [a for _, p, r in dwell_pairs for a in (p, r)]
+        sweep_arms = [a for _, a, _ in percentile_pairs if a.percentile is not None] + [
+            a for _, p, r in dwell_pairs for a in (p, r)]
         jobs += [(arm, seed) for arm in sweep_arms for seed in sweep_seeds]
     print(f"bench_use_case_a: {n_seeds} seeds x {len(arms)} arms, {duration:g} s each, warm-up {args.warmup} "
           f"products, {args.workers} workers", flush=True)

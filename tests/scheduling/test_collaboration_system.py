@@ -20,11 +20,7 @@ READY = EventLog((RobotEvent(0.0, "yumi_right", "", "ready", 1),))
 
 
 def commands_after(system, **inputs):
-    simulator = Simulator(system)
-    fix_inputs(system, simulator.get_mutable_context(), inputs)
-    simulator.AdvanceTo(0.3)
-    context = simulator.get_context()
-    return system.GetOutputPort("robot_commands").Eval(context).events, system.decisions(context)
+    return run_script(system, [(0.3, inputs)])
 
 
 def test_the_predictive_robot_waits_when_the_forecast_says_the_collaboration_is_near():
