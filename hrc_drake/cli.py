@@ -10,7 +10,7 @@ import tempfile
 import traceback
 from pathlib import Path
 
-from hrc_drake.config_common import MAX_SIMULATED_DURATION
+from hrc_drake.config_common import MAX_SIMULATED_DURATION, REPLAY_MAX_FRAMES, replay_fps_within
 from hrc_drake.errors import ScenarioError
 
 #: Exit codes: a finished run, an internal error, bad input (file or argument), Ctrl-C.
@@ -42,6 +42,16 @@ def _seed(text: str) -> int:
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
     if not 0 <= value < 2**32:
         raise argparse.ArgumentTypeError(f"must be in [0, 2^32), got {text!r}")
+    return value
+
+
+def _frames(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 10 <= value <= 100_000:
+        raise argparse.ArgumentTypeError(f"must be in [10, 100000], got {text!r}")
     return value
 
 
@@ -102,8 +112,14 @@ def _simulate(args) -> int:
         meshcat = Meshcat(MeshcatParams(host="localhost"))
         if args.meshcat:
             print(f"Meshcat live view: {meshcat.web_url()}", flush=True)
+    replay_fps = args.replay_fps
+    if args.replay:
+        replay_fps = replay_fps_within(args.replay_fps, duration, args.replay_max_frames)
+        if replay_fps < args.replay_fps:
+            print(f"replay: {duration:g} s at {args.replay_fps:g} fps would exceed {args.replay_max_frames} frames "
+                  f"(--replay-max-frames); recording {replay_fps:.3g} fps", flush=True)
     print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
-    cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=args.replay_fps)
+    cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=replay_fps)
     realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)
     result = simulate(
         cell, duration, progress=sys.stderr, record=bool(args.replay), realtime_rate=realtime_rate
@@ -172,6 +188,13 @@ def main(argv: list[str] | None = None) -> int:
     sim.add_argument("--replay", default=None, help="write a self-contained HTML replay to this file")
     sim.add_argument(
         "--replay-fps", type=_fps, default=10.0, help="frames per second of the replay (default 10)"
+    )
+    sim.add_argument(
+        "--replay-max-frames",
+        type=_frames,
+        default=REPLAY_MAX_FRAMES,
+        help=f"frame budget of the replay: longer runs record fewer frames per second (default "
+        f"{REPLAY_MAX_FRAMES}: 10 min at 10 fps; a 2 h replay stays under 50 MB)",
     )
     sim.add_argument("--meshcat", action="store_true", help="serve a live Meshcat view on localhost")
     sim.add_argument(

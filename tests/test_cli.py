@@ -13,6 +13,7 @@ import time
 import pytest
 
 from hrc_drake.cli import EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, main
+from hrc_drake.config_common import replay_fps_within
 from tests.conftest import DIAGRAMS
 
 TORCH = str(DIAGRAMS / "torch_clock.yaml")
@@ -24,6 +25,7 @@ TORCH = str(DIAGRAMS / "torch_clock.yaml")
     ("--replay-fps", "0"), ("--replay-fps", "-1"), ("--replay-fps", "nan"), ("--replay-fps", "1e6"),
     ("--seed", "-1"), ("--seed", "1.5"), ("--seed", str(2**32)),
     ("--realtime-rate", "-1"), ("--realtime-rate", "nan"), ("--realtime-rate", "inf"),
+    ("--replay-max-frames", "0"), ("--replay-max-frames", "1e3"), ("--replay-max-frames", "10000000"),
 ])
 def test_bad_arguments_are_refused_with_the_option_named(option, value, capsys):
     with pytest.raises(SystemExit) as exit_:
@@ -31,6 +33,22 @@ def test_bad_arguments_are_refused_with_the_option_named(option, value, capsys):
     assert exit_.value.code == EXIT_BAD_INPUT
     err = capsys.readouterr().err
     assert option in err and "must be" in err and "Traceback" not in err
+
+
+def test_the_replay_rate_is_lowered_to_the_frame_budget():
+    assert replay_fps_within(10.0, 600.0) == 10.0  # the default budget: 10 min at 10 fps
+    assert replay_fps_within(10.0, 7200.0) == pytest.approx(6000 / 7200)
+    assert replay_fps_within(30.0, 60.0, max_frames=600) == 10.0
+    with pytest.raises(ValueError):
+        replay_fps_within(10.0, 0.0)
+
+
+def test_a_long_replay_records_fewer_frames_and_says_so(tmp_path, capsys):
+    replay = tmp_path / "replay.html"
+    assert main(["simulate", TORCH, "--duration", "2", "--replay", str(replay), "--replay-max-frames", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "would exceed 10 frames" in out and "recording 5 fps" in out
+    assert replay.stat().st_size > 1e6
 
 
 def test_an_out_path_that_is_a_file_is_refused_before_the_run(tmp_path, capsys):

@@ -72,6 +72,58 @@ class AppendOnly:
         return self
 
 
+class DecimatedTrace:
+    """An immutable trace of at most `capacity` samples, evenly spaced: it keeps every
+    `stride`-th sample offered and, when full, drops every other one and doubles `stride`, so
+    a run of any length holds between capacity / 2 and capacity samples (memory flat in
+    simulated time). `__deepcopy__` returns itself, as `AppendOnly`."""
+
+    __slots__ = ("capacity", "stride", "offered", "_items")
+
+    def __init__(self, capacity: int = 8192, stride: int = 1, offered: int = 0, items: AppendOnly | None = None):
+        if capacity < 2:
+            raise ValueError(f"a trace keeps at least 2 samples, got capacity {capacity}")
+        self.capacity = capacity
+        self.stride = stride
+        self.offered = offered
+        self._items = items if items is not None else AppendOnly()
+
+    def offer(self, item) -> DecimatedTrace:
+        """This trace with `item` offered: kept when its index is a multiple of the stride."""
+        if self.offered % self.stride:
+            return DecimatedTrace(self.capacity, self.stride, self.offered + 1, self._items)
+        items, stride = self._items.append(item), self.stride
+        if len(items) >= self.capacity:
+            # Kept items sit at multiples of `stride`; every other one sits at multiples of 2 * stride.
+            items, stride = AppendOnly().extend(list(items)[::2]), 2 * stride
+        return DecimatedTrace(self.capacity, stride, self.offered + 1, items)
+
+    def __iter__(self):
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+@dataclass(frozen=True)
+class SampleStats:
+    """Exact running figures over every periodic sample, however many the trace dropped."""
+
+    count: int = 0
+    min_distance: float = np.inf
+    override_sum: float = 0.0
+
+    def add(self, distance: float, override: float) -> SampleStats:
+        return SampleStats(self.count + 1, min(self.min_distance, distance) if np.isfinite(distance)
+                           else self.min_distance, self.override_sum + override)
+
+
 @dataclass
 class MetricsLog:
     """What a run recorded: events of every agent (the truth), the action detector's perceived
@@ -87,6 +139,10 @@ class MetricsLog:
     buffers: list[dict] = field(default_factory=list)
     products: list[int] = field(default_factory=list)
     human_points: list = field(default_factory=list)
+    #: exact figures over every sample; None: computed from the lists (all samples kept)
+    stats: SampleStats | None = None
+    #: samples taken / samples kept in the lists (1 unless the recorder's trace decimated them)
+    sample_stride: int = 1
 
     def record(
         self, time: float, distance: float, override: float, buffers: dict, products: int, human_points=None
@@ -159,7 +215,12 @@ def summarize(
             "utilisation": round(work / end_time, 4) if end_time > 0 else 0.0,
             "actions_finished": count,
         }
-    finite = [d for d in log.distances if np.isfinite(d)]
+    if log.stats is not None:
+        stats = log.stats
+    else:
+        stats = SampleStats()
+        for distance, override in zip(log.distances, log.overrides):
+            stats = stats.add(distance, override)
     out = {
         "simulated_time": round(end_time, 3),
         "products_finished": len(done),
@@ -169,8 +230,8 @@ def summarize(
         if len(cycle)
         else None,
         "agents": per_agent,
-        "min_human_robot_distance": round(min(finite), 4) if finite else None,
-        "mean_speed_override": round(float(np.mean(log.overrides)), 4) if log.overrides else None,
+        "min_human_robot_distance": round(stats.min_distance, 4) if np.isfinite(stats.min_distance) else None,
+        "mean_speed_override": round(stats.override_sum / stats.count, 4) if stats.count else None,
     }
     if log.perceived_events:
         out["detection"] = detection_summary(log.events, log.perceived_events)
@@ -222,33 +283,21 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
         sharex=True,
         gridspec_kw={"height_ratios": [max(len(agents), 1), 1.4]},
     )
-    for row, agent in enumerate(agents):
-        for i in spans:
-            if i.agent != agent:
-                continue
-            if i.kind == "work":
-                ax.barh(
-                    row,
-                    i.end - i.start,
-                    left=i.start,
-                    height=0.6,
-                    color=colors[i.action],
-                    edgecolor="black",
-                    lw=0.3,
-                )
-                if i.end - i.start > 0.03 * end_time:
-                    ax.text((i.start + i.end) / 2, row, i.action, ha="center", va="center", fontsize=7)
-            else:
-                ax.barh(
-                    row,
-                    i.end - i.start,
-                    left=i.start,
-                    height=0.35,
-                    color="lightgrey",
-                    hatch="////",
-                    edgecolor="grey",
-                    lw=0.3,
-                )
+    # One collection per agent and action (not a patch per bar): a 2 h run draws as fast and
+    # as small as a short one.
+    bars: dict[tuple[int, str, str], list[tuple[float, float]]] = {}
+    rows = {agent: row for row, agent in enumerate(agents)}
+    for i in spans:
+        if i.agent in rows:
+            bars.setdefault((rows[i.agent], i.kind, i.action), []).append((i.start, i.end - i.start))
+            if i.kind == "work" and i.end - i.start > 0.03 * end_time:
+                ax.text((i.start + i.end) / 2, rows[i.agent], i.action, ha="center", va="center", fontsize=7)
+    for (row, kind, action), ranges in bars.items():
+        if kind == "work":
+            ax.broken_barh(ranges, (row - 0.3, 0.6), facecolors=colors[action], edgecolors="black", linewidths=0.3)
+        else:
+            ax.broken_barh(ranges, (row - 0.175, 0.35), facecolors="lightgrey", hatch="////", edgecolors="grey",
+                           linewidths=0.3)
     ax.set_yticks(range(len(agents)))
     ax.set_yticklabels(agents)
     ax.invert_yaxis()
@@ -303,15 +352,16 @@ def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str,
 
     spans = [i for i in intervals(log.events, end_time) if i.agent in (human, robot)]
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(12, 5.5), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+    bars: dict[tuple[int, str, str], list[tuple[float, float]]] = {}  # one collection per row, kind, colour
     for row, agent in enumerate((human, robot)):
         for i in spans:
-            if i.agent != agent:
-                continue
-            collab = i.action == request_action or i.action in collaborative_actions
-            color = "tab:green" if collab else ("tab:blue" if agent == human else "tab:red")
-            ax.barh(row, i.end - i.start, left=i.start, height=0.6, color=color,
-                    hatch="//" if i.kind == "wait" else None, alpha=0.35 if i.kind == "wait" else 0.9,
-                    edgecolor="k", linewidth=0.3)
+            if i.agent == agent:
+                collab = i.action == request_action or i.action in collaborative_actions
+                color = "tab:green" if collab else ("tab:blue" if agent == human else "tab:red")
+                bars.setdefault((row, i.kind, color), []).append((i.start, i.end - i.start))
+    for (row, kind, color), ranges in bars.items():
+        ax.broken_barh(ranges, (row - 0.3, 0.6), facecolors=color, hatch="//" if kind == "wait" else None,
+                       alpha=0.35 if kind == "wait" else 0.9, edgecolors="k", linewidths=0.3)
     ax.set_yticks([0, 1], [human, robot])
     ax.set_title(title or "activities and the predicted time to collaboration")
     times = np.array([t for t, _ in log.forecasts], float)

@@ -19,7 +19,7 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 
-from hrc_drake.cell.metrics import AppendOnly, LoggedEvent, MetricsLog
+from hrc_drake.cell.metrics import AppendOnly, DecimatedTrace, LoggedEvent, MetricsLog, SampleStats
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.human.camera import segment_segment_distance
 from hrc_drake.messages import (
@@ -316,7 +316,10 @@ class _Recording:
 class RecorderRun(Immutable):
     """What the recorder has recorded so far: append-only logs and the last seq seen per source."""
 
-    samples: AppendOnly = AppendOnly()
+    #: (time, distance, override, buffers, products, human points), bounded (see `max_samples`)
+    samples: DecimatedTrace = DecimatedTrace()
+    #: exact figures over every sample taken
+    stats: SampleStats = SampleStats()
     events: AppendOnly = AppendOnly()
     perceived: AppendOnly = AppendOnly()
     #: (time, Forecast) at every sample whose forecast differs from the last one kept
@@ -338,6 +341,11 @@ class MetricsRecorder(LeafSystem):
     (`WorldSnapshot`). `log(context)` gives the `MetricsLog` of a run, with a last sample at
     the context's time.
 
+    Memory is flat in simulated time: the samples are a `DecimatedTrace` of at most
+    `max_samples` (every sample up to max_samples * period s, then evenly thinned), while the
+    minimum distance and the mean override are exact over every sample. Events are all kept
+    (a few hundred bytes each: ~0.3 MB per hour of a cell).
+
     A recorder, as Drake's `VectorLogSink`: what it recorded is a `RecorderRun` in a cache entry
     of the Context that its periodic publish event replaces (the entry depends on nothing, so
     Drake never recomputes it), cleared by an initialization publish event. It reads every input
@@ -345,8 +353,9 @@ class MetricsRecorder(LeafSystem):
     simulation no state copies (DESIGN.md, performance rules).
     """
 
-    def __init__(self, period: float = 0.1):
+    def __init__(self, period: float = 0.1, max_samples: int = 8192):
         super().__init__()
+        self._max_samples = max_samples
         self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
         self._intention_events = self.DeclareAbstractInputPort(
@@ -377,7 +386,7 @@ class MetricsRecorder(LeafSystem):
         return self._record_entry.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
 
     def _clear(self, context):
-        self._recording(context).run = RecorderRun()
+        self._recording(context).run = RecorderRun(samples=DecimatedTrace(self._max_samples))
         return EventStatus.Succeeded()
 
     def _sample(self, context, run: RecorderRun) -> RecorderRun:
@@ -419,8 +428,8 @@ class MetricsRecorder(LeafSystem):
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
         world = input_or(self._world, context, WorldSnapshot())
         sample = (t, distance, override, world.buffers, world.finished_products, points)
-        return RecorderRun(run.samples.append(sample), events, perceived, forecasts, tuple(seen), t,
-                           last_forecast)
+        return RecorderRun(run.samples.offer(sample), run.stats.add(distance, override), events, perceived,
+                           forecasts, tuple(seen), t, last_forecast)
 
     def _record(self, context):
         recording = self._recording(context)
@@ -435,7 +444,7 @@ class MetricsRecorder(LeafSystem):
         if context.get_time() > run.last_time:
             run = self._sample(context, run)
         log = MetricsLog(events=list(run.events), perceived_events=list(run.perceived),
-                         forecasts=list(run.forecasts))
+                         forecasts=list(run.forecasts), stats=run.stats, sample_stride=run.samples.stride)
         for t, distance, override, buffers, products, points in run.samples:
             log.record(t, distance, override, buffers, products, points)
         return log

@@ -8,8 +8,10 @@ markers' state (the goals flashing after intention events).
 
 import numpy as np
 import pytest
+from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 
+from hrc_drake.cell.metrics import DecimatedTrace, SampleStats, summarize
 from hrc_drake.cell.systems import HumanCapsules, MetricsRecorder
 from tests.cell.system_examples import EXAMPLES, MORE_EXAMPLES, metrics_recorder, replay_markers
 from tests.contract import new_context, output_values, simulate, state_values, values_equal
@@ -65,3 +67,45 @@ def test_human_capsules_from_points_match_the_body_model():
             np.testing.assert_allclose(x, y, atol=1e-12)
         outs.append(p_out["capsules"])
     assert not np.allclose(outs[0].start, outs[1].start)
+
+
+def test_a_decimated_trace_keeps_evenly_spaced_samples_within_its_capacity():
+    trace = DecimatedTrace(capacity=8)
+    for k in range(1000):
+        trace = trace.offer(k)
+        kept = list(trace)
+        assert 0 < len(kept) < 8 and kept[0] == 0
+        assert kept == list(range(0, k + 1, trace.stride))[: len(kept)], k
+        assert kept[-1] > k - 2 * trace.stride  # the newest kept sample is at most one step old
+    assert trace.stride == 256 and len(trace) == 4 and trace.offered == 1000
+
+
+def test_sample_stats_are_exact_over_every_sample():
+    stats = SampleStats()
+    for distance, override in ((0.4, 1.0), (np.inf, 0.5), (-0.02, 0.0), (0.3, 0.5)):
+        stats = stats.add(distance, override)
+    assert (stats.count, stats.min_distance, stats.override_sum) == (4, -0.02, 2.0)
+
+
+def test_the_recorder_thins_its_samples_but_not_its_figures():
+    """With room for 8 samples, a 5 s run at 0.1 s keeps 7 evenly spaced ones; the figures
+    count all 51 samples."""
+    example = metrics_recorder()
+    bounded = MetricsRecorder(period=0.1, max_samples=8)
+    context = bounded.CreateDefaultContext()
+    for name, value in example.inputs_a.items():
+        port = bounded.GetInputPort(name)
+        if isinstance(value, list) or isinstance(value, np.ndarray):
+            port.FixValue(context, np.asarray(value, dtype=float))
+        else:
+            port.FixValue(context, AbstractValue.Make(value))
+    simulator = Simulator(bounded, context)
+    simulator.AdvanceTo(5.0)
+    log = bounded.log(context)
+    assert len(log.times) == 7 and log.sample_stride == 8  # samples 0, 8, ..., 48 of 0..50
+    np.testing.assert_allclose(np.diff(log.times), 0.1 * log.sample_stride)
+    assert log.stats.count == 51
+    assert np.isfinite(log.stats.min_distance) and log.stats.override_sum == 51.0
+    full = summarize(log, 5.0, ["human"], {})
+    assert full["mean_speed_override"] == 1.0
+    assert full["min_human_robot_distance"] == round(min(log.distances), 4)
