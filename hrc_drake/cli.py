@@ -116,8 +116,8 @@ def _simulate(args) -> int:
     if args.replay:
         replay_fps = replay_fps_within(args.replay_fps, duration, args.replay_max_frames)
         if replay_fps < args.replay_fps:
-            print(f"replay: {duration:g} s at {args.replay_fps:g} fps would exceed {args.replay_max_frames} frames "
-                  f"(--replay-max-frames); recording {replay_fps:.3g} fps", flush=True)
+            print(f"replay: {duration:g} s at {args.replay_fps:g} fps would exceed {args.replay_max_frames} "
+                  f"frames (--replay-max-frames); recording {replay_fps:.3g} fps", flush=True)
     print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
     cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=replay_fps)
     realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)

@@ -28,5 +28,6 @@ REPLAY_MAX_FRAMES = 6000
 def replay_fps_within(fps: float, duration: float, max_frames: int = REPLAY_MAX_FRAMES) -> float:
     """The replay rate: `fps`, lowered so that `duration` s records about `max_frames` frames at most."""
     if not (fps > 0 and duration > 0 and max_frames >= 1):
-        raise ValueError(f"need fps > 0, duration > 0 and max_frames >= 1, got {fps}, {duration}, {max_frames}")
+        raise ValueError(f"need fps > 0, duration > 0 and max_frames >= 1, got {fps}, {duration}, "
+                         f"{max_frames}")
     return min(fps, max_frames / duration)

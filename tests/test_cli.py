@@ -45,7 +45,8 @@ def test_the_replay_rate_is_lowered_to_the_frame_budget():
 
 def test_a_long_replay_records_fewer_frames_and_says_so(tmp_path, capsys):
     replay = tmp_path / "replay.html"
-    assert main(["simulate", TORCH, "--duration", "2", "--replay", str(replay), "--replay-max-frames", "10"]) == 0
+    args = ["simulate", TORCH, "--duration", "2", "--replay", str(replay), "--replay-max-frames", "10"]
+    assert main(args) == 0
     out = capsys.readouterr().out
     assert "would exceed 10 frames" in out and "recording 5 fps" in out
     assert replay.stat().st_size > 1e6

@@ -80,7 +80,8 @@ class DecimatedTrace:
 
     __slots__ = ("capacity", "stride", "offered", "_items")
 
-    def __init__(self, capacity: int = 8192, stride: int = 1, offered: int = 0, items: AppendOnly | None = None):
+    def __init__(self, capacity: int = 8192, stride: int = 1, offered: int = 0,
+                 items: AppendOnly | None = None):
         if capacity < 2:
             raise ValueError(f"a trace keeps at least 2 samples, got capacity {capacity}")
         self.capacity = capacity
@@ -219,7 +220,7 @@ def summarize(
         stats = log.stats
     else:
         stats = SampleStats()
-        for distance, override in zip(log.distances, log.overrides):
+        for distance, override in zip(log.distances, log.overrides, strict=True):
             stats = stats.add(distance, override)
     out = {
         "simulated_time": round(end_time, 3),
@@ -294,10 +295,11 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
                 ax.text((i.start + i.end) / 2, rows[i.agent], i.action, ha="center", va="center", fontsize=7)
     for (row, kind, action), ranges in bars.items():
         if kind == "work":
-            ax.broken_barh(ranges, (row - 0.3, 0.6), facecolors=colors[action], edgecolors="black", linewidths=0.3)
-        else:
-            ax.broken_barh(ranges, (row - 0.175, 0.35), facecolors="lightgrey", hatch="////", edgecolors="grey",
+            ax.broken_barh(ranges, (row - 0.3, 0.6), facecolors=colors[action], edgecolors="black",
                            linewidths=0.3)
+        else:
+            ax.broken_barh(ranges, (row - 0.175, 0.35), facecolors="lightgrey", hatch="////",
+                           edgecolors="grey", linewidths=0.3)
     ax.set_yticks(range(len(agents)))
     ax.set_yticklabels(agents)
     ax.invert_yaxis()
