@@ -129,16 +129,20 @@ def _simulate(args) -> int:
     print(f"wall time         {m['wall_time']:.2f} s")
     print(f"realtime factor   {m['realtime_factor']:.1f}x")
     print(f"products finished {m['products_finished']}")
-    mean_cycle = m["mean_cycle_time"]
-    print(
-        f"mean cycle time   {mean_cycle:.2f} s"
-        if mean_cycle is not None
-        else "mean cycle time   n/a (no product)"
-    )
+    def cycle(value) -> str:
+        return f"{value:.2f} s" if value is not None else "n/a"
+
+    warmup = m["warmup"]
+    rule = f"warm-up: the first {warmup['products']} product(s)" + (
+        f" after t = {warmup['time']:g} s" if warmup["time"] else "")
+    print(f"mean cycle time   {cycle(m['mean_cycle_time'])} (between products of any type; {rule})")
+    if len(m["products"]) > 1:
+        for kind, p in m["products"].items():
+            print(f"  {kind:14s} {p['finished']:3d} finished, mean cycle time {cycle(p['mean_cycle_time'])}")
     for agent, a in m["agents"].items():
         print(
             f"  {agent:14s} busy {a['busy_time']:7.1f} s   waiting {a['wait_time']:7.1f} s   "
-            f"actions {a['actions_finished']}"
+            f"idle {a['idle_time']:7.1f} s   actions {a['actions_finished']}"
         )
     if m["min_human_robot_distance"] is not None:
         print(f"min human-robot distance {m['min_human_robot_distance']:.3f} m")

@@ -69,7 +69,8 @@ class Cell:
     scene_graph: SceneGraph
     body: BodyModel
     agents: list[str]
-    product_actions: dict[str, int]
+    #: flow action -> the product buffers (types) it puts a finished product in
+    product_actions: dict[str, tuple[str, ...]]
     meshcat: object = None
     visualizer: object = None
 
@@ -125,13 +126,14 @@ def _add_robots(plant, scenario: Scenario):
     return add_robots(plant, scenario.robots)
 
 
-def _product_actions(scenario: Scenario) -> dict[str, int]:
+def _product_actions(scenario: Scenario) -> dict[str, tuple[str, ...]]:
+    """Each flow action that finishes products -> the product buffers it puts one product in."""
     kinds = {b.name: b.kind for b in scenario.layout.buffers}
     out = {}
     for a in scenario.flow.actions:
-        n = sum(1 for b in a.outputs if kinds.get(b) == "product")
-        if n:
-            out[a.name] = n
+        products = tuple(b for b in a.outputs if kinds.get(b) == "product")
+        if products:
+            out[a.name] = products
     return out
 
 

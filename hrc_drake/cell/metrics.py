@@ -184,26 +184,81 @@ def intervals(events, end_time: float) -> list[Interval]:
     return sorted(out, key=lambda i: (i.agent, i.start))
 
 
-def product_times(events, product_actions: dict[str, int]) -> list[float]:
-    """Times at which finished products leave the cell: ends of actions that output products."""
-    times = []
+#: What each figure of metrics.json means (written into the file as "definitions").
+DEFINITIONS = {
+    "products_finished": "finished products of every type: each part put in a product buffer by the end of a "
+                         "flow action",
+    "product_times": "when each product was finished (s), every type together",
+    "cycle_times": "intervals between consecutive products of any type (s), the first from t = 0 (the lead "
+                   "time), no warm-up left out",
+    "mean_cycle_time": "mean interval between consecutive products of any type after the warm-up (s): 1 / "
+                       "throughput; null with fewer than two products after it",
+    "products": "per product type (product buffer): finished, cycle_times (intervals between its consecutive "
+                "products after the warm-up) and their mean_cycle_time",
+    "warmup": "the warm-up rule (scenario `metrics`): products finished before `time` s are left out, and "
+              "the first `products` of the rest only start the clock (0: the first interval starts at "
+              "`time`)",
+    "busy_time": "time an agent spent executing actions (begin to end) (s)",
+    "wait_time": "time an agent spent blocked (wait_begin to wait_end): it chose, or its program reached, an "
+                 "action the cell refused for want of parts, room or a partner (s)",
+    "idle_time": "time an agent was not executing an action: simulated_time - busy_time; it includes "
+                 "wait_time and the time with no action to do (s)",
+    "utilisation": "busy_time / simulated_time",
+    "actions_finished": "actions the agent ended before the end of the run",
+    "min_human_robot_distance": "smallest true distance between the human's and the robots' capsules over "
+                                "every 0.1 s sample (m; negative: the capsules overlap)",
+    "mean_speed_override": "mean robot speed override over every sample (1: full speed)",
+    "detection": "the action detector's perceived events against the truth (precision, recall, latency)",
+    "realtime_factor": "simulated_time / wall_time",
+}
+
+
+def product_times(events, product_actions: dict[str, tuple[str, ...]]) -> dict[str, list[float]]:
+    """Per product type (product buffer), the sorted times at which its products were finished:
+    ends of the flow actions that put a part in it."""
+    times: dict[str, list[float]] = {kind: [] for kinds in product_actions.values() for kind in kinds}
     for e in events:
         if e.kind == "end" and e.action in product_actions:
-            times.extend([e.time] * product_actions[e.action])
-    return sorted(times)
+            for kind in product_actions[e.action]:
+                times[kind].append(e.time)
+    return {kind: sorted(ts) for kind, ts in times.items()}
+
+
+def cycle_times_after_warmup(times, warmup_products: int = 1, warmup_time: float = 0.0) -> np.ndarray:
+    """Intervals between consecutive products after the warm-up (schema `Metrics`): products
+    before `warmup_time` are left out and the first `warmup_products` of the rest only start
+    the clock; with 0 the first interval runs from `warmup_time`."""
+    kept = [t for t in sorted(times) if t >= warmup_time]
+    if warmup_products == 0:
+        return np.diff([warmup_time, *kept])
+    return np.diff(kept[warmup_products - 1:]) if len(kept) >= warmup_products else np.zeros(0)
+
+
+def _rounded_mean(values) -> float | None:
+    return round(float(np.mean(values)), 3) if len(values) else None
 
 
 def summarize(
     log: MetricsLog,
     end_time: float,
     agents: list[str],
-    product_actions: dict[str, int],
+    product_actions: dict[str, tuple[str, ...]],
     wall_time: float | None = None,
+    warmup_products: int = 1,
+    warmup_time: float = 0.0,
 ) -> dict:
-    """Figures of a run: products, cycle times, idle and busy time per agent, minimum distance."""
+    """Figures of a run (`DEFINITIONS`): products and cycle times (overall and per product type,
+    after the warm-up), busy, wait and idle time per agent, minimum distance."""
     spans = intervals(log.events, end_time)
-    done = product_times(log.events, product_actions)
+    by_type = product_times(log.events, product_actions)
+    done = sorted(t for ts in by_type.values() for t in ts)
     cycle = np.diff([0.0, *done]) if done else np.zeros(0)
+    warm = cycle_times_after_warmup(done, warmup_products, warmup_time)
+    products = {}
+    for kind, ts in by_type.items():
+        cycles = cycle_times_after_warmup(ts, warmup_products, warmup_time)
+        products[kind] = {"finished": len(ts), "cycle_times": [round(float(c), 3) for c in cycles],
+                          "mean_cycle_time": _rounded_mean(cycles)}
     per_agent = {}
     for agent in agents:
         work = sum(i.end - i.start for i in spans if i.agent == agent and i.kind == "work")
@@ -227,9 +282,9 @@ def summarize(
         "products_finished": len(done),
         "product_times": [round(t, 3) for t in done],
         "cycle_times": [round(float(c), 3) for c in cycle],
-        "mean_cycle_time": round(float(np.mean(cycle[1:] if len(cycle) > 1 else cycle)), 3)
-        if len(cycle)
-        else None,
+        "mean_cycle_time": _rounded_mean(warm),
+        "products": products,
+        "warmup": {"products": warmup_products, "time": warmup_time},
         "agents": per_agent,
         "min_human_robot_distance": round(stats.min_distance, 4) if np.isfinite(stats.min_distance) else None,
         "mean_speed_override": round(stats.override_sum / stats.count, 4) if stats.count else None,
@@ -239,6 +294,8 @@ def summarize(
     if wall_time is not None:
         out["wall_time"] = round(wall_time, 3)
         out["realtime_factor"] = round(end_time / wall_time, 2) if wall_time > 0 else None
+    out["definitions"] = {key: text for key, text in DEFINITIONS.items() if key in out or key in
+                          ("busy_time", "wait_time", "idle_time", "utilisation", "actions_finished")}
     return out
 
 

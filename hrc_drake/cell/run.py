@@ -82,7 +82,9 @@ def simulate(
         cell.visualizer.PublishRecording()
     end_time = context.get_time() if interrupted else duration
     log = cell.log(context)
-    metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall)
+    warmup = cell.scenario.metrics
+    metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall,
+                        warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time)
     if interrupted:
         metrics["interrupted"] = True
     return RunResult(metrics=metrics, wall_time=wall, simulated_time=end_time, log=log, context=context,

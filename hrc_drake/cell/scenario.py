@@ -244,6 +244,14 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                                               f"{MAX_SIMULATED_DURATION:g}], got {sc.duration}")
     if isinstance(sc.seed, bool) or not isinstance(sc.seed, int) or not 0 <= sc.seed < 2**32:
         raise ScenarioError(file, "seed", f"must be an integer in [0, 2^32), got {sc.seed!r}")
+    m = sc.metrics
+    if isinstance(m.warmup_products, bool) or not isinstance(m.warmup_products, int) or not (
+            0 <= m.warmup_products <= 1000):
+        raise ScenarioError(file, "metrics.warmup_products", f"must be an integer in [0, 1000], got "
+                                                             f"{m.warmup_products!r}")
+    if not (math.isfinite(m.warmup_time) and 0 <= m.warmup_time < sc.duration):
+        raise ScenarioError(file, "metrics.warmup_time", f"must be in [0, duration = {sc.duration:g}) s, got "
+                                                         f"{m.warmup_time}")
     lay = sc.layout
     goals = _unique(file, "layout.goals", [g.name for g in lay.goals])
     for i, g in enumerate(lay.goals):

@@ -55,6 +55,21 @@ class Layout:
     workspace_size: list[float] = field(default_factory=lambda: [0.5, 0.8, 0.6])
 
 
+@dataclass
+class Metrics:
+    """How the report counts cycle times (README "Metrics"; `metrics.DEFINITIONS`).
+
+    The cycle times of a product type are the intervals between its consecutive products,
+    leaving out the warm-up: products finished before `warmup_time`, and the first
+    `warmup_products` of the rest only start the clock (1: the lead time to the first product
+    is not a cycle; 0: it is, counted from `warmup_time`).
+    """
+
+    warmup_products: int = 1
+    #: s of simulated time whose products are warm-up
+    warmup_time: float = 0.0
+
+
 #: Each optional system's kinds, as scenario field types (one dataclass per kind, owned by its
 #: area, chosen in YAML by tag: ``tracker: !ParticleFilterTracker {particles: 500}``).
 Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
@@ -78,6 +93,8 @@ class Scenario:
     flow: Flow = field(default_factory=Flow)
     #: minimum human-robot distance the cell must keep (m), for reports
     safety_distance: float = 0.1
+    #: the warm-up rule of the cycle times
+    metrics: Metrics = field(default_factory=Metrics)
     #: the skeleton tracker (thesis Ch. 9); none: the estimate is the measurement
     tracker: Tracker = field(default_factory=NoTracker)
     #: the intended-goal estimator (thesis 3.1)
