@@ -152,3 +152,65 @@ def test_a_table_or_camera_drake_cannot_build_is_refused_by_validate(edit, field
     path.write_text(edit(text))
     assert main(["validate", str(path)]) == EXIT_BAD_INPUT
     assert field in capsys.readouterr().err
+
+
+def _with_recorded(tmp_path, csv_bytes: bytes) -> str:
+    import yaml
+
+    (tmp_path / "skeleton.csv").write_bytes(csv_bytes)
+    raw = yaml.safe_load((DIAGRAMS / "torch_clock.yaml").read_text())
+    raw["operator"]["recorded"] = "skeleton.csv"
+    path = tmp_path / "cell.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return str(path)
+
+
+def _good_csv(tmp_path) -> bytes:
+    import numpy as np
+
+    from hrc_drake.human.recorded import save_skeleton_csv
+
+    points = np.tile(np.linspace(0.1, 0.8, 24).reshape(8, 3), (5, 1, 1))
+    save_skeleton_csv(tmp_path / "good.csv", np.arange(5) / 30.0, points)
+    return (tmp_path / "good.csv").read_bytes()
+
+
+@pytest.mark.parametrize("damage, reason", [
+    (lambda b: b.replace(b"time,", b"tme,", 1), "bad header"),
+    (lambda b: b.rsplit(b"\n", 2)[0] + b"\n0.01" + b",0.5" * 24 + b",1" * 8 + b"\n", "does not increase"),
+    (lambda b: b.replace(b",1,1,1,1,1,1,1,1\r\n", b",1,1,1,1,1,1,1,2\r\n", 1), "must be 0 or 1"),
+    (lambda b: b.replace(b"0.1,", b"x,", 1), "is not a number"),
+    (lambda b: b.replace(b"0.1,", b"inf,", 1), "tracked but has a NaN or inf"),
+    (lambda b: b.split(b"\n")[0] + b"\n", "no data rows"),
+    (lambda b: b"\xff\xfe" + b.decode().encode("utf-16-le"), "not UTF-8"),
+    (lambda b: b.replace(b"0.1,", b"0.1\x00,", 1), "is not a number"),
+])
+def test_validate_opens_the_recorded_skeleton_and_names_what_is_wrong(damage, reason, tmp_path, capsys):
+    good = _good_csv(tmp_path)
+    assert main(["validate", _with_recorded(tmp_path, good)]) == 0
+    capsys.readouterr()
+    assert main(["validate", _with_recorded(tmp_path, damage(good))]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "operator.recorded" in err and "skeleton.csv" in err and reason in err, err
+
+
+@pytest.mark.parametrize("damage, reason", [
+    (lambda d: "[1, 2]", "top level must be an object"),
+    (lambda d: d.replace('"gmm2d"', '"gmm2"'), "'gmm2d' must be an object"),
+    (lambda d: d[: len(d) // 2], "not valid JSON"),
+    (lambda d: d.replace('"window": 8', '"window": -3'), "window must be in"),
+    (lambda d: d.replace('"evidence_weight": 0.18', '"evidence_weight": 7'), "evidence_weight"),
+    (lambda d: d.replace('"weights": [', '"weights": [-5, ', 1), "GaussianMixtureDensity"),
+])
+def test_validate_opens_the_intention_model_and_names_what_is_wrong(damage, reason, tmp_path, capsys):
+    from hrc_drake.intention.likelihood import DEFAULT_MODEL_PATH
+
+    text = DEFAULT_MODEL_PATH.read_text()
+    assert damage(text) != text
+    (tmp_path / "model.json").write_text(damage(text))
+    scenario = (DIAGRAMS / "box_usb.yaml").read_text().replace(
+        "intention: !GmmBayesIntention {", "intention: !GmmBayesIntention {model: model.json, ")
+    (tmp_path / "cell.yaml").write_text(scenario)
+    assert main(["validate", str(tmp_path / "cell.yaml")]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "intention.model" in err and reason in err, err

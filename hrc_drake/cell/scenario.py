@@ -201,11 +201,36 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
     except (RuntimeError, ValueError, TypeError) as err:
         raise ScenarioError(path, "", f"cannot be read as a scenario: {err}") from err
     check_scenario(scenario, path)
+    check_referenced_files(scenario, path)
     if check_reachability:
         from hrc_drake.robots.poses import solve_named_poses  # IK: pydrake's solvers, only when asked
 
         solve_named_poses(scenario.robots, path)
     return scenario
+
+
+def check_referenced_files(sc: Scenario, file: str | Path) -> None:
+    """Open the files a scenario names and check their contents as the build would: the
+    recorded skeleton CSV (`human.recorded.load_skeleton_csv`) and the intention model
+    (`IntentionModel.load`), each relative to the scenario's folder."""
+    if sc.operator.recorded:
+        from hrc_drake.human.recorded import load_skeleton_csv
+
+        recorded = scenario_relative(file, sc.operator.recorded)
+        if not recorded.is_file():
+            raise ScenarioError(file, "operator.recorded", f"no such file: {recorded}")
+        try:
+            load_skeleton_csv(recorded)
+        except ValueError as err:
+            raise ScenarioError(file, "operator.recorded", str(err)) from None
+    model = getattr(sc.intention, "model", "")
+    if model:
+        from hrc_drake.intention.likelihood import IntentionModel
+
+        try:
+            IntentionModel.load(scenario_relative(file, model))
+        except ValueError as err:
+            raise ScenarioError(file, "intention.model", str(err)) from None
 
 
 def _check_vec(file, field, values, n=3):

@@ -33,9 +33,25 @@ def _number(text: str, path, line: int, column: str) -> float:
 
 
 def load_skeleton_csv(path):
-    """Read a skeleton CSV -> times (T,), points (T, 8, 3) with NaN where untracked, tracked (T, 8) bool."""
+    """Read a skeleton CSV -> times (T,), points (T, 8, 3) with NaN where untracked, tracked (T, 8) bool.
+
+    Raises ValueError naming the file (and line) for anything it cannot read: not UTF-8, not
+    CSV, a bad header, a row of the wrong length, a value that is not a number, a flag not 0/1,
+    a tracked point with a NaN coordinate, time not increasing, no rows.
+    """
     path = Path(path)
-    with path.open(newline="") as handle:
+    try:
+        return _read_skeleton_csv(path)
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: not UTF-8 text (byte {err.start}): save the file as UTF-8") from None
+    except csv.Error as err:
+        raise ValueError(f"{path}: not a readable CSV file: {err}") from None
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read it: {err.strerror or err}") from None
+
+
+def _read_skeleton_csv(path: Path):
+    with path.open(newline="", encoding="utf-8") as handle:
         reader = csv.reader(handle)
         try:
             header = [h.strip() for h in next(reader)]

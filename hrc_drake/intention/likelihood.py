@@ -9,6 +9,7 @@ loaded as JSON (weights, means, covariances), never pickled.
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,8 @@ import numpy as np
 
 from hrc_drake.intention.features import DEFAULT_MIN_SPEED, DEFAULT_SIGNIFICANCE, DEFAULT_WINDOW, PSI_COLUMNS
 
+#: An intention model is two small mixtures: a file larger than this is not one.
+MAX_MODEL_BYTES = 20_000_000
 DEFAULT_MODEL_PATH = Path(__file__).resolve().parents[1] / "data" / "intention_default.json"
 _LOG_2PI = np.log(2.0 * np.pi)
 
@@ -135,6 +138,16 @@ class IntentionModel:
                 f"IntentionModel: GMM4d needs 4 features and GMM2d 2, got "
                 f"{self.gmm4d.n_features} and {self.gmm2d.n_features}"
             )
+        # The velocity estimator's settings: a line needs 2 samples, a speed and a test level.
+        if not 2 <= self.window <= 1000:
+            raise ValueError(f"IntentionModel: window must be in [2, 1000] samples, got {self.window}")
+        if not (math.isfinite(self.min_speed) and self.min_speed >= 0):
+            raise ValueError(f"IntentionModel: min_speed must be a finite speed >= 0, got {self.min_speed}")
+        if not 0 <= self.significance <= 100:
+            raise ValueError(f"IntentionModel: significance must be in [0, 100] standard errors, got "
+                             f"{self.significance}")
+        if not 0 < self.evidence_weight <= 1:
+            raise ValueError(f"IntentionModel: evidence_weight must be in (0, 1], got {self.evidence_weight}")
 
     def to_dict(self) -> dict:
         return {
@@ -151,8 +164,9 @@ class IntentionModel:
     @classmethod
     def from_dict(cls, data: dict) -> IntentionModel:
         for key in ("gmm4d", "gmm2d"):
-            if key not in data:
-                raise ValueError(f"IntentionModel.from_dict: missing key {key!r}")
+            if not isinstance(data.get(key), dict):
+                raise ValueError(f"IntentionModel.from_dict: {key!r} must be an object of weights, means, "
+                                 "covariances")
         return cls(
             GaussianMixtureDensity.from_dict(data["gmm4d"]),
             GaussianMixtureDensity.from_dict(data["gmm2d"]),
@@ -169,15 +183,28 @@ class IntentionModel:
 
     @classmethod
     def load(cls, path) -> IntentionModel:
+        """Read a model saved by `save`; ValueError naming the file for anything it cannot use."""
         path = Path(path)
         try:
-            data = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as err:
-            raise ValueError(f"IntentionModel.load: cannot read {path}: {err}") from err
-        try:
+            size = path.stat().st_size
+            if size > MAX_MODEL_BYTES:
+                raise ValueError(f"{size / 1e6:.1f} MB is too large for an intention model "
+                                 f"(at most {MAX_MODEL_BYTES / 1e6:g} MB)")
+            data = json.loads(path.read_bytes().decode("utf-8"))
+            if not isinstance(data, dict):
+                raise ValueError(f"the top level must be an object with 'gmm4d' and 'gmm2d', got "
+                                 f"{type(data).__name__}")
             return cls.from_dict(data)
-        except ValueError as err:
-            raise ValueError(f"IntentionModel.load: {path}: {err}") from err
+        except OSError as err:
+            raise ValueError(f"IntentionModel.load: cannot read {path}: {err.strerror or err}") from None
+        except UnicodeDecodeError as err:
+            raise ValueError(f"IntentionModel.load: {path}: not UTF-8 text (byte {err.start})") from None
+        except json.JSONDecodeError as err:
+            raise ValueError(f"IntentionModel.load: {path}: not valid JSON: {err}") from None
+        except RecursionError:
+            raise ValueError(f"IntentionModel.load: {path}: nested too deeply to be a model") from None
+        except (ValueError, TypeError, KeyError, AttributeError) as err:
+            raise ValueError(f"IntentionModel.load: {path}: {err}") from None
 
 
 def default_model() -> IntentionModel:
