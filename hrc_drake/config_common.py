@@ -10,6 +10,30 @@ from dataclasses import dataclass, field
 #: The longest simulated run a scenario or the command line may ask for (s): a week.
 MAX_SIMULATED_DURATION = 7 * 24 * 3600.0
 
+# Plausibility ranges of a scenario's physical quantities (README "Scenario checks"). A value
+# outside is a typo or a unit slip (mm for m, ms for s), refused with its range; each bound
+# is loose by a factor of ten or more around any real assembly cell.
+#: |coordinate| of any position in the cell (m): a cell fits in a 40 m box around the origin
+MAX_CELL_COORDINATE = 20.0
+#: a size of the table, an occluder or the robot workspace (m)
+MAX_OBJECT_SIZE = 10.0
+#: the radius of a goal region (m)
+MAX_GOAL_RADIUS = 2.0
+#: |angle| of a roll, pitch or yaw (rad): one turn
+MAX_ANGLE = 2 * 3.141592653589793
+#: any parameter of an action's duration (mean, std, bounds, samples) and a robot's dwell (s)
+MAX_ACTION_DURATION = 3600.0
+#: a segment of the operator's body (m): torso, neck, shoulder width, upper arm, forearm
+MAX_SEGMENT_LENGTH = 1.0
+#: the depth camera's noise standard deviation (m): beyond it the camera sees nothing
+MAX_CAMERA_NOISE = 0.5
+#: parts in a buffer (capacity or initial) and units of a shared resource
+MAX_PARTS = 10_000
+#: the time step of a dynamic plant (s): below 0.5 ms a cell runs slower than real time
+MIN_TIME_STEP, MAX_TIME_STEP = 5e-4, 0.05
+#: the minimum human-robot distance a cell must keep, for reports (m)
+MAX_SAFETY_DISTANCE = 2.0
+
 
 @dataclass
 class Pose:

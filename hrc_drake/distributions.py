@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import ndtr, ndtri
 
+from hrc_drake.config_common import MAX_ACTION_DURATION
 from hrc_drake.errors import ConfigError
 
 KINDS = ("fixed", "normal", "uniform", "triangular", "lognormal", "empirical")
@@ -94,7 +95,16 @@ def validate_distribution(dist: Distribution, where: str = "duration", positive:
 
 
 def _check_positive(dist: Distribution, where: str) -> None:
-    """A duration of an action: every value it can take is > 0."""
+    """A duration of an action: every value it can take is > 0, and no parameter exceeds
+    `MAX_ACTION_DURATION` (plausibility)."""
+    for name in ("mean", "std", "low", "high", "mode"):
+        value = getattr(dist, name)
+        if value > MAX_ACTION_DURATION:
+            raise ConfigError(f"{where}.{name}", f"{value:g} s is implausible for one action (at most "
+                                                 f"{MAX_ACTION_DURATION:g} s)")
+    if dist.samples and max(dist.samples) > MAX_ACTION_DURATION:
+        raise ConfigError(f"{where}.samples", f"a sample above {MAX_ACTION_DURATION:g} s is implausible for "
+                                              "one action")
     kind = dist.kind
     if kind in ("fixed", "normal", "lognormal") and dist.mean <= 0:
         raise ConfigError(f"{where}.mean", f"a duration must be positive, got {dist.mean}")

@@ -214,3 +214,32 @@ def test_validate_opens_the_intention_model_and_names_what_is_wrong(damage, reas
     assert main(["validate", str(tmp_path / "cell.yaml")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
     assert "intention.model" in err and reason in err, err
+
+
+@pytest.mark.parametrize("where, value, field", [
+    (("operator", "actions", 0, "duration", "mean"), 1e12, "operator.actions[0].duration.mean"),
+    (("operator", "segments"), {"upper_arm": 100.0}, "operator.segments.upper_arm"),
+    (("layout", "camera", "noise_std"), 1e6, "layout.camera.noise_std"),
+    (("layout", "goals", 0, "center", 0), 1e12, "layout.goals[0].center[0]"),
+    (("layout", "goals", 0, "radius"), 50.0, "layout.goals[0].radius"),
+    (("layout", "buffers", 0, "capacity"), 10**12, "layout.buffers[0].capacity"),
+    (("robots", 0, "mode"), "dynamic", None),  # with the next edit: a time step that runs forever
+    (("robots", 0, "base", "rpy"), [0.0, 0.0, 1e6], "robots[0].base.rpy[2]"),
+    (("robots", 0, "actions", 0, "dwell"), 1e5, "robots[0].actions[0].dwell"),
+    (("flow", "actions", 0, "duration", "mean"), 1e12, "flow.actions[0].duration.mean"),
+    (("safety_distance",), -0.1, "safety_distance"),
+    (("metrics",), {"warmup_products": -1}, "metrics.warmup_products"),
+])
+def test_implausible_physical_quantities_are_refused_with_their_range(where, value, field, tmp_path, capsys):
+    from tests.cell.fuzz import mutant_text
+
+    path = tmp_path / "bad.yaml"
+    path.write_text(mutant_text(DIAGRAMS / "torch_clock.yaml", where, value))
+    if field is None:  # a dynamic plant is fine at its time step, not at 1e-7 s
+        assert main(["validate", str(path)]) == 0
+        path.write_text(mutant_text(path, ("robots", 0, "time_step"), 1e-7))
+        field = "robots[0].time_step"
+    capsys.readouterr()
+    assert main(["validate", str(path)]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert field in err and ("implausible" in err or "must be in" in err), err

@@ -18,7 +18,20 @@ from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.cell import schema
 from hrc_drake.cell.schema import SYSTEM_FIELDS, Scenario
-from hrc_drake.config_common import MAX_SIMULATED_DURATION
+from hrc_drake.config_common import (
+    MAX_ACTION_DURATION,
+    MAX_ANGLE,
+    MAX_CAMERA_NOISE,
+    MAX_CELL_COORDINATE,
+    MAX_GOAL_RADIUS,
+    MAX_OBJECT_SIZE,
+    MAX_PARTS,
+    MAX_SAFETY_DISTANCE,
+    MAX_SEGMENT_LENGTH,
+    MAX_SIMULATED_DURATION,
+    MAX_TIME_STEP,
+    MIN_TIME_STEP,
+)
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError
 from hrc_drake.robots.registry import ROBOT_MODELS
@@ -233,9 +246,29 @@ def check_referenced_files(sc: Scenario, file: str | Path) -> None:
             raise ScenarioError(file, "intention.model", str(err)) from None
 
 
-def _check_vec(file, field, values, n=3):
+def _check_vec(file, field, values, n=3, bound=MAX_CELL_COORDINATE, unit="m"):
+    """`n` finite numbers of magnitude at most `bound` (a plausibility range, config_common)."""
     if len(values) != n:
         raise ScenarioError(file, field, f"expected {n} numbers, got {len(values)}")
+    for k, value in enumerate(values):
+        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+            raise ScenarioError(file, f"{field}[{k}]", f"must be a finite number, got {value!r}")
+        if abs(value) > bound:
+            raise ScenarioError(file, f"{field}[{k}]", f"{value:g} {unit} is implausible (at most {bound:g} {unit} "
+                                                       "in magnitude)")
+
+
+def _check_pose(file, field, pose):
+    _check_vec(file, f"{field}.xyz", pose.xyz)
+    _check_vec(file, f"{field}.rpy", pose.rpy, bound=MAX_ANGLE, unit="rad")
+
+
+def _in_range(file, field, value, low, high, unit=""):
+    """A finite number in [low, high] (a plausibility range where it bounds a physical quantity)."""
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            and low <= value <= high):
+        raise ScenarioError(file, field, f"must be in [{low:g}, {high:g}]{' ' + unit if unit else ''}, got "
+                                         f"{value!r}")
 
 
 def check_distribution(file, field: str, dist: Distribution) -> None:
@@ -269,6 +302,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                                               f"{MAX_SIMULATED_DURATION:g}], got {sc.duration}")
     if isinstance(sc.seed, bool) or not isinstance(sc.seed, int) or not 0 <= sc.seed < 2**32:
         raise ScenarioError(file, "seed", f"must be an integer in [0, 2^32), got {sc.seed!r}")
+    _in_range(file, "safety_distance", sc.safety_distance, 0.0, MAX_SAFETY_DISTANCE, "m")
     m = sc.metrics
     if isinstance(m.warmup_products, bool) or not isinstance(m.warmup_products, int) or not (
             0 <= m.warmup_products <= 1000):
@@ -281,15 +315,17 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     goals = _unique(file, "layout.goals", [g.name for g in lay.goals])
     for i, g in enumerate(lay.goals):
         _check_vec(file, f"layout.goals[{i}].center", g.center)
-        if g.radius <= 0:
-            raise ScenarioError(file, f"layout.goals[{i}].radius", f"must be positive, got {g.radius}")
+        if not 0 < g.radius <= MAX_GOAL_RADIUS:
+            raise ScenarioError(file, f"layout.goals[{i}].radius", f"must be in (0, {MAX_GOAL_RADIUS:g}] m, got "
+                                                                   f"{g.radius}")
     buffers = _unique(file, "layout.buffers", [b.name for b in lay.buffers])
     for i, b in enumerate(lay.buffers):
         _kind(file, f"layout.buffers[{i}].kind", b.kind, BUFFER_KINDS)
         _check_vec(file, f"layout.buffers[{i}].position", b.position)
         if b.kind == "intermediate" and b.capacity < 1:
             raise ScenarioError(file, f"layout.buffers[{i}].capacity", f"must be >= 1, got {b.capacity}")
-        if b.initial < 0 or (b.kind == "intermediate" and b.initial > b.capacity):
+        _in_range(file, f"layout.buffers[{i}].capacity", b.capacity, 0, MAX_PARTS, "parts")
+        if b.initial < 0 or b.initial > MAX_PARTS or (b.kind == "intermediate" and b.initial > b.capacity):
             raise ScenarioError(
                 file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}"
             )
@@ -300,11 +336,15 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     places = goals | buffers
     for i, o in enumerate(lay.occluders):
         _check_vec(file, f"layout.occluders[{i}].center", o.center)
-        _check_vec(file, f"layout.occluders[{i}].size", o.size)
+        _check_vec(file, f"layout.occluders[{i}].size", o.size, bound=MAX_OBJECT_SIZE)
         if min(o.size) <= 0:
             raise ScenarioError(file, f"layout.occluders[{i}].size", "sizes must be positive")
     _check_vec(file, "layout.table.center", lay.table.center)
-    _check_vec(file, "layout.table.size", lay.table.size)
+    _check_vec(file, "layout.table.size", lay.table.size, bound=MAX_OBJECT_SIZE)
+    _check_vec(file, "layout.workspace_center", lay.workspace_center)
+    _check_vec(file, "layout.workspace_size", lay.workspace_size, bound=MAX_OBJECT_SIZE)
+    if min(lay.workspace_size) <= 0:
+        raise ScenarioError(file, "layout.workspace_size", f"sizes must be positive, got {lay.workspace_size}")
     if not all(math.isfinite(x) for x in (*lay.table.center, *lay.table.size, lay.table.height)):
         raise ScenarioError(file, "layout.table", "center, size and height must be finite")
     if min(lay.table.size) <= 0:
@@ -320,8 +360,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                                                           "camera looks from its position at the target)")
     if not 0 < lay.camera.rate <= 120:
         raise ScenarioError(file, "layout.camera.rate", f"must be in (0, 120] Hz, got {lay.camera.rate}")
-    if lay.camera.noise_std < 0:
-        raise ScenarioError(file, "layout.camera.noise_std", "must be >= 0")
+    _in_range(file, "layout.camera.noise_std", lay.camera.noise_std, 0.0, MAX_CAMERA_NOISE, "m")
 
     agents: set[str] = set()
     _unique(file, "robots", [r.name for r in sc.robots])
@@ -335,7 +374,10 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
             )
         model = ROBOT_MODELS[robot.model]
         _kind(file, f"{field}.mode", robot.mode, ROBOT_MODES)
-        if robot.time_step <= 0:
+        _check_pose(file, f"{field}.base", robot.base)
+        if robot.mode == "dynamic":
+            _in_range(file, f"{field}.time_step", robot.time_step, MIN_TIME_STEP, MAX_TIME_STEP, "s")
+        elif not robot.time_step > 0:
             raise ScenarioError(file, f"{field}.time_step", "must be positive")
         arm_names = model.arm_names
         poses = _unique(file, f"{field}.poses", [p.name for p in robot.poses])
@@ -355,8 +397,9 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                         file, f"{pf}.joints", f"expected {n} joint values, got {len(pose.joints)}"
                     )
             else:
-                _check_vec(file, f"{pf}.target.xyz", pose.target.xyz)
-                _check_vec(file, f"{pf}.target.rpy", pose.target.rpy)
+                _check_pose(file, f"{pf}.target", pose.target)
+                # IK tolerances (m): below 0.1 mm the solver's own precision, above 10 cm no target
+                _in_range(file, f"{pf}.tolerance", pose.tolerance, 1e-4, 0.1, "m")
             pose_arm[pose.name] = pose.arm
         actions = _unique(file, f"{field}.actions", [a.name for a in robot.actions])
         for j, action in enumerate(robot.actions):
@@ -372,8 +415,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                     raise ScenarioError(
                         file, f"{af}.poses[{k}]", f"pose '{pose_name}' belongs to another arm"
                     )
-            if action.dwell < 0:
-                raise ScenarioError(file, f"{af}.dwell", "must be >= 0")
+            _in_range(file, f"{af}.dwell", action.dwell, 0.0, MAX_ACTION_DURATION, "s")
         for j, arm in enumerate(robot.arms):
             af = f"{field}.arms[{j}]"
             if arm.arm not in arm_names:
@@ -394,9 +436,11 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         raise ScenarioError(file, "operator.name", f"'{op.name}' is also a robot agent")
     agents.add(op.name)
     seg = op.segments
+    _check_pose(file, "operator.base", op.base)
     for name in ("torso", "neck", "shoulder_width", "upper_arm", "forearm"):
-        if getattr(seg, name) <= 0:
-            raise ScenarioError(file, f"operator.segments.{name}", "must be positive")
+        if not 0 < getattr(seg, name) <= MAX_SEGMENT_LENGTH:
+            raise ScenarioError(file, f"operator.segments.{name}", f"must be in (0, {MAX_SEGMENT_LENGTH:g}] m, "
+                                                                   f"got {getattr(seg, name)}")
     op_actions = _unique(file, "operator.actions", [a.name for a in op.actions])
     for i, a in enumerate(op.actions):
         af = f"operator.actions[{i}]"
@@ -568,8 +612,9 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
                 raise ScenarioError(file, f"{af}.resources[{k}]", f"unknown resource '{r}'")
         check_distribution(file, f"{af}.duration", action.duration)
     for r, units in flow.resources.items():
-        if units < 1:
-            raise ScenarioError(file, f"flow.resources.{r}", f"needs at least 1 unit, got {units}")
+        if isinstance(units, bool) or not isinstance(units, int) or not 1 <= units <= MAX_PARTS:
+            raise ScenarioError(file, f"flow.resources.{r}", f"needs an integer number of units in [1, "
+                                                             f"{MAX_PARTS}], got {units!r}")
     # An action is live when every input buffer is raw, starts with parts, or is fed by a live action.
     live_buffers = {b.name for b in sc.layout.buffers if b.kind == "raw" or b.initial > 0}
     live_actions: set[str] = set()

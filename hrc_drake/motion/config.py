@@ -81,9 +81,12 @@ class WorstCaseMotionModel:
         """Raise `ConfigError` naming `path.field` for a value the predictor cannot use."""
         _finite(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
         _finite(self.horizon, path, "horizon", 0.0, 10.0, low_open=True)
-        for name in ("process_std", "torso_process_std", "base_process_std", "point_std", "measurement_std",
-                     "joint_speed", "joint_accel", "base_speed", "base_accel"):
-            _finite(getattr(self, name), path, name, 0.0, low_open=True)
+        # Plausibility ranges: a human's joints, base and noise, loose by ten or more around the
+        # defaults (thesis 8.1.3 measures joint speeds of ~3 rad/s and a walking base of ~1.6 m/s).
+        for name, high in (("process_std", 100.0), ("torso_process_std", 100.0), ("base_process_std", 100.0),
+                           ("point_std", 1.0), ("measurement_std", 1.0), ("joint_speed", 30.0),
+                           ("joint_accel", 300.0), ("base_speed", 10.0), ("base_accel", 50.0)):
+            _finite(getattr(self, name), path, name, 0.0, high, low_open=True)
         _integer(self.levels, 2, 10, path, "levels")
         _finite(self.margin, path, "margin", 0.0, 1.0)
 
