@@ -254,8 +254,8 @@ def _check_vec(file, field, values, n=3, bound=MAX_CELL_COORDINATE, unit="m"):
         if not (isinstance(value, (int, float)) and math.isfinite(value)):
             raise ScenarioError(file, f"{field}[{k}]", f"must be a finite number, got {value!r}")
         if abs(value) > bound:
-            raise ScenarioError(file, f"{field}[{k}]", f"{value:g} {unit} is implausible (at most {bound:g} {unit} "
-                                                       "in magnitude)")
+            raise ScenarioError(file, f"{field}[{k}]", f"{value:g} {unit} is implausible (at most "
+                                                       f"{bound:g} {unit} in magnitude)")
 
 
 def _check_pose(file, field, pose):
@@ -316,8 +316,8 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     for i, g in enumerate(lay.goals):
         _check_vec(file, f"layout.goals[{i}].center", g.center)
         if not 0 < g.radius <= MAX_GOAL_RADIUS:
-            raise ScenarioError(file, f"layout.goals[{i}].radius", f"must be in (0, {MAX_GOAL_RADIUS:g}] m, got "
-                                                                   f"{g.radius}")
+            raise ScenarioError(file, f"layout.goals[{i}].radius",
+                                f"must be in (0, {MAX_GOAL_RADIUS:g}] m, got {g.radius}")
     buffers = _unique(file, "layout.buffers", [b.name for b in lay.buffers])
     for i, b in enumerate(lay.buffers):
         _kind(file, f"layout.buffers[{i}].kind", b.kind, BUFFER_KINDS)
@@ -344,7 +344,8 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _check_vec(file, "layout.workspace_center", lay.workspace_center)
     _check_vec(file, "layout.workspace_size", lay.workspace_size, bound=MAX_OBJECT_SIZE)
     if min(lay.workspace_size) <= 0:
-        raise ScenarioError(file, "layout.workspace_size", f"sizes must be positive, got {lay.workspace_size}")
+        raise ScenarioError(file, "layout.workspace_size",
+                            f"sizes must be positive, got {lay.workspace_size}")
     if not all(math.isfinite(x) for x in (*lay.table.center, *lay.table.size, lay.table.height)):
         raise ScenarioError(file, "layout.table", "center, size and height must be finite")
     if min(lay.table.size) <= 0:
@@ -439,8 +440,8 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _check_pose(file, "operator.base", op.base)
     for name in ("torso", "neck", "shoulder_width", "upper_arm", "forearm"):
         if not 0 < getattr(seg, name) <= MAX_SEGMENT_LENGTH:
-            raise ScenarioError(file, f"operator.segments.{name}", f"must be in (0, {MAX_SEGMENT_LENGTH:g}] m, "
-                                                                   f"got {getattr(seg, name)}")
+            raise ScenarioError(file, f"operator.segments.{name}",
+                                f"must be in (0, {MAX_SEGMENT_LENGTH:g}] m, got {getattr(seg, name)}")
     op_actions = _unique(file, "operator.actions", [a.name for a in op.actions])
     for i, a in enumerate(op.actions):
         af = f"operator.actions[{i}]"
