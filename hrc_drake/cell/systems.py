@@ -322,8 +322,8 @@ class RecorderRun(Immutable):
     stats: SampleStats = SampleStats()
     events: AppendOnly = AppendOnly()
     perceived: AppendOnly = AppendOnly()
-    #: (time, Forecast) at every sample whose forecast differs from the last one kept
-    forecasts: AppendOnly = AppendOnly()
+    #: (time, Forecast) at every sample whose forecast differs from the last one, bounded as `samples`
+    forecasts: DecimatedTrace = DecimatedTrace()
     #: the last seq read from human, robot, intention and perceived events
     seen: tuple[int, int, int, int] = (0, 0, 0, 0)
     last_time: float = -np.inf
@@ -342,9 +342,9 @@ class MetricsRecorder(LeafSystem):
     the context's time.
 
     Memory is flat in simulated time: the samples are a `DecimatedTrace` of at most
-    `max_samples` (every sample up to max_samples * period s, then evenly thinned), while the
-    minimum distance and the mean override are exact over every sample. Events are all kept
-    (a few hundred bytes each: ~0.3 MB per hour of a cell).
+    `max_samples` (every sample up to max_samples * period s, then evenly thinned; the changed
+    forecasts likewise), while the minimum distance and the mean override are exact over every
+    sample. Events are all kept (a few hundred bytes each: ~0.3 MB per hour of a cell).
 
     A recorder, as Drake's `VectorLogSink`: what it recorded is a `RecorderRun` in a cache entry
     of the Context that its periodic publish event replaces (the entry depends on nothing, so
@@ -386,7 +386,8 @@ class MetricsRecorder(LeafSystem):
         return self._record_entry.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
 
     def _clear(self, context):
-        self._recording(context).run = RecorderRun(samples=DecimatedTrace(self._max_samples))
+        self._recording(context).run = RecorderRun(samples=DecimatedTrace(self._max_samples),
+                                                   forecasts=DecimatedTrace(self._max_samples))
         return EventStatus.Succeeded()
 
     def _sample(self, context, run: RecorderRun) -> RecorderRun:
@@ -408,7 +409,7 @@ class MetricsRecorder(LeafSystem):
         if self._forecast.HasValue(context):
             forecast = self._forecast.Eval(context)
             if forecast is not last_forecast:
-                forecasts, last_forecast = forecasts.append((t, forecast)), forecast
+                forecasts, last_forecast = forecasts.offer((t, forecast)), forecast
         perceived = run.perceived
         if self._perceived_events.HasValue(context):
             new = self._perceived_events.Eval(context).since(seen[3])
