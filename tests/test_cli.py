@@ -243,3 +243,19 @@ def test_implausible_physical_quantities_are_refused_with_their_range(where, val
     assert main(["validate", str(path)]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
     assert field in err and ("implausible" in err or "must be in" in err), err
+
+
+@pytest.mark.parametrize("fields, field", [
+    ({"collaboration": "H1"}, "scheduler.collaboration"),  # the human's alone: no robot to commit
+    ({"collaboration": "no_such_action"}, "scheduler.collaboration"),
+    ({"collaboration": "H1", "human_action": "H2"}, "scheduler.feed_action"),  # case 1 needs both
+])
+def test_a_best_scenario_scheduler_must_name_a_collaboration(fields, field, tmp_path, capsys):
+    from hrc_drake.cell.scenario import Tagged
+    from tests.cell.fuzz import mutant_text
+
+    path = tmp_path / "bad.yaml"
+    path.write_text(mutant_text(DIAGRAMS / "torch_clock.yaml", ("scheduler",), Tagged("BestScenarioScheduler",
+                                                                                     fields)))
+    assert main(["validate", str(path)]) == EXIT_BAD_INPUT
+    assert field in capsys.readouterr().err

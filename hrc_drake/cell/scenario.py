@@ -520,6 +520,7 @@ def _check_systems(sc: Scenario, file) -> None:
         raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
     _check_perceived_events(sc, file)
     _check_collaboration_scheduler(sc, file)
+    _check_best_scenario_scheduler(sc, file)
 
 
 def _check_collaboration_scheduler(sc: Scenario, file) -> None:
@@ -554,6 +555,38 @@ def _check_collaboration_scheduler(sc: Scenario, file) -> None:
         raise ScenarioError(file, "scheduler.percentile",
                             f"{config.percentile} is outside the predictor's percentile_levels {levels}: "
                             "add it to predictor.percentile_levels")
+
+
+def _check_best_scenario_scheduler(sc: Scenario, file) -> None:
+    """The best-scenario scheduler (7.2) names a collaboration of the human with robots and,
+    for case 1, a human action and a robot action; it reads the predictor's forecast at its
+    two percentile levels."""
+    from hrc_drake.prediction.config import NoPredictor
+    from hrc_drake.scheduling.config import BestScenarioScheduler
+
+    config = sc.scheduler
+    if not isinstance(config, BestScenarioScheduler):
+        return
+    human, flow = sc.operator.name, {a.name: a for a in sc.flow.actions}
+    action = flow.get(config.collaboration)
+    if action is None or human not in action.agents or len(action.agents) < 2:
+        raise ScenarioError(file, "scheduler.collaboration", f"'{config.collaboration}' is not a flow action "
+                                                              f"of '{human}' with robots")
+    if config.human_action and (config.human_action not in flow
+                                or list(flow[config.human_action].agents) != [human]):
+        raise ScenarioError(file, "scheduler.human_action",
+                            f"'{config.human_action}' is not a flow action of '{human}' alone")
+    if config.feed_action and (config.feed_action not in flow or human in flow[config.feed_action].agents):
+        raise ScenarioError(file, "scheduler.feed_action", f"'{config.feed_action}' is not a robot action of "
+                                                            "the flow")
+    if isinstance(sc.predictor, NoPredictor):
+        raise ScenarioError(file, "scheduler", "the best-scenario scheduler reads a forecast: the cell needs "
+                                               "a predictor (e.g. !HigherOrderMarkovPredictor {})")
+    levels = [float(x) for x in getattr(sc.predictor, "percentile_levels", [])]
+    for k, level in enumerate(config.percentiles):
+        if not any(math.isclose(level, x) for x in levels):
+            raise ScenarioError(file, f"scheduler.percentiles[{k}]", f"{level} is not one of the predictor's "
+                                                                      f"percentile_levels {levels}")
 
 
 def _check_perceived_events(sc: Scenario, file) -> None:

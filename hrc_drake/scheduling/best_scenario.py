@@ -21,12 +21,13 @@ import numpy as np
 from scipy.stats import lognorm
 
 from hrc_drake.distributions import Distribution
+from hrc_drake.messages import Forecast
+from hrc_drake.scheduling.config import TIE_BREAKS
 from hrc_drake.scheduling.petri import PcTPN
 
-#: Ways to choose among plans of equal cost C* (7.2.2 leaves it open and names criteria):
-#: "most_work" keeps the plan with the most robot operations before t_c, the first criterion
-#: the text names; "first_found" keeps the first plan found, as Algorithm 2 is printed.
-TIE_BREAKS = ("most_work", "first_found")
+# Ways to choose among plans of equal cost C* (7.2.2 leaves it open and names criteria):
+# "most_work" keeps the plan with the most robot operations before t_c, the first criterion
+# the text names; "first_found" keeps the first plan found, as Algorithm 2 is printed.
 
 #: places holding the human's own state (compiler, 6.3.2)
 _HUMAN_PLACE_PREFIXES = ("step:", "hwait:", "human:idle")
@@ -273,14 +274,17 @@ class BestScenarioPolicy:
     of `human_action` (absolute times, s). Case 1 of 7.2.1 (P_a1 < P_c1 and operation 2 lacks
     its parts) commands `feed_action`; cases 2 and 3 run the planner and apply the first
     commands of its plan that concern the deciding agent, else the agent waits. Without a
-    forecast the window is [now, now] (the human may be ready at once): our choice.
+    forecast the window is [now, now] (the human may be ready at once): our choice; so it is
+    while the net says the human already waits for the collaboration.
+    levels: the forecast's percentile levels of P_1 and P_2 (`set_forecast_from`).
     learn: widen each support to the delays observed (the "on line correction" 7.1 allows).
     """
 
     def __init__(self, net: PcTPN, collaboration: str, human_action: str = "", feed_action: str = "",
                  c_r: float = 1.0, c_h: float = 1.0, horizon: float = 60.0, ties: str = "most_work",
-                 learn: bool = True, max_nodes: int = 200_000):
+                 learn: bool = True, max_nodes: int = 200_000, levels=(0.2, 0.8)):
         self.net = net
+        self.levels = (float(levels[0]), float(levels[1]))
         self.planner = BestScenarioPlanner(net, f"{collaboration}:commit", c_r=c_r, c_h=c_h, horizon=horizon,
                                            ties=ties, max_nodes=max_nodes)
         self.collaboration = collaboration
@@ -289,6 +293,11 @@ class BestScenarioPolicy:
         if self.feed is not None and not net.controllable[self.feed]:
             raise ValueError(f"BestScenarioPolicy: feed_action {feed_action!r} is not a robot action")
         self._human_inputs = self._inputs_of(human_action) if human_action else None
+        # the places where the human waits to start the collaboration (6.3.2 hwait:<k>)
+        begins = [j for j in range(net.n_transitions) if net.action[j] == collaboration
+                  and net.role[j] == "begin" and not net.controllable[j]]
+        self._human_waits = np.array(sorted({i for j in begins for i in np.flatnonzero(net.pre[:, j])
+                                             if net.places[i].startswith("hwait:")}), dtype=int)
         self.learn = learn
         self.window: tuple[float, float, float] | None = None
         self.last_plan_: Plan | None = None
@@ -310,6 +319,25 @@ class BestScenarioPolicy:
                              f"{p_c1}, {p_c2}, {p_a1}")
         self.window = (float(p_c1), float(p_c2), float(p_a1))
 
+    def set_forecast_from(self, forecast: Forecast, horizon_end: float) -> None:
+        """`set_forecast` from the activity predictor's forecast (waiting times from
+        forecast.time, Ch. 5) at the levels `levels`; a time beyond the predictor's reach
+        (inf) becomes `horizon_end`, the end of the planning horizon."""
+        def at(action: str, level: float) -> float:
+            if action not in forecast.actions:
+                return horizon_end
+            levels = np.asarray(forecast.percentile_levels, dtype=float)
+            k = np.flatnonzero(np.isclose(levels, level))
+            if k.size == 0:
+                raise ValueError(f"BestScenarioPolicy: the forecast has no percentile level {level} "
+                                 f"(levels {levels.tolist()})")
+            w = float(np.asarray(forecast.waiting_percentiles)[forecast.actions.index(action), k[0]])
+            return min(forecast.time + w, horizon_end) if math.isfinite(w) else horizon_end
+
+        p_c1, p_c2 = at(self.collaboration, self.levels[0]), at(self.collaboration, self.levels[1])
+        p_a1 = at(self.human_action, self.levels[0]) if self.human_action else math.inf
+        self.set_forecast(min(p_c1, p_c2), max(p_c1, p_c2), p_a1)
+
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
         """The controllable transition to fire now for robot `agent` (7.2.1 cases 1-3)."""
         net = self.net
@@ -319,6 +347,8 @@ class BestScenarioPolicy:
             raise ValueError(f"BestScenarioPolicy.decide: robot {agent!r} has no enabled transition")
         wait = net.transition_index.get(f"{agent}:wait")
         p_c1, p_c2, p_a1 = self.window if self.window is not None else (now, now, math.inf)
+        if self._human_waits.size and np.any(np.asarray(marking)[self._human_waits] > 0):
+            p_c1 = p_c2 = now  # the human is there: every second the robots are not costs c_H
         if (self.feed is not None and self.feed in choices and p_a1 < p_c1
                 and not np.all(np.asarray(marking)[self._human_inputs] > 0)):
             return int(self.feed)  # case 1: supply the human's next operation

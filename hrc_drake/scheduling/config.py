@@ -161,6 +161,56 @@ class MonteCarloScheduler(_SchedulerCommon):
         check(self.rollout in ROLLOUTS, f"{path}.rollout", f"{self.rollout!r} is not one of {ROLLOUTS}")
 
 
+#: How the best-scenario scheduler chooses among plans of equal cost (best_scenario.TIE_BREAKS).
+TIE_BREAKS = ("most_work", "first_found")
+
+
+@dataclass
+class BestScenarioScheduler(_SchedulerCommon):
+    """Best-scenario branch and bound, thesis 7.2 (Algorithms 2-3, cost eq. 7.1-7.2), with the
+    P_a1 / P_c1 policy of 7.2.1. Needs the activity predictor: its forecast gives the window
+    [P_c1, P_c2] of the human's start of `collaboration` and P_a1 of `human_action`."""
+
+    #: the human-robot action whose commitment t_c ends a plan
+    collaboration: str = ""
+    #: the human's autonomous operation (2 of 7.2.1) and the robot action that supplies it
+    #: (1 of 7.2.1): case 1 of the policy; "" for neither
+    human_action: str = ""
+    feed_action: str = ""
+    #: T_sch (s): nodes arriving later are not expanded
+    horizon: float = 60.0
+    #: the two percentile levels of the predicted waiting time that bound [P_c1, P_c2] (7.2.1:
+    #: "e.g. the 10th and the 80th"); each must be one of the predictor's percentile_levels
+    percentiles: list[float] = field(default_factory=lambda: [0.2, 0.8])
+    #: T_wait (s): how long the robots committed to the collaboration wait for the human before
+    #: they are available again (t_W of Fig. 7.3)
+    max_wait: float = 5.0
+    #: how plans of equal cost are chosen: "most_work" (the most robot operations before t_c,
+    #: the first criterion 7.2.2 names) or "first_found" (Algorithm 2 as printed)
+    ties: str = "most_work"
+    #: widen each delay support to the delays observed (the on-line correction 7.1 allows)
+    learn: bool = True
+    #: guard on the reachability tree's size per decision
+    max_nodes: int = 200_000
+
+    def validate(self, path: str) -> None:
+        self._validate_common(path)
+        check(isinstance(self.collaboration, str) and self.collaboration != "", f"{path}.collaboration",
+              "name the human-robot action whose commitment ends a plan")
+        check(bool(self.human_action) == bool(self.feed_action), f"{path}.feed_action",
+              "give human_action and feed_action together (case 1 of 7.2.1), or neither")
+        check(_finite(self.horizon) and 0 < self.horizon <= 3600, f"{path}.horizon",
+              f"{self.horizon} must be in (0, 3600] s")
+        check(len(self.percentiles) == 2 and all(_finite(p) and 0 < p < 1 for p in self.percentiles)
+              and self.percentiles[0] <= self.percentiles[1], f"{path}.percentiles",
+              f"{self.percentiles} must be two levels 0 < low <= high < 1")
+        check(_finite(self.max_wait) and 0 < self.max_wait <= 3600, f"{path}.max_wait",
+              f"{self.max_wait} must be in (0, 3600] s")
+        check(self.ties in TIE_BREAKS, f"{path}.ties", f"{self.ties!r} is not one of {TIE_BREAKS}")
+        check(_integer(self.max_nodes) and 10 <= self.max_nodes <= 10_000_000, f"{path}.max_nodes",
+              f"{self.max_nodes} must be an integer in 10..10000000")
+
+
 #: Where a use case a robot takes the duration of its autonomous task from.
 AUTONOMOUS_DURATION_SOURCES = ("config", "observed")
 
@@ -272,6 +322,7 @@ SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typi
     GreedyScheduler,
     DeterministicPlanScheduler,
     MonteCarloScheduler,
+    BestScenarioScheduler,
     PredictiveRobotScheduler,
     ReactiveRobotScheduler,
     DataDrivenRobotScheduler,

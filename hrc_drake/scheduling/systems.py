@@ -17,6 +17,7 @@ from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSyste
 from hrc_drake.errors import ConfigError
 from hrc_drake.messages import EventLog, Forecast, Immutable, RobotCommand
 from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
+from hrc_drake.scheduling.best_scenario import BestScenarioPolicy
 from hrc_drake.scheduling.collaboration import (
     ASSIST,
     AUTONOMOUS,
@@ -29,6 +30,7 @@ from hrc_drake.scheduling.collaboration import (
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.config import (
     COLLABORATION_SCHEDULERS,
+    BestScenarioScheduler,
     DataDrivenRobotScheduler,
     DeterministicPlanScheduler,
     GreedyScheduler,
@@ -64,6 +66,19 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             min_branch_samples=config.min_branch_samples,
             rollout=config.rollout,
         )
+    if isinstance(config, BestScenarioScheduler):
+        for field, action in (("collaboration", config.collaboration), ("feed_action", config.feed_action)):
+            key = f"{action}:commit" if field == "collaboration" else f"{action}:begin"
+            if action and key not in net.transition_index:
+                kind = "a human-robot collaboration" if field == "collaboration" else "a robot action"
+                raise ConfigError(f"{path}.{field}", f"{action!r} is not {kind} of the flow")
+        try:
+            return BestScenarioPolicy(net, config.collaboration, config.human_action, config.feed_action,
+                                      c_r=config.cost_robot, c_h=config.cost_human, horizon=config.horizon,
+                                      ties=config.ties, learn=config.learn, max_nodes=config.max_nodes,
+                                      levels=tuple(config.percentiles))
+        except ValueError as err:
+            raise ConfigError(f"{path}.human_action", str(err)) from None
     if isinstance(config, RoundRobinScheduler):
         try:
             return RoundRobinPolicy(net, programs=config.programs or None, random_state=seed)
@@ -91,6 +106,7 @@ def net_from_scenario(scenario, config) -> PcTPN:
         wait_quantum=float(config.wait_quantum),
         cost_robot=float(config.cost_robot),
         cost_human=float(config.cost_human),
+        collab_patience=getattr(config, "max_wait", None),
     )
 
 
@@ -118,7 +134,9 @@ class SchedulerCore:
 class Scheduler(LeafSystem):
     """Assistive scheduler on a pcTPN (thesis 7.1 receding horizon, 7.3 Monte Carlo).
 
-    Inputs: "human_events" (EventLog of HumanEvent), "robot_events" (EventLog of RobotEvent).
+    Inputs: "human_events" (EventLog of HumanEvent), "robot_events" (EventLog of RobotEvent),
+    "forecast" (the activity predictor's `Forecast`, read by the best-scenario policy before
+    each decision; unconnected for the others).
     Output: "robot_commands" (EventLog of RobotCommand, seq increasing).
     config: a kind of `hrc_drake.scheduling.config` (not NoScheduler); `net` should be compiled
     with its net fields (`net_from_scenario`). seed: of the policy's random generator.
@@ -141,6 +159,7 @@ class Scheduler(LeafSystem):
         self._initial_core = SchedulerCore(policy, NetTracker(net, policy))
         self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
+        self._forecast = self.DeclareAbstractInputPort("forecast", AbstractValue.Make(Forecast()))
         self._core_index = declare_state(self, lambda context: Frozen(self._initial_core))
         self.DeclareAbstractOutputPort(
             "robot_commands",
@@ -163,6 +182,7 @@ class Scheduler(LeafSystem):
             wait_quantum=float(config.wait_quantum),
             cost_robot=float(config.cost_robot),
             cost_human=float(config.cost_human),
+            collab_patience=getattr(config, "max_wait", None),
         )
         return cls(net, config, robot_agents, seed)
 
@@ -203,6 +223,8 @@ class Scheduler(LeafSystem):
                 if e.kind == "ready" and e.agent not in ready:
                     ready.append(e.agent)
         commands = list(core.commands.events)
+        if ready and hasattr(core.policy, "set_forecast_from") and self._forecast.HasValue(context):
+            core.policy.set_forecast_from(self._forecast.Eval(context), t + core.policy.planner.horizon)
         for agent in ready:
             avail = net.place_index[f"avail:{agent}"]
             if tracker.m[avail] <= 0:
@@ -450,6 +472,8 @@ def apply_scheduler_config(
     scheduler.set_name("scheduler")
     builder.Connect(human_events, scheduler.GetInputPort("human_events"))
     builder.Connect(robot_events, scheduler.GetInputPort("robot_events"))
+    if forecast is not None and isinstance(config, BestScenarioScheduler):
+        builder.Connect(forecast, scheduler.GetInputPort("forecast"))
     if robot_commands_input is not None:
         builder.Connect(scheduler.GetOutputPort("robot_commands"), robot_commands_input)
     return scheduler

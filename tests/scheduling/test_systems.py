@@ -80,3 +80,45 @@ def test_monte_carlo_scheduler_system_builds_and_answers():
     for c in commands:
         assert c.action in ("A1", "B1", None)
         assert c.wait == (3.0 if c.action is None else 0.0)
+
+
+def _best_scenario_commands(waiting: float):
+    """The use case a scheduler of 7.2 when both arms are free at 0 and the forecast says the
+    human starts the collaboration in `waiting` s (its 0.2 and 0.8 percentiles)."""
+    import numpy as np
+
+    from hrc_drake.messages import Forecast
+    from hrc_drake.scheduling.config import BestScenarioScheduler
+
+    flow, buffers, pattern, robots = tc.use_case_a(1)
+    forecast = Forecast(time=0.0, actions=("ic", "collab"), next_probabilities=np.array([0.5, 0.5]),
+                        percentile_levels=np.array([0.2, 0.5, 0.8]),
+                        waiting_percentiles=np.array([[1.0, 2.0, 3.0], [waiting, waiting + 1, waiting + 2]]))
+
+    class Constant(LeafSystem):
+        def __init__(self):
+            super().__init__()
+            self.DeclareAbstractOutputPort("forecast", lambda: AbstractValue.Make(forecast),
+                                           lambda context, out: out.set_value(forecast))
+
+    builder = DiagramBuilder()
+    robot = builder.AddSystem(ScriptedLog([RobotEvent(0.0, "yumi_left", "", "ready", 1),
+                                           RobotEvent(0.0, "yumi_right", "", "ready", 2)]))
+    human = builder.AddSystem(ScriptedLog([]))
+    source = builder.AddSystem(Constant())
+    config = BestScenarioScheduler(collaboration="collab", horizon=60.0)
+    sched = builder.AddSystem(Scheduler.from_flow(flow, buffers, "human", pattern, robots, config, seed=0))
+    builder.Connect(human.get_output_port(), sched.GetInputPort("human_events"))
+    builder.Connect(robot.get_output_port(), sched.GetInputPort("robot_events"))
+    builder.Connect(source.get_output_port(), sched.GetInputPort("forecast"))
+    sim = Simulator(builder.Build())
+    sim.AdvanceTo(0.2)
+    ctx = sched.GetMyContextFromRoot(sim.get_context())
+    return [(c.agent, c.action) for c in sched.GetOutputPort("robot_commands").Eval(ctx).events]
+
+
+def test_the_best_scenario_scheduler_reads_the_forecast():
+    # the human is near: both arms commit to the collaboration at once (one command per arm)
+    assert _best_scenario_commands(0.5) == [("yumi_left", "collab"), ("yumi_right", "collab")]
+    # far: the left arm fuses first, the right arm (no work of its own) waits
+    assert _best_scenario_commands(25.0) == [("yumi_left", "fuse"), ("yumi_right", None)]
