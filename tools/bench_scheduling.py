@@ -1,5 +1,6 @@
 """Benchmark of hrc_drake.scheduling: Monte Carlo decision latency (thesis 7.3.1, 7.5.2), the
-Fig. 7.12 campaign on the Fig. 7.11 net, and use case a patterns 1 and 2 (7.5.1).
+best-scenario decision latency on the use case a net (7.2), the Fig. 7.12 campaign on the
+Fig. 7.11 net, and use case a patterns 1 and 2 (7.5.1).
 
 Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
 """
@@ -28,6 +29,40 @@ def latency_ms(net, agent, n_trials, horizon, repeats, seed=0):
         sched.decide(net.m0, agent)
         times.append(time.perf_counter() - t0)
     return 1000 * float(np.median(times))
+
+
+class _RecordingPolicy:
+    """A policy that keeps every (marking, agent, now, elapsed) it is asked to decide on."""
+
+    def __init__(self, policy):
+        self.policy, self.asked = policy, []
+
+    def decide(self, marking, agent, now=0.0, elapsed=None):
+        self.asked.append((marking.copy(), agent, now, None if elapsed is None else elapsed.copy()))
+        return self.policy.decide(marking, agent, now, elapsed)
+
+    def observe(self, transition, delay):
+        self.policy.observe(transition, delay)
+
+
+def bnb_latency_ms(net, programs, n_decisions, horizon=60.0, seed=0):
+    """Median and max time (ms) of one best-scenario decision (7.2, Algorithms 2-3) over the
+    markings a round-robin run of the net meets, each with the collaboration predicted to start
+    0-5, 10-15 and 20-25 s ahead."""
+    from hrc_drake.scheduling.best_scenario import BestScenarioPolicy
+
+    recorder = _RecordingPolicy(RoundRobinPolicy(net, programs=programs, random_state=seed))
+    simulate_cell(net, recorder, np.random.default_rng(seed), n_cycles=max(2, n_decisions // 4))
+    policy = BestScenarioPolicy(net, "collab", "ic", "fuse", horizon=horizon)
+    times, nodes = [], []
+    for marking, agent, now, elapsed in recorder.asked[:n_decisions]:
+        for ahead in (0.0, 10.0, 20.0):
+            policy.set_forecast(now + ahead, now + ahead + 5.0)
+            t0 = time.perf_counter()
+            policy.decide(marking, agent, now, elapsed)
+            times.append(time.perf_counter() - t0)
+            nodes.append(policy.last_plan_.nodes if policy.last_plan_ is not None else 0)
+    return 1000 * float(np.median(times)), 1000 * float(np.max(times)), int(np.median(nodes)), len(times)
 
 
 def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
@@ -119,6 +154,16 @@ def main():
     ms = 1000 * float(np.median(times))
     result["latency_use_case_b_N150_T30_ms"] = ms
     print(f"  use case b (reconstruction), N=150, T_sch=30 s: {ms:7.1f} ms   (thesis 286 ms)", flush=True)
+
+    flow, buffers, pattern, robots = tc.use_case_a(1)
+    net_a1 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    programs_a1 = {"yumi_left": ["fuse", "check"]}
+    median, worst, nodes, count = bnb_latency_ms(net_a1, programs_a1, 10 if quick else 60)
+    result["latency_bnb_use_case_a_ms"] = median
+    result["latency_bnb_use_case_a_max_ms"] = worst
+    result["bnb_use_case_a_nodes_median"] = nodes
+    print(f"  best scenario (7.2), use case a, T_sch = 60 s: {median:7.2f} ms median, {worst:.2f} ms max, "
+          f"{nodes} nodes ({count} decisions; the thesis gives no figure)", flush=True)
 
     print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
     flow, buffers, pattern, robots = tc.fig_7_11()
