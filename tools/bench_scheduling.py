@@ -13,6 +13,7 @@ import os
 import time
 
 import numpy as np
+from scipy.stats import mannwhitneyu
 
 from hrc_drake.scheduling import thesis_cells as tc
 from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
@@ -65,7 +66,22 @@ def bnb_latency_ms(net, programs, n_decisions, horizon=60.0, seed=0):
     return 1000 * float(np.median(times)), 1000 * float(np.max(times)), int(np.median(nodes)), len(times)
 
 
+def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
+    """The use case a scheduler of 7.2 with the Ch. 5 predictor (HOMM, waiting times) it reads,
+    learning online from the run's human events."""
+    from hrc_drake.prediction.config import HigherOrderMarkovPredictor
+    from hrc_drake.prediction.online import OnlineForecaster
+    from hrc_drake.scheduling.best_scenario import BestScenarioPolicy
+
+    config = HigherOrderMarkovPredictor(order=order, percentile_levels=sorted({0.2, 0.5, 0.8, *levels}))
+    forecaster = OnlineForecaster(config, ["ic", "collab"])
+    return BestScenarioPolicy(net, "collab", "ic", "fuse", horizon=horizon, levels=levels,
+                              forecaster=forecaster)
+
+
 def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
+    if kind == "best_scenario":
+        return best_scenario_policy(net)
     if kind == "monte_carlo":
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     if kind.startswith("monte_carlo_T"):  # a second horizon, side by side
@@ -100,6 +116,7 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None):
             "cycle_mean": float(np.mean(cycles)),
             "cycle_p90": float(np.percentile(cycles, 90)),
             "time_per_product": float(np.mean(per_product)),
+            "time_per_product_runs": [round(float(x), 3) for x in per_product],
         }
         print(
             f"  {label:10s} {kind:13s} cycle median {out[kind]['cycle_median']:7.2f} s  mean "
@@ -107,6 +124,38 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None):
             f"{out[kind]['time_per_product']:6.2f} s  ({time.perf_counter() - t0:.1f} s)",
             flush=True,
         )
+    return out
+
+
+def sweep_best_scenario(quick: bool) -> dict:
+    """The settings the use case a best-scenario arm uses, each varied around its value: T_wait
+    (the nets' collab patience, default 5 t_w = 15 s), the percentile levels of [P_c1, P_c2]
+    and the HOMM order of the predictor; time per product, mean over the runs."""
+    print("  sweep of the best-scenario arm (time per product, s):")
+    out = {}
+    runs, cycles = (2, 4) if quick else (10, 10)
+    patiences = (6.0, 15.0) if quick else (3.0, 6.0, 15.0, 30.0)
+    all_levels = ((0.2, 0.8), (0.2, 0.5)) if quick else ((0.2, 0.8), (0.2, 0.5), (0.5, 0.8))
+    for pat in (1, 2):
+        flow, buffers, pattern, robots = tc.use_case_a(pat)
+        rows = {}
+        for patience in patiences:
+            for levels in all_levels:
+                for order in ((2,) if quick else (1, 2)):
+                    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0,
+                                       collab_patience=patience)
+                    per_product = []
+                    for seed in range(runs):
+                        policy = best_scenario_policy(net, levels=levels, order=order)
+                        run = simulate_cell(net, policy, np.random.default_rng(1000 + seed), n_cycles=cycles,
+                                            max_time=50.0 * cycles * 60)
+                        per_product.append(run.time_per_product)
+                    key = f"T_wait{patience:g}_p{levels[0]:g}-{levels[1]:g}_order{order}"
+                    rows[key] = round(float(np.mean(per_product)), 3)
+        best = min(rows, key=rows.get)
+        print(f"    pattern {pat}: " + ", ".join(f"{k} {v:.2f}" for k, v in rows.items()), flush=True)
+        print(f"    pattern {pat}: best {best} ({rows[best]:.2f} s)", flush=True)
+        out[f"pattern{pat}"] = rows
     return out
 
 
@@ -179,14 +228,24 @@ def main():
     )
     # the round robin of 7.5.1: fuse, check (pattern 1); fuse, fuse, check, check (pattern 2)
     programs = {1: {"yumi_left": ["fuse", "check"]}, 2: {"yumi_left": ["fuse", "fuse", "check", "check"]}}
+    thesis_a = {1: (35.80, 27.63), 2: (33.35, 30.10)}
+    result["use_case_a"] = {}
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
-        runs, cycles = (2, 4) if quick else (10, 10)
-        result[f"use_case_a_pattern{pat}"] = campaign(
-            net_a, ["monte_carlo", "monte_carlo_T30", "monte_carlo_alg4", "round_robin"], runs, cycles,
-            f"a, pat {pat}", horizon=15.0, programs=programs[pat],
-        )
+        runs, cycles = (2, 4) if quick else (20, 10)
+        kinds = ["best_scenario", "monte_carlo", "monte_carlo_T30", "monte_carlo_alg4", "round_robin"]
+        arms = campaign(net_a, kinds, runs, cycles, f"a, pat {pat}", horizon=15.0, programs=programs[pat])
+        bs, rr = arms["best_scenario"]["time_per_product_runs"], arms["round_robin"]["time_per_product_runs"]
+        p_value = float(mannwhitneyu(bs, rr, alternative="less").pvalue) if len(bs) > 1 else None
+        gain = 100 * (1 - arms["best_scenario"]["time_per_product"] / arms["round_robin"]["time_per_product"])
+        thesis_gain = 100 * (1 - thesis_a[pat][1] / thesis_a[pat][0])
+        arms["best_scenario_vs_round_robin"] = {"gain_percent": round(gain, 2), "thesis_gain_percent":
+                                                round(thesis_gain, 2), "mannwhitney_p_less": p_value}
+        print(f"  a, pat {pat}: best scenario {gain:+.1f} % faster than round robin per product (thesis "
+              f"{thesis_gain:+.1f} %), one-sided rank-sum p = {p_value}", flush=True)
+        result["use_case_a"][f"pattern{pat}"] = arms
+    result["use_case_a"]["sweep_best_scenario"] = sweep_best_scenario(quick)
     result["load_average_1min_end"] = round(os.getloadavg()[0], 2)
     print(json.dumps(result))
 

@@ -13,32 +13,9 @@ from ..messages import HUMAN_AGENT, EventLog, Forecast
 from ..systems import Frozen, declare_state, get_state, set_state
 from .config import NoPredictor
 from .factory import make_sequence_model, make_waiting_predictor
+from .online import PredictorCore
 
 _SEQ, _CURRENT, _BEGIN, _RUNNING = range(4)
-
-
-class PredictorCore:
-    """What an ActivityPredictor learns during a run: the sequence model, the waiting-time
-    predictor around it, the recent begun actions (history, oldest first) and the begin time of
-    each action still running. Kept frozen in the Context; `clone` copies only what an observed
-    event writes (copy-on-write)."""
-
-    def __init__(self, model, waiting, history_length: int):
-        self.model = model
-        self.waiting = waiting
-        self.history_length = int(history_length)
-        self.history: tuple = ()
-        self.open_begins: dict[str, float] = {}
-
-    def clone(self, model_changes: bool = True) -> PredictorCore:
-        """A private copy for an update; the model is copied only when `model_changes` (a begin)."""
-        new = object.__new__(PredictorCore)
-        new.model = self.model.clone() if model_changes else self.model
-        new.waiting = self.waiting.clone(new.model)
-        new.history_length = self.history_length
-        new.history = self.history
-        new.open_begins = dict(self.open_begins)
-        return new
 
 
 class ActivityPredictor(LeafSystem):
@@ -132,18 +109,11 @@ class ActivityPredictor(LeafSystem):
             core = core.clone(model_changes=any(e.kind == "begin" for e in relevant))
             for event in relevant:
                 code = self._actions.index(event.action)
+                core.learn(event.action, event.kind, event.time)
                 if event.kind == "begin":
-                    core.model.partial_fit(event.action)
-                    core.history = (core.history + (event.action,))[-core.history_length :]
-                    core.open_begins[event.action] = float(event.time)
                     tracking[_CURRENT], tracking[_BEGIN], tracking[_RUNNING] = code, event.time, 1.0
-                else:
-                    began = core.open_begins.pop(event.action, None)
-                    duration = None if began is None else float(event.time) - began
-                    if duration is not None and np.isfinite(duration) and duration > 0:
-                        core.waiting.observe_duration(event.action, duration)
-                    if int(tracking[_CURRENT]) == code:
-                        tracking[_RUNNING] = 0.0
+                elif int(tracking[_CURRENT]) == code:
+                    tracking[_RUNNING] = 0.0
             set_state(state, self._core_index, Frozen(core))
         state.get_mutable_discrete_state(self._tracking_index).SetFromVector(tracking)
 

@@ -273,17 +273,22 @@ class BestScenarioPolicy:
     human's start of the collaboration [P_c1, P_c2] and the lower percentile P_a1 of its start
     of `human_action` (absolute times, s). Case 1 of 7.2.1 (P_a1 < P_c1 and operation 2 lacks
     its parts) commands `feed_action`; cases 2 and 3 run the planner and apply the first
-    commands of its plan that concern the deciding agent, else the agent waits. Without a
+    commands of its plan that concern the deciding agent, else the agent waits. A human the
+    net shows waiting for operation 2 is case 1 whatever the forecast (the planner never fires
+    the human, so without this it would never supply a waiting human: our reading). Without a
     forecast the window is [now, now] (the human may be ready at once): our choice; so it is
     while the net says the human already waits for the collaboration.
     levels: the forecast's percentile levels of P_1 and P_2 (`set_forecast_from`).
+    forecaster: an `OnlineForecaster` (Ch. 5) fed by `human_event`, for event-level runs; the
+    Drake `Scheduler` gives the cell's predictor's forecasts instead.
     learn: widen each support to the delays observed (the "on line correction" 7.1 allows).
     """
 
     def __init__(self, net: PcTPN, collaboration: str, human_action: str = "", feed_action: str = "",
                  c_r: float = 1.0, c_h: float = 1.0, horizon: float = 60.0, ties: str = "most_work",
-                 learn: bool = True, max_nodes: int = 200_000, levels=(0.2, 0.8)):
+                 learn: bool = True, max_nodes: int = 200_000, levels=(0.2, 0.8), forecaster=None):
         self.net = net
+        self.forecaster = forecaster
         self.levels = (float(levels[0]), float(levels[1]))
         self.planner = BestScenarioPlanner(net, f"{collaboration}:commit", c_r=c_r, c_h=c_h, horizon=horizon,
                                            ties=ties, max_nodes=max_nodes)
@@ -293,14 +298,18 @@ class BestScenarioPolicy:
         if self.feed is not None and not net.controllable[self.feed]:
             raise ValueError(f"BestScenarioPolicy: feed_action {feed_action!r} is not a robot action")
         self._human_inputs = self._inputs_of(human_action) if human_action else None
-        # the places where the human waits to start the collaboration (6.3.2 hwait:<k>)
-        begins = [j for j in range(net.n_transitions) if net.action[j] == collaboration
-                  and net.role[j] == "begin" and not net.controllable[j]]
-        self._human_waits = np.array(sorted({i for j in begins for i in np.flatnonzero(net.pre[:, j])
-                                             if net.places[i].startswith("hwait:")}), dtype=int)
+        self._human_waits = self._waits_of(collaboration)
+        self._human_waits_for_action = self._waits_of(human_action) if human_action else np.zeros(0, int)
         self.learn = learn
         self.window: tuple[float, float, float] | None = None
         self.last_plan_: Plan | None = None
+
+    def _waits_of(self, action: str) -> np.ndarray:
+        """The places where the human waits to start `action` (6.3.2 hwait:<k>)."""
+        begins = [j for j in range(self.net.n_transitions) if self.net.action[j] == action
+                  and self.net.role[j] == "begin" and not self.net.controllable[j]]
+        return np.array(sorted({i for j in begins for i in np.flatnonzero(self.net.pre[:, j])
+                                if self.net.places[i].startswith("hwait:")}), dtype=int)
 
     def _inputs_of(self, action: str) -> np.ndarray:
         """The buffer places the human action's begin consumes (its parts)."""
@@ -338,9 +347,16 @@ class BestScenarioPolicy:
         p_a1 = at(self.human_action, self.levels[0]) if self.human_action else math.inf
         self.set_forecast(min(p_c1, p_c2), max(p_c1, p_c2), p_a1)
 
+    def human_event(self, action: str, kind: str, time: float) -> None:
+        """A human event of the run, for the forecaster (event-level simulation)."""
+        if self.forecaster is not None:
+            self.forecaster.observe(action, kind, time)
+
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
         """The controllable transition to fire now for robot `agent` (7.2.1 cases 1-3)."""
         net = self.net
+        if self.forecaster is not None:
+            self.set_forecast_from(self.forecaster.forecast(now), now + self.planner.horizon)
         choices = net.agent_transitions(agent)
         choices = choices[net.enabled(marking)[choices]]
         if choices.size == 0:
@@ -349,8 +365,12 @@ class BestScenarioPolicy:
         p_c1, p_c2, p_a1 = self.window if self.window is not None else (now, now, math.inf)
         if self._human_waits.size and np.any(np.asarray(marking)[self._human_waits] > 0):
             p_c1 = p_c2 = now  # the human is there: every second the robots are not costs c_H
-        if (self.feed is not None and self.feed in choices and p_a1 < p_c1
-                and not np.all(np.asarray(marking)[self._human_inputs] > 0)):
+        marking = np.asarray(marking)
+        # a human already waiting for operation 2 wants it before anything else: case 1
+        # whatever the forecast says (our reading; the planner never fires the human)
+        waiting_for_it = bool(np.any(marking[self._human_waits_for_action] > 0))
+        if (self.feed is not None and self.feed in choices and (p_a1 < p_c1 or waiting_for_it)
+                and not np.all(marking[self._human_inputs] > 0)):
             return int(self.feed)  # case 1: supply the human's next operation
         self.last_plan_ = plan = self.planner.plan(marking, p_c1, p_c2, now, elapsed)
         for j in self.planner.first_commands(plan):
@@ -375,4 +395,6 @@ class BestScenarioPolicy:
         planner = object.__new__(BestScenarioPlanner)
         planner.__dict__.update(self.planner.__dict__)
         new.planner = planner
+        if self.forecaster is not None:
+            new.forecaster = self.forecaster.clone()
         return new

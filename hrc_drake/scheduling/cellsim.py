@@ -93,6 +93,8 @@ def simulate_cell(
                 human_waiting.discard(j)
             for a in agents:
                 run.events.append((t, a, action, role))
+            if with_human and hasattr(policy, "human_event"):  # a policy that forecasts the human
+                policy.human_event(action, role, t)
         elif role == "wait":
             run.events.append((t, net.agents[j][0], "", "wait_begin"))
         elif role == "wait_end":

@@ -183,8 +183,8 @@ class BestScenarioScheduler(_SchedulerCommon):
     #: "e.g. the 10th and the 80th"); each must be one of the predictor's percentile_levels
     percentiles: list[float] = field(default_factory=lambda: [0.2, 0.8])
     #: T_wait (s): how long the robots committed to the collaboration wait for the human before
-    #: they are available again (t_W of Fig. 7.3)
-    max_wait: float = 5.0
+    #: they are available again (t_W of Fig. 7.3); 0: five wait quanta, the net compiler's default
+    max_wait: float = 0.0
     #: how plans of equal cost are chosen: "most_work" (the most robot operations before t_c,
     #: the first criterion 7.2.2 names) or "first_found" (Algorithm 2 as printed)
     ties: str = "most_work"
@@ -204,8 +204,8 @@ class BestScenarioScheduler(_SchedulerCommon):
         check(len(self.percentiles) == 2 and all(_finite(p) and 0 < p < 1 for p in self.percentiles)
               and self.percentiles[0] <= self.percentiles[1], f"{path}.percentiles",
               f"{self.percentiles} must be two levels 0 < low <= high < 1")
-        check(_finite(self.max_wait) and 0 < self.max_wait <= 3600, f"{path}.max_wait",
-              f"{self.max_wait} must be in (0, 3600] s")
+        check(_finite(self.max_wait) and 0 <= self.max_wait <= 3600, f"{path}.max_wait",
+              f"{self.max_wait} must be in [0, 3600] s (0: five wait quanta)")
         check(self.ties in TIE_BREAKS, f"{path}.ties", f"{self.ties!r} is not one of {TIE_BREAKS}")
         check(_integer(self.max_nodes) and 10 <= self.max_nodes <= 10_000_000, f"{path}.max_nodes",
               f"{self.max_nodes} must be an integer in 10..10000000")

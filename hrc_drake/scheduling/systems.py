@@ -106,7 +106,7 @@ def net_from_scenario(scenario, config) -> PcTPN:
         wait_quantum=float(config.wait_quantum),
         cost_robot=float(config.cost_robot),
         cost_human=float(config.cost_human),
-        collab_patience=getattr(config, "max_wait", None),
+        collab_patience=getattr(config, "max_wait", 0.0) or None,
     )
 
 
@@ -182,7 +182,7 @@ class Scheduler(LeafSystem):
             wait_quantum=float(config.wait_quantum),
             cost_robot=float(config.cost_robot),
             cost_human=float(config.cost_human),
-            collab_patience=getattr(config, "max_wait", None),
+            collab_patience=getattr(config, "max_wait", 0.0) or None,
         )
         return cls(net, config, robot_agents, seed)
 

@@ -177,3 +177,20 @@ def test_observed_delays_widen_the_supports_and_clones_are_apart():
         policy.set_forecast(5.0, 2.0)
     assert math.isinf(BestScenarioPlanner(net, "collab:commit").plan(
         np.zeros(net.n_places, dtype=int), 0.0, 1.0).cost)  # no robot available: no plan
+
+
+def test_a_human_waiting_for_its_operation_is_supplied_whatever_the_forecast():
+    """Pattern 2 (ic, ic, collab, collab): the human waits for its second IC with no fused board.
+    A forecast of the collaboration at once would have the planner commit (the human never
+    fires while planning) and the robots wait in vain: case 1 applies instead."""
+    flow, buffers, pattern, robots = tc.use_case_a(2)
+    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    m = net.m0.copy()
+    m[net.place_index["step:0"]] = 0
+    m[net.place_index["hwait:1"]] = 1  # the human intends its step 1, the second IC
+    policy = BestScenarioPolicy(net, "collab", "ic", "fuse")
+    policy.set_forecast(0.0, 0.0, p_a1=0.0)
+    assert net.transitions[policy.decide(m, "yumi_left")] == "fuse:begin"
+    no_case_1 = BestScenarioPolicy(net, "collab")
+    no_case_1.set_forecast(0.0, 0.0)
+    assert net.transitions[no_case_1.decide(m, "yumi_left")] == "collab:commit"
