@@ -102,6 +102,24 @@ def _raw_document(text: str):
         loader.dispose()
 
 
+#: Deepest nesting of mappings and lists a scenario may have (the shipped ones have 6).
+MAX_NESTING = 50
+
+
+def _nesting_depth(node) -> int:
+    """How deeply mappings and lists nest in `node`, without recursion (the C parser builds
+    documents deeper than Python's recursion limit)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            deepest = max(deepest, depth)
+            if depth <= MAX_NESTING:
+                children = item.values() if isinstance(item, dict) else item
+                stack.extend((child, depth + 1) for child in children)
+    return deepest
+
+
 def _union_members(tp) -> tuple:
     if typing.get_origin(tp) in (typing.Union, types.UnionType):
         return tuple(a for a in typing.get_args(tp) if a is not type(None))
@@ -207,6 +225,8 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
         raise ScenarioError(path, "", f"not valid YAML: {err}") from err
     except RecursionError:
         raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
+    if _nesting_depth(raw) > MAX_NESTING:
+        raise ScenarioError(path, "", f"nested too deeply to be a scenario (more than {MAX_NESTING} levels)")
     if not isinstance(raw, dict):
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
     _check_keys(raw, Scenario, "", str(path))
