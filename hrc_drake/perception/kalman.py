@@ -13,8 +13,9 @@ truncated Taylor term: block j gets sigma_j^2 dt^(n-j) / (n-j)! I with n = order
 sigma^2 dt^4/24, dt^3/6, dt^2/2, dt for the jerk chain (eq. 9.3, last block sigma^2 dt I).
 
 `KalmanFilter` runs many independent tracks at once: means (T, S) and covariances (T, S, S),
-S = order * dim. A missing measurement (mask False or NaN row) leaves the track open loop, as
-the KF baseline of 9.1.3 does under occlusion.
+S = order * dim. A missing measurement (mask False, or a row with NaN, inf or a component
+beyond MAX_MEASUREMENT) leaves the track open loop, as the KF baseline of 9.1.3 does under
+occlusion.
 """
 
 from __future__ import annotations
@@ -79,6 +80,18 @@ class ChainOfIntegrators:
     def __repr__(self) -> str:
         return (f"ChainOfIntegrators(order={self.order}, dt={self.dt}, "
                 f"sigma={self.sigma.tolist()}, dim={self.dim})")
+
+
+#: Largest measurement component taken as real (in the measurement's units: m, rad). A larger
+#: one is a corrupt sample, not a motion; its square and the velocity it implies would overflow
+#: to inf and leave NaN in the state for good.
+MAX_MEASUREMENT = 1e6
+
+
+def valid_measurements(y: np.ndarray) -> np.ndarray:
+    """(...,) bool over the rows (..., dim) of y: finite, every |component| <= MAX_MEASUREMENT."""
+    with np.errstate(invalid="ignore"):
+        return np.all(np.abs(y) <= MAX_MEASUREMENT, axis=-1)  # False for NaN too
 
 
 @lru_cache(maxsize=64)
@@ -150,7 +163,7 @@ class KalmanFilter:
                 "KalmanFilter: measurements must have shape "
                 f"({self.n_tracks}, {self.model.dim}), got {y.shape}"
             )
-        valid = np.all(np.isfinite(y), axis=1)
+        valid = valid_measurements(y)
         if mask is not None:
             mask = np.asarray(mask, dtype=bool)
             if mask.shape != (self.n_tracks,):
@@ -168,7 +181,8 @@ class KalmanFilter:
     def update(self, y, mask=None) -> None:
         """Measurement update of the tracks with a valid measurement; others stay open loop.
 
-        y: (T, dim) measurements; rows with NaN, or with mask False, are missing.
+        y: (T, dim) measurements; rows with NaN, inf or a component beyond MAX_MEASUREMENT, or
+        with mask False, are missing.
         A track's first valid measurement initializes it (position = y, derivatives 0).
         """
         y, valid = self._measurements(y, mask)

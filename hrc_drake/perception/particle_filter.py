@@ -59,7 +59,7 @@ from collections.abc import Callable
 import numpy as np
 
 from hrc_drake.messages import SKELETON_PARENTS, shallow_copy
-from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
+from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, valid_measurements
 from hrc_drake.rng import clone_generator
 
 _WHERE = "SkeletonParticleFilter: "
@@ -394,13 +394,14 @@ class SkeletonParticleFilter:
         if tracked.shape != (self.n_points,):
             raise ValueError(f"SkeletonParticleFilter.step: tracked must have shape ({self.n_points},), "
                              f"got {tracked.shape}")
-        # NaN or infinite rows are occlusions whatever the flag says.
-        return points, tracked & np.all(np.isfinite(points), axis=1)
+        # NaN, infinite or absurd rows (beyond MAX_MEASUREMENT) are occlusions whatever the flag says.
+        return points, tracked & valid_measurements(points)
 
     def step(self, points, tracked=None, is_hidden: IsHidden | None = None, steps: int = 1) -> None:
         """One filter cycle on a frame: motion update (x `steps`), weights, resampling.
 
-        points: (P, 3) measurements (NaN rows allowed). tracked: (P,) bool, False = occluded.
+        points: (P, 3) measurements (NaN rows allowed). tracked: (P,) bool, False = occluded; a
+            row with NaN, inf or a coordinate beyond MAX_MEASUREMENT m counts as occluded.
         is_hidden: depth-map query, (M, 3) positions -> (M,) bool, True where the camera
             cannot see the position (L_c1). None: no depth constraint.
         """

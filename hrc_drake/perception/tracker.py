@@ -15,6 +15,10 @@ inside the box and the share of the box inside the ellipsoid; 0/1 for "none");
 `speed_override` is the slow-down rule of 9.1.3 built on it. Outputs never hold NaN: a point
 never seen yet sits at its parent (or the origin) with spread UNKNOWN_SPREAD and workspace
 fraction 1 (unknown counts as possibly inside the workspace).
+
+A point whose row holds NaN, inf or a coordinate beyond `kalman.MAX_MEASUREMENT` counts as
+untracked. A frame whose time is not finite is ignored; time going backwards, or no frame for
+more than MAX_GAP s, starts a new run (`reset`).
 """
 
 from __future__ import annotations
@@ -25,12 +29,21 @@ import numpy as np
 
 from hrc_drake.messages import SKELETON_PARENTS, SkeletonEstimate, SkeletonFrame, shallow_copy
 from hrc_drake.perception.geometry import points_in_box
-from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, unit_ball_samples
+from hrc_drake.perception.kalman import (
+    ChainOfIntegrators,
+    KalmanFilter,
+    unit_ball_samples,
+    valid_measurements,
+)
 from hrc_drake.perception.particle_filter import DEFAULT_INITIAL_STD, DEFAULT_SIGMA, SkeletonParticleFilter
 
 KINDS = ("particle_filter", "kalman", "none")
 #: Spread (m) reported for a point never seen yet.
 UNKNOWN_SPREAD = 1.0
+#: A longer pause between two frames (s) starts a new run: an open-loop prediction over it says
+#: nothing, costs one filter step per camera period, and past ~20 s loses the covariance to
+#: round-off (the particle filter's Cholesky factorisation then fails).
+MAX_GAP = 10.0
 
 #: Parameters a scenario may give (`tracker: {kind: ..., params: {...}}`) and their defaults.
 DEFAULT_PARAMS = {
@@ -176,14 +189,16 @@ class SkeletonTracker:
             raise ValueError(
                 f"SkeletonTracker: frame at t={frame.time} needs points (8, 3) and tracked (8,), "
                 f"got {points.shape} and {tracked.shape}")
-        return points, tracked & np.all(np.isfinite(points), axis=1)
+        return points, tracked & valid_measurements(points)
 
     def update(self, frame: SkeletonFrame) -> SkeletonEstimate:
         """Process one frame and return the new estimate (the same frame twice: no change)."""
         points, seen = self._check_frame(frame)
         t = float(frame.time)
-        if self._last_time is not None and t < self._last_time - 1e-9:
-            self.reset()  # time went backwards: a new run
+        if not np.isfinite(t):
+            return self.estimate_  # no usable time: the frame cannot be placed in the run
+        if self._last_time is not None and (t < self._last_time - 1e-9 or t - self._last_time > MAX_GAP):
+            self.reset()  # time went backwards, or a long pause: a new run
         if (self._last_time is not None and abs(t - self._last_time) < 1e-9
                 and np.array_equal(points, self._last_points, equal_nan=True)
                 and np.array_equal(seen, self._last_seen)):

@@ -25,6 +25,13 @@ _STATE_IDS = itertools.count(1)
 _MODEL_CLASSES: dict[str, type] = {}
 
 
+def recent(codes: tuple[int, ...], width: int) -> tuple[int, ...]:
+    """The last `width` codes: all of them when there are fewer, none for width 0."""
+    # not codes[len(codes) - width:]: a history shorter than the context would then start at a
+    # negative index and lose its oldest actions
+    return codes[max(len(codes) - width, 0) :]
+
+
 def _plain(label):
     """numpy scalars hash like Python scalars only after conversion."""
     return label.item() if isinstance(label, np.generic) else label
@@ -175,7 +182,7 @@ class SequenceModel(ABC):
         codes = self.encode(history)
         if self.n_observed_ == 0:
             return np.full(self.n_actions_, 1.0 / self.n_actions_)
-        return self._predict_codes(codes[len(codes) - self.context_length_ :] if codes else ())
+        return self._predict_codes(recent(codes, self.context_length_))
 
     def predict_proba_many(self, histories: Sequence[Sequence[Hashable]]) -> np.ndarray:
         """`predict_proba` of many histories in one vectorised call, shape (N, m)."""
@@ -187,7 +194,7 @@ class SequenceModel(ABC):
                 codes = self.encode(history)
             except ValueError as err:
                 raise ValueError(f"histories[{index}]: {err}") from None
-            contexts.append(codes[len(codes) - width :] if codes else ())
+            contexts.append(recent(codes, width))
         if not contexts:
             return np.zeros((0, self.n_actions_))
         if self.n_observed_ == 0:
@@ -202,7 +209,7 @@ class SequenceModel(ABC):
         if self.n_observed_ == 0:
             return np.full(self.n_actions_, 1.0 / self.n_actions_)
         width = self.context_length_
-        contexts = {codes[len(codes) - width :] if codes else (): 1.0}
+        contexts = {recent(codes, width): 1.0}
         out = np.zeros(self.n_actions_)
         for step in range(int(steps)):
             last = step == int(steps) - 1

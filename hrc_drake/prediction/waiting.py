@@ -26,7 +26,7 @@ from scipy import fft as sp_fft
 
 from hrc_drake.messages import shallow_copy
 
-from .base import SequenceModel
+from .base import SequenceModel, recent
 
 
 class WaitingTimePredictor:
@@ -156,7 +156,9 @@ class WaitingTimePredictor:
 
     def _pmf(self, samples: np.ndarray, n_bins: int, at_least_one: bool) -> np.ndarray:
         """Histogram of samples on the grid; mass past the horizon is dropped."""
-        bins = np.rint(samples / self.resolution).astype(int)
+        # capped before the cast: past the horizon is dropped anyway, and a sample of more than
+        # 2^63 grid steps would wrap to a negative bin
+        bins = np.rint(np.minimum(samples, n_bins * self.resolution) / self.resolution).astype(int)
         if at_least_one:
             bins = np.maximum(bins, 1)
         bins = bins[bins < n_bins]
@@ -254,7 +256,7 @@ class WaitingTimePredictor:
         # level 1: the children of the running action start when it ends. A context is a row
         # of the `width` most recent codes, -1 where the history is shorter.
         root_ctx = np.full((1, width), -1, dtype=np.int64)
-        tail = codes[len(codes) - width :] if codes else ()
+        tail = recent(codes, width)
         if tail:
             root_ctx[0, width - len(tail) :] = tail
         # Each tree node (a branch, after merging) carries its context row, p_branch, the mass
