@@ -211,6 +211,52 @@ class BestScenarioScheduler(_SchedulerCommon):
               f"{self.max_nodes} must be an integer in 10..10000000")
 
 
+@dataclass
+class FuzzyScheduler(_SchedulerCommon):
+    """Receding-horizon fuzzy scheduler, thesis 7.4 (Algorithm 5, eq. 7.3-7.18), the durations
+    fuzzified online from the observed ones (7.5.3, eq. 7.19-7.20)."""
+
+    #: T_sch (s); 7.5.3 uses 50 s
+    horizon: float = 50.0
+    #: w_1, w_2 of eq. (7.16): the weights of the human's and the robots' waits
+    w_human: float = 1.0
+    w_robot: float = 1.0
+    #: the small constant of 7.4 (unreachable nodes, possibilities)
+    eps: float = 0.01
+    #: observed delays kept per transition, and how many before they replace the prior
+    window: int = 30
+    min_samples: int = 3
+    learn: bool = True
+    #: guard on the tree's size: the first level past it is left out whole, so the tree then
+    #: reaches less far than T_sch (a full tree at 50 s on torch_clock has ~1e6 nodes)
+    max_nodes: int = 600
+    #: time-grid points of the fuzzy sets of eq. 7.4-7.9 that are not triangles
+    grid_points: int = 41
+    #: eq. (7.18) sums the possibilities of the leaves as written; True divides by their sum
+    #: (a variant: the plain sum favours choices with more branchings)
+    normalize_possibilities: bool = False
+
+    def validate(self, path: str) -> None:
+        self._validate_common(path)
+        check(_finite(self.horizon) and 0 < self.horizon <= 3600, f"{path}.horizon",
+              f"{self.horizon} must be in (0, 3600] s")
+        for name in ("w_human", "w_robot"):
+            value = getattr(self, name)
+            check(_finite(value) and 0 <= value <= 1e6, f"{path}.{name}", f"{value} must be in [0, 1e6]")
+        check(_finite(self.eps) and 0 < self.eps < 1, f"{path}.eps", f"{self.eps} must be in (0, 1)")
+        for name, low, high in (("window", 1, 100_000), ("min_samples", 1, 100_000),
+                                ("max_nodes", 2, 1_000_000), ("grid_points", 5, 10_000)):
+            value = getattr(self, name)
+            check(_integer(value) and low <= value <= high, f"{path}.{name}",
+                  f"{value} must be an integer in {low}..{high}")
+
+
+@dataclass
+class UniformScheduler(FuzzyScheduler):
+    """The uniform scheduler of use case c (7.5.3, eq. 7.21-7.23): Algorithm 5 with the
+    arrival times replaced by trapezoids on their supports and W_H without phi_2."""
+
+
 #: Where a use case a robot takes the duration of its autonomous task from.
 AUTONOMOUS_DURATION_SOURCES = ("config", "observed")
 
@@ -323,6 +369,8 @@ SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typi
     DeterministicPlanScheduler,
     MonteCarloScheduler,
     BestScenarioScheduler,
+    FuzzyScheduler,
+    UniformScheduler,
     PredictiveRobotScheduler,
     ReactiveRobotScheduler,
     DataDrivenRobotScheduler,

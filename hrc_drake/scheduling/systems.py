@@ -33,13 +33,16 @@ from hrc_drake.scheduling.config import (
     BestScenarioScheduler,
     DataDrivenRobotScheduler,
     DeterministicPlanScheduler,
+    FuzzyScheduler,
     GreedyScheduler,
     MonteCarloScheduler,
     NoScheduler,
     PredictiveRobotScheduler,
     ReactiveRobotScheduler,
     RoundRobinScheduler,
+    UniformScheduler,
 )
+from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy, UniformPolicy
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
 from hrc_drake.scheduling.petri import PcTPN
 from hrc_drake.scheduling.tracker import NetTracker
@@ -66,6 +69,12 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             min_branch_samples=config.min_branch_samples,
             rollout=config.rollout,
         )
+    if isinstance(config, FuzzyScheduler):  # UniformScheduler too
+        kind = UniformPolicy if isinstance(config, UniformScheduler) else FuzzyPolicy
+        return kind(net, horizon=config.horizon, w_human=config.w_human, w_robot=config.w_robot,
+                    eps=config.eps, window=config.window, min_samples=config.min_samples, learn=config.learn,
+                    max_nodes=config.max_nodes, grid_points=config.grid_points,
+                    normalize_possibilities=config.normalize_possibilities, random_state=seed)
     if isinstance(config, BestScenarioScheduler):
         for field, action in (("collaboration", config.collaboration), ("feed_action", config.feed_action)):
             key = f"{action}:commit" if field == "collaboration" else f"{action}:begin"
