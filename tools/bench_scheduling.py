@@ -79,6 +79,42 @@ def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
                               forecaster=forecaster)
 
 
+def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0) -> dict:
+    """Time of one fuzzy (7.4, Algorithm 5) and one uniform (eq. 7.21-7.23) decision at T_sch =
+    `horizon` on the torch_clock net (t_w = 5 s, 7.5.3), over the markings a round-robin run of
+    that net meets (decisions with a choice); also the trees' sizes and how many of them the
+    node cap (max_nodes, default 600) cut short of T_sch."""
+    from pathlib import Path
+
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.scheduling.config import FuzzyScheduler
+    from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy, UniformPolicy
+    from hrc_drake.scheduling.systems import net_from_scenario
+
+    root = Path(__file__).resolve().parents[1]
+    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
+    recorder = _RecordingPolicy(RoundRobinPolicy(net, random_state=seed))
+    simulate_cell(net, recorder, np.random.default_rng(seed), max_time=40.0 * n_decisions)
+    asked = [a for a in recorder.asked  # decisions with a choice
+             if net.enabled(a[0])[net.agent_transitions(a[1])].sum() > 1][:n_decisions]
+    out = {}
+    for name, kind in (("fuzzy", FuzzyPolicy), ("uniform", UniformPolicy)):
+        policy = kind(net, horizon=horizon)
+        times, nodes, truncated = [], [], 0
+        for marking, agent, now, elapsed in asked:
+            t0 = time.perf_counter()
+            policy.decide(marking, agent, now, elapsed)
+            times.append(time.perf_counter() - t0)
+            tree = policy.tree(marking, roots=net.agent_transitions(agent)[net.enabled(marking)[
+                net.agent_transitions(agent)]], elapsed=elapsed)
+            nodes.append(len(tree.nodes))
+            truncated += bool(tree.truncated)
+        out[name] = {"ms_median": 1000 * float(np.median(times)), "ms_max": 1000 * float(np.max(times)),
+                     "nodes_median": int(np.median(nodes)), "truncated": truncated, "decisions": len(times)}
+    return out
+
+
 def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
     if kind == "best_scenario":
         return best_scenario_policy(net)
@@ -213,6 +249,15 @@ def main():
     result["bnb_use_case_a_nodes_median"] = nodes
     print(f"  best scenario (7.2), use case a, T_sch = 60 s: {median:7.2f} ms median, {worst:.2f} ms max, "
           f"{nodes} nodes ({count} decisions; the thesis gives no figure)", flush=True)
+
+    fuzzy = fuzzy_latency_ms(10 if quick else 50)
+    result["latency_fuzzy_T50_ms"] = fuzzy["fuzzy"]["ms_median"]
+    result["latency_uniform_T50_ms"] = fuzzy["uniform"]["ms_median"]
+    result["fuzzy_T50"] = fuzzy
+    for name, f in fuzzy.items():
+        print(f"  {name} (7.4), torch_clock net, T_sch = 50 s: {f['ms_median']:7.1f} ms median, "
+              f"{f['ms_max']:.1f} ms max, {f['nodes_median']} nodes, {f['truncated']} of {f['decisions']} "
+              "trees cut at max_nodes (thesis: a few ms)", flush=True)
 
     print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
     flow, buffers, pattern, robots = tc.fig_7_11()
