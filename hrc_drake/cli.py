@@ -121,6 +121,7 @@ def _simulate(args) -> int:
     print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
     cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=replay_fps)
     realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)
+    print(f"Simulating {duration:g} s (Ctrl-C stops and reports the time simulated) ...", flush=True)
     result = simulate(
         cell, duration, progress=sys.stderr, record=bool(args.replay), realtime_rate=realtime_rate
     )

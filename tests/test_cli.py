@@ -106,7 +106,10 @@ def test_ctrl_c_stops_the_run_and_writes_what_it_has(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "hrc_drake.cli", "simulate", TORCH, "--duration", "100000",
                              "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout.readline().startswith("Building")
-    time.sleep(8.0)  # past the build, inside the simulation
+    # SIGINT only once the simulation runs: during the build Drake's IK solver may take it for
+    # itself (a fresh machine builds slowly), and the run would then go on
+    assert proc.stdout.readline().startswith("Simulating")
+    time.sleep(3.0)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == EXIT_INTERRUPTED, stderr
