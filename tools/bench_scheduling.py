@@ -122,9 +122,9 @@ def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     if kind.startswith("monte_carlo_T"):  # a second horizon, side by side
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=float(kind[13:]), random_state=seed)
-    if kind == "monte_carlo_alg4":  # Algorithm 4 with rule (b) at every controllable branching
+    if kind == "monte_carlo_pooled":  # the branch pooling variant: rule (b) needs 20 trials per child
         return MonteCarloPolicy(
-            net, n_trials=n_trials, horizon=horizon, random_state=seed, min_branch_samples=1
+            net, n_trials=n_trials, horizon=horizon, random_state=seed, min_branch_samples=20
         )
     if kind == "round_robin":
         return RoundRobinPolicy(net, programs=programs, random_state=seed)
@@ -279,7 +279,7 @@ def main():
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
         runs, cycles = (2, 4) if quick else (20, 10)
-        kinds = ["best_scenario", "monte_carlo", "monte_carlo_T30", "monte_carlo_alg4", "round_robin"]
+        kinds = ["best_scenario", "monte_carlo", "monte_carlo_T30", "monte_carlo_pooled", "round_robin"]
         arms = campaign(net_a, kinds, runs, cycles, f"a, pat {pat}", horizon=15.0, programs=programs[pat])
         bs, rr = arms["best_scenario"]["time_per_product_runs"], arms["round_robin"]["time_per_product_runs"]
         p_value = float(mannwhitneyu(bs, rr, alternative="less").pvalue) if len(bs) > 1 else None

@@ -123,8 +123,9 @@ class MonteCarloScheduler(_SchedulerCommon):
     #: observed delays a transition needs before its empirical distribution replaces the prior
     min_samples: int = 3
     #: trials each child of a controllable branching below the root needs before rule (b) of
-    #: Algorithm 4 applies (1: Algorithm 4 literally)
-    min_branch_samples: int = 20
+    #: Algorithm 4 applies: 1 is Algorithm 4 as written; more is "branch pooling", a variant
+    #: that unites thinner branchings (use case a: 20 gives 30.59 s per product vs 32.70 s)
+    min_branch_samples: int = 1
     #: how controllable conflicts after the root are resolved: "uniform" (7.3.1) or "work_first"
     rollout: str = "uniform"
     #: learn the delays online from observed firings (thesis 7.1)
