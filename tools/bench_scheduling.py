@@ -106,8 +106,7 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0) -> 
             t0 = time.perf_counter()
             policy.decide(marking, agent, now, elapsed)
             times.append(time.perf_counter() - t0)
-            tree = policy.tree(marking, roots=net.agent_transitions(agent)[net.enabled(marking)[
-                net.agent_transitions(agent)]], elapsed=elapsed)
+            tree = policy.tree(marking, roots=net.agent_choices(marking, agent), elapsed=elapsed)
             nodes.append(len(tree.nodes))
             truncated += bool(tree.truncated)
         out[name] = {"ms_median": 1000 * float(np.median(times)), "ms_max": 1000 * float(np.max(times)),

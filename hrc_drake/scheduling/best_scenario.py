@@ -21,7 +21,7 @@ import numpy as np
 from scipy.stats import lognorm
 
 from hrc_drake.distributions import Distribution
-from hrc_drake.messages import Forecast
+from hrc_drake.messages import Forecast, shallow_copy
 from hrc_drake.scheduling.config import TIE_BREAKS
 from hrc_drake.scheduling.petri import PcTPN
 
@@ -328,10 +328,12 @@ class BestScenarioPolicy:
                              f"{p_c1}, {p_c2}, {p_a1}")
         self.window = (float(p_c1), float(p_c2), float(p_a1))
 
-    def set_forecast_from(self, forecast: Forecast, horizon_end: float) -> None:
+    def set_forecast_from(self, forecast: Forecast, now: float) -> None:
         """`set_forecast` from the activity predictor's forecast (waiting times from
         forecast.time, Ch. 5) at the levels `levels`; a time beyond the predictor's reach
-        (inf) becomes `horizon_end`, the end of the planning horizon."""
+        (inf) becomes the end of the planning horizon, now + T_sch."""
+        horizon_end = now + self.planner.horizon
+
         def at(action: str, level: float) -> float:
             if action not in forecast.actions:
                 return horizon_end
@@ -356,11 +358,8 @@ class BestScenarioPolicy:
         """The controllable transition to fire now for robot `agent` (7.2.1 cases 1-3)."""
         net = self.net
         if self.forecaster is not None:
-            self.set_forecast_from(self.forecaster.forecast(now), now + self.planner.horizon)
-        choices = net.agent_transitions(agent)
-        choices = choices[net.enabled(marking)[choices]]
-        if choices.size == 0:
-            raise ValueError(f"BestScenarioPolicy.decide: robot {agent!r} has no enabled transition")
+            self.set_forecast_from(self.forecaster.forecast(now), now)
+        choices = net.agent_choices(marking, agent, "BestScenarioPolicy")
         wait = net.transition_index.get(f"{agent}:wait")
         p_c1, p_c2, p_a1 = self.window if self.window is not None else (now, now, math.inf)
         if self._human_waits.size and np.any(np.asarray(marking)[self._human_waits] > 0):
@@ -390,11 +389,8 @@ class BestScenarioPolicy:
 
     def clone(self) -> BestScenarioPolicy:
         """A copy whose `observe` and forecasts do not touch this one (the net is shared)."""
-        new = object.__new__(BestScenarioPolicy)
-        new.__dict__.update(self.__dict__)
-        planner = object.__new__(BestScenarioPlanner)
-        planner.__dict__.update(self.planner.__dict__)
-        new.planner = planner
+        new = shallow_copy(self)
+        new.planner = shallow_copy(self.planner)
         if self.forecaster is not None:
             new.forecaster = self.forecaster.clone()
         return new

@@ -617,13 +617,7 @@ class FuzzyPolicy:
         """The controllable transition to fire now for robot `agent`: the root child of the
         fuzzy reachability tree with the largest J (7.4.1). `now` is not used: the tree's times
         are relative to the present and waits last the crisp t_w (7.5.3)."""
-        choices = self.net.agent_transitions(agent)
-        en = self.net.enabled(marking)
-        choices = choices[en[choices]]
-        if choices.size == 0:
-            raise ValueError(
-                f"{type(self).__name__}.decide: robot {agent!r} has no enabled transition (is it free?)"
-            )
+        choices = self.net.agent_choices(marking, agent, type(self).__name__)
         if choices.size == 1:
             self.last_fitness_ = {}
             return int(choices[0])

@@ -334,13 +334,7 @@ class MonteCarloPolicy:
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
         """The controllable transition to fire now for robot `agent` (an action, a
         commitment to a collaboration, or its wait)."""
-        choices = self.net.agent_transitions(agent)
-        en = self.net.enabled(marking)
-        choices = choices[en[choices]]
-        if choices.size == 0:
-            raise ValueError(
-                f"MonteCarloPolicy.decide: robot {agent!r} has no enabled transition (is it free?)"
-            )
+        choices = self.net.agent_choices(marking, agent, "MonteCarloPolicy")
         if choices.size == 1:
             self.last_percentiles_ = {}
             return int(choices[0])

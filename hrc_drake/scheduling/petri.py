@@ -140,6 +140,15 @@ class PcTPN:
         """Cost per second accrued in `marking`: sum_i cost_i m_i."""
         return float(np.dot(self.cost, marking))
 
+    def agent_choices(self, marking, agent: str, who: str = "PcTPN") -> np.ndarray:
+        """Indices of the controllable transitions of robot `agent` enabled in `marking` (a
+        scheduler's choices); ValueError naming `who` when there is none (the robot is busy)."""
+        choices = self.agent_transitions(agent)
+        choices = choices[self.enabled(marking)[choices]]
+        if choices.size == 0:
+            raise ValueError(f"{who}.decide: robot {agent!r} has no enabled transition (is it free?)")
+        return choices
+
     def agent_transitions(self, agent: str) -> np.ndarray:
         """Indices of the controllable transitions that command robot agent `agent`."""
         return np.array(

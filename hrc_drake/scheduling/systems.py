@@ -233,7 +233,7 @@ class Scheduler(LeafSystem):
                     ready.append(e.agent)
         commands = list(core.commands.events)
         if ready and hasattr(core.policy, "set_forecast_from") and self._forecast.HasValue(context):
-            core.policy.set_forecast_from(self._forecast.Eval(context), t + core.policy.planner.horizon)
+            core.policy.set_forecast_from(self._forecast.Eval(context), t)
         for agent in ready:
             avail = net.place_index[f"avail:{agent}"]
             if tracker.m[avail] <= 0:
