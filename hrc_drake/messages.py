@@ -6,6 +6,7 @@ field comments. Times are seconds of simulated time, positions metres in the wor
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -180,6 +181,9 @@ class RobotCommand(Immutable):
 
     action: the action to start, or None to wait `wait` seconds (thesis 6.3.1 wait quantum).
     seq: strictly increasing per scheduler; the executor acts on each command once.
+    give_up_after: how long the agent waits for the action's other agents (a collaboration
+        with the human) before the command is revoked and it is ready again (T_wait, the t_W
+        of Fig. 7.3); inf waits for good.
     """
 
     time: float
@@ -187,6 +191,7 @@ class RobotCommand(Immutable):
     action: str | None
     seq: int
     wait: float = 0.0
+    give_up_after: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -232,6 +237,9 @@ class WorldSnapshot(Immutable):
     finished_products: products that left the cell so far.
     granted, refused: agent name -> seq of its last start `WorldRequest` that was granted /
         found impossible at least once (the agent waits until it is granted).
+    withdrawn: agent name -> seq of its last start request dropped after its `patience`.
+    joint: action shared by several agents -> the agents still at work on it (its outputs
+        are put when the last one finishes).
     """
 
     time: float = 0.0
@@ -240,6 +248,8 @@ class WorldSnapshot(Immutable):
     finished_products: int = 0
     granted: dict = field(default_factory=dict)
     refused: dict = field(default_factory=dict)
+    withdrawn: dict = field(default_factory=dict)
+    joint: dict = field(default_factory=dict)
 
 
 class Capsules(NamedTuple):
@@ -292,6 +302,7 @@ class WorldRequest(Immutable):
     room, hold its resources) or reports that it finished one (put its outputs).
 
     kind: "start" or "finish". seq: strictly increasing per source (the system emitting it).
+    patience: a start not granted within this many seconds is withdrawn (inf: never).
     """
 
     time: float
@@ -299,6 +310,7 @@ class WorldRequest(Immutable):
     action: str
     kind: str
     seq: int
+    patience: float = math.inf
 
 
 @dataclass(frozen=True)

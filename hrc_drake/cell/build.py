@@ -7,7 +7,7 @@ predictor / scheduler / motion systems, the metrics recorder and, when asked, Me
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +71,8 @@ class Cell:
     agents: list[str]
     #: flow action -> the product buffers (types) it puts a finished product in
     product_actions: dict[str, tuple[str, ...]]
+    #: flow actions of several agents -> their agents (a product is done when the last ends)
+    shared_actions: dict[str, tuple[str, ...]] = field(default_factory=dict)
     meshcat: object = None
     visualizer: object = None
 
@@ -182,8 +184,9 @@ def _add_plant(builder, scenario: Scenario):
     return plant, scene_graph, robots, False
 
 
-def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler):
-    """Task executor and path follower of every arm agent, driving the plant.
+def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler, flow):
+    """Task executor and path follower of every arm agent, driving the plant. An arm on a
+    flow action of several agents stays on it until all are done, unless released early.
 
     Returns the executor, follower, arm agents and the port (and its size) whose first nq
     entries are the robots' current positions.
@@ -201,14 +204,22 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
             v_max.append(vel)
         for action in robot.actions:
             waypoints = np.array([named_poses[(robot.name, p)] for p in action.poses])
-            moves[action.name] = RobotMove(waypoints, np.full(len(waypoints), action.dwell))
+            move = RobotMove(waypoints, np.full(len(waypoints), action.dwell))
+            # an action may have a part per arm (a two-arm action): each arm agent its own
+            for arm in robot.arms:
+                if arm.arm == action.arm:
+                    moves[(arm.agent, action.name)] = move
+    arm_agents = {a.agent for a in agents}
+    holds = {(agent, a.name) for a in flow.actions if len(a.agents) > 1
+             for agent in a.agents if agent in arm_agents and agent not in a.early_release}
     follower = builder.AddSystem(
         PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE)
     )
     follower.set_name("path_follower")
     executor = builder.AddSystem(
         RobotTaskExecutor(
-            TaskExecutor(agents, moves, use_commands=use_scheduler, requests=True), period=EXECUTOR_PERIOD
+            TaskExecutor(agents, moves, use_commands=use_scheduler, requests=True, holds=holds),
+            period=EXECUTOR_PERIOD,
         )
     )
     executor.set_name("robot_task_executor")
@@ -406,6 +417,7 @@ def build_cell(
         dynamic,
         named_poses,
         not isinstance(scenario.scheduler, NoScheduler),
+        scenario.flow,
     )
     capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))
@@ -460,6 +472,7 @@ def build_cell(
         body=body,
         agents=[scenario.operator.name] + [a.agent for a in agents],
         product_actions=_product_actions(scenario),
+        shared_actions={a.name: tuple(a.agents) for a in scenario.flow.actions if len(a.agents) > 1},
         meshcat=meshcat,
         visualizer=visualizer,
     )

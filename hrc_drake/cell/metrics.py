@@ -213,14 +213,28 @@ DEFINITIONS = {
 }
 
 
-def product_times(events, product_actions: dict[str, tuple[str, ...]]) -> dict[str, list[float]]:
+def product_times(events, product_actions: dict[str, tuple[str, ...]],
+                  shared_actions: dict[str, tuple[str, ...]] | None = None) -> dict[str, list[float]]:
     """Per product type (product buffer), the sorted times at which its products were finished:
-    ends of the flow actions that put a part in it."""
+    ends of the flow actions that put a part in it. An action of several agents
+    (`shared_actions`: action -> its agents) finishes its k-th product when the last of its
+    agents ends its k-th part."""
+    shared = shared_actions or {}
     times: dict[str, list[float]] = {kind: [] for kinds in product_actions.values() for kind in kinds}
+    parts: dict[str, dict[str, list[float]]] = {a: {agent: [] for agent in shared[a]} for a in shared}
     for e in events:
         if e.kind == "end" and e.action in product_actions:
+            if e.action in parts:
+                if e.agent in parts[e.action]:
+                    parts[e.action][e.agent].append(e.time)
+                continue
             for kind in product_actions[e.action]:
                 times[kind].append(e.time)
+    for action, ends in parts.items():
+        if action in product_actions:
+            for k in range(min(len(ts) for ts in ends.values())):
+                for kind in product_actions[action]:
+                    times[kind].append(max(ts[k] for ts in ends.values()))
     return {kind: sorted(ts) for kind, ts in times.items()}
 
 
@@ -246,11 +260,12 @@ def summarize(
     wall_time: float | None = None,
     warmup_products: int = 1,
     warmup_time: float = 0.0,
+    shared_actions: dict[str, tuple[str, ...]] | None = None,
 ) -> dict:
     """Figures of a run (`DEFINITIONS`): products and cycle times (overall and per product type,
     after the warm-up), busy, wait and idle time per agent, minimum distance."""
     spans = intervals(log.events, end_time)
-    by_type = product_times(log.events, product_actions)
+    by_type = product_times(log.events, product_actions, shared_actions)
     done = sorted(t for ts in by_type.values() for t in ts)
     cycle = np.diff([0.0, *done]) if done else np.zeros(0)
     warm = cycle_times_after_warmup(done, warmup_products, warmup_time)

@@ -84,7 +84,8 @@ def simulate(
     log = cell.log(context)
     warmup = cell.scenario.metrics
     metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall,
-                        warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time)
+                        warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time,
+                        shared_actions=cell.shared_actions)
     if interrupted:
         metrics["interrupted"] = True
     return RunResult(metrics=metrics, wall_time=wall, simulated_time=end_time, log=log, context=context,

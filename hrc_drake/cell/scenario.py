@@ -423,7 +423,15 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
                 # IK tolerances (m): below 0.1 mm the solver's own precision, above 10 cm no target
                 _in_range(file, f"{pf}.tolerance", pose.tolerance, 1e-4, 0.1, "m")
             pose_arm[pose.name] = pose.arm
-        actions = _unique(file, f"{field}.actions", [a.name for a in robot.actions])
+        # one action name per arm: an action of two arms has a part (a motion) for each
+        actions_of_arm: dict[str, set[str]] = {}
+        for j, action in enumerate(robot.actions):
+            if not action.name:
+                raise ScenarioError(file, f"{field}.actions[{j}].name", "a name is required")
+            if action.name in actions_of_arm.get(action.arm, set()):
+                raise ScenarioError(file, f"{field}.actions[{j}].name",
+                                    f"duplicate name '{action.name}' on arm '{action.arm}'")
+            actions_of_arm.setdefault(action.arm, set()).add(action.name)
         for j, action in enumerate(robot.actions):
             af = f"{field}.actions[{j}]"
             if action.arm not in arm_names:
@@ -450,8 +458,12 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
             if arm.home and arm.home not in poses:
                 raise ScenarioError(file, f"{af}.home", f"unknown pose '{arm.home}'")
             for k, name in enumerate(arm.program):
-                if name not in actions:
-                    raise ScenarioError(file, f"{af}.program[{k}]", f"unknown robot action '{name}'")
+                if name not in actions_of_arm.get(arm.arm, set()):
+                    other = [a for a, names in actions_of_arm.items() if name in names]
+                    reason = (f"'{name}' is an action of the {other[0]} arm, not of the {arm.arm} arm"
+                              if other
+                              else f"unknown robot action '{name}'")
+                    raise ScenarioError(file, f"{af}.program[{k}]", reason)
 
     op = sc.operator
     if op.name in agents:
@@ -484,6 +496,36 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _check_names_apart(sc, file, places)
     _check_programs_cover_the_flow(sc, file)
     _check_systems(sc, file)
+
+
+def _check_robot_parts(sc: Scenario, file) -> None:
+    """Every robot agent of a flow action has a motion of that name on its arm (a scheduler may
+    command it); without a scheduler an action shared by several agents is in the program of
+    each of its robot agents, or the rendezvous never happens; an agent released early is a
+    robot agent of the action."""
+    from hrc_drake.scheduling.config import NoScheduler
+
+    arm_of = {arm.agent: (robot, arm) for robot in sc.robots for arm in robot.arms}
+    for i, action in enumerate(sc.flow.actions):
+        af = f"flow.actions[{i}]"
+        for k, agent in enumerate(action.agents):
+            if agent not in arm_of:
+                continue
+            robot, arm = arm_of[agent]
+            if not any(a.name == action.name and a.arm == arm.arm for a in robot.actions):
+                raise ScenarioError(file, f"{af}.agents[{k}]",
+                                    f"'{agent}' has no motion for '{action.name}' (no action of that name on "
+                                    f"the {arm.arm} arm of robot '{robot.name}')")
+            if len(action.agents) > 1 and isinstance(sc.scheduler, NoScheduler) and \
+                    action.name not in arm.program:
+                raise ScenarioError(file, f"{af}.agents[{k}]",
+                                    f"'{action.name}' is shared by {action.agents} but is not in the program "
+                                    f"of '{agent}': it would never start (add it, or add a scheduler)")
+        for agent, part in action.early_release.items():
+            if agent not in arm_of or agent not in action.agents or len(action.agents) < 2:
+                raise ScenarioError(file, f"{af}.early_release.{agent}",
+                                    f"'{agent}' is not a robot agent of '{action.name}' shared with others")
+            check_distribution(file, f"{af}.early_release.{agent}", part)
 
 
 def _check_names_apart(sc: Scenario, file, places: set[str]) -> None:
@@ -689,6 +731,7 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
                 f"flow.actions[{i}].inputs",
                 f"action '{action.name}' can never start: no action or raw buffer ever supplies {missing}",
             )
+    _check_robot_parts(sc, file)
     # A flow action in a program or pattern must be assigned to that agent.
     for i, robot in enumerate(sc.robots):
         for j, arm in enumerate(robot.arms):

@@ -242,10 +242,12 @@ class CellWorldSystem(LeafSystem):
                 fresh = port.Eval(context).since(seen[k])
                 seen[k] = fresh[-1].seq
                 new.extend(fresh)
-        if not new:  # nothing changed since the last tick: a pending start still cannot start
+        now = context.get_time()
+        if not new and now < run.world.core.next_deadline():
+            # nothing changed since the last tick: a pending start still cannot start
             return EventStatus.DidNothing()
         world = run.world.thaw()
-        world.handle_requests(new)
+        world.handle_requests(new, now)
         set_state(state, self._run, WorldRun(Frozen(world), tuple(seen), context.get_time()))
         return EventStatus.Succeeded()
 

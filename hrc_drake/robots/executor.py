@@ -8,6 +8,12 @@ action's poses, and on arrival at the last pose finishes it in the world.
 The world is either a synchronous object (`try_start`, `finish`) or, in a cell, the request
 protocol of `cell.world`: `update(..., view=WorldSnapshot)` leaves start/finish
 `WorldRequest`s in `new_requests` and starts an action once its request is granted.
+
+An action shared with other agents (a collaboration, thesis 6.3.3) starts when all of them
+have asked for it; a commanded one is revoked after the command's `give_up_after` (T_wait,
+Fig. 7.3) and the arm is ready again. At the end of its motion the arm holds the last pose
+until the whole action is done, unless it leaves early (`leaves_early`, the left arm of
+Fig. 7.3).
 """
 
 from __future__ import annotations
@@ -38,7 +44,7 @@ class RobotMove:
 
 @dataclass
 class _ArmState:
-    mode: str = "choose"  # choose | ready | requesting | waiting | moving | pausing
+    mode: str = "choose"  # choose | ready | requesting | waiting | moving | holding | pausing
     action: str | None = None
     program_index: int = 0
     path_seq: int = 0
@@ -46,6 +52,7 @@ class _ArmState:
     command_seq: int = 0
     pending: tuple = ()
     request_seq: int = 0
+    patience: float = float("inf")
 
 
 class TaskExecutor:
@@ -55,26 +62,32 @@ class TaskExecutor:
     or None. requests: use the request protocol instead (see the module docstring); with
     neither, every action starts at once.
     The motions to start are `path_requests` (channel -> `PathRequest`, the latest per arm).
+    moves: action name -> its motion, or (agent, action name) -> the motion of that agent's part
+    (an action of two arms has one per arm). holds: (agent, action) pairs of shared actions
+    whose agent stays on the action until all its agents are done (request protocol only);
+    the others leave it when their own motion ends.
     """
 
     def __init__(
         self,
         agents: list[ArmAgent],
-        moves: dict[str, RobotMove],
+        moves: dict,
         world=None,
         use_commands: bool = False,
         requests: bool = False,
+        holds=frozenset(),
     ):
         if world is not None and requests:
             raise ValueError("TaskExecutor: give a synchronous world or use requests, not both")
+        self.moves = moves
         for a in agents:
             if not use_commands and not a.program:
                 raise ValueError(f"agent '{a.agent}' has an empty program")
             for name in a.program:
-                if name not in moves:
+                if not self.has_move(a.agent, name):
                     raise ValueError(f"agent '{a.agent}': program names unknown robot action '{name}'")
         self.agents = agents
-        self.moves = moves
+        self.holds = frozenset(holds)
         self.world = world
         self.requests = requests
         self.use_commands = use_commands
@@ -95,6 +108,13 @@ class TaskExecutor:
         other.path_requests = dict(self.path_requests)
         return other
 
+    def has_move(self, agent: str, action: str) -> bool:
+        return (agent, action) in self.moves or action in self.moves
+
+    def move(self, agent: str, action: str) -> RobotMove:
+        """The motion of `agent`'s part of `action`."""
+        return self.moves.get((agent, action)) or self.moves[action]
+
     def _emit(self, time: float, agent: str, action: str, kind: str) -> None:
         self._seq += 1
         event = RobotEvent(time=time, agent=agent, action=action, kind=kind, seq=self._seq)
@@ -102,14 +122,17 @@ class TaskExecutor:
 
     def _world_request(self, time: float, agent: str, action: str, kind: str) -> None:
         self._world_seq += 1
-        request = WorldRequest(time=time, agent=agent, action=action, kind=kind, seq=self._world_seq)
+        patience = self.state[agent].patience if kind == "start" else float("inf")
+        request = WorldRequest(time=time, agent=agent, action=action, kind=kind, seq=self._world_seq,
+                               patience=patience)
         self._requests.append(request)
         if kind == "start":
             self.state[agent].request_seq = self._world_seq
 
     def needs_world(self) -> bool:
         """Whether an update may read the world's answer (an arm is asking or waiting)."""
-        return self.requests and any(st.mode in ("requesting", "waiting") for st in self.state.values())
+        asking = ("requesting", "waiting", "holding")
+        return self.requests and any(st.mode in asking for st in self.state.values())
 
     def will_change(self, done_seq, commands, view) -> bool:
         """Whether `update` would change anything (cheap; lets a system skip a copy)."""
@@ -124,8 +147,12 @@ class TaskExecutor:
             if st.mode in ("requesting", "waiting") and view is not None:
                 if view.granted.get(arm.agent, 0) >= st.request_seq:
                     return True
+                if view.withdrawn.get(arm.agent, 0) >= st.request_seq:
+                    return True
                 if st.mode == "requesting" and view.refused.get(arm.agent, 0) >= st.request_seq:
                     return True
+            if st.mode == "holding" and view is not None and st.action not in view.joint:
+                return True
             if st.mode == "waiting" and self.world is not None:
                 return True
         return False
@@ -133,7 +160,7 @@ class TaskExecutor:
     def activity(self) -> dict[str, str]:
         out = {}
         for agent, st in self.state.items():
-            if st.mode == "moving":
+            if st.mode in ("moving", "holding"):
                 out[agent] = st.action
             elif st.mode == "waiting":
                 out[agent] = f"wait:{st.action}"
@@ -155,8 +182,8 @@ class TaskExecutor:
             self._last_command_seq = command.seq
             if command.agent not in self.state:
                 raise ValueError(f"command for unknown robot agent '{command.agent}'")
-            if command.action is not None and command.action not in self.moves:
-                raise ValueError(f"command for unknown robot action '{command.action}'")
+            if command.action is not None and not self.has_move(command.agent, command.action):
+                raise ValueError(f"command for unknown robot action '{command.action}' of '{command.agent}'")
             st = self.state[command.agent]
             st.pending = st.pending + (command,)
         for arm in self.agents:
@@ -166,6 +193,12 @@ class TaskExecutor:
                     self.world.finish(arm.agent, st.action, time)
                 else:
                     self._world_request(time, arm.agent, st.action, "finish")
+                if self.requests and (arm.agent, st.action) in self.holds:
+                    st.mode = "holding"  # until the other agents are done too
+                else:
+                    self._emit(time, arm.agent, st.action, "end")
+                    st.mode, st.action = "choose", None
+            if st.mode == "holding" and view is not None and st.action not in view.joint:
                 self._emit(time, arm.agent, st.action, "end")
                 st.mode, st.action = "choose", None
             if st.mode == "pausing" and time >= st.pause_until:
@@ -183,8 +216,9 @@ class TaskExecutor:
                 if command.action is None:
                     st.mode, st.pause_until = "pausing", time + max(command.wait, 0.0)
                 else:
-                    st.action = command.action
+                    st.action, st.patience = command.action, command.give_up_after
                     self._try_begin(time, arm, st, first=True)
+                    st.patience = float("inf")
             elif st.mode in ("waiting", "requesting"):
                 self._try_begin(time, arm, st, first=False)
         self.new_requests = tuple(self._requests)
@@ -204,11 +238,18 @@ class TaskExecutor:
             view = self._view
             granted = view is not None and view.granted.get(arm.agent, 0) >= st.request_seq
             refused = view is not None and view.refused.get(arm.agent, 0) >= st.request_seq
+            if not granted and view is not None and view.withdrawn.get(arm.agent, 0) >= st.request_seq:
+                # the command is revoked (T_wait passed): ready for the next one
+                if st.mode == "waiting":
+                    self._emit(time, arm.agent, st.action, "wait_end")
+                self._emit(time, arm.agent, "", "ready")
+                st.mode, st.action = "ready", None
+                return
         if granted:
             if st.mode == "waiting":
                 self._emit(time, arm.agent, st.action, "wait_end")
             self._emit(time, arm.agent, st.action, "begin")
-            move = self.moves[st.action]
+            move = self.move(arm.agent, st.action)
             st.path_seq += 1
             self.path_requests[arm.channel] = PathRequest(
                 arm.channel, st.path_seq, move.waypoints, move.dwells

@@ -10,14 +10,17 @@ Places made for a flow:
   (6.3.3, superposition of the robot and human nets);
 - ``buf:<b>`` parts in buffer b, ``space:<b>`` free spots of an intermediate buffer (a spot is
   freed when the next action *starts*, taking the part; the producer reserves it at its start);
-- ``res:<r>`` units of a shared resource (returned when the action ends).
+- ``res:<r>`` units of a shared resource (returned when the action ends);
+- ``part:<action>:<robot>`` a robot released early from an action is still at its part (Fig. 7.3).
 Raw buffers never run out (no place); product buffers are unbounded and count finished products.
 Transitions: ``<a>:begin`` (controllable for robot actions, uncontrollable with zero delay for
 actions involving the human), ``<a>:end`` (uncontrollable, the action's duration),
 ``<robot>:wait`` / ``<robot>:wait_end`` (quantum t_w), ``intent:<k>`` (human intention),
 ``<a>:commit`` and ``<a>:giveup`` (robots start a collaboration, taking its parts, resources
 and output spots, and wait for the human; they give up and put everything back after
-``collab_patience`` s, like t_W of Fig. 7.3).
+``collab_patience`` s, like t_W of Fig. 7.3), ``<a>:release:<robot>`` (uncontrollable, the
+duration of the robot's part: an agent of `early_release` is available again before the action
+ends, Fig. 7.3).
 """
 
 from __future__ import annotations
@@ -185,6 +188,12 @@ def compile_flow(
             if r not in flow.resources:
                 raise FlowError(f"flow action {a.name!r}: unknown resource {r!r}")
         validate_distribution(a.duration, where=f"duration of flow action {a.name!r}")
+        for ag, part in a.early_release.items():
+            if ag not in a.agents or ag == human_agent:
+                raise FlowError(f"flow action {a.name!r}: early_release names {ag!r}, not one of its robots")
+            if len(a.agents) < 2:
+                raise FlowError(f"flow action {a.name!r}: early_release needs an action of several agents")
+            validate_distribution(part, where=f"early_release.{ag} of flow action {a.name!r}")
     for step in pattern:
         if step not in by_name:
             raise FlowError(f"human pattern: unknown action {step!r}")
@@ -233,15 +242,26 @@ def compile_flow(
         if human_actions:
             nb.place("human:idle", initial=1)
 
+    def early_parts(a: FlowAction, tag: str) -> list[str]:
+        """Places of the robots released early from `a` (Fig. 7.3), and their release transitions."""
+        parts = []
+        for r, part in a.early_release.items():
+            place = nb.place(f"part:{tag}:{r}")
+            nb.transition(f"{tag}:release:{r}", [place], [f"avail:{r}"], False, part, agents=[r],
+                          action=a.name, role="end")
+            parts.append(place)
+        return parts
+
     for a in flow.actions:
         robots = [r for r in a.agents if r != human_agent]
+        staying = [r for r in robots if r not in a.early_release]
         with_human = human_agent in a.agents
         if not with_human:
             busy = nb.place(f"busy:{a.name}")
             nb.transition(
                 f"{a.name}:begin",
                 [f"avail:{r}" for r in robots] + takes(a),
-                [busy] + frees_at_start(a),
+                [busy] + frees_at_start(a) + early_parts(a, a.name),
                 True,
                 _fixed(0.0),
                 agents=robots,
@@ -251,10 +271,10 @@ def compile_flow(
             nb.transition(
                 f"{a.name}:end",
                 [busy],
-                [f"avail:{r}" for r in robots] + gives_at_end(a),
+                [f"avail:{r}" for r in staying] + gives_at_end(a),
                 False,
                 a.duration,
-                agents=robots,
+                agents=staying,
                 action=a.name,
                 role="end",
             )
@@ -300,7 +320,7 @@ def compile_flow(
             nb.transition(
                 f"{tag}:begin",
                 [hwait] + ([cwait] if cwait else takes(a)),
-                [busy] + frees_at_start(a),
+                [busy] + frees_at_start(a) + early_parts(a, tag),
                 False,
                 _fixed(0.0),
                 agents=robots,
@@ -310,10 +330,10 @@ def compile_flow(
             nb.transition(
                 f"{tag}:end",
                 [busy],
-                [after] + [f"avail:{r}" for r in robots] + gives_at_end(a),
+                [after] + [f"avail:{r}" for r in staying] + gives_at_end(a),
                 False,
                 a.duration,
-                agents=robots,
+                agents=staying,
                 action=a.name,
                 role="end",
             )

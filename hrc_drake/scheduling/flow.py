@@ -42,6 +42,10 @@ class FlowAction:
     resources: list[str] = field(default_factory=list)
     #: nominal duration for planners; the robot's real one comes from its motion
     duration: Distribution = field(default_factory=Distribution)
+    #: robot agents of the action that leave it before it ends, with the duration of their part
+    #: (thesis Fig. 7.3: YuMi's left arm finishes its subtask of the collaboration first and can
+    #: start a new operation while the right arm is still at it)
+    early_release: dict[str, Distribution] = field(default_factory=dict)
 
 
 @dataclass

@@ -88,9 +88,20 @@ class NetTracker:
                 self.enabled_since[j] = t
                 return
 
+    def _collaboration_under_way(self, action: str) -> bool:
+        """Whether `action` is a collaboration with robots that the belief has begun already
+        (its robots' "begin" came before the human's)."""
+        net = self.net
+        if f"cwait:{action}" not in net.place_index:
+            return False
+        return any(self.m[i] > 0 and (p == f"busy:{action}" or p.startswith(f"busy:{action}#"))
+                   for i, p in enumerate(net.places))
+
     def human_event(self, action: str, kind: str, t: float):
         """Apply a HumanEvent (begin | end | wait_begin | wait_end) to the belief."""
         if kind in ("begin", "wait_begin"):
+            if self._collaboration_under_way(action):
+                return  # a collaboration its robots' begin has started already
             if self._find("begin", action, "hwait:") is None:
                 self._human_step_to(action, t)
                 j = self._find("intent", action, "step:") or self._find("intent", action, "human:idle")
