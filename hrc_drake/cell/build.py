@@ -103,7 +103,12 @@ class Cell:
     def log(self, root_context):
         """The `MetricsLog` of a run, from the diagram's root context."""
         recorder = self.recorder
-        return recorder.log(recorder.GetMyContextFromRoot(root_context))
+        log = recorder.log(recorder.GetMyContextFromRoot(root_context))
+        if self.has_system("scheduler"):
+            scheduler = self.system("scheduler")
+            context = scheduler.GetMyContextFromRoot(root_context)
+            log.decisions = list(scheduler.GetOutputPort("robot_commands").Eval(context).events)
+        return log
 
 
 #: rate (Hz) of the operator's logic and the path follower: the camera's 30 Hz, so that their

@@ -144,6 +144,8 @@ class MetricsLog:
     stats: SampleStats | None = None
     #: samples taken / samples kept in the lists (1 unless the recorder's trace decimated them)
     sample_stride: int = 1
+    #: the scheduler's decisions, `RobotCommand`s (time, agent, action or None for a wait)
+    decisions: list = field(default_factory=list)
 
     def record(
         self, time: float, distance: float, override: float, buffers: dict, products: int, human_points=None
@@ -372,11 +374,14 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
         else:
             ax.broken_barh(ranges, (row - 0.175, 0.35), facecolors="lightgrey", hatch="////",
                            edgecolors="grey", linewidths=0.3)
+    marks = _plot_decisions(ax, log.decisions, rows, colors)
     ax.set_yticks(range(len(agents)))
     ax.set_yticklabels(agents)
     ax.invert_yaxis()
     handles = [Patch(color=colors[a], label=a) for a in actions]
-    handles.append(Patch(facecolor="lightgrey", hatch="////", edgecolor="grey", label="waiting for parts"))
+    handles.append(Patch(facecolor="lightgrey", hatch="////", edgecolor="grey",
+                         label="waiting (parts, partner)"))
+    handles.extend(marks)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
     ax.set_title(title or "Agents' activities")
     if log.times:
@@ -400,6 +405,29 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def _plot_decisions(ax, decisions, rows: dict[str, int], colors: dict) -> list:
+    """The scheduler's decisions above each robot's row: a filled triangle in the colour of the
+    action it commanded, a hollow one for a wait quantum; returns their legend handles."""
+    from matplotlib.lines import Line2D
+
+    starts = [(c.time, rows[c.agent], colors.get(c.action, "black")) for c in decisions
+              if c.agent in rows and c.action is not None]
+    waits = [(c.time, rows[c.agent]) for c in decisions if c.agent in rows and c.action is None]
+    if starts:
+        t, row, color = zip(*starts, strict=True)
+        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=14, c=list(color), edgecolors="black",
+                   linewidths=0.3, zorder=3)
+    if waits:
+        t, row = zip(*waits, strict=True)
+        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=9, facecolors="none", edgecolors="grey",
+                   linewidths=0.5, zorder=3)
+    if not decisions:
+        return []
+    return [Line2D([], [], marker="v", ls="", color="black", markersize=4, label="decision: start"),
+            Line2D([], [], marker="v", ls="", markerfacecolor="none", markeredgecolor="grey", markersize=4,
+                   label="decision: wait t_w")]
 
 
 def time_to_next(begins: list[float], times) -> np.ndarray:

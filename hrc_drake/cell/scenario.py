@@ -7,6 +7,7 @@ the field at fault. Every problem raises `ScenarioError(file, field path, reason
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import types
@@ -206,7 +207,11 @@ def _check_keys(node, cls, path: str, file: str) -> None:
             raise ScenarioError(file, path, f"expected true or false, got {node!r}")
 
 
-def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenario:
+#: How many files a chain of `extends` may have.
+MAX_EXTENDS = 8
+
+
+def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
     """Read, type and check a scenario file; raise `ScenarioError` on any problem."""
     path = Path(path)
     if not path.is_file():
@@ -230,10 +235,12 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
     if not isinstance(raw, dict):
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
     _check_keys(raw, Scenario, "", str(path))
+    base = _extended(path, raw.get("extends"), _chain)
     try:
-        scenario = yaml_load_typed(schema=Scenario, data=text)
+        scenario = yaml_load_typed(schema=Scenario, data=text, defaults=base)
     except (RuntimeError, ValueError, TypeError) as err:
         raise ScenarioError(path, "", f"cannot be read as a scenario: {err}") from err
+    scenario.extends = ""  # the fields are merged in: the result stands alone
     check_scenario(scenario, path)
     check_referenced_files(scenario, path)
     if check_reachability:
@@ -241,6 +248,24 @@ def load_scenario(path: str | Path, check_reachability: bool = False) -> Scenari
 
         solve_named_poses(scenario.robots, path)
     return scenario
+
+
+def _extended(path: Path, extends, chain: tuple) -> Scenario | None:
+    """The scenario `path` extends (loaded and checked on its own), or None."""
+    if extends is None or extends == "":
+        return None
+    if not isinstance(extends, str):
+        raise ScenarioError(path, "extends", f"must be the name of a scenario file, got {extends!r}")
+    base = scenario_relative(path, extends)
+    chain = (*chain, path.resolve())
+    if base.resolve() in chain:
+        raise ScenarioError(path, "extends", f"{base} extends itself through {[str(p) for p in chain]}")
+    if len(chain) >= MAX_EXTENDS:
+        raise ScenarioError(path, "extends", f"more than {MAX_EXTENDS} files extend one another")
+    if not base.is_file():
+        raise ScenarioError(path, "extends", f"no such file: {base}")
+    # relative file names of the base (recorded data, models) stay relative to this file's folder
+    return copy.deepcopy(load_scenario(base, _chain=chain))
 
 
 def check_referenced_files(sc: Scenario, file: str | Path) -> None:

@@ -82,6 +82,10 @@ MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa:
 class Scenario:
     """A cell: its seed, layout, robots, operator, assembly flow and optional systems."""
 
+    #: a scenario file (relative to this one) this one starts from: the fields given here
+    #: replace its fields (a mapping merges key by key, a list or a tagged system is replaced);
+    #: the file names it holds are read from this file's folder
+    extends: str = ""
     #: the one seed of every random choice of a run (same seed, same run)
     seed: int = 0
     #: default simulated time of `hrc-drake simulate` (s)

@@ -95,10 +95,12 @@ def human_transitions(net: PcTPN) -> np.ndarray:
     """(T,) bool: the uncontrollable transitions of the human's own net (its intentions, the
     begin and end of actions it takes part in), which never fire while planning (7.2.2)."""
     human_places = np.array([p.startswith(_HUMAN_PLACE_PREFIXES) for p in net.places])
-    # busy places of actions the human starts (begun by a transition consuming a human place)
+    # busy places of actions the human starts (begun by a transition consuming a human place);
+    # not the part of a robot released early (Fig. 7.3): its release is the robot's
+    robot_parts = np.array([p.startswith("part:") for p in net.places])
     starts = np.flatnonzero((net.pre[human_places] > 0).any(axis=0))
     for j in starts:
-        human_places |= net.post[:, j] > 0
+        human_places |= (net.post[:, j] > 0) & ~robot_parts
     touches = ((net.pre[human_places] > 0) | (net.post[human_places] > 0)).any(axis=0)
     return touches & ~net.controllable
 

@@ -95,7 +95,7 @@ def fig_7_11():
     return flow, buffers, ["A2", "A2", "B2", "B2"], ["r1", "r2"]
 
 
-def use_case_a(pattern: int = 1):
+def use_case_a(pattern: int = 1, early_release: bool = True):
     """Use case a (7.2.1, 7.5.1): fuse (YuMi left), IC (human), quality check (both arms),
     collaborative macro-operation (human + both arms). Durations are not given in the text:
     assumed N(6,1), N(12,1.5), N(6,1), N(14,1.5) s. Pattern 1: IC, collab; pattern 2:
@@ -106,7 +106,8 @@ def use_case_a(pattern: int = 1):
     its quality check every cycle (>= IC + check + collab = 32 s per product whatever the
     scheduler); with one board of stock the check runs during the next IC, which is how the
     pcTPN scheduler of Fig. 7.15 has the robots ready when the human is (27.63 s per product).
-    Not modelled: in Fig. 7.3 the left arm ends its part of the collaboration before the right."""
+    As in Fig. 7.3 the left arm ends its part of the collaboration before the right
+    (`early_release`; its part's duration, N(5, 0.5) s, is assumed)."""
     buffers = [
         Buffer("feeder", kind="raw"),
         Buffer("fused", capacity=2),
@@ -125,6 +126,7 @@ def use_case_a(pattern: int = 1):
                 ["checked"],
                 ["product"],
                 duration=_n(14.0, 1.5),
+                early_release={"yumi_left": _n(5.0, 0.5)} if early_release else {},
             ),
         ]
     )

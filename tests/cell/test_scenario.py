@@ -295,3 +295,49 @@ def test_the_migrated_scenarios_keep_their_old_parameters(diagrams_dir):
         for field, raw in fields.items():
             for name, config in translate(field, raw):
                 assert getattr(scenario, name) == config, (file, name)
+
+
+def _child(tmp_path, diagrams_dir, text, name="child.yaml"):
+    (tmp_path / "torch_clock.yaml").write_text((diagrams_dir / "torch_clock.yaml").read_text())
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_scenario_extends_another_field_by_field(tmp_path, diagrams_dir):
+    text = ("extends: torch_clock.yaml\nseed: 99\nlayout: {camera: {rate: 15}}\n"
+            "operator: {pattern: [H1, H2, H3]}\n")
+    path = _child(tmp_path, diagrams_dir, text)
+    base, child = load_scenario(tmp_path / "torch_clock.yaml"), load_scenario(path)
+    assert (child.seed, base.seed) == (99, 7)
+    # a mapping merges key by key: the camera keeps its position, the layout its buffers
+    assert child.layout.camera.rate == 15 and child.layout.camera.position == base.layout.camera.position
+    assert len(child.layout.buffers) == len(base.layout.buffers)
+    # a list is replaced as a whole
+    assert child.operator.pattern == ["H1", "H2", "H3"] and child.operator.actions == base.operator.actions
+    assert child.extends == "" and child.flow == base.flow
+
+
+@pytest.mark.parametrize(
+    "text, reason",
+    [
+        ("extends: nowhere.yaml\n", "no such file"),
+        ("extends: child.yaml\n", "extends itself"),
+        ("extends: [torch_clock.yaml]\n", "expected a string"),
+        ("extends: torch_clock.yaml\noperator: {pattern: [H9]}\n", "unknown operator action 'H9'"),
+    ],
+)
+def test_bad_extends_are_refused(tmp_path, diagrams_dir, text, reason):
+    path = _child(tmp_path, diagrams_dir, text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert reason in str(info.value) and str(path) in str(info.value)
+
+
+def test_the_shipped_fuzzy_cell_is_torch_clock_with_its_scheduler(diagrams_dir):
+    from hrc_drake.scheduling.config import FuzzyScheduler
+
+    base = load_scenario(diagrams_dir / "torch_clock.yaml")
+    fuzzy = load_scenario(diagrams_dir / "torch_clock_fuzzy.yaml")
+    assert isinstance(fuzzy.scheduler, FuzzyScheduler) and fuzzy.scheduler.horizon == 50.0
+    assert fuzzy.scheduler.wait_quantum == 5.0 and fuzzy.flow == base.flow and fuzzy.robots == base.robots

@@ -241,6 +241,15 @@ def test_use_case_a_cell_best_scenario_beats_round_robin(tmp_path, diagrams_dir)
         assert result.metrics["product_times"] == pytest.approx(last, abs=1e-3)
         # the left arm leaves the collaboration first (Fig. 7.3)
         assert all(left < right for left, right in zip(ends["yumi_left"], ends["yumi_right"], strict=False))
+    # the scheduler's decisions are in the log (the Gantt chart marks them): a commitment to
+    # the collaboration goes to both arms at once, revoked after T_wait = 5 t_w = 15 s
+    commits = [c for c in best.log.decisions if c.action == "collab"]
+    assert commits and {c.agent for c in commits} == {"yumi_left", "yumi_right"}
+    assert all(c.give_up_after == 15.0 for c in commits)
+    assert {c.time for c in commits if c.agent == "yumi_left"} == {c.time for c in commits
+                                                                   if c.agent == "yumi_right"}
+    waits = [c for c in best.log.decisions if c.action is None]
+    assert waits and all(abs((c.time + c.wait) / 3.0 - round((c.time + c.wait) / 3.0)) < 1e-6 for c in waits)
     b, r = best.metrics, robin.metrics
     assert b["products_finished"] >= r["products_finished"] + 1
     assert b["mean_cycle_time"] < r["mean_cycle_time"]
