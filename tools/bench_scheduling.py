@@ -1,8 +1,10 @@
 """Benchmark of hrc_drake.scheduling: Monte Carlo decision latency (thesis 7.3.1, 7.5.2), the
 best-scenario decision latency on the use case a net (7.2), the Fig. 7.12 campaign on the
-Fig. 7.11 net, and use case a patterns 1 and 2 (7.5.1).
+Fig. 7.11 net, use case a patterns 1 and 2 (7.5.1) and use case b patterns 1 and 2 (7.5.2,
+Scheduler A against Scheduler B).
 
 Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
+`--only SECTION ...` runs some of the sections (latency, fig7_12, use_case_a, use_case_b).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from scipy.stats import mannwhitneyu
 
 from hrc_drake.scheduling import thesis_cells as tc
-from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
+from hrc_drake.scheduling.baselines import BestOfRolloutsPlanPolicy, RandomEnabledPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
@@ -121,42 +123,62 @@ def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     if kind.startswith("monte_carlo_T"):  # a second horizon, side by side
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=float(kind[13:]), random_state=seed)
+    if kind == "monte_carlo_uniform_support":  # Scheduler B of 7.5.2: uniform delays on the measured supports
+        return MonteCarloPolicy(
+            net, n_trials=n_trials, horizon=horizon, random_state=seed, durations="uniform_support"
+        )
     if kind == "monte_carlo_pooled":  # the branch pooling variant: rule (b) needs 20 trials per child
         return MonteCarloPolicy(
             net, n_trials=n_trials, horizon=horizon, random_state=seed, min_branch_samples=20
         )
     if kind == "round_robin":
         return RoundRobinPolicy(net, programs=programs, random_state=seed)
-    if kind == "greedy":
-        return GreedyPolicy(net, random_state=seed)
-    return DeterministicPlanPolicy(net, random_state=seed)
+    if kind == "random_enabled":
+        return RandomEnabledPolicy(net, random_state=seed)
+    if kind == "best_of_rollouts_plan":
+        return BestOfRolloutsPlanPolicy(net, random_state=seed)
+    raise ValueError(f"make_policy: unknown kind {kind!r}")
 
 
-def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None):
+def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n_products=None):
+    """Each arm over `n_runs` seeded runs of `n_cycles` human pattern cycles (a cycle is then one
+    pattern), or of `n_products` products (a cycle is then the time between two successive
+    products, as Fig. 7.19 measures it). kinds: a list of `make_policy` kinds, or a dict
+    arm name -> kind."""
+    arms = kinds if isinstance(kinds, dict) else {kind: kind for kind in kinds}
     out = {}
-    for kind in kinds:
-        cycles, per_product, t0 = [], [], time.perf_counter()
+    for arm, kind in arms.items():
+        cycles, per_product, human_idle, t0 = [], [], [], time.perf_counter()
         for seed in range(n_runs):
             run = simulate_cell(
                 net,
                 make_policy(kind, net, seed, horizon, programs=programs),
                 np.random.default_rng(1000 + seed),
                 n_cycles=n_cycles,
-                max_time=50.0 * n_cycles * 60,
+                n_products=n_products,
+                max_time=50.0 * n_cycles * 60 if n_products is None else 600.0 * n_products,
             )
-            cycles.extend(run.cycle_times.tolist())
+            if n_products is None:
+                cycles.extend(run.cycle_times.tolist())
+            else:
+                cycles.extend(np.diff(run.product_times).tolist())
             per_product.append(run.time_per_product)
-        out[kind] = {
+            human_idle.append(run.idle[net.human_agent] / max(len(run.product_times), 1))
+        out[arm] = {
             "cycle_median": float(np.median(cycles)),
             "cycle_mean": float(np.mean(cycles)),
             "cycle_p90": float(np.percentile(cycles, 90)),
             "time_per_product": float(np.mean(per_product)),
             "time_per_product_runs": [round(float(x), 3) for x in per_product],
+            "human_idle_per_product": float(np.mean(human_idle)),
         }
+        if n_products is not None:
+            out[arm]["cycle_times"] = [round(float(x), 3) for x in cycles]
         print(
-            f"  {label:10s} {kind:13s} cycle median {out[kind]['cycle_median']:7.2f} s  mean "
-            f"{out[kind]['cycle_mean']:7.2f} s  p90 {out[kind]['cycle_p90']:7.2f} s  per product "
-            f"{out[kind]['time_per_product']:6.2f} s  ({time.perf_counter() - t0:.1f} s)",
+            f"  {label:10s} {arm:21s} cycle median {out[arm]['cycle_median']:7.2f} s  mean "
+            f"{out[arm]['cycle_mean']:7.2f} s  p90 {out[arm]['cycle_p90']:7.2f} s  per product "
+            f"{out[arm]['time_per_product']:6.2f} s  human idle/product "
+            f"{out[arm]['human_idle_per_product']:5.2f} s  ({time.perf_counter() - t0:.1f} s)",
             flush=True,
         )
     return out
@@ -219,14 +241,8 @@ def sweep_min_branch_samples(quick: bool) -> dict:
     return out
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="small campaigns, finishes in under a minute")
-    args = parser.parse_args()
-    quick = args.quick
-    result = {"quick": quick, "load_average_1min_start": round(os.getloadavg()[0], 2)}
-    print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores shared)")
-
+def latencies(quick: bool, result: dict) -> None:
+    """The decision latencies, written into `result`."""
     print("Decision latency of the Monte Carlo scheduler (median over repeats, ms)")
     flow, buffers, pattern, robots = tc.fig_7_6()
     net76 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0)
@@ -283,14 +299,9 @@ def main():
               f"{f['ms_max']:.1f} ms max, {f['nodes_median']} nodes, {f['truncated']} of {f['decisions']} "
               "trees cut at max_nodes (thesis: a few ms)", flush=True)
 
-    print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
-    flow, buffers, pattern, robots = tc.fig_7_11()
-    net711 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
-    runs, cycles = (3, 3) if quick else (20, 10)
-    result["fig7_12"] = campaign(
-        net711, ["monte_carlo", "deterministic", "greedy", "round_robin"], runs, cycles, "Fig 7.11"
-    )
 
+def use_case_a_campaign(quick: bool) -> dict:
+    """Use case a (7.5.1), patterns 1 and 2, and the sweeps of its best-scenario and Monte Carlo arms."""
     print(
         "Use case a (7.5.1), time per finished product (thesis, best-scenario scheduler of 7.2 vs "
         "RR: 35.80 -> 27.63 s, 33.35 -> 30.10 s); Monte Carlo at T_sch = 15 s, also 30 s"
@@ -298,7 +309,7 @@ def main():
     # the round robin of 7.5.1: fuse, check (pattern 1); fuse, fuse, check, check (pattern 2)
     programs = {1: {"yumi_left": ["fuse", "check"]}, 2: {"yumi_left": ["fuse", "fuse", "check", "check"]}}
     thesis_a = {1: (35.80, 27.63), 2: (33.35, 30.10)}
-    result["use_case_a"] = {}
+    out = {}
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
@@ -313,9 +324,70 @@ def main():
                                                 round(thesis_gain, 2), "mannwhitney_p_less": p_value}
         print(f"  a, pat {pat}: best scenario {gain:+.1f} % faster than round robin per product (thesis "
               f"{thesis_gain:+.1f} %), one-sided rank-sum p = {p_value}", flush=True)
-        result["use_case_a"][f"pattern{pat}"] = arms
-    result["use_case_a"]["sweep_best_scenario"] = sweep_best_scenario(quick)
-    result["use_case_a"]["sweep_min_branch_samples"] = sweep_min_branch_samples(quick)
+        out[f"pattern{pat}"] = arms
+    out["sweep_best_scenario"] = sweep_best_scenario(quick)
+    out["sweep_min_branch_samples"] = sweep_min_branch_samples(quick)
+    return out
+
+
+def use_case_b_campaign(quick: bool) -> dict:
+    """Use case b (7.5.2) on the reconstructed net (`thesis_cells.use_case_b`; t_w = 3 s, c_R = 0.5,
+    c_H = 1.0, the carts' idle cost 0): Scheduler A (Monte Carlo on the observed delays, 7.3) against
+    Scheduler B (the same on uniform delays between the smallest and the largest observed ones),
+    N = 100, T_sch = 30 s, and the round robin as a reference; 9 products per run, a cycle is the
+    time between two successive products (Fig. 7.19). One-sided rank-sum p of A < B on the runs'
+    times per product (as use case a) and on the pooled cycle times (as Fig. 7.19)."""
+    runs = 2 if quick else 20
+    arms = {"A": "monte_carlo", "B": "monte_carlo_uniform_support", "RR": "round_robin"}
+    out = {"n_runs": runs, "n_products": 9, "n_trials": 100, "horizon": 30.0}
+    for pat in (1, 2):
+        flow, buffers, pattern, robots = tc.use_case_b(pat)
+        net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0, cost_robot=0.5,
+                           cost_human=1.0, agent_costs=tc.USE_CASE_B_AGENT_COSTS)
+        result = campaign(net, arms, runs, None, f"b, pat {pat}", horizon=30.0, n_products=9)
+        a, b = result["A"], result["B"]
+        many = len(a["time_per_product_runs"]) > 1
+        p_runs = (float(mannwhitneyu(a["time_per_product_runs"], b["time_per_product_runs"],
+                                     alternative="less").pvalue) if many else None)
+        p_cycles = float(mannwhitneyu(a["cycle_times"], b["cycle_times"], alternative="less").pvalue)
+        result["A_vs_B"] = {"mannwhitney_p_less": p_runs, "mannwhitney_p_less_cycles": p_cycles}
+        print(f"  b, pat {pat}: A {a['cycle_median']:.2f} s vs B {b['cycle_median']:.2f} s median cycle, "
+              f"{a['time_per_product']:.2f} vs {b['time_per_product']:.2f} s per product; one-sided "
+              f"rank-sum p (A < B) = {p_runs} (runs' time per product), {p_cycles:.3g} (cycles)", flush=True)
+        out[f"pattern{pat}"] = result
+    return out
+
+
+SECTIONS = ("latency", "fig7_12", "use_case_a", "use_case_b")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="small campaigns, finishes in under a minute")
+    parser.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS), metavar="SECTION",
+                        help=f"run only these sections ({', '.join(SECTIONS)}; default: all)")
+    args = parser.parse_args()
+    quick = args.quick
+    result = {"quick": quick, "sections": list(args.only),
+              "load_average_1min_start": round(os.getloadavg()[0], 2)}
+    print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores shared)")
+    if "latency" in args.only:
+        latencies(quick, result)
+    if "fig7_12" in args.only:
+        print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
+        flow, buffers, pattern, robots = tc.fig_7_11()
+        net711 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+        runs, cycles = (3, 3) if quick else (20, 10)
+        result["fig7_12"] = campaign(
+            net711, ["monte_carlo", "best_of_rollouts_plan", "random_enabled", "round_robin"], runs, cycles,
+            "Fig 7.11"
+        )
+    if "use_case_a" in args.only:
+        result["use_case_a"] = use_case_a_campaign(quick)
+    if "use_case_b" in args.only:
+        print("Use case b (7.5.2, reconstructed net), 9 products per run, cycle = time between two products "
+              "(thesis: Scheduler A has the lower median cycle on both patterns)")
+        result["use_case_b"] = use_case_b_campaign(quick)
     result["load_average_1min_end"] = round(os.getloadavg()[0], 2)
     print(json.dumps(result))
 

@@ -104,8 +104,8 @@ def _kinds():
     schedulers = {
         "none": scheduling.NoScheduler,
         "round_robin": scheduling.RoundRobinScheduler,
-        "greedy": scheduling.GreedyScheduler,
-        "deterministic": scheduling.DeterministicPlanScheduler,
+        "greedy": scheduling.RandomEnabledScheduler,  # old kind names, kept so old files load
+        "deterministic": scheduling.BestOfRolloutsPlanScheduler,
         "monte_carlo": scheduling.MonteCarloScheduler,
     }
     return {"predictor": predictors, "scheduler": schedulers}

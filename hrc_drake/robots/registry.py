@@ -168,8 +168,20 @@ def _irb140() -> RobotModel:
     )
 
 
+def _cart() -> RobotModel:
+    """A transport cart on a rail (6.3.4): one prismatic joint; its "arm" is the rail."""
+    return RobotModel(
+        name="cart",
+        urdf="cart.urdf",
+        root_link="cart_rail",
+        arms=(ArmModel("rail", ("cart_joint",), "cart_tool"),),
+        pd_gains={"cart_joint": (2000.0, 200.0)},
+        capsules=(Capsule("cart_platform", (-0.05, 0.0, 0.03), (0.05, 0.0, 0.03), 0.08),),
+    )
+
+
 #: every robot model a scenario may name, by name
-ROBOT_MODELS: dict[str, RobotModel] = {m.name: m for m in (_yumi(), _irb140())}
+ROBOT_MODELS: dict[str, RobotModel] = {m.name: m for m in (_yumi(), _irb140(), _cart())}
 
 
 def get_robot_model(name: str) -> RobotModel:

@@ -1,5 +1,11 @@
 """Baseline robot schedulers on the same pcTPN (thesis 7.3.2 and 7.5.1).
 
+Named for what they do: 7.3.2 compares the Monte Carlo scheduler with the centralized
+deterministic planner of [93] and the multi-agent stochastic one of [76], and the text does not
+say enough to reconstruct either, so neither is claimed here. `BestOfRolloutsPlanPolicy` keeps
+what the text gives of [93] (a long-horizon plan on mean durations, suspended on a deadlock for
+a random enabled robot action); `RandomEnabledPolicy` has only that random repair.
+
 All share the policy interface of `MonteCarloPolicy`:
 ``decide(marking, agent, now=0.0, elapsed=None) -> transition index`` and ``observe(j, delay)``.
 Collaborations with the human are joined reactively by all baselines: a robot commits to a
@@ -72,15 +78,21 @@ class _Policy:
         return new
 
     def _repair(self, marking, agent: str, en) -> int:
-        """Random enabled robot action (no wait), as the deadlock repair of [93] (7.3.2)."""
+        """A random enabled robot action other than the wait (the wait when there is none): the
+        deadlock repair the thesis gives for [93] (7.3.2)."""
         choices = _work_choices(self.net, en, agent)
         if choices.size:
             return int(self.rng.choice(choices))
         return _wait_of(self.net, agent)
 
 
-class GreedyPolicy(_Policy):
-    """Start whatever is enabled: a random enabled action of the agent, else its wait."""
+class RandomEnabledPolicy(_Policy):
+    """Start whatever is enabled: a random enabled action of the agent, else its wait; joins a
+    collaboration as soon as the human waits for it.
+
+    No plan: every decision is the random repair the thesis gives for [93] (7.3.2). It is
+    neither [93] (no long-horizon plan) nor [76] (whose repair rules the text does not give).
+    """
 
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
         en = self.net.enabled(marking)
@@ -146,14 +158,22 @@ class _MeanDurations(DurationModel):
         return pools
 
 
-class DeterministicPlanPolicy(_Policy):
-    """Long-horizon plan on mean durations with random repair on deadlock (like [93], 7.3.2).
+class BestOfRolloutsPlanPolicy(_Policy):
+    """Long-horizon plan, the best of `n_candidates` mean-duration rollouts, with random repair
+    on deadlock.
 
-    Offline, `n_candidates` deterministic rollouts of the net (mean durations, the human
-    following its pattern) over `plan_horizon` s are drawn with random robot choices; the
-    cheapest (lowest idle cost) gives each robot its sequence of actions. Online each robot
-    starts its next planned action when enabled, else waits; on a deadlock a random enabled
-    action is executed while the plan is suspended.
+    Offline, `n_candidates` rollouts of the net with every delay at its mean and random robot
+    choices are run over `plan_horizon` s, the human following its known pattern; the one with
+    the most products, then the lowest idle cost, gives each robot its sequence of actions.
+    Online each robot starts its next planned action when enabled, else waits; on a deadlock
+    (or past the plan's end) a random enabled robot action other than the wait is executed
+    while the plan is suspended. Collaborations are joined reactively (module docstring).
+
+    How it departs from [93] as 7.3.2 describes it: the plan is the best of random rollouts,
+    not the output of [93]'s planner, and it follows the human's known pattern instead of
+    treating the human as a controllable agent (the thesis blames the deadlocks of [93] and
+    [76] on that assumption). Mean durations and the random repair are what the text gives
+    of [93].
     """
 
     def __init__(self, net: PcTPN, plan_horizon: float = 600.0, n_candidates: int = 64, random_state=None):

@@ -14,6 +14,8 @@ from hrc_drake.errors import check
 
 #: rollout policies of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.ROLLOUTS)
 ROLLOUTS = ("uniform", "work_first")
+#: delay models of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.DURATION_MODELS)
+DURATION_MODELS = ("empirical", "uniform_support")
 
 
 def _finite(value) -> bool:
@@ -81,17 +83,22 @@ class RoundRobinScheduler(_SchedulerCommon):
 
 
 @dataclass
-class GreedyScheduler(_SchedulerCommon):
-    """A random enabled action of the agent, else its wait (baseline, 7.3.2)."""
+class RandomEnabledScheduler(_SchedulerCommon):
+    """A random enabled action of the agent, else its wait; no plan (baseline). Every decision
+    is the deadlock repair 7.3.2 gives for [93]; it is neither [93] nor [76]
+    (`baselines.RandomEnabledPolicy`)."""
 
 
 @dataclass
-class DeterministicPlanScheduler(_SchedulerCommon):
-    """Long-horizon plan on mean durations with random repair on deadlock (baseline, 7.3.2)."""
+class BestOfRolloutsPlanScheduler(_SchedulerCommon):
+    """Long-horizon plan, the best of `n_candidates` rollouts on mean durations with the human
+    following its known pattern (not treated as controllable, unlike [93] in 7.3.2), suspended
+    on a deadlock for a random enabled robot action (the repair 7.3.2 gives for [93])
+    (baseline, `baselines.BestOfRolloutsPlanPolicy`)."""
 
     #: horizon of the offline plan (s)
     plan_horizon: float = 600.0
-    #: deterministic rollouts the plan is chosen from
+    #: mean-duration rollouts the plan is chosen from
     n_candidates: int = 64
 
     def validate(self, path: str) -> None:
@@ -110,7 +117,12 @@ class DeterministicPlanScheduler(_SchedulerCommon):
 
 @dataclass
 class MonteCarloScheduler(_SchedulerCommon):
-    """Receding-horizon Monte Carlo scheduler, thesis 7.1 + 7.3.1 (Algorithm 4)."""
+    """Receding-horizon Monte Carlo scheduler, thesis 7.1 + 7.3.1 (Algorithm 4).
+
+    `durations` chooses the delays of the trials: "empirical" (the default) is Scheduler A of
+    use case b (7.5.2), the scheduler of 7.3; "uniform_support" is Scheduler B of 7.5.2, the same
+    Monte Carlo search on uniform delays between the smallest and the largest measured firing
+    time of each transition (`learning.UniformSupportDurationModel`)."""
 
     #: N, Monte Carlo trials per decision
     n_trials: int = 100
@@ -130,6 +142,9 @@ class MonteCarloScheduler(_SchedulerCommon):
     rollout: str = "uniform"
     #: learn the delays online from observed firings (thesis 7.1)
     learn: bool = True
+    #: the delay model of the trials: "empirical" (the last `window` observed delays, Scheduler A
+    #: of 7.5.2) or "uniform_support" (uniform on [smallest, largest] observed delay, Scheduler B)
+    durations: str = "empirical"
 
     def validate(self, path: str) -> None:
         self._validate_common(path)
@@ -160,6 +175,11 @@ class MonteCarloScheduler(_SchedulerCommon):
             f"{self.min_branch_samples} must be an integer in 1..100000",
         )
         check(self.rollout in ROLLOUTS, f"{path}.rollout", f"{self.rollout!r} is not one of {ROLLOUTS}")
+        check(
+            self.durations in DURATION_MODELS,
+            f"{path}.durations",
+            f"{self.durations!r} is not one of {DURATION_MODELS}",
+        )
 
 
 #: How the best-scenario scheduler chooses among plans of equal cost (best_scenario.TIE_BREAKS).
@@ -366,8 +386,8 @@ COLLABORATION_SCHEDULERS = (PredictiveRobotScheduler, ReactiveRobotScheduler, Da
 SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typing.Union
     NoScheduler,
     RoundRobinScheduler,
-    GreedyScheduler,
-    DeterministicPlanScheduler,
+    RandomEnabledScheduler,
+    BestOfRolloutsPlanScheduler,
     MonteCarloScheduler,
     BestScenarioScheduler,
     FuzzyScheduler,

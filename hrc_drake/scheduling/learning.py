@@ -1,5 +1,6 @@
 """Firing-delay models learned online from observed firings (thesis 7.1: the scheduler records
-the durations of the tasks and refines the distributions d; 7.3.1: empirical distributions)."""
+the durations of the tasks and refines the distributions d; 7.3.1: empirical distributions;
+7.5.2, Scheduler B: uniform distributions on the measured supports)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from hrc_drake.distributions import mean_duration, sample_duration
 from hrc_drake.messages import shallow_copy
+from hrc_drake.scheduling.best_scenario import delay_support
 from hrc_drake.scheduling.petri import PcTPN
 
 
@@ -109,3 +111,43 @@ class DurationModel:
             for v in values:
                 model.partial_fit(name, v)
         return model
+
+
+class UniformSupportDurationModel(DurationModel):
+    """Scheduler B of use case b (7.5.2): every uncontrollable delay uniform on its support,
+    the real PDFs neglected. The text: "the extremals of the support of the modelling uniform
+    distributions are the maximum firing times measured from the system"; we read the
+    extremals as the smallest and the largest measured firing time of the transition.
+
+    Once a transition has `min_samples` observations its delay is U[min, max] of the last
+    `window` observed delays (the same sliding window as `DurationModel`); before, U on the
+    support of the net's prior (`best_scenario.delay_support`: a normal N(mu, sigma) gives
+    [mu - 3 sigma, mu + 3 sigma] clipped below at its truncation point, >= 0; a fixed delay
+    stays fixed), our choice, as the text does not say what B assumes before any measure.
+    """
+
+    def support(self, j: int) -> tuple[float, float]:
+        """[low, high] of the uniform delay of transition j ((0, 0) for controllable ones)."""
+        if self.net.controllable[j]:
+            return 0.0, 0.0
+        if self.is_learned(j):
+            s = self.samples_[j]
+            return float(min(s)), float(max(s))
+        low, high = delay_support(self.net.delays[j])
+        return float(low), float(high)
+
+    def mean(self, j: int) -> float:
+        """Mean of the uniform delay of transition j (0 for controllable ones)."""
+        low, high = self.support(j)
+        return 0.5 * (low + high)
+
+    def is_deterministic(self, j: int) -> bool:
+        low, high = self.support(j)
+        return low == high
+
+    def sample(self, j: int, rng: np.random.Generator, size) -> np.ndarray:
+        """Delays of transition j, U[low, high] of `support`, array of shape `size`."""
+        low, high = self.support(j)
+        if low == high:
+            return np.full(size, low)
+        return rng.uniform(low, high, size=size)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hrc_drake.messages import shallow_copy
-from hrc_drake.scheduling.learning import DurationModel
+from hrc_drake.scheduling.learning import DurationModel, UniformSupportDurationModel
 from hrc_drake.scheduling.petri import PcTPN
 
 
@@ -43,6 +43,10 @@ def wait_tick_delay(time, quantum: float):
 
 
 ROLLOUTS = ("uniform", "work_first")
+
+#: the delay models of the trials: "empirical" (`DurationModel`, the scheduler of 7.3, Scheduler A
+#: of 7.5.2) and "uniform_support" (`UniformSupportDurationModel`, Scheduler B of 7.5.2)
+DURATION_MODELS = {"empirical": DurationModel, "uniform_support": UniformSupportDurationModel}
 
 
 def copy_generator(rng: np.random.Generator) -> np.random.Generator:
@@ -298,6 +302,9 @@ class MonteCarloPolicy:
     window, min_samples: the online duration model (`DurationModel`). learn: update it
     from `observe`. min_branch_samples: trials each child of a controllable branching below
     the root needs before rule (b) of Algorithm 4 applies (see `evaluate_costs`).
+    durations: the delays the trials sample, a key of `DURATION_MODELS`: "empirical" (the
+    observed delays, Scheduler A of use case b, 7.5.2) or "uniform_support" (uniform between
+    the smallest and the largest observed delay, Scheduler B of 7.5.2).
     """
 
     def __init__(
@@ -312,6 +319,7 @@ class MonteCarloPolicy:
         random_state=None,
         min_branch_samples: int = 1,
         rollout: str = "uniform",
+        durations: str = "empirical",
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
@@ -327,7 +335,12 @@ class MonteCarloPolicy:
         if rollout not in ROLLOUTS:
             raise ValueError(f"MonteCarloPolicy: rollout must be one of {ROLLOUTS}, got {rollout!r}")
         self.rollout = rollout
-        self.durations_ = DurationModel(net, window=window, min_samples=min_samples)
+        if durations not in DURATION_MODELS:
+            raise ValueError(
+                f"MonteCarloPolicy: durations must be one of {tuple(DURATION_MODELS)}, got {durations!r}"
+            )
+        self.durations = durations
+        self.durations_ = DURATION_MODELS[durations](net, window=window, min_samples=min_samples)
         self.rng = np.random.default_rng(random_state)
         self.last_percentiles_: dict[str, float] = {}
 

@@ -16,7 +16,7 @@ from pydrake.systems.framework import AbstractStateIndex, EventStatus, LeafSyste
 
 from hrc_drake.errors import ConfigError
 from hrc_drake.messages import EventLog, Forecast, Immutable, RobotCommand
-from hrc_drake.scheduling.baselines import DeterministicPlanPolicy, GreedyPolicy, RoundRobinPolicy
+from hrc_drake.scheduling.baselines import BestOfRolloutsPlanPolicy, RandomEnabledPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.best_scenario import BestScenarioPolicy
 from hrc_drake.scheduling.collaboration import (
     ASSIST,
@@ -30,20 +30,20 @@ from hrc_drake.scheduling.collaboration import (
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.config import (
     COLLABORATION_SCHEDULERS,
+    BestOfRolloutsPlanScheduler,
     BestScenarioScheduler,
     DataDrivenRobotScheduler,
-    DeterministicPlanScheduler,
     FuzzyScheduler,
-    GreedyScheduler,
     MonteCarloScheduler,
     NoScheduler,
     PredictiveRobotScheduler,
+    RandomEnabledScheduler,
     ReactiveRobotScheduler,
     RoundRobinScheduler,
     UniformScheduler,
 )
 from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy, UniformPolicy
-from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy, wait_tick_delay
 from hrc_drake.scheduling.petri import PcTPN
 from hrc_drake.scheduling.tracker import NetTracker
 from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
@@ -68,6 +68,7 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             random_state=seed,
             min_branch_samples=config.min_branch_samples,
             rollout=config.rollout,
+            durations=config.durations,
         )
     if isinstance(config, FuzzyScheduler):  # UniformScheduler too
         kind = UniformPolicy if isinstance(config, UniformScheduler) else FuzzyPolicy
@@ -93,10 +94,10 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             return RoundRobinPolicy(net, programs=config.programs or None, random_state=seed)
         except ValueError as err:
             raise ConfigError(f"{path}.programs", str(err)) from None
-    if isinstance(config, GreedyScheduler):
-        return GreedyPolicy(net, random_state=seed)
-    if isinstance(config, DeterministicPlanScheduler):
-        return DeterministicPlanPolicy(
+    if isinstance(config, RandomEnabledScheduler):
+        return RandomEnabledPolicy(net, random_state=seed)
+    if isinstance(config, BestOfRolloutsPlanScheduler):
+        return BestOfRolloutsPlanPolicy(
             net, plan_horizon=config.plan_horizon, n_candidates=config.n_candidates, random_state=seed
         )
     raise ConfigError(path, f"{type(config).__name__} is not a scheduler config")
@@ -140,6 +141,15 @@ class SchedulerCore:
         return new
 
 
+def _give_up_after(net: PcTPN, j: int) -> float:
+    """How long the robots of commanded transition j wait for the human: the fixed delay of
+    the collaboration's give-up transition (T_wait, Fig. 7.3) for a commitment, else inf."""
+    if net.role[j] != "commit":
+        return math.inf
+    k = net.transition_index.get(f"{net.action[j]}:giveup")
+    return math.inf if k is None else float(net.delays[k].mean)
+
+
 class Scheduler(LeafSystem):
     """Assistive scheduler on a pcTPN (thesis 7.1 receding horizon, 7.3 Monte Carlo).
 
@@ -165,6 +175,7 @@ class Scheduler(LeafSystem):
         self.net = net
         self.config = config
         self.robot_agents = list(robot_agents)
+        self._patience = [_give_up_after(net, j) for j in range(net.n_transitions)]
         self._initial_core = SchedulerCore(policy, NetTracker(net, policy))
         self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
@@ -248,7 +259,10 @@ class Scheduler(LeafSystem):
                         agent=a,
                         action=action,
                         seq=len(commands) + 1,
-                        wait=net.wait_quantum if action is None else 0.0,
+                        # waits end on the quantum's grid, as in the net (6.3.1): arms that
+                        # wait meet there and can start an action of both
+                        wait=float(wait_tick_delay(t, net.wait_quantum)) if action is None else 0.0,
+                        give_up_after=self._patience[j],
                     )
                 )
         if len(commands) != len(core.commands.events):

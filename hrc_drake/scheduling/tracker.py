@@ -104,7 +104,9 @@ class NetTracker:
                 return  # a collaboration its robots' begin has started already
             if self._find("begin", action, "hwait:") is None:
                 self._human_step_to(action, t)
-                j = self._find("intent", action, "step:") or self._find("intent", action, "human:idle")
+                j = self._find("intent", action, "step:")
+                if j is None:  # (not `or`: transition 0 is a real index)
+                    j = self._find("intent", action, "human:idle")
                 if j is not None:
                     self._fire(j, t)
             if kind == "begin":

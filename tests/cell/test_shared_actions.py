@@ -254,3 +254,20 @@ def test_use_case_a_cell_best_scenario_beats_round_robin(tmp_path, diagrams_dir)
     assert b["products_finished"] >= r["products_finished"] + 1
     assert b["mean_cycle_time"] < r["mean_cycle_time"]
     assert b["agents"]["human"]["wait_time"] < r["agents"]["human"]["wait_time"]
+
+
+def test_the_tracker_follows_a_human_whose_intention_is_transition_0():
+    """A flow whose first action is the human's compiles its intention as transition 0: the
+    belief must still fire it (a falsy index once made the human's first action invisible)."""
+    buffers = [Buffer("raw", kind="raw"), Buffer("mid", capacity=1), Buffer("out", kind="product")]
+    flow = Flow(actions=[
+        FlowAction("first", ["human"], ["raw"], ["mid"], duration=Distribution(kind="fixed", mean=2.0)),
+        FlowAction("then", ["robot"], ["mid"], ["out"], duration=Distribution(kind="fixed", mean=1.0)),
+    ])
+    net = compile_flow(flow, buffers, "human", ["first"], ["robot"])
+    assert net.transitions[0] == "intent:0"
+    tracker = NetTracker(net)
+    tracker.human_event("first", "begin", 0.0)
+    assert tracker.m[net.place_index["busy:first#0"]] == 1
+    tracker.human_event("first", "end", 2.0)
+    assert tracker.m[net.place_index["buf:mid"]] == 1

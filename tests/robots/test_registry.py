@@ -7,7 +7,7 @@ from hrc_drake.robots.registry import ROBOT_MODELS, ArmModel, RobotModel, get_ro
 
 
 def test_every_record_is_consistent_and_has_its_urdf():
-    assert set(ROBOT_MODELS) == {"yumi", "irb140"}
+    assert set(ROBOT_MODELS) == {"yumi", "irb140", "cart"}
     for name, record in ROBOT_MODELS.items():
         assert record.name == name
         text = model_resource(record.urdf).read_text()
@@ -28,10 +28,11 @@ def test_joints_per_arm():
     assert [get_robot_model("yumi").num_joints(a) for a in ("left", "right")] == [7, 7]
     assert get_robot_model("irb140").arm_names == ("arm",)
     assert get_robot_model("irb140").num_joints("arm") == 6
+    assert get_robot_model("cart").arm_names == ("rail",) and get_robot_model("cart").num_joints("rail") == 1
 
 
 def test_unknown_model_and_arm_name_the_known_ones():
-    with pytest.raises(ValueError, match=r"unknown robot model 'ur5'; known models: irb140, yumi"):
+    with pytest.raises(ValueError, match=r"unknown robot model 'ur5'; known models: cart, irb140, yumi"):
         get_robot_model("ur5")
     with pytest.raises(ValueError, match=r"has no arm 'left'; arms: \['arm'\]"):
         get_robot_model("irb140").arm("left")

@@ -11,16 +11,16 @@ from hrc_drake.errors import ConfigError
 from hrc_drake.scheduling import thesis_cells as tc
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.config import (
-    DeterministicPlanScheduler,
-    GreedyScheduler,
+    BestOfRolloutsPlanScheduler,
     MonteCarloScheduler,
     NoScheduler,
     PredictiveRobotScheduler,
+    RandomEnabledScheduler,
     RoundRobinScheduler,
     SchedulerConfig,
 )
 
-KINDS = [RoundRobinScheduler, GreedyScheduler, DeterministicPlanScheduler, MonteCarloScheduler]
+KINDS = [RoundRobinScheduler, RandomEnabledScheduler, BestOfRolloutsPlanScheduler, MonteCarloScheduler]
 
 
 def test_fields_are_typed():
@@ -50,10 +50,12 @@ def test_yaml_tags_choose_the_kind():
         (MonteCarloScheduler(beta=1.5), "s.beta"),
         (MonteCarloScheduler(rollout="psychic"), "s.rollout"),
         (MonteCarloScheduler(min_branch_samples=0), "s.min_branch_samples"),
-        (GreedyScheduler(wait_quantum=0.0), "s.wait_quantum"),
-        (GreedyScheduler(cost_robot=-1.0), "s.cost_robot"),
+        (MonteCarloScheduler(durations="normal"), "s.durations"),
+        (MonteCarloScheduler(durations=""), "s.durations"),
+        (RandomEnabledScheduler(wait_quantum=0.0), "s.wait_quantum"),
+        (RandomEnabledScheduler(cost_robot=-1.0), "s.cost_robot"),
         (RoundRobinScheduler(rate=100.0), "s.rate"),
-        (DeterministicPlanScheduler(n_candidates=0), "s.n_candidates"),
+        (BestOfRolloutsPlanScheduler(n_candidates=0), "s.n_candidates"),
         (PredictiveRobotScheduler(agent="r", autonomous_action="a", assist_actions=["b"], request_action="h",
                                   autonomous_duration_from="guess"), "s.autonomous_duration_from"),
     ],

@@ -1,7 +1,7 @@
 import numpy as np
 
 from hrc_drake.scheduling import thesis_cells as tc
-from hrc_drake.scheduling.baselines import GreedyPolicy, RoundRobinPolicy
+from hrc_drake.scheduling.baselines import RandomEnabledPolicy, RoundRobinPolicy
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.learning import DurationModel
@@ -80,5 +80,6 @@ def test_monte_carlo_runs_in_the_cell_and_is_seeded():
     ]
     assert runs[0].events == runs[1].events
     assert len(runs[0].cycle_ends) == 1 and len(runs[0].product_times) >= 1
-    greedy = simulate_cell(net, GreedyPolicy(net, random_state=0), np.random.default_rng(7), n_cycles=1)
-    assert len(greedy.cycle_ends) == 1
+    random_enabled = simulate_cell(net, RandomEnabledPolicy(net, random_state=0), np.random.default_rng(7),
+                                   n_cycles=1)
+    assert len(random_enabled.cycle_ends) == 1

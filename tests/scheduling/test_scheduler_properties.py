@@ -11,15 +11,15 @@ from hypothesis import strategies as st
 
 from hrc_drake.distributions import Distribution
 from hrc_drake.scheduling.baselines import (
-    DeterministicPlanPolicy,
-    GreedyPolicy,
+    BestOfRolloutsPlanPolicy,
+    RandomEnabledPolicy,
     RoundRobinPolicy,
     is_deadlocked,
 )
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import FlowError, compile_flow
 from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
-from hrc_drake.scheduling.montecarlo import ROLLOUTS, MonteCarloPolicy
+from hrc_drake.scheduling.montecarlo import DURATION_MODELS, ROLLOUTS, MonteCarloPolicy
 
 duration = st.one_of(
     st.floats(0.5, 5.0).map(lambda d: Distribution("fixed", mean=d)),
@@ -73,13 +73,14 @@ def policies(kind, net, seed, draw):
     if kind == "montecarlo":
         params = dict(n_trials=draw(st.sampled_from([6, 16])), horizon=draw(st.sampled_from([4.0, 8.0])),
                       min_branch_samples=draw(st.sampled_from([1, 4])),
-                      rollout=draw(st.sampled_from(ROLLOUTS)))
+                      rollout=draw(st.sampled_from(ROLLOUTS)),
+                      durations=draw(st.sampled_from(sorted(DURATION_MODELS))))
         return lambda: MonteCarloPolicy(net, random_state=seed, **params)
-    if kind == "greedy":
-        return lambda: GreedyPolicy(net, random_state=seed)
+    if kind == "random_enabled":
+        return lambda: RandomEnabledPolicy(net, random_state=seed)
     if kind == "round_robin":
         return lambda: RoundRobinPolicy(net, random_state=seed)
-    return lambda: DeterministicPlanPolicy(net, plan_horizon=20.0, n_candidates=6, random_state=seed)
+    return lambda: BestOfRolloutsPlanPolicy(net, plan_horizon=20.0, n_candidates=6, random_state=seed)
 
 
 class Checked:
@@ -100,7 +101,7 @@ class Checked:
         # an enabled controllable transition of this agent (its wait is one)
         assert net.controllable[j] and agent in net.agents[j] and en[j], (self.kind, net.transitions[j])
         begins = [k for k in net.agent_transitions(agent) if en[k] and net.role[k] == "begin"]
-        if self.kind == "greedy" and begins:  # documented: whatever is enabled, wait only if nothing is
+        if self.kind == "random_enabled" and begins:  # documented: whatever is enabled, wait only if none
             assert net.role[j] != "wait"
         if self.kind != "montecarlo" and begins and is_deadlocked(net, marking):  # deadlock repair
             assert net.role[j] != "wait"
@@ -116,7 +117,7 @@ class Checked:
 
 
 @settings(max_examples=50, deadline=None)
-@given(net=cells(), kind=st.sampled_from(["montecarlo", "greedy", "round_robin", "plan"]),
+@given(net=cells(), kind=st.sampled_from(["montecarlo", "random_enabled", "round_robin", "plan"]),
        seed=st.integers(0, 2**16), max_time=st.sampled_from([15.0, 30.0]), data=st.data())
 def test_schedulers_choose_enabled_transitions_of_the_agent_and_repeat(net, kind, seed, max_time, data):
     make = policies(kind, net, seed, data.draw)
@@ -146,7 +147,7 @@ def test_every_policy_decides_well_from_any_reachable_marking(net, seed, walk, d
             break
         marking = net.fire(marking, int(enabled[pick % enabled.size]))
     free = [r for r in net.robot_agents if marking[net.place_index[f"avail:{r}"]] > 0]
-    for kind in ("montecarlo", "greedy", "round_robin", "plan"):
+    for kind in ("montecarlo", "random_enabled", "round_robin", "plan"):
         policy = Checked(policies(kind, net, seed, data.draw)(), kind)
         for agent in free:
             policy.decide(marking, agent, now=float(len(walk)))
