@@ -266,7 +266,7 @@ def latencies(quick: bool, result: dict) -> None:
         cost_human=1.0,
         agent_costs=tc.USE_CASE_B_AGENT_COSTS,
     )
-    # the first decision has only the wait for yumi; take a marking with a real conflict
+    # the first decision has only the wait for the right arm; take a marking with a real conflict
     m = net_b.m0.copy()
     m[net_b.place_index["buf:tested"]] = 1
     m[net_b.place_index["space:tested"]] -= 1
@@ -274,7 +274,7 @@ def latencies(quick: bool, result: dict) -> None:
     times = []
     for _ in range(5 if quick else 20):
         t0 = time.perf_counter()
-        sched.decide(m, "yumi")
+        sched.decide(m, "yumi_right")
         times.append(time.perf_counter() - t0)
     ms = 1000 * float(np.median(times))
     result["latency_use_case_b_N150_T30_ms"] = ms

@@ -608,6 +608,11 @@ def _check_systems(sc: Scenario, file) -> None:
     _check_perceived_events(sc, file)
     _check_collaboration_scheduler(sc, file)
     _check_best_scenario_scheduler(sc, file)
+    robot_agents = {arm.agent for robot in sc.robots for arm in robot.arms}
+    for agent in getattr(sc.scheduler, "agent_costs", {}):
+        if agent not in robot_agents:
+            raise ScenarioError(file, f"scheduler.agent_costs.{agent}",
+                                f"'{agent}' is not a robot agent ({sorted(robot_agents)})")
 
 
 def _check_collaboration_scheduler(sc: Scenario, file) -> None:

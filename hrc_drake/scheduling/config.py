@@ -46,6 +46,8 @@ class _SchedulerCommon:
     cost_human: float = 1.0
     #: how often the scheduler reads the event logs (Hz); a decision answers each "ready" event
     rate: float = 10.0
+    #: robot agent -> its idle cost per second in place of c_R (a cart that only transports: 0, 6.3.4)
+    agent_costs: dict[str, float] = field(default_factory=dict)
 
     def _validate_common(self, path: str) -> None:
         check(
@@ -58,6 +60,9 @@ class _SchedulerCommon:
             check(_finite(value) and 0 <= value <= 1e6, f"{path}.{name}", f"{value} must be in [0, 1e6]")
         rate_ok = _finite(self.rate) and 0 < self.rate <= 50
         check(rate_ok, f"{path}.rate", f"{self.rate} must be in (0, 50] Hz")
+        for agent, value in self.agent_costs.items():
+            check(_finite(value) and 0 <= value <= 1e6, f"{path}.agent_costs.{agent}",
+                  f"{value} must be in [0, 1e6]")
 
     def validate(self, path: str) -> None:
         """Raise ConfigError naming `path.<field>` for a bad value."""

@@ -117,6 +117,7 @@ def net_from_scenario(scenario, config) -> PcTPN:
         cost_robot=float(config.cost_robot),
         cost_human=float(config.cost_human),
         collab_patience=getattr(config, "max_wait", 0.0) or None,
+        agent_costs=dict(getattr(config, "agent_costs", {})),
     )
 
 
@@ -203,6 +204,7 @@ class Scheduler(LeafSystem):
             cost_robot=float(config.cost_robot),
             cost_human=float(config.cost_human),
             collab_patience=getattr(config, "max_wait", 0.0) or None,
+            agent_costs=dict(getattr(config, "agent_costs", {})),
         )
         return cls(net, config, robot_agents, seed)
 

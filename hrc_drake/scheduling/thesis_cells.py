@@ -140,42 +140,52 @@ def use_case_a(pattern: int = 1, early_release: bool = True):
 
 
 def use_case_b(pattern: int = 1):
-    """Reconstruction of use case b (7.5.2, Fig. 7.18; the net itself is not in the text).
-    Human: padding the box, trimming a label, labelling. IRB 140: functional test, storing.
-    YuMi: cap assembly, housing in two parts (part 1 needs cart 1 with the padded box, part 2
-    needs cart 2). Carts are robot agents that transport (cost 0, 6.3.4). Durations assumed.
-    Pattern 1: pad, trim, label; pattern 2: pad, pad, trim, trim, label, label."""
+    """Reconstruction of use case b (7.5.2, Fig. 7.18; the net itself is not in the text), the
+    flow of the cell `diagrams/carts.yaml` (a test keeps the two equal). Human: padding the box,
+    trimming a label, labelling. IRB 140: functional test, storing. YuMi (two arm agents): cap
+    assembly (right), housing in two parts: the first with the box on cart 1 (left arm), after
+    which cart 1 is released, the second onto cart 2 (right arm), which takes it to the human.
+    Each cart is a transport block of 6.3.4 with its way back; the token buffers cart<k>_home /
+    cart<k>_empty say where it is. Carts cost nothing idle (`USE_CASE_B_AGENT_COSTS`).
+    Durations assumed. Pattern 1: pad, trim, label; pattern 2: pad, pad, trim, trim, label, label."""
     buffers = [
         Buffer("boxes", kind="raw"),
         Buffer("sheets", kind="raw"),
         Buffer("adapters", kind="raw"),
-        Buffer("padded", capacity=1),
+        Buffer("padded", capacity=2),
+        Buffer("cart1_home", capacity=1, initial=1),
         Buffer("box_at_yumi", capacity=1),
+        Buffer("cart1_empty", capacity=1),
         Buffer("tested", capacity=2),
         Buffer("capped", capacity=2),
         Buffer("half_housed", capacity=1),
+        Buffer("cart2_home", capacity=1, initial=1),
         Buffer("housed", capacity=1),
         Buffer("at_human", capacity=1),
+        Buffer("cart2_empty", capacity=1),
         Buffer("labels", capacity=2),
         Buffer("labelled", capacity=1),
         Buffer("shipped", kind="product"),
     ]
+    move = _n(2.4, 0.3)
     flow = Flow(
         actions=[
             FlowAction("pad", ["human"], ["boxes"], ["padded"], duration=_n(8.0, 1.5)),
-            FlowAction("cart1_move", ["cart1"], ["padded"], ["box_at_yumi"], duration=_n(4.0, 0.3)),
+            FlowAction("cart1_go", ["cart1"], ["padded", "cart1_home"], ["box_at_yumi"], duration=move),
             FlowAction("test", ["irb140"], ["adapters"], ["tested"], duration=_n(6.0, 0.8)),
-            FlowAction("cap", ["yumi"], ["tested"], ["capped"], duration=_n(6.0, 0.8)),
-            FlowAction("house1", ["yumi"], ["capped", "box_at_yumi"], ["half_housed"], duration=_n(5.0, 0.6)),
-            FlowAction(
-                "house2", ["yumi"], ["half_housed"], ["housed"], resources=["cart2"], duration=_n(5.0, 0.6)
-            ),
-            FlowAction("cart2_move", ["cart2"], ["housed"], ["at_human"], duration=_n(4.0, 0.3)),
+            FlowAction("cap", ["yumi_right"], ["tested"], ["capped"], duration=_n(6.0, 0.8)),
+            FlowAction("house1", ["yumi_left"], ["capped", "box_at_yumi"], ["half_housed", "cart1_empty"],
+                       duration=_n(5.0, 0.6)),
+            FlowAction("cart1_back", ["cart1"], ["cart1_empty"], ["cart1_home"], duration=move),
+            FlowAction("house2", ["yumi_right"], ["half_housed", "cart2_home"], ["housed"],
+                       duration=_n(5.0, 0.6)),
+            FlowAction("cart2_go", ["cart2"], ["housed"], ["at_human"], duration=move),
             FlowAction("trim", ["human"], ["sheets"], ["labels"], duration=_n(6.0, 1.0)),
-            FlowAction("label", ["human"], ["at_human", "labels"], ["labelled"], duration=_n(5.0, 1.0)),
+            FlowAction("label", ["human"], ["at_human", "labels"], ["labelled", "cart2_empty"],
+                       duration=_n(5.0, 1.0)),
+            FlowAction("cart2_back", ["cart2"], ["cart2_empty"], ["cart2_home"], duration=move),
             FlowAction("store", ["irb140"], ["labelled"], ["shipped"], duration=_n(5.0, 0.6)),
         ],
-        resources={"cart2": 1},
     )
     if pattern == 1:
         human = ["pad", "trim", "label"]
@@ -183,7 +193,7 @@ def use_case_b(pattern: int = 1):
         human = ["pad", "pad", "trim", "trim", "label", "label"]
     else:
         raise ValueError(f"use_case_b: pattern must be 1 or 2, got {pattern}")
-    return flow, buffers, human, ["yumi", "irb140", "cart1", "cart2"]
+    return flow, buffers, human, ["yumi_right", "yumi_left", "irb140", "cart1", "cart2"]
 
 
 USE_CASE_B_AGENT_COSTS = {"cart1": 0.0, "cart2": 0.0}

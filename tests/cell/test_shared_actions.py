@@ -271,3 +271,23 @@ def test_the_tracker_follows_a_human_whose_intention_is_transition_0():
     assert tracker.m[net.place_index["busy:first#0"]] == 1
     tracker.human_event("first", "end", 2.0)
     assert tracker.m[net.place_index["buf:mid"]] == 1
+
+
+def test_the_carts_cell_runs_the_flow_of_the_use_case_b_net(diagrams_dir):
+    """diagrams/carts.yaml and `thesis_cells.use_case_b` are one flow: the event-level
+    benchmark and the cell measure the same use case."""
+    from hrc_drake.scheduling import thesis_cells as tc
+
+    scenario = load_scenario(diagrams_dir / "carts.yaml")
+    flow, buffers, pattern, robots = tc.use_case_b(1)
+    assert scenario.flow.actions == flow.actions and scenario.operator.pattern == pattern
+    cell_buffers = {b.name: (b.kind, b.capacity, b.initial) for b in scenario.layout.buffers}
+    net_buffers = {b.name: (b.kind, b.capacity, b.initial) for b in buffers}
+    # raw and product buffers carry no capacity
+    for name, (kind, capacity, initial) in net_buffers.items():
+        assert cell_buffers[name][0] == kind and cell_buffers[name][2] == initial
+        if kind == "intermediate":
+            assert cell_buffers[name][1] == capacity
+    assert set(cell_buffers) == set(net_buffers)
+    assert sorted(arm.agent for r in scenario.robots for arm in r.arms) == sorted(robots)
+    assert scenario.scheduler.agent_costs == tc.USE_CASE_B_AGENT_COSTS

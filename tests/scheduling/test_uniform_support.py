@@ -85,7 +85,7 @@ def test_monte_carlo_policy_takes_the_model_and_repeats_for_a_seed(net_b):
     assert type(MonteCarloPolicy(net_b).durations_) is DurationModel  # Scheduler A, the default
     with pytest.raises(ValueError, match="durations"):
         MonteCarloPolicy(net_b, durations="normal")
-    m = net_b.m0.copy()  # a marking where yumi has a real choice (the bench's latency marking)
+    m = net_b.m0.copy()  # a marking where the right arm has a real choice (the bench's latency marking)
     m[net_b.place_index["buf:tested"]] = 1
     m[net_b.place_index["space:tested"]] -= 1
 
@@ -93,11 +93,11 @@ def test_monte_carlo_policy_takes_the_model_and_repeats_for_a_seed(net_b):
         policy = MonteCarloPolicy(net_b, n_trials=40, horizon=30.0, random_state=seed,
                                   durations="uniform_support")
         assert type(policy.durations_) is UniformSupportDurationModel
-        out = [policy.decide(m, "yumi", now=0.0)]
+        out = [policy.decide(m, "yumi_right", now=0.0)]
         policy.observe(_action_end(net_b, "pad"), 9.0)
         twin = policy.clone()
         assert type(twin.durations_) is UniformSupportDurationModel
-        out.append(twin.decide(m, "yumi", now=3.0))
+        out.append(twin.decide(m, "yumi_right", now=3.0))
         return out, dict(policy.last_percentiles_)
 
     assert decisions(5) == decisions(5)
