@@ -44,32 +44,39 @@ SCHEDULERS = {
 }
 
 
-def scenario_text(pattern: str, arm: str, seed: int) -> str:
-    """carts.yaml with the pattern, the arm's scheduler and the seed (`extends`)."""
-    return (f"extends: {ROOT / 'diagrams' / 'carts.yaml'}\nseed: {seed}\n"
-            f"operator: {{pattern: {PATTERNS[pattern]}}}\nscheduler: {SCHEDULERS[arm]}\n")
+def scenario_text(base: Path, pattern: str, scheduler: str, seed: int) -> str:
+    """`base` with the operator's pattern, a scheduler and the seed (`extends`)."""
+    return (f"extends: {base}\nseed: {seed}\noperator: {{pattern: {pattern}}}\nscheduler: {scheduler}\n")
 
 
-def run_one(job) -> dict:
-    pattern, arm, seed = job
+def run_cell(base: Path, pattern: str, pattern_name: str, arm: str, scheduler: str, seed: int,
+             n_products: int, duration: float) -> dict:
+    """One seeded run of `base` with the pattern and the scheduler: the first `n_products`
+    products' cycles and the operator's blocked time until the last of them."""
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
     from hrc_drake.cell.scenario import load_scenario
 
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"carts_{pattern}_{arm}.yaml"
-        path.write_text(scenario_text(pattern, arm, seed))
+        path = Path(tmp) / f"{base.stem}_{pattern_name}_{arm}.yaml"
+        path.write_text(scenario_text(base, pattern, scheduler, seed))
         scenario = load_scenario(path)
         cell = build_cell(scenario, path)
     start = time.perf_counter()
-    result = simulate(cell, DURATION, progress=None)
+    result = simulate(cell, duration, progress=None)
     wall = time.perf_counter() - start
-    times = result.metrics["product_times"][:N_PRODUCTS]
-    end = times[-1] if times else DURATION
+    times = result.metrics["product_times"][:n_products]
+    end = times[-1] if times else duration
     waits = _waits(result.log.events, end)
-    return {"pattern": pattern, "arm": arm, "seed": seed, "products": len(times),
+    return {"pattern": pattern_name, "arm": arm, "seed": seed, "products": len(times),
             "cycles": [float(c) for c in np.diff(times)], "human_wait": waits,
             "wall_s": round(wall, 1)}
+
+
+def run_one(job) -> dict:
+    pattern, arm, seed = job
+    return run_cell(ROOT / "diagrams" / "carts.yaml", PATTERNS[pattern], pattern, arm, SCHEDULERS[arm], seed,
+                    N_PRODUCTS, DURATION)
 
 
 def _waits(events, until: float) -> float:
@@ -88,9 +95,11 @@ def _waits(events, until: float) -> float:
     return round(total, 3)
 
 
-def summarize(rows: list[dict], arms: list[str]) -> dict:
+def summarize(rows: list[dict], arms: list[str], patterns=PATTERNS, test=("A", "B")) -> dict:
+    """Per pattern and arm: cycle median and mean, products, the operator's blocked time per
+    product; one-sided rank sums that arm test[0] has shorter cycles than test[1]."""
     out: dict = {}
-    for pattern in PATTERNS:
+    for pattern in patterns:
         block: dict = {}
         for arm in arms:
             mine = [r for r in rows if r["pattern"] == pattern and r["arm"] == arm]
@@ -102,10 +111,11 @@ def summarize(rows: list[dict], arms: list[str]) -> dict:
                           "human_wait_per_product": _round(sum(r["human_wait"] for r in mine) / products)
                           if products else None,
                           "run_mean_cycles": [_round(np.mean(r["cycles"])) for r in mine if r["cycles"]]}
-        a = [c for r in rows if r["pattern"] == pattern and r["arm"] == "A" for c in r["cycles"]]
-        b = [c for r in rows if r["pattern"] == pattern and r["arm"] == "B" for c in r["cycles"]]
-        block["wilcoxon_p"] = _one_sided(a, b)
-        block["wilcoxon_p_runs"] = _one_sided(block["A"]["run_mean_cycles"], block["B"]["run_mean_cycles"])
+        first, second = ([c for r in rows if r["pattern"] == pattern and r["arm"] == arm for c in r["cycles"]]
+                         for arm in test)
+        block["wilcoxon_p"] = _one_sided(first, second)
+        block["wilcoxon_p_runs"] = _one_sided(block[test[0]]["run_mean_cycles"],
+                                              block[test[1]]["run_mean_cycles"])
         out[pattern] = block
     return out
 
@@ -121,16 +131,7 @@ def main(argv=None) -> dict:
     jobs = [(p, a, 100 + s) for p in PATTERNS for s in range(seeds) for a in arms]
     print(f"{len(jobs)} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.workers} workers",
           flush=True)
-    rows = []
-    if args.workers > 1:
-        with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-            for row in pool.imap(run_one, jobs):
-                rows.append(row)
-                _print_row(row)
-    else:
-        for job in jobs:
-            rows.append(run_one(job))
-            _print_row(rows[-1])
+    rows = run_jobs(run_one, jobs, args.workers)
     out = summarize(rows, arms)
     for pattern, block in out.items():
         print(f"{pattern}: median cycle A {block['A']['cycle_median']} s, B {block['B']['cycle_median']} s"
@@ -140,6 +141,21 @@ def main(argv=None) -> dict:
     result = {"use_case_b": out, "seeds": seeds}
     print(json.dumps(result))
     return result
+
+
+def run_jobs(function, jobs: list, workers: int) -> list[dict]:
+    """`function` on every job, in `workers` processes, printing a line per run as it ends."""
+    rows = []
+    if workers > 1:
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            for row in pool.imap(function, jobs):
+                rows.append(row)
+                _print_row(row)
+    else:
+        for job in jobs:
+            rows.append(function(job))
+            _print_row(rows[-1])
+    return rows
 
 
 def _print_row(row: dict) -> None:

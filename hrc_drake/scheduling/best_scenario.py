@@ -370,9 +370,15 @@ class BestScenarioPolicy:
         # a human already waiting for operation 2 wants it before anything else: case 1
         # whatever the forecast says (our reading; the planner never fires the human)
         waiting_for_it = bool(np.any(marking[self._human_waits_for_action] > 0))
-        if (self.feed is not None and self.feed in choices and (p_a1 < p_c1 or waiting_for_it)
+        if (self.feed is not None and net.enabled(marking)[self.feed] and (p_a1 < p_c1 or waiting_for_it)
                 and not np.all(marking[self._human_inputs] > 0)):
-            return int(self.feed)  # case 1: supply the human's next operation
+            if self.feed in choices:
+                return int(self.feed)  # case 1: supply the human's next operation
+            # case 1 for another agent: this one plans without it, which supplies the human
+            marking = marking.copy()
+            for other in net.agents[self.feed]:
+                marking[net.place_index[f"avail:{other}"]] = 0
+            choices = net.agent_choices(marking, agent, "BestScenarioPolicy")
         self.last_plan_ = plan = self.planner.plan(marking, p_c1, p_c2, now, elapsed)
         for j in self.planner.first_commands(plan):
             if agent in net.agents[j] and j in choices:

@@ -133,12 +133,17 @@ class SchedulerCore:
         self.last_human = -1
         self.last_robot = -1
         self.commands = EventLog()
+        #: robot agents that reported "ready" and have had no command since: only they may be
+        #: commanded (the belief can free an arm early, e.g. at the human's end of a collaboration
+        #: the arm still holds)
+        self.idle: frozenset[str] = frozenset()
 
     def clone(self) -> SchedulerCore:
         new = object.__new__(SchedulerCore)
         new.policy = self.policy.clone()
         new.tracker = self.tracker.clone(new.policy)
         new.last_human, new.last_robot, new.commands = self.last_human, self.last_robot, self.commands
+        new.idle = self.idle
         return new
 
 
@@ -247,11 +252,18 @@ class Scheduler(LeafSystem):
         commands = list(core.commands.events)
         if ready and hasattr(core.policy, "set_forecast_from") and self._forecast.HasValue(context):
             core.policy.set_forecast_from(self._forecast.Eval(context), t)
+        idle = set(core.idle) | set(ready)
         for agent in ready:
             avail = net.place_index[f"avail:{agent}"]
-            if tracker.m[avail] <= 0:
+            if tracker.m[avail] <= 0 or agent not in idle:
                 continue  # already commanded with a partner in this tick
-            j = int(core.policy.decide(tracker.m, agent, now=t, elapsed=tracker.elapsed(t)))
+            # the policy sees only the really idle arms as available
+            marking = tracker.m.copy()
+            for other in self.robot_agents:
+                if other not in idle:
+                    marking[net.place_index[f"avail:{other}"]] = 0
+            j = int(core.policy.decide(marking, agent, now=t, elapsed=tracker.elapsed(t)))
+            idle -= set(net.agents[j])
             tracker.command(j, t)
             action = None if net.role[j] == "wait" else net.action[j]
             for a in net.agents[j]:
@@ -269,6 +281,7 @@ class Scheduler(LeafSystem):
                 )
         if len(commands) != len(core.commands.events):
             core.commands = EventLog(tuple(commands))
+        core.idle = frozenset(idle)
         set_state(state, self._core_index, Frozen(core))
         return EventStatus.Succeeded()
 

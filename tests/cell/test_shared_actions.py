@@ -291,3 +291,33 @@ def test_the_carts_cell_runs_the_flow_of_the_use_case_b_net(diagrams_dir):
     assert set(cell_buffers) == set(net_buffers)
     assert sorted(arm.agent for r in scenario.robots for arm in r.arms) == sorted(robots)
     assert scenario.scheduler.agent_costs == tc.USE_CASE_B_AGENT_COSTS
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("pattern", ["[ic, collab]", "[ic, ic, collab, collab]"])
+@pytest.mark.parametrize("scheduler", [
+    "!BestScenarioScheduler {collaboration: collab, human_action: ic, feed_action: fuse, wait_quantum: 3.0}",
+    "!RoundRobinScheduler {programs: {yumi_left: [fuse, check]}, wait_quantum: 3.0}",
+])
+def test_the_use_case_a_cell_never_stalls(tmp_path, diagrams_dir, pattern, scheduler):
+    """Seeds and patterns that once stalled the cell: the round robin's right arm commanded
+    while it still held the collaboration (its commands then lagged one behind), the
+    best-scenario right arm committing the left one while the human waited for a board."""
+    for seed in (100, 101):
+        path = tmp_path / f"run{seed}.yaml"
+        path.write_text(f"extends: {diagrams_dir / 'pcb_collab.yaml'}\nseed: {seed}\n"
+                        f"operator: {{pattern: {pattern}}}\nscheduler: {scheduler}\n")
+        result = _run(path, duration=300.0)
+        # at most ~45 s per product for the slowest arm: a stall leaves only a few
+        assert result.metrics["products_finished"] >= 6, (seed, result.metrics["product_times"])
+        waits = [c for c in result.log.decisions if c.action is None]
+        assert all(abs((c.time + c.wait) / 3.0 - round((c.time + c.wait) / 3.0)) < 1e-6 for c in waits)
+
+
+def test_agent_costs_name_robot_agents(tmp_path, diagrams_dir):
+    path = tmp_path / "bad_costs.yaml"
+    path.write_text(f"extends: {diagrams_dir / 'carts.yaml'}\n"
+                    "scheduler: !MonteCarloScheduler {agent_costs: {cart9: 0.0}}\n")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.field == "scheduler.agent_costs.cart9" and "not a robot agent" in str(info.value)

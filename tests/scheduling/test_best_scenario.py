@@ -194,3 +194,19 @@ def test_a_human_waiting_for_its_operation_is_supplied_whatever_the_forecast():
     no_case_1 = BestScenarioPolicy(net, "collab")
     no_case_1.set_forecast(0.0, 0.0)
     assert net.transitions[no_case_1.decide(m, "yumi_left")] == "collab:commit"
+
+
+def test_case_1_is_left_to_the_feeding_arm_whoever_decides_first():
+    """Pattern 2 waits for its second IC with no fused board: case 1 (7.2.1) feeds it. The
+    right arm, asked first, must not commit the left arm to the collaboration (a cell once
+    stalled so: the human waited for a board the left arm never fused)."""
+    flow, buffers, pattern, robots = tc.use_case_a(2)
+    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    policy = BestScenarioPolicy(net, "collab", "ic", "fuse", horizon=60.0)
+    m = net.m0.copy()
+    m[net.place_index["step:0"]] = 0
+    m[net.place_index["hwait:0"]] = 1  # the human waits to start an IC
+    policy.set_forecast(0.0, 5.0, 0.0)  # the forecast has the collaboration due too
+    right = policy.decide(m, "yumi_right", now=0.0)
+    assert "yumi_left" not in net.agents[right]
+    assert net.transitions[policy.decide(m, "yumi_left", now=0.0)] == "fuse:begin"

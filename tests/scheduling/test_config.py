@@ -26,7 +26,7 @@ KINDS = [RoundRobinScheduler, RandomEnabledScheduler, BestOfRolloutsPlanSchedule
 def test_fields_are_typed():
     for cls in [NoScheduler, *KINDS]:
         for f in dataclasses.fields(cls):
-            assert f.type in (int, float, str, bool, dict[str, list[str]]), (cls, f.name)
+            assert f.type in (int, float, str, bool, dict[str, list[str]], dict[str, float]), (cls, f.name)
 
 
 def test_yaml_tags_choose_the_kind():
@@ -54,6 +54,7 @@ def test_yaml_tags_choose_the_kind():
         (MonteCarloScheduler(durations=""), "s.durations"),
         (RandomEnabledScheduler(wait_quantum=0.0), "s.wait_quantum"),
         (RandomEnabledScheduler(cost_robot=-1.0), "s.cost_robot"),
+        (RandomEnabledScheduler(agent_costs={"cart1": -0.5}), "s.agent_costs.cart1"),
         (RoundRobinScheduler(rate=100.0), "s.rate"),
         (BestOfRolloutsPlanScheduler(n_candidates=0), "s.n_candidates"),
         (PredictiveRobotScheduler(agent="r", autonomous_action="a", assist_actions=["b"], request_action="h",
