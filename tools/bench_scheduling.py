@@ -81,7 +81,7 @@ def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
                               forecaster=forecaster)
 
 
-def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0) -> dict:
+def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 600) -> dict:
     """Time of one fuzzy (7.4, Algorithm 5) and one uniform (eq. 7.21-7.23) decision at T_sch =
     `horizon` on the torch_clock net (t_w = 5 s, 7.5.3), over the markings a round-robin run of
     that net meets (decisions with a choice); also the trees' sizes and how many of them the
@@ -102,7 +102,7 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0) -> 
              if net.enabled(a[0])[net.agent_transitions(a[1])].sum() > 1][:n_decisions]
     out = {}
     for name, kind in (("fuzzy", FuzzyPolicy), ("uniform", UniformPolicy)):
-        policy = kind(net, horizon=horizon)
+        policy = kind(net, horizon=horizon, max_nodes=max_nodes)
         times, nodes, truncated = [], [], 0
         for marking, agent, now, elapsed in asked:
             t0 = time.perf_counter()
@@ -123,6 +123,13 @@ def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed)
     if kind.startswith("monte_carlo_T"):  # a second horizon, side by side
         return MonteCarloPolicy(net, n_trials=n_trials, horizon=float(kind[13:]), random_state=seed)
+    if kind.startswith("monte_carlo_work_first"):  # rollouts start every enabled action (option)
+        return MonteCarloPolicy(net, n_trials=n_trials, horizon=horizon, random_state=seed,
+                                rollout="work_first")
+    if kind.startswith("fuzzy_nodes"):  # Algorithm 5 with another node cap
+        from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy
+
+        return FuzzyPolicy(net, horizon=horizon, max_nodes=int(kind[11:]), random_state=seed)
     if kind == "monte_carlo_uniform_support":  # Scheduler B of 7.5.2: uniform delays on the measured supports
         return MonteCarloPolicy(
             net, n_trials=n_trials, horizon=horizon, random_state=seed, durations="uniform_support"
@@ -216,6 +223,72 @@ def sweep_best_scenario(quick: bool) -> dict:
     return out
 
 
+def sweep_fuzzy_max_nodes(quick: bool) -> dict:
+    """The fuzzy scheduler's node cap (default 600, chosen for the decision time): the decision
+    time on the torch_clock net and, at event level (the net's durations, round robin as the
+    reference), the human's idle time per product over 10 runs of 10 products, per cap."""
+    from pathlib import Path
+
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.scheduling.config import FuzzyScheduler
+    from hrc_drake.scheduling.systems import net_from_scenario
+
+    caps = (300, 600) if quick else (150, 300, 600, 1200, 2400)
+    root = Path(__file__).resolve().parents[1]
+    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
+    out = {}
+    for cap in caps:
+        latency = fuzzy_latency_ms(5 if quick else 30, max_nodes=cap)["fuzzy"]
+        runs = campaign(net, {f"fuzzy_nodes{cap}": f"fuzzy_nodes{cap}"}, 2 if quick else 10, None,
+                        f"fuzzy cap {cap}", horizon=50.0, n_products=4 if quick else 10)[f"fuzzy_nodes{cap}"]
+        out[f"max_nodes_{cap}"] = {"ms_median": round(latency["ms_median"], 2),
+                                   "truncated": latency["truncated"], "decisions": latency["decisions"],
+                                   "human_idle_per_product": round(runs["human_idle_per_product"], 3),
+                                   "time_per_product": round(runs["time_per_product"], 3)}
+    reference = campaign(net, ["round_robin"], 2 if quick else 10, None, "fuzzy ref", horizon=50.0,
+                         n_products=4 if quick else 10)["round_robin"]
+    out["round_robin"] = {"human_idle_per_product": round(reference["human_idle_per_product"], 3),
+                          "time_per_product": round(reference["time_per_product"], 3)}
+    return out
+
+
+def sweep_use_case_b(quick: bool) -> dict:
+    """Scheduler A of use case b around the thesis's settings: T_sch (15, 30, 60 s), the
+    work-first rollouts and branch pooling (options), per pattern; time per product and human
+    idle per product over 10 runs of 9 products."""
+    kinds = (["monte_carlo_T15", "monte_carlo_T30"] if quick else
+             ["monte_carlo_T15", "monte_carlo_T30", "monte_carlo_T60", "monte_carlo_work_first",
+              "monte_carlo_pooled"])
+    out = {}
+    for pat in (1, 2):
+        flow, buffers, pattern, robots = tc.use_case_b(pat)
+        net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0, cost_robot=0.5,
+                           cost_human=1.0, agent_costs=tc.USE_CASE_B_AGENT_COSTS)
+        arms = campaign(net, kinds, 2 if quick else 10, None, f"b sweep {pat}", horizon=30.0, n_products=9)
+        out[f"pattern{pat}"] = {k: {"time_per_product": round(v["time_per_product"], 3),
+                                    "human_idle_per_product": round(v["human_idle_per_product"], 3),
+                                    "cycle_median": round(v["cycle_median"], 3)} for k, v in arms.items()}
+    return out
+
+
+def sweep_checked_stock(quick: bool) -> dict:
+    """Use case a's assumed stock of checked boards at the start (1 in the benchmark): 0, 1, 2,
+    best scenario and round robin, time per product over 10 runs of 10 cycles."""
+    programs = {1: {"yumi_left": ["fuse", "check"]}, 2: {"yumi_left": ["fuse", "fuse", "check", "check"]}}
+    out = {}
+    for pat in (1, 2):
+        row = {}
+        for stock in ((0, 1) if quick else (0, 1, 2)):
+            flow, buffers, pattern, robots = tc.use_case_a(pat, checked_stock=stock)
+            net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+            arms = campaign(net, ["best_scenario", "round_robin"], 2 if quick else 10, 4 if quick else 10,
+                            f"a stock {stock}", programs=programs[pat])
+            row[f"stock_{stock}"] = {k: round(v["time_per_product"], 3) for k, v in arms.items()}
+        out[f"pattern{pat}"] = row
+    return out
+
+
 def sweep_min_branch_samples(quick: bool) -> dict:
     """Algorithm 4's rule (b) with branch pooling: trials every child of a controllable
     branching needs (1 = as written) against the time per product on use case a."""
@@ -290,6 +363,10 @@ def latencies(quick: bool, result: dict) -> None:
     print(f"  best scenario (7.2), use case a, T_sch = 60 s: {median:7.2f} ms median, {worst:.2f} ms max, "
           f"{nodes} nodes ({count} decisions; the thesis gives no figure)", flush=True)
 
+    if not quick:
+        result["sweep_fuzzy_max_nodes"] = sweep_fuzzy_max_nodes(quick)
+        print("  fuzzy node cap (decision ms, trees cut, event-level idle per product): "
+              + json.dumps(result["sweep_fuzzy_max_nodes"]), flush=True)
     fuzzy = fuzzy_latency_ms(10 if quick else 50)
     result["latency_fuzzy_T50_ms"] = fuzzy["fuzzy"]["ms_median"]
     result["latency_uniform_T50_ms"] = fuzzy["uniform"]["ms_median"]
@@ -327,6 +404,11 @@ def use_case_a_campaign(quick: bool) -> dict:
         out[f"pattern{pat}"] = arms
     out["sweep_best_scenario"] = sweep_best_scenario(quick)
     out["sweep_min_branch_samples"] = sweep_min_branch_samples(quick)
+    if quick:  # the sweeps below are the full run's
+        return out
+    out["sweep_checked_stock"] = sweep_checked_stock(quick)
+    print("  checked boards in stock at the start (time per product, s): "
+          + json.dumps(out["sweep_checked_stock"]), flush=True)
     return out
 
 
@@ -355,6 +437,10 @@ def use_case_b_campaign(quick: bool) -> dict:
               f"{a['time_per_product']:.2f} vs {b['time_per_product']:.2f} s per product; one-sided "
               f"rank-sum p (A < B) = {p_runs} (runs' time per product), {p_cycles:.3g} (cycles)", flush=True)
         out[f"pattern{pat}"] = result
+    if quick:
+        return out
+    out["sweep"] = sweep_use_case_b(quick)
+    print("  Scheduler A around T_sch = 30 s (time per product, s): " + json.dumps(out["sweep"]), flush=True)
     return out
 
 

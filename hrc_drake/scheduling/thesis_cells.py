@@ -95,14 +95,14 @@ def fig_7_11():
     return flow, buffers, ["A2", "A2", "B2", "B2"], ["r1", "r2"]
 
 
-def use_case_a(pattern: int = 1, early_release: bool = True):
+def use_case_a(pattern: int = 1, early_release: bool = True, checked_stock: int = 1):
     """Use case a (7.2.1, 7.5.1): fuse (YuMi left), IC (human), quality check (both arms),
     collaborative macro-operation (human + both arms). Durations are not given in the text:
     assumed N(6,1), N(12,1.5), N(6,1), N(14,1.5) s. Pattern 1: IC, collab; pattern 2:
     IC, IC, collab, collab.
 
-    One checked board is in stock at the start (assumed). With empty buffers and pattern 1 the
-    collaboration always needs the board the human has just finished, so the human waits for
+    One checked board is in stock at the start (assumed; `checked_stock`). With empty buffers
+    and pattern 1 the collaboration always needs the board the human has just finished, so the human waits for
     its quality check every cycle (>= IC + check + collab = 32 s per product whatever the
     scheduler); with one board of stock the check runs during the next IC, which is how the
     pcTPN scheduler of Fig. 7.15 has the robots ready when the human is (27.63 s per product).
@@ -112,7 +112,7 @@ def use_case_a(pattern: int = 1, early_release: bool = True):
         Buffer("feeder", kind="raw"),
         Buffer("fused", capacity=2),
         Buffer("with_ic", capacity=2),
-        Buffer("checked", capacity=2, initial=1),
+        Buffer("checked", capacity=2, initial=checked_stock),
         Buffer("product", kind="product"),
     ]
     flow = Flow(
