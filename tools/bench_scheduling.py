@@ -226,7 +226,7 @@ def sweep_best_scenario(quick: bool) -> dict:
 def sweep_fuzzy_max_nodes(quick: bool) -> dict:
     """The fuzzy scheduler's node cap (default 600, chosen for the decision time): the decision
     time on the torch_clock net and, at event level (the net's durations, round robin as the
-    reference), the human's idle time per product over 10 runs of 10 products, per cap."""
+    reference), the human's idle time per product over 6 runs of 6 products, per cap."""
     from pathlib import Path
 
     from hrc_drake.cell.scenario import load_scenario
@@ -240,14 +240,14 @@ def sweep_fuzzy_max_nodes(quick: bool) -> dict:
     out = {}
     for cap in caps:
         latency = fuzzy_latency_ms(5 if quick else 30, max_nodes=cap)["fuzzy"]
-        runs = campaign(net, {f"fuzzy_nodes{cap}": f"fuzzy_nodes{cap}"}, 2 if quick else 10, None,
-                        f"fuzzy cap {cap}", horizon=50.0, n_products=4 if quick else 10)[f"fuzzy_nodes{cap}"]
+        runs = campaign(net, {f"fuzzy_nodes{cap}": f"fuzzy_nodes{cap}"}, 2 if quick else 6, None,
+                        f"fuzzy cap {cap}", horizon=50.0, n_products=4 if quick else 6)[f"fuzzy_nodes{cap}"]
         out[f"max_nodes_{cap}"] = {"ms_median": round(latency["ms_median"], 2),
                                    "truncated": latency["truncated"], "decisions": latency["decisions"],
                                    "human_idle_per_product": round(runs["human_idle_per_product"], 3),
                                    "time_per_product": round(runs["time_per_product"], 3)}
-    reference = campaign(net, ["round_robin"], 2 if quick else 10, None, "fuzzy ref", horizon=50.0,
-                         n_products=4 if quick else 10)["round_robin"]
+    reference = campaign(net, ["round_robin"], 2 if quick else 6, None, "fuzzy ref", horizon=50.0,
+                         n_products=4 if quick else 6)["round_robin"]
     out["round_robin"] = {"human_idle_per_product": round(reference["human_idle_per_product"], 3),
                           "time_per_product": round(reference["time_per_product"], 3)}
     return out
