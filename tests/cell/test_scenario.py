@@ -6,7 +6,8 @@ import yaml
 from hrc_drake.cell.scenario import ScenarioError, load_scenario
 from hrc_drake.cli import main
 
-SCENARIOS = ["torch_clock.yaml", "box_usb.yaml", "pcb_occlusion.yaml"]
+SCENARIOS = ["torch_clock.yaml", "box_usb.yaml", "pcb_occlusion.yaml", "pcb_collab.yaml", "carts.yaml",
+             "torch_clock_fuzzy.yaml"]
 
 
 @pytest.fixture(scope="module")

@@ -321,3 +321,21 @@ def test_agent_costs_name_robot_agents(tmp_path, diagrams_dir):
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert info.value.field == "scheduler.agent_costs.cart9" and "not a robot agent" in str(info.value)
+
+
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@pytest.mark.parametrize("name, duration, products",
+                         [("carts.yaml", 200.0, 3), ("torch_clock_fuzzy.yaml", 150.0, 1)])
+def test_use_cases_b_and_c_run_with_their_schedulers(diagrams_dir, name, duration, products):
+    result = _run(diagrams_dir / name, duration)
+    m = result.metrics
+    assert m["products_finished"] >= products
+    # every robot agent was commanded and worked (the carts too: each moved both ways)
+    commanded = {c.agent for c in result.log.decisions if c.action is not None}
+    assert commanded == set(m["agents"]) - {"human"}
+    assert all(m["agents"][agent]["busy_time"] > 0 for agent in commanded)
+    if name == "carts.yaml":
+        moves = {e.action for e in result.log.events if getattr(e, "agent", "") in ("cart1", "cart2")
+                 and e.kind == "end"}
+        assert moves == {"cart1_go", "cart1_back", "cart2_go", "cart2_back"}
