@@ -143,18 +143,19 @@ def main(argv=None) -> dict:
     return result
 
 
-def run_jobs(function, jobs: list, workers: int) -> list[dict]:
+def run_jobs(function, jobs: list, workers: int, print_row=None) -> list[dict]:
     """`function` on every job, in `workers` processes, printing a line per run as it ends."""
+    print_row = print_row or _print_row
     rows = []
     if workers > 1:
         with multiprocessing.get_context("spawn").Pool(workers) as pool:
             for row in pool.imap(function, jobs):
                 rows.append(row)
-                _print_row(row)
+                print_row(row)
     else:
         for job in jobs:
             rows.append(function(job))
-            _print_row(rows[-1])
+            print_row(rows[-1])
     return rows
 
 

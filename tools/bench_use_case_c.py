@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import sys
 import tempfile
 import time
@@ -36,10 +35,13 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy.stats import mannwhitneyu
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_use_case_b import _one_sided, run_jobs  # noqa: E402
 
 from hrc_drake.cell.scenario import Tagged, _raw_document  # noqa: E402
 from tests.cell.fuzz import _Dumper  # noqa: E402
@@ -120,17 +122,7 @@ def main(argv=None) -> dict:
     jobs = [(e, a, 100 + s) for e in EXPERIMENTS for s in range(seeds) for a in arms]
     print(f"{len(jobs)} runs ({seeds} seeds x {len(arms)} arms x 2 experiments), {args.workers} workers",
           flush=True)
-    rows = []
-    if args.workers > 1:
-        with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-            iterator = pool.imap(run_one, jobs)
-            for row in iterator:
-                rows.append(row)
-                _print_row(row)
-    else:
-        for job in jobs:
-            rows.append(run_one(job))
-            _print_row(rows[-1])
+    rows = run_jobs(run_one, jobs, args.workers, _print_row)
     out: dict = {}
     for experiment in EXPERIMENTS:
         block: dict = {}
@@ -167,11 +159,6 @@ def _median(values) -> float | None:
 
 def _mean(values) -> float | None:
     return round(float(np.mean(values)), 3) if len(values) else None
-
-
-def _one_sided(a, b) -> float | None:
-    """One-sided rank-sum p that `a` is smaller than `b`."""
-    return float(mannwhitneyu(a, b, alternative="less").pvalue) if len(a) > 1 and len(b) > 1 else None
 
 
 if __name__ == "__main__":

@@ -12,8 +12,8 @@ protocol of `cell.world`: `update(..., view=WorldSnapshot)` leaves start/finish
 An action shared with other agents (a collaboration, thesis 6.3.3) starts when all of them
 have asked for it; a commanded one is revoked after the command's `give_up_after` (T_wait,
 Fig. 7.3) and the arm is ready again. At the end of its motion the arm holds the last pose
-until the whole action is done, unless it leaves early (`leaves_early`, the left arm of
-Fig. 7.3).
+until the whole action is done (`holds`), unless the flow releases it early (`early_release`,
+the left arm of Fig. 7.3).
 """
 
 from __future__ import annotations
