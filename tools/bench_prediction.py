@@ -86,7 +86,7 @@ def bench_fig54(seeds: int, lengths: list[int]) -> dict:
 #: alpha of the suffix tree in Fig. 5.7. The series are stationary (20 cycles, no change of
 #: pattern), so the forgetting time N = 5 / alpha of (5.26) is set past the 200-step series,
 #: as the HOMM's FIFO of 200 covers it all. The default alpha = 0.02 (N = 250, but a token
-#: 35 steps old already weighs 1/2) is run alongside to show the sensitivity.
+#: 35 steps old already weighs 1/2) and 0.001, 0.005, 0.01 are run alongside: the sweep.
 FORGETTING_57 = 0.002
 
 
@@ -152,7 +152,11 @@ def bench_fig57(n_series: int, orders: list[int], n_reference_series: int = 20) 
         "st_all_priors": tree(AFFINE_58),
         # HOMM order n uses n+1 past actions: n = sigma - 1 compares equal memories
         "homm": lambda s: HigherOrderMarkovModel(order=s - 1, buffer_size=200, actions=10),
-        # references, not in the thesis: the default alpha, a PPM of the same depth
+        # references, not in the thesis: the sweep of alpha around FORGETTING_57 (0.02 is the
+        # default), a PPM of the same depth
+        "st_all_alpha0.001": tree(AFFINE_58, 0.001),
+        "st_all_alpha0.005": tree(AFFINE_58, 0.005),
+        "st_all_alpha0.01": tree(AFFINE_58, 0.01),
         "st_all_alpha0.02": tree(AFFINE_58, 0.02),
         "ppm_reference": lambda s: VariableOrderMarkovModel(max_depth=s, buffer_size=None, actions=10),
     }

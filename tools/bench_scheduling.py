@@ -81,11 +81,11 @@ def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
                               forecaster=forecaster)
 
 
-def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 600) -> dict:
+def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 300) -> dict:
     """Time of one fuzzy (7.4, Algorithm 5) and one uniform (eq. 7.21-7.23) decision at T_sch =
     `horizon` on the torch_clock net (t_w = 5 s, 7.5.3), over the markings a round-robin run of
     that net meets (decisions with a choice); also the trees' sizes and how many of them the
-    node cap (max_nodes, default 600) cut short of T_sch."""
+    node cap (max_nodes, default 300) cut short of T_sch."""
     from pathlib import Path
 
     from hrc_drake.cell.scenario import load_scenario
@@ -224,7 +224,7 @@ def sweep_best_scenario(quick: bool) -> dict:
 
 
 def sweep_fuzzy_max_nodes(quick: bool) -> dict:
-    """The fuzzy scheduler's node cap (default 600, chosen for the decision time): the decision
+    """The fuzzy scheduler's node cap (default 300, chosen for the decision time): the decision
     time on the torch_clock net and, at event level (the net's durations, round robin as the
     reference), the human's idle time per product over 6 runs of 6 products, per cap."""
     from pathlib import Path

@@ -254,8 +254,10 @@ class FuzzyScheduler(_SchedulerCommon):
     min_samples: int = 3
     learn: bool = True
     #: guard on the tree's size: the first level past it is left out whole, so the tree then
-    #: reaches less far than T_sch (a full tree at 50 s on torch_clock has ~1e6 nodes)
-    max_nodes: int = 600
+    #: reaches less far than T_sch (a full tree at 50 s on torch_clock has ~1e6 nodes); chosen
+    #: for the decision time: over caps 150-2400 the event-level idle per product stays within
+    #: 7.5-8.3 s while a decision takes 3-48 ms (bench_scheduling's sweep_fuzzy_max_nodes)
+    max_nodes: int = 300
     #: time-grid points of the fuzzy sets of eq. 7.4-7.9 that are not triangles
     grid_points: int = 41
     #: eq. (7.18) sums the possibilities of the leaves as written; True divides by their sum

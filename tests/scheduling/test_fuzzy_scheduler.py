@@ -339,7 +339,7 @@ def test_max_nodes_truncates_whole_levels():
     net = _net_7_6()
     delays = [FuzzyPolicy(net).fuzzy_delay(j) for j in range(net.n_transitions)]
     roots = net.agent_transitions("robot")
-    full = FuzzyReachabilityTree(net, delays, 10.0, roots=roots)
+    full = FuzzyReachabilityTree(net, delays, 10.0, roots=roots, max_nodes=100_000)
     small = FuzzyReachabilityTree(net, delays, 10.0, roots=roots, max_nodes=60)
     assert not full.truncated and small.truncated and len(small.nodes) <= 60
     deepest = max(n.depth for n in small.nodes)
