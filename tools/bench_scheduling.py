@@ -1,10 +1,12 @@
 """Benchmark of hrc_drake.scheduling: Monte Carlo decision latency (thesis 7.3.1, 7.5.2), the
 best-scenario decision latency on the use case a net (7.2), the Fig. 7.12 campaign on the
 Fig. 7.11 net, use case a patterns 1 and 2 (7.5.1) and use case b patterns 1 and 2 (7.5.2,
-Scheduler A against Scheduler B).
+Scheduler A against Scheduler B) at event level, with the sweeps of their settings, and (not in
+--quick) use case c in the Drake cell (7.5.3, `bench_use_case_c.py`).
 
 Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
-`--only SECTION ...` runs some of the sections (latency, fig7_12, use_case_a, use_case_b).
+`--only SECTION ...` runs some of the sections (latency, fig7_12, use_case_a, use_case_b,
+use_case_c).
 """
 
 from __future__ import annotations
@@ -444,7 +446,7 @@ def use_case_b_campaign(quick: bool) -> dict:
     return out
 
 
-SECTIONS = ("latency", "fig7_12", "use_case_a", "use_case_b")
+SECTIONS = ("latency", "fig7_12", "use_case_a", "use_case_b", "use_case_c")
 
 
 def main():
@@ -474,6 +476,14 @@ def main():
         print("Use case b (7.5.2, reconstructed net), 9 products per run, cycle = time between two products "
               "(thesis: Scheduler A has the lower median cycle on both patterns)")
         result["use_case_b"] = use_case_b_campaign(quick)
+    if "use_case_c" in args.only:
+        if quick:  # Drake cells: minutes per arm
+            print("Use case c (7.5.3) runs in the Drake cell: not in --quick (bench_use_case_c.py --quick)")
+        else:
+            import bench_use_case_c
+
+            print("Use case c (7.5.3) in the Drake cell (bench_use_case_c.py, 10 seeds)", flush=True)
+            result["use_case_c"] = bench_use_case_c.main(["--seeds", "10", "--workers", "2"])["use_case_c"]
     result["load_average_1min_end"] = round(os.getloadavg()[0], 2)
     print(json.dumps(result))
 
