@@ -146,7 +146,14 @@ def _simulate(args) -> int:
             f"idle {a['idle_time']:7.1f} s   actions {a['actions_finished']}"
         )
     if m["min_human_robot_distance"] is not None:
-        print(f"min human-robot distance {m['min_human_robot_distance']:.3f} m")
+        line = f"min human-robot distance {m['min_human_robot_distance']:.3f} m"
+        safety = m.get("safety")
+        if safety and safety["below"]:
+            line += (f"  BELOW the safety distance {safety['safety_distance']:g} m for "
+                     f"{safety['time_below_s']:.1f} s ({100 * safety['fraction_below']:.1f} % of the run)")
+        elif safety:
+            line += f"  (never below the safety distance {safety['safety_distance']:g} m)"
+        print(line)
     if args.replay:
         size = write_replay(cell, Path(args.replay))
         print(f"replay            {args.replay} ({size / 1e6:.1f} MB)")

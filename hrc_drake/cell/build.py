@@ -357,11 +357,12 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
 
 def _add_recorder(
     builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
-    record_forecast: bool = False,
+    record_forecast: bool = False, safety_distance: float = -np.inf,
 ):
     """The metrics recorder; `record_forecast`: also the predictor's forecasts (only the use case
-    a report plots them: elsewhere the log would grow for nothing)."""
-    recorder = builder.AddSystem(MetricsRecorder())
+    a report plots them: elsewhere the log would grow for nothing); samples under
+    `safety_distance` are counted."""
+    recorder = builder.AddSystem(MetricsRecorder(safety_distance=safety_distance))
     recorder.set_name("metrics")
     builder.Connect(human_events_port, recorder.GetInputPort("human_events"))
     builder.Connect(executor.GetOutputPort("robot_events"), recorder.GetInputPort("robot_events"))
@@ -454,7 +455,8 @@ def build_cell(
     )
     _add_speed_override(builder, overrides, follower, systems)
     _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
-                  record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS))
+                  record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS),
+                  safety_distance=scenario.safety_distance)
     visualizer = None
     if meshcat is not None:
         visualizer = _add_meshcat(builder, scenario, scene_graph, meshcat, systems, replay_fps)

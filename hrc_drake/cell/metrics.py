@@ -114,15 +114,18 @@ class DecimatedTrace:
 
 @dataclass(frozen=True)
 class SampleStats:
-    """Exact running figures over every periodic sample, however many the trace dropped."""
+    """Exact running figures over every periodic sample, however many the trace dropped;
+    `below`: samples whose true human-robot distance was under the safety distance."""
 
     count: int = 0
     min_distance: float = np.inf
     override_sum: float = 0.0
+    below: int = 0
 
-    def add(self, distance: float, override: float) -> SampleStats:
+    def add(self, distance: float, override: float, safety_distance: float = -np.inf) -> SampleStats:
         return SampleStats(self.count + 1, min(self.min_distance, distance) if np.isfinite(distance)
-                           else self.min_distance, self.override_sum + override)
+                           else self.min_distance, self.override_sum + override,
+                           self.below + bool(distance < safety_distance))
 
 
 @dataclass
@@ -146,6 +149,9 @@ class MetricsLog:
     sample_stride: int = 1
     #: the scheduler's decisions, `RobotCommand`s (time, agent, action or None for a wait)
     decisions: list = field(default_factory=list)
+    #: the scenario's safety distance (m) the samples were compared with, and their period (s)
+    safety_distance: float = -np.inf
+    sample_period: float = 0.1
 
     def record(
         self, time: float, distance: float, override: float, buffers: dict, products: int, human_points=None
@@ -210,6 +216,8 @@ DEFINITIONS = {
     "min_human_robot_distance": "smallest true distance between the human's and the robots' capsules over "
                                 "every 0.1 s sample (m; negative: the capsules overlap)",
     "mean_speed_override": "mean robot speed override over every sample (1: full speed)",
+    "safety": "samples whose true human-robot distance is under the scenario's safety_distance: their "
+              "time (samples x period, s), their fraction of all samples, and whether there is any",
     "detection": "the action detector's perceived events against the truth (precision, recall, latency)",
     "realtime_factor": "simulated_time / wall_time",
 }
@@ -238,6 +246,16 @@ def product_times(events, product_actions: dict[str, tuple[str, ...]],
                 for kind in product_actions[action]:
                     times[kind].append(max(ts[k] for ts in ends.values()))
     return {kind: sorted(ts) for kind, ts in times.items()}
+
+
+def _safety(stats: SampleStats, log: MetricsLog) -> dict | None:
+    """Time and fraction of the samples below the safety distance, and whether any was."""
+    if not np.isfinite(log.safety_distance) or not stats.count:
+        return None
+    return {"safety_distance": log.safety_distance,
+            "time_below_s": round(stats.below * log.sample_period, 3),
+            "fraction_below": round(stats.below / stats.count, 4),
+            "below": bool(stats.below)}
 
 
 def cycle_times_after_warmup(times, warmup_products: int = 1, warmup_time: float = 0.0) -> np.ndarray:
@@ -293,7 +311,7 @@ def summarize(
     else:
         stats = SampleStats()
         for distance, override in zip(log.distances, log.overrides, strict=True):
-            stats = stats.add(distance, override)
+            stats = stats.add(distance, override, log.safety_distance)
     out = {
         "simulated_time": round(end_time, 3),
         "products_finished": len(done),
@@ -304,6 +322,7 @@ def summarize(
         "warmup": {"products": warmup_products, "time": warmup_time},
         "agents": per_agent,
         "min_human_robot_distance": round(stats.min_distance, 4) if np.isfinite(stats.min_distance) else None,
+        "safety": _safety(stats, log),
         "mean_speed_override": round(stats.override_sum / stats.count, 4) if stats.count else None,
     }
     if log.perceived_events:

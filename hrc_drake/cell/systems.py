@@ -341,7 +341,7 @@ class MetricsRecorder(LeafSystem):
     at each sample where it changed), "human_points" (24,),
     "human_capsules", "robot_capsules" (`messages.Capsules`), "speed_override" (1,), "world"
     (`WorldSnapshot`). `log(context)` gives the `MetricsLog` of a run, with a last sample at
-    the context's time.
+    the context's time. safety_distance: samples under it are counted (the scenario's).
 
     Memory is flat in simulated time: the samples are a `DecimatedTrace` of at most
     `max_samples` (every sample up to max_samples * period s, then evenly thinned; the changed
@@ -355,9 +355,11 @@ class MetricsRecorder(LeafSystem):
     simulation no state copies (DESIGN.md, performance rules).
     """
 
-    def __init__(self, period: float = 0.1, max_samples: int = 8192):
+    def __init__(self, period: float = 0.1, max_samples: int = 8192, safety_distance: float = -np.inf):
         super().__init__()
         self._max_samples = max_samples
+        self._period = float(period)
+        self._safety_distance = float(safety_distance)
         self._human_events = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot_events = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
         self._intention_events = self.DeclareAbstractInputPort(
@@ -431,7 +433,8 @@ class MetricsRecorder(LeafSystem):
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
         world = input_or(self._world, context, WorldSnapshot())
         sample = (t, distance, override, world.buffers, world.finished_products, points)
-        return RecorderRun(run.samples.offer(sample), run.stats.add(distance, override), events, perceived,
+        stats = run.stats.add(distance, override, self._safety_distance)
+        return RecorderRun(run.samples.offer(sample), stats, events, perceived,
                            forecasts, tuple(seen), t, last_forecast)
 
     def _record(self, context):
@@ -447,7 +450,8 @@ class MetricsRecorder(LeafSystem):
         if context.get_time() > run.last_time:
             run = self._sample(context, run)
         log = MetricsLog(events=list(run.events), perceived_events=list(run.perceived),
-                         forecasts=list(run.forecasts), stats=run.stats, sample_stride=run.samples.stride)
+                         forecasts=list(run.forecasts), stats=run.stats, sample_stride=run.samples.stride,
+                         safety_distance=self._safety_distance, sample_period=self._period)
         for t, distance, override, buffers, products, points in run.samples:
             log.record(t, distance, override, buffers, products, points)
         return log

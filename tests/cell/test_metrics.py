@@ -61,3 +61,24 @@ def test_metrics_json_defines_every_figure_it_holds():
     assert set(m["agents"]["arm"]) <= set(m["definitions"])
     assert m["definitions"]["idle_time"] == DEFINITIONS["idle_time"]
     assert "wait_time" in DEFINITIONS["idle_time"]
+
+
+def test_time_below_the_safety_distance_is_counted_over_every_sample():
+    from hrc_drake.cell.metrics import SampleStats, summarize
+
+    log = MetricsLog(safety_distance=0.1, sample_period=0.1)
+    for k, d in enumerate([0.5, 0.09, 0.05, -0.02, 0.1, 0.3, float("inf"), 0.2]):
+        log.record(0.1 * k, d, 1.0, {}, 0)
+    safety = summarize(log, 0.8, [], {})["safety"]
+    # 0.09, 0.05 and -0.02 are under 0.1 (0.1 itself is not; no distance, inf, is not)
+    assert safety == {"safety_distance": 0.1, "time_below_s": 0.3, "fraction_below": 0.375, "below": True}
+    # the recorder's running figures give the same count as the samples
+    stats = SampleStats()
+    for d in log.distances:
+        stats = stats.add(d, 1.0, 0.1)
+    log.stats = stats
+    assert summarize(log, 0.8, [], {})["safety"] == safety
+    clear = MetricsLog(safety_distance=0.1)
+    clear.record(0.0, 0.4, 1.0, {}, 0)
+    assert summarize(clear, 0.1, [], {})["safety"]["below"] is False
+    assert summarize(MetricsLog(), 0.1, [], {})["safety"] is None  # no threshold given
