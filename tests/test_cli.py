@@ -269,8 +269,10 @@ def test_the_summary_flags_time_below_the_safety_distance(tmp_path, capsys):
     """pcb_collab's collaboration brings the human and the arms together: the summary says for
     how long the true distance was under the scenario's safety distance."""
     out_dir = tmp_path / "out"
-    assert main(["simulate", str(DIAGRAMS / "pcb_collab.yaml"), "--duration", "40", "--out", str(out_dir)]) == 0
-    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("min human-robot distance"))
+    assert main(["simulate", str(DIAGRAMS / "pcb_collab.yaml"), "--duration", "40", "--out",
+                 str(out_dir)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    line = next(ln for ln in lines if ln.startswith("min human-robot distance"))
     safety = json.loads((out_dir / "metrics.json").read_text())["safety"]
     assert safety["below"] and 0 < safety["time_below_s"] < 40
     assert f"BELOW the safety distance 0.1 m for {safety['time_below_s']:.1f} s" in line
