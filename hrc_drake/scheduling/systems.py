@@ -165,6 +165,9 @@ class Scheduler(LeafSystem):
     Output: "robot_commands" (EventLog of RobotCommand, seq increasing).
     config: a kind of `hrc_drake.scheduling.config` (not NoScheduler); `net` should be compiled
     with its net fields (`net_from_scenario`). seed: of the policy's random generator.
+    Only arms that reported "ready" and have had no command since are commanded (the policy
+    sees the others as unavailable); a wait ends on the t_w grid; a commitment to a
+    collaboration is revoked after its give-up delay (T_wait, `RobotCommand.give_up_after`).
 
     State (in the Context, set again at initialization): abstract 0, Frozen(SchedulerCore),
     replaced (copy-on-write) only when new events arrive. Updated at `config.rate` Hz.
