@@ -236,6 +236,13 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
     _check_keys(raw, Scenario, "", str(path))
     base = _extended(path, raw.get("extends"), _chain)
+    if base is not None:
+        # a tagged system given here replaces the base's whole (the loader would merge into an
+        # instance of a parent type, e.g. !WorstCaseMotionModel into a GPMotionModel)
+        defaults = Scenario()
+        for name in SYSTEM_FIELDS:
+            if name in raw:
+                setattr(base, name, getattr(defaults, name))
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text, defaults=base)
     except (RuntimeError, ValueError, TypeError) as err:

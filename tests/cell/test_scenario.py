@@ -342,3 +342,17 @@ def test_the_shipped_fuzzy_cell_is_torch_clock_with_its_scheduler(diagrams_dir):
     fuzzy = load_scenario(diagrams_dir / "torch_clock_fuzzy.yaml")
     assert isinstance(fuzzy.scheduler, FuzzyScheduler) and fuzzy.scheduler.horizon == 50.0
     assert fuzzy.scheduler.wait_quantum == 5.0 and fuzzy.flow == base.flow and fuzzy.robots == base.robots
+
+
+def test_a_tagged_system_given_by_the_extending_file_replaces_the_base_one(tmp_path, diagrams_dir):
+    """!WorstCaseMotionModel is a parent type of the base's GPMotionModel: it must not be read
+    as a GP model with the base's fields."""
+    from hrc_drake.motion.config import GPMotionModel, WorstCaseMotionModel
+
+    path = tmp_path / "worst.yaml"
+    path.write_text(f"extends: {diagrams_dir / 'box_pcb_coexistence.yaml'}\n"
+                    "motion_model: !WorstCaseMotionModel {}\n")
+    base = load_scenario(diagrams_dir / "box_pcb_coexistence.yaml")
+    assert isinstance(base.motion_model, GPMotionModel)
+    model = load_scenario(path).motion_model
+    assert type(model) is WorstCaseMotionModel and model == WorstCaseMotionModel()
