@@ -15,6 +15,8 @@ from hrc_drake.errors import check
 
 #: The GP models of thesis 8.1.2: A (one GP per joint), B (one GP of all joints), C (base, arms).
 VARIANTS = ("A", "B", "C")
+#: Angular joint groups of the body model that carry their own limits (`<group>_speed`, `<group>_accel`).
+HUMAN_JOINT_GROUPS = ("shoulder", "shoulder_rotation", "elbow", "torso", "yaw")
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
 MAX_RATE = 50.0
 
@@ -64,13 +66,35 @@ class WorstCaseMotionModel:
     point_std: float = 0.01
     #: Joint noise assumed when none is given (rad or m).
     measurement_std: float = 0.05
-    #: Joint speed limit of [107] (rad/s).
-    joint_speed: float = 3.0
-    #: Joint acceleration limit of [107] (rad/s^2).
-    joint_accel: float = 15.0
-    #: Base translation speed limit (m/s).
+    # Human kinematic limits of [107] (8.1.1), per joint group of the body model. Speeds follow
+    # ISO 13855 (scope text at standards.globalspec.com/std/1116909: upper limbs approach at
+    # 2000 mm/s, a walking person at 1600 mm/s), the approach speeds ISO/TS 15066 refers to.
+    # An angular limit is that 2.0 m/s at the end of the longest lever the joint moves, with
+    # the default segments (upper arm 0.30 m, forearm + hand 0.37 m, torso 0.50 m, half
+    # shoulder width 0.20 m). The accelerations are assumptions: no source found bounds them.
+    #: Shoulder flexion and abduction speed (rad/s): 2.0 m/s over the whole arm, 0.67 m.
+    shoulder_speed: float = 3.0
+    #: Shoulder (humeral) rotation speed (rad/s): 2.0 m/s over the bent forearm, 0.37 m.
+    shoulder_rotation_speed: float = 5.4
+    #: Elbow flexion speed (rad/s): 2.0 m/s over forearm + hand, 0.37 m.
+    elbow_speed: float = 5.4
+    #: Torso flexion speed (rad/s): 2.0 m/s at the fingertip of a raised arm, 1.17 m from the hip.
+    torso_speed: float = 1.7
+    #: Base yaw speed (rad/s): 2.0 m/s at the fingertip of an outstretched arm, 0.87 m from the axis.
+    yaw_speed: float = 2.3
+    #: Base translation speed (m/s): ISO 13855's walking speed K = 1.6 m/s.
     base_speed: float = 1.6
-    #: Base translation acceleration limit (m/s^2).
+    #: Shoulder flexion and abduction acceleration (rad/s^2, assumption).
+    shoulder_accel: float = 15.0
+    #: Shoulder rotation acceleration (rad/s^2, assumption).
+    shoulder_rotation_accel: float = 15.0
+    #: Elbow flexion acceleration (rad/s^2, assumption).
+    elbow_accel: float = 15.0
+    #: Torso flexion acceleration (rad/s^2, assumption).
+    torso_accel: float = 15.0
+    #: Base yaw acceleration (rad/s^2, assumption).
+    yaw_accel: float = 15.0
+    #: Base translation acceleration (m/s^2, assumption).
     base_accel: float = 3.0
     #: Grid values per rotation when sampling the joint box of a swept volume (>= 2).
     levels: int = 3
@@ -82,11 +106,14 @@ class WorstCaseMotionModel:
         _finite(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
         _finite(self.horizon, path, "horizon", 0.0, 10.0, low_open=True)
         # Plausibility ranges: a human's joints, base and noise, loose by ten or more around the
-        # defaults (thesis 8.1.3 measures joint speeds of ~3 rad/s and a walking base of ~1.6 m/s).
+        # defaults.
         for name, high in (("process_std", 100.0), ("torso_process_std", 100.0), ("base_process_std", 100.0),
-                           ("point_std", 1.0), ("measurement_std", 1.0), ("joint_speed", 30.0),
-                           ("joint_accel", 300.0), ("base_speed", 10.0), ("base_accel", 50.0)):
+                           ("point_std", 1.0), ("measurement_std", 1.0), ("base_speed", 10.0),
+                           ("base_accel", 50.0)):
             _finite(getattr(self, name), path, name, 0.0, high, low_open=True)
+        for group in HUMAN_JOINT_GROUPS:
+            _finite(getattr(self, f"{group}_speed"), path, f"{group}_speed", 0.0, 50.0, low_open=True)
+            _finite(getattr(self, f"{group}_accel"), path, f"{group}_accel", 0.0, 500.0, low_open=True)
         _integer(self.levels, 2, 10, path, "levels")
         _finite(self.margin, path, "margin", 0.0, 1.0)
 
@@ -94,8 +121,8 @@ class WorstCaseMotionModel:
 @dataclass
 class GPMotionModel(WorstCaseMotionModel):
     """Swept volumes from Monte Carlo rollouts of a Gaussian-process motion model h_GP
-    (thesis 8.1.2, eq. 8.4-8.18), capped by the worst-case bounds of [107] (also the fallback
-    until the GP holds `min_samples` samples)."""
+    (thesis 8.1.2, eq. 8.4-8.18); the worst-case bounds of [107] are the fallback until the GP
+    holds `min_samples` samples."""
 
     #: The model of 8.1.2: "A" (one GP per joint, eq. 8.11-8.13), "B" (one GP of all joints,
     #: eq. 8.14) or "C" (base, left arm, right arm, eq. 8.15-8.18).
@@ -117,6 +144,13 @@ class GPMotionModel(WorstCaseMotionModel):
     min_samples: int = 30
     #: L-BFGS iterations per hyperparameter refit of the kernel (8.7).
     max_iter: int = 15
+    #: Clip the GP excursions to the worst-case ones of [107]: a safety option the thesis does
+    #: not use (with it the GP can never be less conservative than [107] where [107] is tight).
+    cap_by_worst_case: bool = False
+    #: States h_GP learns and rolls out: "smoothed" (eq. 8.13, RTS-smoothed) or "filtered" (a
+    #: variant, the Kalman-filtered phi_k|k; smoothed states follow the filter's integrator chain
+    #: so closely that the GP's rollouts come out too narrow, see the README).
+    training_states: str = "smoothed"
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the predictor cannot use."""
@@ -130,6 +164,10 @@ class GPMotionModel(WorstCaseMotionModel):
         _integer(self.smoothing_window, 2, 10000, path, "smoothing_window")
         _integer(self.min_samples, 2, self.max_samples, path, "min_samples")
         _integer(self.max_iter, 0, 1000, path, "max_iter")
+        check(self.training_states in ("smoothed", "filtered"), f"{path}.training_states",
+              f"must be 'smoothed' or 'filtered', got {self.training_states!r}")
+        check(isinstance(self.cap_by_worst_case, bool), f"{path}.cap_by_worst_case",
+              f"must be true or false, got {self.cap_by_worst_case!r}")
 
 
 @dataclass

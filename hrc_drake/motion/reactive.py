@@ -27,8 +27,31 @@ from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_sm
 from hrc_drake.rng import clone_generator
 
 MOTION_KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
+TRAINING_STATES = ("smoothed", "filtered")
 _BASE_TRANSLATION = (0, 1)
 _TORSO = (2, 3)  # base yaw and torso flexion
+#: Body-model joints of each limit group (`human.body`: 4..7 left arm, 8..11 right arm).
+LIMIT_GROUPS = {"base": (0, 1), "yaw": (2,), "torso": (3,), "shoulder": (4, 5, 8, 9),
+                "shoulder_rotation": (6, 10), "elbow": (7, 11)}
+#: Default human limits of [107]: speeds (rad/s, base m/s) and accelerations (rad/s^2, base m/s^2);
+#: sources in `motion.config.WorstCaseMotionModel`.
+DEFAULT_SPEEDS = {"base": 1.6, "yaw": 2.3, "torso": 1.7, "shoulder": 3.0, "shoulder_rotation": 5.4,
+                  "elbow": 5.4}
+DEFAULT_ACCELS = {"base": 3.0, "yaw": 15.0, "torso": 15.0, "shoulder": 15.0, "shoulder_rotation": 15.0,
+                  "elbow": 15.0}
+
+
+def joint_limit_vector(groups: dict) -> np.ndarray:
+    """The (12,) per-joint vector of group values {group: value} (every group of `LIMIT_GROUPS`)."""
+    missing = set(LIMIT_GROUPS) - set(groups)
+    unknown = set(groups) - set(LIMIT_GROUPS)
+    if missing or unknown:
+        raise ValueError(f"joint_limit_vector: need exactly the groups {sorted(LIMIT_GROUPS)}; "
+                         f"missing {sorted(missing)}, unknown {sorted(unknown)}")
+    vector = np.empty(12)
+    for group, joints in LIMIT_GROUPS.items():
+        vector[list(joints)] = float(groups[group])
+    return vector
 
 
 def excursions_from_rollouts(q_now, rollouts, percentile=None) -> tuple[np.ndarray, np.ndarray]:
@@ -250,6 +273,11 @@ class JointStateEstimator:
             del self.means_[0], self.covs_[0]
         return self.filter.x_ * self._scale
 
+    def filtered_window(self, length: int | None = None) -> np.ndarray:
+        """phi_k|k (W, n_dof, 3) over the last `length` stored steps (all by default), eq. (8.3)."""
+        start = 0 if length is None else max(0, len(self.means_) - int(length))
+        return np.array(self.means_[start:]) * self._scale
+
     def smoothed_window(self, length: int | None = None) -> np.ndarray:
         """phi_k|K (W, n_dof, 3) over the last `length` stored steps (all by default), eq. (8.6)."""
         start = 0 if length is None else max(0, len(self.means_) - int(length))
@@ -318,6 +346,16 @@ def tracking_inverse(body, points, q0, iterations: int = 4, regularization: floa
     return q
 
 
+def _limits(value, default: dict, name: str) -> np.ndarray:
+    if value is None or isinstance(value, dict):
+        vector = joint_limit_vector(default if value is None else value)
+    else:
+        vector = np.asarray(value, dtype=float)
+    if vector.shape != (12,) or not np.all(np.isfinite(vector)) or np.any(vector <= 0):
+        raise ValueError(f"ReactiveMotionPredictor: {name} must be 12 positive finite values, got {vector}")
+    return vector
+
+
 class ReactiveMotionPredictor:
     """Swept volumes of the human from skeleton estimates, thesis 8.1 (Fig. 8.4).
 
@@ -334,9 +372,15 @@ class ReactiveMotionPredictor:
     point_std: noise of the skeletal points (m); `update` turns it into a per-joint, per-pose
         measurement noise through the IK Jacobian (`ik_joint_std`). measurement_std: the
         joint noise `update_q` assumes when given none.
-    joint_speed, joint_accel (rad/s, rad/s^2), base_speed, base_accel (m/s, m/s^2): the
-        worst-case limits of [107], the fallback before the GP is trained, and the cap of
-        the GP excursions (no sampled future may leave the physically reachable set).
+    speed_limits, accel_limits: per-joint human limits of [107] (12,) or {group: value} over
+        `LIMIT_GROUPS` (default `DEFAULT_SPEEDS`, `DEFAULT_ACCELS`); the worst-case model and
+        the fallback before the GP is trained.
+    training_states: "smoothed" (eq. 8.13: the GP learns and rolls out RTS-smoothed states) or
+        "filtered" (a variant: the Kalman-filtered states phi_k|k, the states the excursions are
+        measured on). Smoothed states follow the filter's integrator chain almost exactly, so
+        h_GP learns that chain with the smoother's tiny residual and its rollouts are too narrow.
+    cap_by_worst_case: clip the GP excursions to the worst-case ones (a safety option, off in
+        the thesis's comparison: with it a GP model can never be less safe than [107]).
     levels, margin: swept-volume sampling, see `SweptVolumeBuilder`.
     """
 
@@ -345,9 +389,9 @@ class ReactiveMotionPredictor:
                  max_samples: int = 100, smoothing_window: int = 20, min_samples: int = 30,
                  process_std: float = 3.0, torso_process_std: float = 1.0, base_process_std: float = 0.5,
                  point_std: float = 0.01,
-                 measurement_std: float = 0.05, max_iter: int = 15, joint_speed: float = 3.0,
-                 joint_accel: float = 15.0, base_speed: float = 1.6, base_accel: float = 3.0,
-                 levels: int = 3, margin: float = 0.0, rng=None):
+                 measurement_std: float = 0.05, max_iter: int = 15, speed_limits=None, accel_limits=None,
+                 cap_by_worst_case: bool = False, training_states: str = "smoothed", levels: int = 3,
+                 margin: float = 0.0, rng=None):
         if kind not in MOTION_KINDS:
             raise ValueError(f"ReactiveMotionPredictor: unknown kind {kind!r}; use one of {MOTION_KINDS}")
         if not (dt > 0 and horizon > 0 and refresh_period > 0 and point_std > 0):
@@ -379,10 +423,13 @@ class ReactiveMotionPredictor:
         self.max_samples = int(max_samples)
         self.min_samples = int(min_samples)
         self.max_iter = int(max_iter)
-        self.v_max = np.full(12, float(joint_speed))
-        self.a_max = np.full(12, float(joint_accel))
-        self.v_max[list(_BASE_TRANSLATION)] = base_speed
-        self.a_max[list(_BASE_TRANSLATION)] = base_accel
+        self.v_max = _limits(speed_limits, DEFAULT_SPEEDS, "speed_limits")
+        self.a_max = _limits(accel_limits, DEFAULT_ACCELS, "accel_limits")
+        self.cap_by_worst_case = bool(cap_by_worst_case)
+        if training_states not in TRAINING_STATES:
+            raise ValueError(f"ReactiveMotionPredictor: training_states must be one of {TRAINING_STATES}, "
+                             f"got {training_states!r}")
+        self.training_states = training_states
         self.builder = SweptVolumeBuilder(body, levels, margin)
         self._seed = rng
         self.reset()
@@ -424,13 +471,19 @@ class ReactiveMotionPredictor:
         return (self.model_ is not None and hasattr(self.model_, "buckets_")
                 and self.model_.n_samples_ >= self.min_samples)
 
+    def _states(self, length: int | None = None) -> np.ndarray:
+        """The joint states h_GP learns from and starts its rollouts at (`training_states`)."""
+        if self.training_states == "filtered":
+            return self.estimator.filtered_window(length)
+        return self.estimator.smoothed_window(length)
+
     def _refresh_model(self) -> None:
-        smoothed = self.estimator.smoothed_window()
-        count = min(self.refresh_steps, len(smoothed) - self.order)
+        states = self._states()
+        count = min(self.refresh_steps, len(states) - self.order)
         if count <= 0 or (count < 2 and not self.model_ready):
             return
-        last = len(smoothed)
-        windows = np.stack([smoothed[k - self.order:k + 1] for k in range(last - count, last)])
+        last = len(states)
+        windows = np.stack([states[k - self.order:k + 1] for k in range(last - count, last)])
         start = _time.perf_counter()
         self.model_.partial_fit(windows)
         self.fit_seconds_.append(_time.perf_counter() - start)
@@ -455,10 +508,12 @@ class ReactiveMotionPredictor:
         if self.model_ready and len(self._history) == self.order:
             # Start from phi_{k-P+1|k} .. phi_{k|k}: smoothed like the training samples (8.13),
             # the newest one equal to the filtered state of (8.8).
-            history = self.estimator.smoothed_window(self.order + 2)[-self.order:]
+            history = self._states(self.order + 2)[-self.order:]
             rollouts = self.model_.sample_rollouts(history, self.steps, self.n_trials, self.rng)
             plus, minus = excursions_from_rollouts(self.q_, rollouts, self.percentile)
-            return np.minimum(plus, bound_plus), np.minimum(minus, bound_minus)
+            if self.cap_by_worst_case:
+                return np.minimum(plus, bound_plus), np.minimum(minus, bound_minus)
+            return plus, minus
         return bound_plus, bound_minus
 
     def update(self, time: float, points) -> SweptVolumes:

@@ -15,7 +15,7 @@ from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStat
 
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
-from hrc_drake.motion.reactive import ReactiveMotionPredictor
+from hrc_drake.motion.reactive import LIMIT_GROUPS, ReactiveMotionPredictor
 from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
 from hrc_drake.systems import (
     Frozen,
@@ -27,17 +27,18 @@ from hrc_drake.systems import (
 
 #: Fields of `WorstCaseMotionModel` passed on to `ReactiveMotionPredictor`.
 _WORST_CASE_FIELDS = ("horizon", "process_std", "torso_process_std", "base_process_std", "point_std",
-                      "measurement_std", "joint_speed", "joint_accel", "base_speed", "base_accel", "levels",
-                      "margin")
+                      "measurement_std", "levels", "margin")
 #: Fields only `GPMotionModel` has, passed on to `ReactiveMotionPredictor`.
 _GP_FIELDS = ("order", "n_trials", "percentile", "refresh_period", "max_samples", "smoothing_window",
-              "min_samples", "max_iter")
+              "min_samples", "max_iter", "cap_by_worst_case", "training_states")
 
 
 def predictor_kwargs(config: GPMotionModel | WorstCaseMotionModel) -> dict:
     """ReactiveMotionPredictor keyword arguments (kind included, no dt/rng) from a motion config
     (a negative percentile: the mean of the trials)."""
     kwargs = {name: getattr(config, name) for name in _WORST_CASE_FIELDS}
+    kwargs["speed_limits"] = {group: getattr(config, f"{group}_speed") for group in LIMIT_GROUPS}
+    kwargs["accel_limits"] = {group: getattr(config, f"{group}_accel") for group in LIMIT_GROUPS}
     if isinstance(config, GPMotionModel):
         kwargs.update({name: getattr(config, name) for name in _GP_FIELDS})
         kwargs["kind"] = f"gp_{config.variant.lower()}"

@@ -11,6 +11,7 @@ from hrc_drake.motion.reactive import (
     excursions_from_rollouts,
     ik_joint_std,
     tracking_inverse,
+    joint_limit_vector,
     worst_case_excursions,
 )
 
@@ -156,10 +157,10 @@ def test_noisier_joint_is_smoothed_more():
         estimator.step(np.zeros(2), measurement_std=[0.01, -1.0])
 
 
-def test_gp_waits_for_min_samples_and_stays_within_the_worst_case(body):
+def test_gp_waits_for_min_samples_and_stays_within_the_worst_case_when_capped(body):
     dt = 0.05
     predictor = ReactiveMotionPredictor(body, "gp_c", order=2, dt=dt, horizon=0.5, n_trials=20,
-                                        min_samples=40, rng=1)
+                                        min_samples=40, rng=1, cap_by_worst_case=True)
     rng = np.random.default_rng(2)
     q = body.rest_q((1.0, 0.0), np.pi)
     ready_at = None
@@ -195,3 +196,46 @@ def test_tracking_inverse_matches_the_full_solve_and_falls_back(body):
     np.testing.assert_allclose(body.points(tracking_inverse(body, points, far)), body.points(full), atol=0.02)
     with pytest.raises(ValueError, match="shape"):
         tracking_inverse(body, points[:7], q)
+
+
+def test_per_joint_human_limits_reach_the_right_joints(body):
+    speeds = {"base": 1.0, "yaw": 2.0, "torso": 3.0, "shoulder": 4.0, "shoulder_rotation": 5.0, "elbow": 6.0}
+    np.testing.assert_array_equal(joint_limit_vector(speeds), [1, 1, 2, 3, 4, 4, 5, 6, 4, 4, 5, 6])
+    with pytest.raises(ValueError, match="missing"):
+        joint_limit_vector({"base": 1.0})
+    predictor = ReactiveMotionPredictor(body, "worst_case", speed_limits=speeds, accel_limits=speeds)
+    plus, _ = predictor.update_q(body.rest_q((1.0, 0.0), np.pi))
+    # from rest, t_sat = v / a = 1 s > horizon 0.5 s: every excursion is a * T^2 / 2
+    np.testing.assert_allclose(plus, 0.5 * joint_limit_vector(speeds) * 0.5**2)
+    with pytest.raises(ValueError, match="speed_limits"):
+        ReactiveMotionPredictor(body, "worst_case", speed_limits=np.zeros(12))
+
+
+def test_motion_config_sets_per_joint_limits_and_options(body):
+    from hrc_drake.motion.config import GPMotionModel
+    from hrc_drake.motion.systems import predictor_kwargs
+
+    config = GPMotionModel(elbow_speed=7.0, torso_accel=9.0, training_states="filtered", cap_by_worst_case=True)
+    predictor = ReactiveMotionPredictor(body, rng=0, **predictor_kwargs(config))
+    assert predictor.v_max[7] == predictor.v_max[11] == 7.0
+    assert predictor.a_max[3] == 9.0 and predictor.v_max[4] == config.shoulder_speed
+    assert predictor.training_states == "filtered" and predictor.cap_by_worst_case
+    from hrc_drake.errors import ConfigError
+    with pytest.raises(ConfigError, match="training_states"):
+        GPMotionModel(training_states="raw").validate("motion_model")
+    with pytest.raises(ConfigError, match="elbow_speed"):
+        GPMotionModel(elbow_speed=0.0).validate("motion_model")
+
+
+def test_filtered_training_states_are_the_kalman_filtered_ones(body):
+    predictor = ReactiveMotionPredictor(body, "gp_c", order=2, training_states="filtered", rng=0)
+    rng = np.random.default_rng(0)
+    q = body.rest_q((1.0, 0.0), np.pi)
+    for _ in range(12):
+        predictor.update_q(q + rng.normal(0.0, 0.05, 12))
+    np.testing.assert_allclose(predictor._states(3)[-1], predictor.phi_)
+    smoothed = ReactiveMotionPredictor(body, "gp_c", order=2, rng=0)
+    for _ in range(12):
+        smoothed.update_q(q + rng.normal(0.0, 0.05, 12))
+    # the smoother changes every state but the newest
+    assert not np.allclose(smoothed._states(3)[0], smoothed.estimator.filtered_window(3)[0])
