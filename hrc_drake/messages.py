@@ -281,12 +281,27 @@ def no_capsules() -> Capsules:
 @dataclass(frozen=True)
 class PathRequest(Immutable):
     """A motion one arm (its follower channel) should start: joint waypoints (n, dof) and the
-    dwell (s) at each; seq increases per channel so that the follower starts each request once."""
+    dwell (s) at each; seq increases per channel so that the follower starts each request once.
+    blended: one move along the whole polyline (a dense path), not a stop at every waypoint."""
 
     channel: int
     seq: int
     waypoints: np.ndarray
     dwells: np.ndarray
+    blended: bool = False
+
+
+@dataclass(frozen=True)
+class ProactivePaths(Immutable):
+    """Robot paths planned around the human (thesis 8.2.3): (agent, action, waypoints (n, dof))
+    triples, the waypoints after the start pose; seq increases with every replanning."""
+
+    seq: int = 0
+    paths: tuple = ()
+
+    def by_action(self) -> dict:
+        """(agent, action) -> waypoints."""
+        return {(agent, action): waypoints for agent, action, waypoints in self.paths}
 
 
 @dataclass(frozen=True)

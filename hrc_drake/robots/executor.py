@@ -171,11 +171,17 @@ class TaskExecutor:
         return out
 
     def update(
-        self, time: float, done_seq: list[int], commands: tuple[RobotCommand, ...] = (), view=None
+        self, time: float, done_seq: list[int], commands: tuple[RobotCommand, ...] = (), view=None,
+        paths: dict | None = None,
     ) -> None:
-        """Advance every arm's state machine to `time` (view: the world's snapshot, request protocol)."""
+        """Advance every arm's state machine to `time` (view: the world's snapshot, request protocol).
+
+        paths: (agent, action) -> joint waypoints (n, dof) that replace the action's motion when
+        it begins (a proactive path, thesis 8.2.3), followed as one blended move.
+        """
         self._requests = []
         self._view = view
+        self._paths = paths or {}
         for command in commands:
             if command.seq <= self._last_command_seq:
                 continue
@@ -223,6 +229,7 @@ class TaskExecutor:
                 self._try_begin(time, arm, st, first=False)
         self.new_requests = tuple(self._requests)
         self._view = None
+        self._paths = {}
 
     def _try_begin(self, time: float, arm: ArmAgent, st: _ArmState, first: bool) -> None:
         if self.world is not None:
@@ -251,9 +258,14 @@ class TaskExecutor:
             self._emit(time, arm.agent, st.action, "begin")
             move = self.move(arm.agent, st.action)
             st.path_seq += 1
-            self.path_requests[arm.channel] = PathRequest(
-                arm.channel, st.path_seq, move.waypoints, move.dwells
-            )
+            path = self._paths.get((arm.agent, st.action))
+            if path is None:
+                request = PathRequest(arm.channel, st.path_seq, move.waypoints, move.dwells)
+            else:
+                dwells = np.zeros(len(path))
+                dwells[-1] = move.dwells[-1]
+                request = PathRequest(arm.channel, st.path_seq, path, dwells, blended=True)
+            self.path_requests[arm.channel] = request
             st.mode = "moving"
         elif refused and st.mode != "waiting":
             self._emit(time, arm.agent, st.action, "wait_begin")

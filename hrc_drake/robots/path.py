@@ -96,6 +96,62 @@ class ArmPath:
         return (b - a) * 30.0 * tau**2 * (1.0 - tau) ** 2 / T
 
 
+class BlendedArmPath(ArmPath):
+    """One minimum-jerk move along the whole polyline start -> waypoints, then the last dwell.
+
+    For dense paths (a proactive path of thesis 8.2.3, 43 waypoints): the arm does not stop
+    at every waypoint, as a robot controller blending its zones would not. Progress along the
+    polyline is its length in full-speed time, sum_i max_j |dq_ij| / (f v_max,j), scaled by
+    the minimum-jerk profile, so every joint stays within f * v_max.
+    """
+
+    def __init__(
+        self, start: np.ndarray, waypoints: np.ndarray, dwells: np.ndarray, v_max: np.ndarray, fraction: float
+    ):
+        self.points = np.vstack([start[None, :], waypoints])
+        deltas = np.abs(np.diff(self.points, axis=0))
+        self._lengths = np.max(deltas / (fraction * v_max), axis=1)  # full-speed time per piece
+        self._cumulative = np.concatenate([[0.0], np.cumsum(self._lengths)])
+        total = float(self._cumulative[-1])
+        self.move_times = np.array([max(MIN_JERK_PEAK * total, MIN_SEGMENT_TIME)])
+        dwells = np.asarray(dwells, dtype=float)
+        self.dwells = dwells[-1:] if len(dwells) else np.zeros(1)
+        self.segment = 0
+        self.phase = 0.0
+        self.finished = len(waypoints) == 0
+
+    def _piece(self, arc: float) -> tuple[int, float]:
+        """(piece index, fraction within it) of the point at full-speed length `arc`."""
+        i = int(np.searchsorted(self._cumulative, arc, side="right")) - 1
+        i = min(max(i, 0), len(self._lengths) - 1)
+        length = self._lengths[i]
+        return i, 0.0 if length <= 0 else min(max((arc - self._cumulative[i]) / length, 0.0), 1.0)
+
+    def position_at(self, segment: int, phase: float) -> np.ndarray:
+        T = self.move_times[0]
+        if segment >= 1 or phase >= T:
+            return self.points[-1].copy()
+        u = max(phase / T, 0.0)
+        i, f = self._piece(self._cumulative[-1] * (u * u * u * (10.0 + u * (-15.0 + 6.0 * u))))
+        return self.points[i] + (self.points[i + 1] - self.points[i]) * f
+
+    def velocity_at(self, segment: int, phase: float) -> np.ndarray:
+        T = self.move_times[0]
+        if segment >= 1 or phase >= T or self._cumulative[-1] <= 0:
+            return np.zeros(self.points.shape[1])
+        u = max(phase / T, 0.0)
+        i, _ = self._piece(self._cumulative[-1] * float(min_jerk_profile(u)))
+        rate = self._cumulative[-1] * 30.0 * u**2 * (1.0 - u) ** 2 / T  # full-speed length per second
+        if self._lengths[i] <= 0:
+            return np.zeros(self.points.shape[1])
+        return (self.points[i + 1] - self.points[i]) / self._lengths[i] * rate
+
+
+def make_arm_path(start, waypoints, dwells, v_max, fraction, blended: bool = False) -> ArmPath:
+    """An `ArmPath` (stop at every waypoint) or, when `blended`, a `BlendedArmPath`."""
+    return (BlendedArmPath if blended else ArmPath)(start, waypoints, dwells, v_max, fraction)
+
+
 class JointPathFollower:
     """Follows one path per arm over a robot (or cell) position vector.
 
@@ -132,8 +188,10 @@ class JointPathFollower:
         other.done_seq = list(self.done_seq)
         return other
 
-    def request(self, arm: int, seq: int, waypoints: np.ndarray, dwells: np.ndarray) -> None:
-        """Start following `waypoints` (n, dof) from where the arm is; `seq` tags completion."""
+    def request(self, arm: int, seq: int, waypoints: np.ndarray, dwells: np.ndarray,
+                blended: bool = False) -> None:
+        """Start following `waypoints` (n, dof) from where the arm is; `seq` tags completion;
+        `blended`: one move along the polyline (`BlendedArmPath`)."""
         waypoints = np.atleast_2d(np.asarray(waypoints, dtype=float))
         if waypoints.shape[1] != len(self.arm_indices[arm]):
             raise ValueError(
@@ -141,8 +199,8 @@ class JointPathFollower:
                 f"expected {len(self.arm_indices[arm])}"
             )
         start = self.q[self.arm_indices[arm]]
-        self.paths[arm] = ArmPath(
-            start, waypoints, np.broadcast_to(dwells, len(waypoints)), self.v_max[arm], self.fraction
+        self.paths[arm] = make_arm_path(
+            start, waypoints, np.broadcast_to(dwells, len(waypoints)), self.v_max[arm], self.fraction, blended
         )
         self.requested_seq[arm] = seq
 

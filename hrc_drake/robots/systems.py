@@ -13,9 +13,9 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, WorldSnapshot
+from hrc_drake.messages import AgentActivity, EventLog, Immutable, PathStatus, ProactivePaths, WorldSnapshot
 from hrc_drake.robots.executor import TaskExecutor
-from hrc_drake.robots.path import ArmPath, JointPathFollower
+from hrc_drake.robots.path import ArmPath, JointPathFollower, make_arm_path
 from hrc_drake.systems import (
     Frozen,
     declare_state,
@@ -94,7 +94,8 @@ class PathFollower(LeafSystem):
             self._paths.clear()
         waypoints = np.atleast_2d(np.asarray(request.waypoints, dtype=float))
         dwells = np.broadcast_to(np.asarray(request.dwells, dtype=float), len(waypoints))
-        path = ArmPath(start, waypoints, dwells, self.v_max[request.channel], self.fraction)
+        path = make_arm_path(start, waypoints, dwells, self.v_max[request.channel], self.fraction,
+                             request.blended)
         self._paths[id(request)] = (request, start.copy(), path)
         return path
 
@@ -206,6 +207,7 @@ class RobotTaskExecutor(LeafSystem):
     unconnected, every action starts at once). Outputs "path_requests" (tuple of PathRequest,
     to `PathFollower`), "robot_events" (EventLog of RobotEvent), "world_requests" (EventLog of
     WorldRequest), "activity" (`AgentActivity`: agent -> current action / wait / idle).
+    Optional input "proactive_paths" (`ProactivePaths`): motions that replace an action's own.
     """
 
     def __init__(self, executor: TaskExecutor, period: float = 0.02):
@@ -219,6 +221,7 @@ class RobotTaskExecutor(LeafSystem):
         self._done = self.DeclareAbstractInputPort("path_done", AbstractValue.Make(PathStatus()))
         self._commands = self.DeclareAbstractInputPort("robot_commands", AbstractValue.Make(EventLog()))
         self._world = self.DeclareAbstractInputPort("world", AbstractValue.Make(WorldSnapshot()))
+        self._paths = self.DeclareAbstractInputPort("proactive_paths", AbstractValue.Make(ProactivePaths()))
         self.DeclarePeriodicUnrestrictedUpdateEvent(self.period, 0.0, self._tick)
         ticket = state_ticket(self, self._run)
         self.DeclareAbstractOutputPort(
@@ -248,7 +251,8 @@ class RobotTaskExecutor(LeafSystem):
             return EventStatus.DidNothing()
         executor = run.executor.thaw()
         before = len(executor.events)
-        executor.update(context.get_time(), list(done), commands, view)
+        paths = input_or(self._paths, context, ProactivePaths()).by_action()
+        executor.update(context.get_time(), list(done), commands, view, paths)
         set_state(
             state,
             self._run,

@@ -65,3 +65,16 @@ def test_program_must_name_known_actions():
     world = CellWorld([], [])
     with pytest.raises(ValueError, match="unknown robot action"):
         TaskExecutor([ArmAgent("arm", 0, ["X"])], {}, world, lambda *r: None)
+
+
+def test_a_proactive_path_replaces_the_actions_motion_when_it_begins():
+    ex, world, _ = make()
+    world.parts["a"] = 1
+    path = np.array([[0.1, 0.0], [0.2, 0.1], [0.3, 0.0]])
+    ex.update(0.0, [0], paths={("arm", "B"): path})
+    request = ex.path_requests[0]
+    assert request.blended and np.array_equal(request.waypoints, path)
+    assert request.dwells.tolist() == [0.0, 0.0, 0.0]  # the action's own (last) dwell
+    ex.update(1.0, [1])  # A begins without a path of its own: its move
+    request = ex.path_requests[0]
+    assert not request.blended and request.waypoints.shape == (1, 2)

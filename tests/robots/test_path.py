@@ -79,3 +79,34 @@ def test_positions_ahead_match_stepping():
         np.testing.assert_allclose(follower.positions_ahead(0.04, 0.7), probe.q, atol=1e-12)
         np.testing.assert_array_equal(follower.q, q)
     np.testing.assert_allclose(follower.positions_ahead(100.0, 1.0), [0.2, 0.3])
+
+
+def test_blended_path_is_one_smooth_move_within_the_velocity_limits():
+    from hrc_drake.robots.path import ArmPath, BlendedArmPath
+
+    v_max = np.array([1.0, 2.0])
+    angles = np.linspace(0.0, np.pi, 43)
+    waypoints = np.stack([np.cos(angles), np.sin(angles)], axis=1) - [1.0, 0.0]
+    blended = BlendedArmPath(np.zeros(2), waypoints[1:], np.full(42, 0.5), v_max, 0.8)
+    stop_and_go = ArmPath(np.zeros(2), waypoints[1:], np.zeros(42), v_max, 0.8)
+    assert blended.move_times.sum() < 0.8 * stop_and_go.move_times.sum()
+    dt = 0.002
+    T = blended.move_times[0]
+    times = np.arange(0.0, T + 0.5 + dt, dt)
+    q = np.array([blended.position_at(0, t) for t in times])
+    speeds = np.abs(np.diff(q, axis=0)) / dt
+    assert np.all(speeds <= 0.8 * v_max * 1.01)
+    np.testing.assert_allclose(q[-1], waypoints[-1])
+    np.testing.assert_allclose(q[0], [0.0, 0.0])
+    # it passes through the waypoints (the polyline), not a chord of them
+    gaps = np.min(np.linalg.norm(q[:, None, :] - waypoints[None, 1:-1, :], axis=2), axis=0)
+    assert gaps.max() < 0.01
+    # the velocity matches the positions' derivative
+    t = 0.37 * T
+    np.testing.assert_allclose(blended.velocity_at(0, t),
+                               (blended.position_at(0, t + 1e-6) - blended.position_at(0, t - 1e-6)) / 2e-6,
+                               rtol=1e-3, atol=1e-6)
+    # progress runs through the move, then the last dwell only
+    segment, phase, finished = blended.progress_after(0, 0.0, T + 0.4)
+    assert (segment, finished) == (0, False)
+    assert blended.progress_after(0, 0.0, T + 0.51)[2]
