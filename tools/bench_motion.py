@@ -57,6 +57,8 @@ GROUPS = {
     "shoulders": [4, 5, 6, 8, 9, 10], "elbows": [7, 11],
 }
 KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
+#: eps+ / eps- of every model at P = 4 (and [107]) are pooled into `eps_violation_rate.<model>`
+POOLED_KINDS = ("gp_a", "gp_b", "gp_c", "gp_c_filtered", "worst_case")
 ARM_POINTS = [L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST]
 
 
@@ -126,9 +128,11 @@ def joint_sequence(body, points, point_std: float):
 
 # ------------------------------------------------------------------ evaluation
 def run_model(body, qs, stds, kind, order, dt, n_trials, horizon, warmup):
-    """Predicted excursions per step, filtered q, timings."""
-    predictor = ReactiveMotionPredictor(body, kind, order=order, dt=dt, horizon=horizon, n_trials=n_trials,
-                                        rng=0)
+    """Predicted excursions per step, filtered q, timings. kind "gp_c_filtered": model C trained
+    on the Kalman-filtered states (the `training_states` variant), uncapped like the others."""
+    options = {"training_states": "filtered"} if kind == "gp_c_filtered" else {}
+    predictor = ReactiveMotionPredictor(body, kind.replace("_filtered", ""), order=order, dt=dt,
+                                        horizon=horizon, n_trials=n_trials, rng=0, **options)
     deltas, filtered, step_seconds = [], [], []
     for k, q in enumerate(qs):
         start = time.perf_counter()
@@ -275,20 +279,131 @@ def cycle_time_comparison(scenario_path, seeds, duration, kinds=("gp_c", "worst_
     return results
 
 
+# ------------------------------------------------------------------ proactive paths (8.2.4)
+PROACTIVE_SCENARIO = REPO / "diagrams" / "box_usb_proactive.yaml"
+
+
+def run_proactive_cell(proactive: bool, seed: int, duration: float) -> dict:
+    """One run of the 8.2.4 cell with (or without: the nominal path) the proactive planner.
+
+    Distance: the true human-robot distance of every recorded sample; robot idle: the percentage
+    of samples whose applied speed override is below 1 % (8.2.4: robot speed below 1 % of its
+    nominal value).
+    """
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.run import simulate
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.motion.config import NoProactivePlanner
+
+    warnings.filterwarnings("ignore")
+    scenario = load_scenario(PROACTIVE_SCENARIO)
+    if not proactive:
+        scenario.proactive_planner = NoProactivePlanner()
+    scenario.seed = int(seed)
+    cell = build_cell(scenario, PROACTIVE_SCENARIO)
+    start = time.perf_counter()
+    result = simulate(cell, duration, progress=None)
+    distances = np.asarray(result.log.distances, dtype=float)
+    overrides = np.asarray(result.log.overrides, dtype=float)
+    row = {"proactive": proactive, "seed": int(seed), "wall_s": time.perf_counter() - start,
+           "min_distance_m": float(np.min(distances)), "median_distance_m": float(np.median(distances)),
+           "robot_idle_pct": float(100.0 * np.mean(overrides < 0.01)),
+           "products": int(result.metrics.get("products_finished", 0) or 0), "replannings": []}
+    if proactive:
+        planner = cell.diagram.GetSubsystemByName("proactive_planner")
+        core = planner.core(planner.GetMyContextFromRoot(result.context))
+        row["replannings"] = [
+            {"time": r.time, "weights": list(r.weights), "nominal_cost": r.nominal_cost,
+             "proactive_cost": r.proactive_cost, "cloud_points": r.cloud_points,
+             "cloud_ms": 1000 * r.cloud_s / len(r.weights), "stomp_ms": 1000 * r.stomp_s,
+             "gpdm_ms": 1000 * r.gpdm_s} for r in core.reports_]
+    return row
+
+
+def _run_proactive_args(args):
+    return run_proactive_cell(*args)
+
+
+def proactive_comparison(seeds, duration: float, workers: int = 2) -> dict:
+    """Proactive vs nominal paths on the 8.2.4 cell (thesis: distance up, p = 1 - 1e-7 in its
+    notation; idle time down, p = 0.9984), one run per (arm, seed). The test is a one-sided
+    Wilcoxon rank-sum on the runs' median distances (proactive greater)."""
+    from scipy.stats import mannwhitneyu
+
+    jobs = [(arm, seed, duration) for arm in (True, False) for seed in seeds]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers) as pool:
+        runs = list(pool.map(_run_proactive_args, jobs))
+    out = {"scenario": PROACTIVE_SCENARIO.name, "duration_s": duration, "seeds": list(seeds),
+           "runs": runs}
+    for name, arm in (("proactive", True), ("nominal", False)):
+        mine = [r for r in runs if r["proactive"] is arm]
+        out[name] = {"min_distance_median_m": float(np.median([r["min_distance_m"] for r in mine])),
+                     "median_distance_median_m": float(np.median([r["median_distance_m"] for r in mine])),
+                     "robot_idle_pct": float(np.median([r["robot_idle_pct"] for r in mine]))}
+    pro = [r["median_distance_m"] for r in runs if r["proactive"]]
+    nom = [r["median_distance_m"] for r in runs if not r["proactive"]]
+    out["proactive"]["wilcoxon_p_distance"] = float(mannwhitneyu(pro, nom, alternative="greater").pvalue)
+    plans = [p for r in runs for p in r["replannings"]]
+    out["replannings"] = len(plans)
+    out["cloud_ms_G25"] = float(np.median([p["cloud_ms"] for p in plans])) if plans else None
+    out["stomp_path_ms_G25"] = float(np.median([p["stomp_ms"] for p in plans])) if plans else None
+    ratios = [p["proactive_cost"] / p["nominal_cost"] for p in plans]
+    out["stomp_cost_ratio_median"] = float(np.median(ratios)) if plans else None
+    return out
+
+
+def proactive_timings(repeats: int = 3) -> dict:
+    """Cloud (G = 25) and STOMP path (43 waypoints) times of the 8.2 pipeline on a hand-made
+    YuMi problem: three reaches of a forearm across the left arm's path (tests/motion)."""
+    from hrc_drake.motion.clouds import probability_cloud
+    from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path, table_box
+    from hrc_drake.robots.chain import SerialChain
+
+    qa = np.array([-0.858, -0.681, 2.086, 0.062, 4.18, 0.645, -1.942])
+    qb = np.array([-0.922, -0.442, 1.624, 0.778, 4.382, 0.894, -0.897])
+    s = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, 40))[:, None]
+    arm = np.stack([np.broadcast_to([1.25, 0.22, 0.55], (40, 3)),
+                    np.array([1.05, 0.22, 0.35]) + s * [-0.2, 0.0, 0.0],
+                    np.array([0.9, 0.22, 0.3]) + s * [-0.4, 0.0, 0.0]], axis=1)
+    cloud_times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        probability_cloud(arm, 0.06, 25)
+        cloud_times.append(time.perf_counter() - start)
+    chain = SerialChain.from_model("yumi", "left")
+    core = ProactivePlannerCore("yumi_left", "r1", ["a1"], {"a1": "right"}, nominal_path(qa, qb), chain,
+                                [table_box([0.5, 0.0], [1.2, 1.6, 0.1], 0.0)], rng=0)
+    core.databases["a1"] = tuple(arm + np.random.default_rng(k).normal(0.0, 0.005, arm.shape)
+                                 for k in range(3))
+    stomp_times = []
+    for k in range(repeats):
+        core.plan(float(k), [1.0])
+        stomp_times.append(core.reports_[-1].stomp_s)
+    return {"cloud_ms_G25": 1000 * float(np.median(cloud_times)),
+            "stomp_path_ms_G25": 1000 * float(np.median(stomp_times)),
+            "cloud_points": core.reports_[-1].cloud_points,
+            "cost_ratio": core.reports_[-1].proactive_cost / core.reports_[-1].nominal_cost}
+
+
 # ------------------------------------------------------------------ main
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small run, under a minute")
     parser.add_argument("--no-cell", action="store_true", help="skip the cycle-time comparison in the cell")
     parser.add_argument("--cell-only", action="store_true", help="only the cycle-time comparison")
+    parser.add_argument("--no-proactive", action="store_true",
+                        help="skip the proactive-path comparison (8.2.4)")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
     if args.quick:
         orders, sim_seconds, lego_limit, lego_frames, n_trials = (4,), 20.0, 1, 300, 30
-        kinds_orders = [(k, 4) for k in KINDS] + [("gp_c", 1)]
+        kinds_orders = [(k, 4) for k in KINDS] + [("gp_c", 1), ("gp_c_filtered", 4)]
     else:
         orders, sim_seconds, lego_limit, lego_frames, n_trials = (1, 2, 3, 4), 60.0, 3, 600, 50
-        kinds_orders = [(k, p) for k in KINDS[:3] for p in orders] + [("worst_case", 4)]
+        kinds_orders = ([(k, p) for k in KINDS[:3] for p in orders] + [("gp_c_filtered", 4)]
+                        + [("worst_case", 4)])
     horizon = 0.3  # the cell's horizon: robot reaction + stopping time
     figures = {"quick": bool(args.quick), "horizon_s": horizon, "n_trials": n_trials, "sequences": {}}
 
@@ -307,6 +422,7 @@ def main() -> None:
                               1.0 / 15.0))
 
         step_times, fit_times, scaler_times, violations = [], [], [], []
+        pooled = {kind: [] for kind in POOLED_KINDS}
         print(f"\n{'sequence':<34} {'model':<11} {'P':>2} {'group':<10} {'eps+ med':>9} {'eps- med':>9} "
               f"{'viol %':>7} {'>0.01 %':>8}   (eps in m or rad; violation: eps < 0, or < -0.01)")
         for seq_name, seq_body, qs, stds, dt in sequences:
@@ -317,6 +433,8 @@ def main() -> None:
                     seq_body, qs, stds, kind, order, dt, n_trials, horizon, warmup)
                 eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
                 row = summarise(eps_plus, eps_minus)
+                if order == 4 and kind in pooled:
+                    pooled[kind].append(((eps_plus < 0) | (eps_minus < 0)).ravel())
                 figures["sequences"][seq_name][f"{kind}_P{order}"] = row
                 for group, values in row.items():
                     print(f"{seq_name[:34]:<34} {kind:<11} {order:>2} {group:<10} "
@@ -331,6 +449,10 @@ def main() -> None:
                                                       eps_minus, warmup)
                 print(flush=True)
 
+        figures["eps_violation_rate"] = {kind: float(np.mean(np.concatenate(v))) for kind, v in pooled.items()
+                                         if v}
+        print("eps < 0 (a joint excursion the prediction missed), all joints and sequences, P = 4: "
+              + ", ".join(f"{k} {100 * v:.1f} %" for k, v in figures["eps_violation_rate"].items()))
         figures["gp_c_P4_rollout_step_ms_median"] = 1000 * float(np.median(step_times))
         figures["gp_c_P4_model_update_ms_median"] = 1000 * float(np.median(fit_times))
         figures["swept_volumes_plus_override_ms_median"] = 1000 * float(np.median(scaler_times))
@@ -372,6 +494,39 @@ def main() -> None:
         print("  cycle time with C vs [107]: " + ("n/a (too few [107] cycles)" if reduction is None
                                                   else f"{reduction:.1f} % shorter") + " (thesis: 8.59 %)")
         figures["cycle_time"] = comparison
+
+    timings = proactive_timings()
+    print(f"\nproactive pipeline (hand-made YuMi problem): cloud at G = 25 "
+          f"{timings['cloud_ms_G25']:.0f} ms, "
+          f"STOMP path of 43 waypoints {timings['stomp_path_ms_G25']:.0f} ms (thesis: 1.23 s per path "
+          f"at G = 25; goal <= 500 ms), J proactive / nominal {timings['cost_ratio']:.2f}")
+    figures["cloud_ms_G25"] = timings["cloud_ms_G25"]
+    figures["stomp_path_ms_G25"] = timings["stomp_path_ms_G25"]
+    if args.quick or args.no_proactive or not PROACTIVE_SCENARIO.exists():
+        print(f"proactive vs nominal paths on {PROACTIVE_SCENARIO.name}: switched off")
+    else:
+        seeds, duration = tuple(range(11, 18)), 300.0
+        print(f"proactive vs nominal paths on {PROACTIVE_SCENARIO.name}: seeds {list(seeds)}, "
+              f"{duration:.0f} s each ...", flush=True)
+        comparison = proactive_comparison(seeds, duration)
+        for run in comparison["runs"]:
+            print(f"  {'proactive' if run['proactive'] else 'nominal':<9} seed {run['seed']}: min distance "
+                  f"{run['min_distance_m']:.3f} m, median {run['median_distance_m']:.3f} m, robot idle "
+                  f"{run['robot_idle_pct']:.1f} %, {run['products']} products, "
+                  f"{len(run['replannings'])} replannings ({run['wall_s']:.0f} s wall)")
+        for name in ("proactive", "nominal"):
+            row = comparison[name]
+            print(f"  {name:<9} median of min distances {row['min_distance_median_m']:.3f} m, of median "
+                  f"distances {row['median_distance_median_m']:.3f} m, "
+                  f"robot idle {row['robot_idle_pct']:.1f} %")
+        print(f"  distance proactive > nominal: one-sided rank-sum p = "
+              f"{comparison['proactive']['wilcoxon_p_distance']:.3g} (thesis: evidence that it increases)")
+        figures["proactive"] = comparison["proactive"]
+        figures["nominal"] = comparison["nominal"]
+        figures["proactive_runs"] = comparison
+        if comparison["cloud_ms_G25"] is not None:
+            figures["cell_cloud_ms_G25"] = comparison["cloud_ms_G25"]
+            figures["cell_stomp_path_ms_G25"] = comparison["stomp_path_ms_G25"]
     print(json.dumps(figures, separators=(",", ":")))
 
 

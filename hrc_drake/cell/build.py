@@ -38,7 +38,7 @@ from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.systems import DepthCamera
 from hrc_drake.intention.config import NoActionDetector, NoIntention
 from hrc_drake.messages import EventLog
-from hrc_drake.motion.config import NoMotionModel
+from hrc_drake.motion.config import NoMotionModel, NoProactivePlanner
 from hrc_drake.perception.config import NoTracker
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
@@ -321,6 +321,7 @@ def _perceives(scenario: Scenario) -> bool:
         or not isinstance(scenario.intention, NoIntention)
         or not isinstance(scenario.action_detector, NoActionDetector)
         or not isinstance(scenario.motion_model, NoMotionModel)
+        or not isinstance(scenario.proactive_planner, NoProactivePlanner)
     )
 
 
@@ -453,6 +454,8 @@ def build_cell(
     plugins.add_motion(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
+    plugins.add_proactive_planner(builder, scenario, named_poses, estimate_port, decision_events, executor,
+                                  systems, seed(6))
     _add_speed_override(builder, overrides, follower, systems)
     _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
                   record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS),

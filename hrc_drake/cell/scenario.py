@@ -589,6 +589,12 @@ def _check_programs_cover_the_flow(sc: Scenario, file) -> None:
 
     if not isinstance(sc.scheduler, NoScheduler):
         return
+    for r_index, robot in enumerate(sc.robots):
+        for a_index, arm in enumerate(robot.arms):
+            if not arm.program:
+                raise ScenarioError(file, f"robots[{r_index}].arms[{a_index}].program",
+                                    f"'{arm.agent}' has an empty program and there is no scheduler to command "
+                                    "it (leave the arm out of `arms` to keep it still)")
     programs = {arm.agent: set(arm.program) for r in sc.robots for arm in r.arms}
     for i, a in enumerate(sc.flow.actions):
         if a.agents and all(agent in programs for agent in a.agents) and not any(
@@ -613,6 +619,7 @@ def _check_systems(sc: Scenario, file) -> None:
     if model and str(file) != "<scenario>" and not scenario_relative(file, model).is_file():
         raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
     _check_perceived_events(sc, file)
+    _check_proactive_planner(sc, file)
     _check_collaboration_scheduler(sc, file)
     _check_best_scenario_scheduler(sc, file)
     robot_agents = {arm.agent for robot in sc.robots for arm in robot.arms}
@@ -620,6 +627,34 @@ def _check_systems(sc: Scenario, file) -> None:
         if agent not in robot_agents:
             raise ScenarioError(file, f"scheduler.agent_costs.{agent}",
                                 f"'{agent}' is not a robot agent ({sorted(robot_agents)})")
+
+
+def _check_proactive_planner(sc: Scenario, file) -> None:
+    """The proactive planner's robot action, start pose (same robot and arm) and one-arm
+    operator actions exist."""
+    from hrc_drake.motion.config import ProactivePlanner
+
+    config = sc.proactive_planner
+    if not isinstance(config, ProactivePlanner):
+        return
+    found = [(robot, action) for robot in sc.robots for action in robot.actions
+             if action.name == config.robot_action]
+    if not found:
+        raise ScenarioError(file, "proactive_planner.robot_action",
+                            f"unknown robot action '{config.robot_action}'")
+    robot, action = found[0]
+    poses = {pose.name: pose.arm for pose in robot.poses}
+    if poses.get(config.start_pose) != action.arm:
+        raise ScenarioError(file, "proactive_planner.start_pose",
+                            f"'{config.start_pose}' is not a pose of robot '{robot.name}' for the "
+                            f"{action.arm} arm of '{action.name}'")
+    hands = {a.name: a.hand for a in sc.operator.actions}
+    for k, name in enumerate(config.human_actions):
+        if name not in hands:
+            raise ScenarioError(file, f"proactive_planner.human_actions[{k}]", f"unknown operator action '{name}'")
+        if hands[name] not in ("left", "right"):
+            raise ScenarioError(file, f"proactive_planner.human_actions[{k}]",
+                                f"'{name}' moves {hands[name]!r} hands; an action of A_S moves one arm (8.2.2)")
 
 
 def _check_collaboration_scheduler(sc: Scenario, file) -> None:

@@ -18,7 +18,14 @@ from hrc_drake.intention.config import (
     NoActionDetector,
     NoIntention,
 )
-from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
+from hrc_drake.motion.config import (
+    GPMotionModel,
+    NoMotionModel,
+    NoProactivePlanner,
+    ProactivePlanner,
+    SeparationSpeedScaling,
+    WorstCaseMotionModel,
+)
 from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
@@ -76,6 +83,7 @@ Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 
 Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
 ActionDetector = Union[NoActionDetector, GoalRegionActionDetector]  # noqa: UP007
 MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007
+Proactive = Union[NoProactivePlanner, ProactivePlanner]  # noqa: UP007
 
 
 @dataclass
@@ -117,7 +125,10 @@ class Scenario:
     motion_model: MotionModel = field(default_factory=NoMotionModel)
     #: the speed and separation rule applied to the swept volumes (8.1.3), with a motion model
     speed_scaling: SeparationSpeedScaling = field(default_factory=SeparationSpeedScaling)
+    #: proactive paths of one robot action around the predicted human motion (thesis 8.2)
+    proactive_planner: Proactive = field(default_factory=NoProactivePlanner)
 
 
 #: the scenario fields that choose a system by tag
-SYSTEM_FIELDS = ("tracker", "intention", "action_detector", "predictor", "scheduler", "motion_model")
+SYSTEM_FIELDS = ("tracker", "intention", "action_detector", "predictor", "scheduler", "motion_model",
+                 "proactive_planner")

@@ -9,7 +9,7 @@ No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from hrc_drake.errors import check
 
@@ -200,6 +200,82 @@ class SeparationSpeedScaling:
         _finite(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
         _finite(self.lookahead, path, "lookahead", 0.0, 10.0, low_open=True)
 
+
+@dataclass
+class NoProactivePlanner:
+    """No proactive paths: the robot keeps its nominal paths."""
+
+    def validate(self, path: str) -> None:
+        """Nothing to check."""
+
+
+@dataclass
+class ProactivePlanner:
+    """Proactive paths of thesis 8.2 for one robot action r crossing the shared area: GPDM
+    clouds of the human actions A_S weighted by P_RH, and STOMP on the cost (8.32)
+    (`motion.proactive`). Defaults: 8.2.4 where it gives them."""
+
+    #: r, a robot action of the scenario; its path is replanned (its last pose is q_N).
+    robot_action: str = ""
+    #: The named pose r starts from (q_0 of Q_r, eq. 8.19): the last pose of the action before it.
+    start_pose: str = ""
+    #: A_S, the operator's actions that cross the shared area (each moves one arm, 8.2.2).
+    human_actions: list[str] = field(default_factory=list)
+    #: Waypoints of the nominal and proactive paths (43 in 8.2.4).
+    waypoints: int = 43
+    #: T, window of P_RH, eq. (8.22) (s).
+    window: float = 120.0
+    #: Period of the proactive loop (s, 20 in 8.2.4).
+    replan_period: float = 20.0
+    #: Realisations kept per human action, FIFO (3 in 8.2.4).
+    capacity: int = 3
+    #: G, grid splits per side of the cloud's box (25 in 8.2.4).
+    grid: int = 25
+    #: Radius of the sphere of the arm's swept volumes (m, "the typical anatomical size").
+    arm_radius: float = 0.06
+    #: Latent dimension of the GPDMs.
+    latent_dim: int = 3
+    #: L-BFGS iterations of each GPDM fit.
+    gpdm_iterations: int = 100
+    #: lambda_1 (repulsion) and lambda_2 (deformation) of eq. (8.32).
+    lambda1: float = 0.05
+    lambda2: float = 1.0
+    #: alpha, decay of the repulsive field of eq. (8.32) (1/m).
+    alpha: float = 10.0
+    #: STOMP: noisy rollouts per iteration, iterations, exploration noise (rad).
+    n_rollouts: int = 8
+    iterations: int = 30
+    noise_std: float = 0.4
+    #: Rate at which the arm points of the skeleton estimate are recorded (Hz), at most 50.
+    rate: float = 10.0
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the planner cannot use."""
+        check(bool(self.robot_action), f"{path}.robot_action", "must name a robot action")
+        check(bool(self.start_pose), f"{path}.start_pose", "must name a robot pose")
+        check(len(self.human_actions) > 0 and all(isinstance(a, str) and a for a in self.human_actions),
+              f"{path}.human_actions", "must list at least one operator action")
+        check(len(set(self.human_actions)) == len(self.human_actions), f"{path}.human_actions",
+              "lists an action twice")
+        _integer(self.waypoints, 3, 1000, path, "waypoints")
+        _finite(self.window, path, "window", 0.0, 1e6, low_open=True)
+        _finite(self.replan_period, path, "replan_period", 0.0, 1e6, low_open=True)
+        _integer(self.capacity, 1, 100, path, "capacity")
+        _integer(self.grid, 2, 100, path, "grid")
+        _finite(self.arm_radius, path, "arm_radius", 0.0, 0.5, low_open=True)
+        _integer(self.latent_dim, 1, 9, path, "latent_dim")
+        _integer(self.gpdm_iterations, 1, 10000, path, "gpdm_iterations")
+        for name in ("lambda1", "lambda2"):
+            _finite(getattr(self, name), path, name, 0.0, 1e6)
+        _finite(self.alpha, path, "alpha", 0.0, 1e4, low_open=True)
+        _integer(self.n_rollouts, 1, 1000, path, "n_rollouts")
+        _integer(self.iterations, 1, 10000, path, "iterations")
+        _finite(self.noise_std, path, "noise_std", 0.0, 10.0, low_open=True)
+        _finite(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
+
+
+#: Every proactive-planner kind a scenario can choose.
+ProactivePlannerConfig = NoProactivePlanner | ProactivePlanner
 
 #: Every motion-model kind a scenario can choose.
 MotionModelConfig = NoMotionModel | GPMotionModel | WorstCaseMotionModel

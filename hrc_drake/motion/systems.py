@@ -13,7 +13,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
+from hrc_drake.messages import EventLog, ProactivePaths, RobotEvent, SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
 from hrc_drake.motion.reactive import LIMIT_GROUPS, ReactiveMotionPredictor
 from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
@@ -22,6 +22,7 @@ from hrc_drake.systems import (
     declare_periodic_discrete_update,
     declare_state,
     get_state,
+    input_or,
     set_state,
 )
 
@@ -82,6 +83,10 @@ class HumanMotionPredictor(LeafSystem):
     def _update(self, context, state):
         estimate = self._input.Eval(context)
         points = np.asarray(estimate.points, dtype=float)
+        spread = np.asarray(estimate.spread, dtype=float)
+        if points.shape == (8, 3) and spread.shape == (8,):
+            # a point of unbounded spread (lost, only its last position held) is no measurement
+            points = np.where(np.isfinite(spread)[:, None], points, np.nan)
         if points.shape != (8, 3) or np.sum(np.all(np.isfinite(points), axis=1)) < 3:
             return EventStatus.DidNothing()
         core = get_state(context, self._core).thaw()
@@ -168,3 +173,58 @@ def apply_motion_config(config: NoMotionModel | GPMotionModel | WorstCaseMotionM
     if robot_capsules_ahead is not None:
         builder.Connect(robot_capsules_ahead, scaler.GetInputPort("robot_capsules_ahead"))
     return predictor, scaler
+
+
+class ProactivePlannerSystem(LeafSystem):
+    """Proactive paths of one robot action around the operator (thesis 8.2, Fig. 8.11).
+
+    core: a `motion.proactive.ProactivePlannerCore`; rate: how often (Hz) the arm points are
+    recorded and the events read. Inputs "skeleton_estimate" (SkeletonEstimate), "human_events"
+    and "robot_events" (EventLog of HumanEvent / RobotEvent). Output "proactive_paths"
+    (`ProactivePaths`, for the task executor; empty until the first replanning).
+    State: `Frozen(core)` and the last human and robot event seqs read.
+    """
+
+    def __init__(self, core, rate: float = 10.0):
+        super().__init__()
+        self.rate = float(rate)
+        self._initial = Frozen(core)
+        self._core = declare_state(self, lambda context: self._initial)
+        self._seen = declare_state(self, lambda context: (0, 0))
+        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate", AbstractValue.Make(SkeletonEstimate()))
+        self._human = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
+        self._robot = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
+        self.DeclareAbstractOutputPort(
+            "proactive_paths", lambda: AbstractValue.Make(ProactivePaths()), self._calc_paths,
+            {self.abstract_state_ticket(AbstractStateIndex(self._core))})
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / self.rate, 0.0, self._update)
+
+    def core(self, context):
+        """The planner core of `context` (read only)."""
+        return get_state(context, self._core).core
+
+    def _update(self, context, state):
+        time = context.get_time()
+        human_seq, robot_seq = get_state(context, self._seen)
+        human = input_or(self._human, context, EventLog()).since(human_seq)
+        robot = input_or(self._robot, context, EventLog()).since(robot_seq)
+        core = get_state(context, self._core).thaw()
+        for event in sorted(robot + human, key=lambda e: e.time):
+            if isinstance(event, RobotEvent):
+                core.robot_event(event.time, event.agent, event.action, event.kind)
+            else:
+                core.human_event(event.time, event.action, event.kind)
+        if self._estimate.HasValue(context):
+            core.observe_points(self._estimate.Eval(context).points)
+        core.maybe_replan(time)
+        set_state(state, self._core, Frozen(core))
+        set_state(state, self._seen, (human[-1].seq if human else human_seq,
+                                      robot[-1].seq if robot else robot_seq))
+        return EventStatus.Succeeded()
+
+    def _calc_paths(self, context, output):
+        core = get_state(context, self._core).core
+        if core.path_ is None:
+            output.set_value(ProactivePaths())
+        else:
+            output.set_value(ProactivePaths(core.seq_, ((core.robot_agent, core.robot_action, core.path_[1:]),)))

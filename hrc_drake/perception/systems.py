@@ -127,7 +127,8 @@ class MeasurementAsEstimate(LeafSystem):
     """No tracker: the estimate is the measurement; a lost point keeps its last seen position.
 
     Input "skeleton_frame" (abstract `SkeletonFrame`); output "skeleton_estimate" (abstract
-    `SkeletonEstimate`: spread 0 for seen points, inf for lost ones; workspace fraction 0/1).
+    `SkeletonEstimate`: spread 0 for seen points, inf for lost ones, NaN rows for points never
+    seen; workspace fraction 0/1).
     State: the last seen position of every point, (8, 3) discrete state (NaN until seen),
     updated at the camera `rate` at the camera ticks; the output is a pure function of the
     frame on the input and that state.
@@ -166,7 +167,7 @@ class MeasurementAsEstimate(LeafSystem):
         output.set_value(
             SkeletonEstimate(
                 time=frame.time,
-                points=np.nan_to_num(points),
+                points=points,  # NaN for a point never seen yet (not the world origin)
                 spread=np.where(frame.tracked, 0.0, np.inf),
                 tracked=frame.tracked.copy(),
                 workspace_fraction=inside.astype(float),

@@ -184,6 +184,10 @@ def test_every_kind_of_every_system_is_reachable_by_its_tag(tmp_path, torch_raw)
                 with pytest.raises(ScenarioError, match="scheduler.collaboration"):
                     load_scenario(path)
                 continue
+            if kind.__name__ == "ProactivePlanner":  # read by its tag, then its own check
+                with pytest.raises(ScenarioError, match="proactive_planner.robot_action"):
+                    load_scenario(path)
+                continue
             assert type(getattr(load_scenario(path), name)) is kind, (name, kind)
 
 
@@ -356,3 +360,31 @@ def test_a_tagged_system_given_by_the_extending_file_replaces_the_base_one(tmp_p
     assert isinstance(base.motion_model, GPMotionModel)
     model = load_scenario(path).motion_model
     assert type(model) is WorstCaseMotionModel and model == WorstCaseMotionModel()
+
+
+def test_a_proactive_planner_names_real_actions_and_poses(tmp_path, diagrams_dir):
+    text = (diagrams_dir / "box_usb_proactive.yaml").read_text()
+    for old, new, field in [
+        ("robot_action: move_to_check_2", "robot_action: fly", "proactive_planner.robot_action"),
+        ("start_pose: l_check1", "start_pose: r_home", "proactive_planner.start_pose"),
+        ("human_actions: [cover_b1, cover_b2]", "human_actions: [cover_b1, dance]",
+         "proactive_planner.human_actions[1]"),
+        ("human_actions: [cover_b1, cover_b2]", "human_actions: [cover_b1, fill]",
+         "proactive_planner.human_actions[1]"),
+        ("human_actions: [cover_b1, cover_b2]", "human_actions: []", "proactive_planner.human_actions"),
+    ]:
+        assert old in text
+        path = tmp_path / "bad_proactive.yaml"
+        path.write_text(text.replace(old, new))
+        with pytest.raises(ScenarioError, match=field.replace("[", r"\[").replace("]", r"\]")):
+            load_scenario(path)
+
+
+def test_an_arm_without_a_program_or_a_scheduler_is_refused(tmp_path, diagrams_dir):
+    text = (diagrams_dir / "box_usb_proactive.yaml").read_text()
+    old = "program: [rest]}"
+    assert old in text
+    path = tmp_path / "idle_arm.yaml"
+    path.write_text(text.replace(old, "program: []}"))
+    with pytest.raises(ScenarioError, match=r"arms\[1\].program"):
+        load_scenario(path)
