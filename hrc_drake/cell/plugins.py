@@ -157,8 +157,8 @@ def add_motion(
     systems["speed_scaler"] = scaler
 
 
-def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_port, human_events_port, executor,
-                          systems, seed):
+def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_port, human_events_port,
+                          executor, systems, seed):
     """Proactive paths of thesis 8.2 for the scenario's robot action, if it has a planner: the
     robot arm's chain (its base pose), the nominal path from `start_pose` to the action's last
     pose, the table as the fixed obstacle; the paths go to the task executor."""
@@ -173,12 +173,12 @@ def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_por
     robot, action = next((r, a) for r in scenario.robots for a in r.actions if a.name == config.robot_action)
     agent = next(arm.agent for arm in robot.arms if arm.arm == action.arm)
     chain = SerialChain.from_model(robot.model, action.arm, base_pose=(robot.base.xyz, robot.base.rpy))
-    nominal = nominal_path(named_poses[(robot.name, config.start_pose)], named_poses[(robot.name, action.poses[-1])],
-                           config.waypoints)
+    nominal = nominal_path(named_poses[(robot.name, config.start_pose)],
+                           named_poses[(robot.name, action.poses[-1])], config.waypoints)
     table = scenario.layout.table
     settings = ProactiveSettings(**{name: getattr(config, name) for name in (
-        "window", "replan_period", "capacity", "grid", "arm_radius", "latent_dim", "gpdm_iterations", "lambda1",
-        "lambda2", "alpha", "n_rollouts", "iterations", "noise_std")})
+        "window", "replan_period", "capacity", "grid", "arm_radius", "latent_dim", "gpdm_iterations",
+        "lambda1", "lambda2", "alpha", "n_rollouts", "iterations", "noise_std")})
     hands = {a.name: a.hand for a in scenario.operator.actions}
     core = ProactivePlannerCore(agent, action.name, config.human_actions, hands, nominal, chain,
                                 [table_box(table.center, table.size, table.height)], settings, rng=seed)

@@ -593,8 +593,8 @@ def _check_programs_cover_the_flow(sc: Scenario, file) -> None:
         for a_index, arm in enumerate(robot.arms):
             if not arm.program:
                 raise ScenarioError(file, f"robots[{r_index}].arms[{a_index}].program",
-                                    f"'{arm.agent}' has an empty program and there is no scheduler to command "
-                                    "it (leave the arm out of `arms` to keep it still)")
+                                    f"'{arm.agent}' has an empty program and there is no scheduler to "
+                                    "command it (leave the arm out of `arms` to keep it still)")
     programs = {arm.agent: set(arm.program) for r in sc.robots for arm in r.arms}
     for i, a in enumerate(sc.flow.actions):
         if a.agents and all(agent in programs for agent in a.agents) and not any(
@@ -651,10 +651,12 @@ def _check_proactive_planner(sc: Scenario, file) -> None:
     hands = {a.name: a.hand for a in sc.operator.actions}
     for k, name in enumerate(config.human_actions):
         if name not in hands:
-            raise ScenarioError(file, f"proactive_planner.human_actions[{k}]", f"unknown operator action '{name}'")
+            raise ScenarioError(file, f"proactive_planner.human_actions[{k}]",
+                                f"unknown operator action '{name}'")
         if hands[name] not in ("left", "right"):
             raise ScenarioError(file, f"proactive_planner.human_actions[{k}]",
-                                f"'{name}' moves {hands[name]!r} hands; an action of A_S moves one arm (8.2.2)")
+                                f"'{name}' moves {hands[name]!r} hands; an action of A_S moves one arm "
+                                "(8.2.2)")
 
 
 def _check_collaboration_scheduler(sc: Scenario, file) -> None:

@@ -13,7 +13,14 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.messages import EventLog, ProactivePaths, RobotEvent, SkeletonEstimate, SweptVolumes, no_capsules
+from hrc_drake.messages import (
+    EventLog,
+    ProactivePaths,
+    RobotEvent,
+    SkeletonEstimate,
+    SweptVolumes,
+    no_capsules,
+)
 from hrc_drake.motion.config import GPMotionModel, NoMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
 from hrc_drake.motion.reactive import LIMIT_GROUPS, ReactiveMotionPredictor
 from hrc_drake.motion.speed import SeparationRule, SpeedScalerCore
@@ -191,7 +198,8 @@ class ProactivePlannerSystem(LeafSystem):
         self._initial = Frozen(core)
         self._core = declare_state(self, lambda context: self._initial)
         self._seen = declare_state(self, lambda context: (0, 0))
-        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate", AbstractValue.Make(SkeletonEstimate()))
+        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                       AbstractValue.Make(SkeletonEstimate()))
         self._human = self.DeclareAbstractInputPort("human_events", AbstractValue.Make(EventLog()))
         self._robot = self.DeclareAbstractInputPort("robot_events", AbstractValue.Make(EventLog()))
         self.DeclareAbstractOutputPort(
@@ -227,4 +235,5 @@ class ProactivePlannerSystem(LeafSystem):
         if core.path_ is None:
             output.set_value(ProactivePaths())
         else:
-            output.set_value(ProactivePaths(core.seq_, ((core.robot_agent, core.robot_action, core.path_[1:]),)))
+            path = (core.robot_agent, core.robot_action, core.path_[1:])
+            output.set_value(ProactivePaths(core.seq_, (path,)))

@@ -32,5 +32,6 @@ def test_the_planner_replans_r1_and_the_robot_follows_it():
             if getattr(e, "action", "") == "move_to_check_2" and e.kind == "end"]
     assert any(t > report.time for t in ends)  # r_1 ran again after the replanning
     print(f"\nreplannings at {[round(r.time, 1) for r in core.reports_]} s, weights "
-          f"{[r.weights for r in core.reports_]}, J {report.nominal_cost:.1f} -> {report.proactive_cost:.1f}, "
+          f"{[r.weights for r in core.reports_]}, "
+          f"J {report.nominal_cost:.1f} -> {report.proactive_cost:.1f}, "
           f"GPDM {report.gpdm_s:.2f} s, clouds {report.cloud_s:.2f} s, STOMP {report.stomp_s:.2f} s")
