@@ -343,14 +343,50 @@ def _block_pairs(first: np.ndarray, count: np.ndarray, grid: int) -> tuple[np.nd
     return volume, index
 
 
+def _screen_segments(hulls: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Screening segments of hulls (V, 4, 3) [s0, e0, s1, e1], as (segment, coordinate, V) arrays.
+
+    Segment 0 is the mid-line [(s0+s1)/2, (e0+e1)/2], segments 1, 2 the link at k and k+1. The
+    hull lies within `slack` (V,) = max(|s0-s1|, |e0-e1|) / 2 of the mid-line (the distance to a
+    segment is convex, so its maximum over the hull is at a vertex) and holds both links.
+    Returns start (3, 3, V), direction (3, 3, V), 1 / squared length (3, V) (0 for a point), slack.
+    """
+    start = np.stack([0.5 * (hulls[:, 0] + hulls[:, 2]), hulls[:, 0], hulls[:, 2]])
+    end = np.stack([0.5 * (hulls[:, 1] + hulls[:, 3]), hulls[:, 1], hulls[:, 3]])
+    direction = end - start
+    length2 = np.einsum("svi,svi->sv", direction, direction)
+    inverse = np.where(length2 > 0, 1.0 / np.where(length2 > 0, length2, 1.0), 0.0)
+    slack = 0.5 * np.maximum(np.linalg.norm(hulls[:, 0] - hulls[:, 2], axis=-1),
+                             np.linalg.norm(hulls[:, 1] - hulls[:, 3], axis=-1))
+    return start.transpose(0, 2, 1).copy(), direction.transpose(0, 2, 1).copy(), inverse, slack
+
+
+def _volume_contains(x, volume, hulls, screen, radius) -> np.ndarray:
+    """Node x (N, 3) within radius of the hull hulls[volume] (N,): cheap screens, then exact."""
+    start, direction, inverse, slack = screen
+    coordinates = [x[:, i] for i in range(3)]
+    distance2 = []
+    for s in range(3):  # component-wise point-segment distances: ~3x faster than (N, 3) arrays
+        w = [coordinates[i] - start[s, i][volume] for i in range(3)]
+        d = [direction[s, i][volume] for i in range(3)]
+        u = np.clip((w[0] * d[0] + w[1] * d[1] + w[2] * d[2]) * inverse[s][volume], 0.0, 1.0)
+        distance2.append((w[0] - u * d[0]) ** 2 + (w[1] - u * d[1]) ** 2 + (w[2] - u * d[2]) ** 2)
+    inside = np.minimum(distance2[1], distance2[2]) <= radius**2  # within radius of a link: inside
+    maybe = ~inside & (distance2[0] <= (radius + slack[volume]) ** 2)  # else outside the capsule
+    inside[maybe] = hull_distance(x[maybe], hulls[volume[maybe]]) <= radius
+    return inside
+
+
 def occupancy(trajectory, radius: float, box: GridBox) -> np.ndarray:
     """(L-1, grid**3) bool c_k of eq. (8.28): node inside a volume swept from pose k to k+1.
 
     Exact test: `hull_distance` of the node to the 4-point hull <= radius (the thesis's OctTree
     is only a speed-up of this test). Each volume is tested on the block of nodes inside its
-    bounds in box coordinates only, all pairs in vectorised batches.
+    bounds in box coordinates only, all pairs in vectorised batches; nodes near a link (inside)
+    or far from the hull's bounding capsule (outside) skip the exact test.
     """
     hulls = box.to_box(swept_hulls(trajectory).reshape(-1, 4, 3))  # (2(L-1), 4, 3)
+    screen = _screen_segments(hulls)
     g, cell, half = box.grid, box.cell_size, 0.5 * box.extents
     first = np.clip(np.ceil((hulls.min(axis=1) - radius + half) / cell - 0.5), 0, g).astype(int)
     stop = np.clip(np.floor((hulls.max(axis=1) + radius + half) / cell - 0.5) + 1, 0, g).astype(int)
@@ -362,7 +398,7 @@ def occupancy(trajectory, radius: float, box: GridBox) -> np.ndarray:
         end = max(start + 1, int(np.searchsorted(bounds, bounds[start] + _BATCH, side="right")) - 1)
         volume, index = _block_pairs(first[start:end], count[start:end], g)
         volume += start
-        inside = hull_distance(box.local_nodes(index), hulls[volume]) <= radius
+        inside = _volume_contains(box.local_nodes(index), volume, hulls, screen, radius)
         flat = (index[:, 0] * g + index[:, 1]) * g + index[:, 2]
         occupied[volume[inside] // 2, flat[inside]] = True
         start = end
