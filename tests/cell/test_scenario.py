@@ -284,8 +284,6 @@ def test_the_migrated_scenarios_keep_their_old_parameters(diagrams_dir):
                     "reaction_time": 0.1,
                     "stopping_time": 0.15,
                     "robot_speed": 1.0,
-                    "base_speed": 0.2,
-                    "base_accel": 0.5,
                 },
             }
         },

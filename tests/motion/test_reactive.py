@@ -10,8 +10,8 @@ from hrc_drake.motion.reactive import (
     SweptVolumeBuilder,
     excursions_from_rollouts,
     ik_joint_std,
-    tracking_inverse,
     joint_limit_vector,
+    tracking_inverse,
     worst_case_excursions,
 )
 
@@ -87,6 +87,110 @@ def test_bigger_excursions_give_bigger_volumes(body):
     _, _, small = builder.build(q, np.full(12, 0.05), np.full(12, 0.05))
     _, _, large = builder.build(q, np.full(12, 0.3), np.full(12, 0.3))
     assert np.all(large > small)
+
+
+def _inside_union(body, start, end, radius, samples) -> float:
+    """Largest excess of a body-capsule ball (points on the segments, body radius) over the
+    nearest swept capsule, for joint samples (n, 12): <= 0 when every one lies inside a capsule."""
+    s, e, r = body.capsules(samples)
+    worst = -np.inf
+    for t in (0.0, 0.3, 0.5, 1.0):
+        points = s + t * (e - s)  # (n, 6, 3)
+        clearance = point_segment_distance(points[:, :, None], start, end) - radius  # (n, 6, K)
+        worst = max(worst, float((clearance.min(axis=2) + r).max()))
+    return worst
+
+
+def _box_samples(body, q, delta_plus, delta_minus, n, rng):
+    """Joint samples in the box, a third of the coordinates on its faces, and every joint's
+    mid-cell values (where a grid alone misses the arcs)."""
+    low = np.maximum(q - delta_minus, body.q_lower)
+    high = np.maximum(np.minimum(q + delta_plus, body.q_upper), low)
+    u = rng.uniform(size=(n, 12))
+    u = np.where(rng.uniform(size=u.shape) < 0.3, np.round(u), u)
+    u[: n // 4] = rng.choice([0.0, 0.25, 0.5, 0.75, 1.0, 1.0 / 6, 0.5 - 1.0 / 6], size=(n // 4, 12))
+    return low + u * (high - low)
+
+
+def test_tight_swept_volumes_are_conservative_on_dense_joint_samples(body):
+    """Every body capsule instance on the joint box, arcs between the grid values included, lies
+    in the union of the returned capsules: worst-case boxes from rest and moving, GP-sized and
+    lopsided boxes, boxes clipped at the joint limits, and spans over 90 degrees."""
+    rng = np.random.default_rng(7)
+    predictor = ReactiveMotionPredictor(body, "worst_case", dt=0.05, horizon=0.3)
+    rest = body.rest_q((1.4, 0.0), np.pi)
+    moving = rng.normal(0.0, 1.0, 12)
+    cases = [(rest, *worst_case_excursions(np.zeros(12), 0.3, predictor.v_max, predictor.a_max)),
+             (rest, *worst_case_excursions(moving, 0.5, predictor.v_max, predictor.a_max)),
+             (rest, np.full(12, 0.03), np.full(12, 0.01)),
+             (rest, rng.uniform(0.0, 0.6, 12) * (rng.uniform(size=12) < 0.6), np.zeros(12))]
+    near_limits = body.q_upper.copy()
+    near_limits[:3] = [0.5, -0.3, 1.0]
+    near_limits[3:] -= 0.05
+    cases.append((near_limits, np.full(12, 0.4), np.full(12, 0.4)))
+    wide = rest.copy()
+    wide[[4, 8]] = 1.2
+    cases.append((wide, np.full(12, 1.3), np.full(12, 1.3)))  # shoulders sweep ~150 degrees
+    for levels in (2, 3):
+        builder = SweptVolumeBuilder(body, levels=levels)
+        for q, plus, minus in cases:
+            start, end, radius = builder.build(q, plus, minus)
+            assert start.shape == end.shape == (6, 3) and radius.shape == (6,)
+            samples = _box_samples(body, q, plus, minus, 4000, rng)
+            assert _inside_union(body, start, end, radius, samples) <= 1e-9
+
+
+def test_worst_case_frontier_from_rest_is_tight(body):
+    """From rest with the worst case of [107] over 0.3 s, the volumes reach ahead of the shoulder
+    at most about arm + torso lean + base motion + forearm radius (1.06 m with the default
+    segments), a few cm beyond the farthest sampled pose (0.98 m). The single-capsule
+    builder with arc and translation inflation reached 1.36 m (x = 0.04 for a body at x = 1.4)."""
+    predictor = ReactiveMotionPredictor(body, "worst_case", dt=0.05, horizon=0.3)
+    q = body.rest_q((1.4, 0.0), np.pi)  # facing -x: "ahead" is -x
+    plus, minus = worst_case_excursions(np.zeros(12), predictor.horizon, predictor.v_max, predictor.a_max)
+    start, end, radius = predictor.builder.build(q, plus, minus)
+    ahead = 1.4 - float(np.minimum(start[:, 0] - radius, end[:, 0] - radius).min())
+    arm = body.upper_arm + body.forearm + body.hand_length
+    lean = body.torso * np.sin(plus[3])
+    bound = arm + lean + plus[0] + body.capsule_radius[4]
+    assert ahead <= bound + 0.01
+    assert ahead < 0.8 * 1.36
+    # and not below what the body reaches: the farthest of dense samples of the box
+    samples = _box_samples(body, q, plus, minus, 20000, np.random.default_rng(1))
+    s, e, r = body.capsules(samples)
+    reached = 1.4 - float(np.minimum(s[..., 0] - r, e[..., 0] - r).min())
+    assert reached <= ahead <= reached + 0.1
+    # the forearm capsules are far thinner than before (radius 1.17 m)
+    assert np.all(radius[4:] < 0.9)
+
+
+def test_small_excursions_give_capsules_close_to_the_body(body):
+    """Excursions of 0.02 (rad, m): each capsule is thinner than its body capsule grown by the
+    farthest any of its points can move, sum of lever x excursion over the joints that move it."""
+    builder = SweptVolumeBuilder(body)
+    q = body.rest_q((1.0, 0.2), np.pi)
+    delta = 0.02
+    start, end, radius = builder.build(q, np.full(12, delta), np.full(12, delta))
+    s0, e0, r0 = body.capsules(q)
+    arm = body.upper_arm + body.forearm + body.hand_length
+    from_hip = body.torso + 0.5 * body.shoulder_width + arm
+    base = np.hypot(delta, delta)
+    moves = np.array([body.torso, body.torso + body.neck + 0.06, 0.5 * body.shoulder_width + body.torso,
+                      0.5 * body.shoulder_width + body.torso, from_hip, from_hip]) * 2 * delta + base
+    moves[2:4] += body.upper_arm * 2 * delta  # shoulder flexion, abduction
+    moves[4:] += arm * 2 * delta + (body.forearm + body.hand_length) * 2 * delta
+    assert np.all(radius > r0) and np.all(radius <= r0 + moves)
+    assert np.all(radius - r0 < 0.07)
+
+
+def test_builder_rejects_a_body_with_other_kinematics(body):
+    class Mirrored(BodyModel):
+        def capsules(self, q):
+            start, end, radius = super().capsules(q)
+            return start * [1.0, -1.0, 1.0], end * [1.0, -1.0, 1.0], radius
+
+    with pytest.raises(ValueError, match="kinematics"):
+        SweptVolumeBuilder(Mirrored())
 
 
 def test_constant_velocity_joint_excursions(body):
@@ -215,7 +319,8 @@ def test_motion_config_sets_per_joint_limits_and_options(body):
     from hrc_drake.motion.config import GPMotionModel
     from hrc_drake.motion.systems import predictor_kwargs
 
-    config = GPMotionModel(elbow_speed=7.0, torso_accel=9.0, training_states="filtered", cap_by_worst_case=True)
+    config = GPMotionModel(elbow_speed=7.0, torso_accel=9.0, training_states="filtered",
+                           cap_by_worst_case=True)
     predictor = ReactiveMotionPredictor(body, rng=0, **predictor_kwargs(config))
     assert predictor.v_max[7] == predictor.v_max[11] == 7.0
     assert predictor.a_max[3] == 9.0 and predictor.v_max[4] == config.shoulder_speed
