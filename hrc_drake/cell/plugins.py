@@ -163,7 +163,7 @@ def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_por
     robot arm's chain (its base pose), the nominal path from `start_pose` to the action's last
     pose, the table as the fixed obstacle; the paths go to the task executor."""
     from hrc_drake.motion.config import ProactivePlanner
-    from hrc_drake.motion.proactive import ProactivePlannerCore, ProactiveSettings, nominal_path, table_box
+    from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path, table_box
     from hrc_drake.motion.systems import ProactivePlannerSystem
     from hrc_drake.robots.chain import SerialChain
 
@@ -176,12 +176,9 @@ def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_por
     nominal = nominal_path(named_poses[(robot.name, config.start_pose)],
                            named_poses[(robot.name, action.poses[-1])], config.waypoints)
     table = scenario.layout.table
-    settings = ProactiveSettings(**{name: getattr(config, name) for name in (
-        "window", "replan_period", "capacity", "grid", "arm_radius", "latent_dim", "gpdm_iterations",
-        "lambda1", "lambda2", "alpha", "n_rollouts", "iterations", "noise_std")})
     hands = {a.name: a.hand for a in scenario.operator.actions}
     core = ProactivePlannerCore(agent, action.name, config.human_actions, hands, nominal, chain,
-                                [table_box(table.center, table.size, table.height)], settings, rng=seed)
+                                [table_box(table.center, table.size, table.height)], config, rng=seed)
     planner = builder.AddSystem(ProactivePlannerSystem(core, config.rate))
     planner.set_name("proactive_planner")
     builder.Connect(estimate_port, planner.GetInputPort("skeleton_estimate"))

@@ -248,6 +248,8 @@ class ProactivePlanner:
     noise_std: float = 0.4
     #: Rate at which the arm points of the skeleton estimate are recorded (Hz), at most 50.
     rate: float = 10.0
+    #: Cloud points with an occupancy gamma at or below this are dropped (8.2.2).
+    cloud_threshold: float = 0.0
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the planner cannot use."""
@@ -272,6 +274,7 @@ class ProactivePlanner:
         _integer(self.iterations, 1, 10000, path, "iterations")
         _finite(self.noise_std, path, "noise_std", 0.0, 10.0, low_open=True)
         _finite(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
+        _finite(self.cloud_threshold, path, "cloud_threshold", 0.0, 1.0)
 
 
 #: Every proactive-planner kind a scenario can choose.

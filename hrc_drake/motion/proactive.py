@@ -22,6 +22,7 @@ import numpy as np
 
 from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST, shallow_copy
 from hrc_drake.motion.clouds import InteractionModel, probability_cloud, weighted_union
+from hrc_drake.motion.config import ProactivePlanner
 from hrc_drake.motion.gpdm import GPDM
 from hrc_drake.motion.stomp import Box, ProactiveCost, plan_proactive_path
 from hrc_drake.rng import clone_generator
@@ -39,32 +40,6 @@ def nominal_path(q_start, q_end, n_waypoints: int = 43) -> np.ndarray:
         raise ValueError(f"nominal_path: need two (n,) configurations and >= 3 waypoints, got "
                          f"{q_start.shape}, {q_end.shape}, {n_waypoints}")
     return q_start + np.linspace(0.0, 1.0, int(n_waypoints))[:, None] * (q_end - q_start)
-
-
-@dataclass(frozen=True)
-class ProactiveSettings:
-    """Parameters of the pipeline (defaults of thesis 8.2.4 where it gives them).
-
-    window: T of eq. (8.22) (s). replan_period: 20 s. capacity: database size, 3. grid: G, 25.
-    arm_radius: sphere of the swept arm volumes (m). latent_dim, gpdm_iterations: the GPDM's.
-    lambda1, lambda2, alpha: eq. (8.32). n_rollouts, iterations, noise_std: STOMP's.
-    cloud_threshold: cloud points with gamma at or below it are dropped (8.2.2).
-    """
-
-    window: float = 120.0
-    replan_period: float = 20.0
-    capacity: int = 3
-    grid: int = 25
-    arm_radius: float = 0.06
-    latent_dim: int = 3
-    gpdm_iterations: int = 100
-    lambda1: float = 0.05
-    lambda2: float = 1.0
-    alpha: float = 10.0
-    n_rollouts: int = 8
-    iterations: int = 30
-    noise_std: float = 0.4
-    cloud_threshold: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -87,13 +62,15 @@ class ProactivePlannerCore:
     human_actions: names of A_S, in the order of P_RH's columns; human_arms: action -> "left" or
     "right", the arm that moves in it (8.2.2: one arm per action). nominal: Q_j (N+1, n).
     chain: the robot arm's `SerialChain` (capsules and control points elbow, tool). boxes:
-    fixed obstacles of J_Ob. rng: seed or Generator of GPDM and STOMP.
+    fixed obstacles of J_Ob. settings: the scenario's `ProactivePlanner` config (window,
+    replan period, capacity, grid, arm radius, GPDM and STOMP parameters; its names of r and
+    A_S are the caller's). rng: seed or Generator of GPDM and STOMP.
     `path_` is the current proactive path (None until the first replanning); `reports_` the
     replannings so far.
     """
 
     def __init__(self, robot_agent: str, robot_action: str, human_actions, human_arms: dict, nominal, chain,
-                 boxes=(), settings: ProactiveSettings | None = None, rng=None):
+                 boxes=(), settings: ProactivePlanner | None = None, rng=None):
         self.robot_agent, self.robot_action = str(robot_agent), str(robot_action)
         self.human_actions = tuple(human_actions)
         if not self.human_actions:
@@ -108,7 +85,7 @@ class ProactivePlannerCore:
                              f"got {self.nominal.shape}")
         self.chain = chain
         self.boxes = tuple(boxes)
-        self.settings = settings or ProactiveSettings()
+        self.settings = settings or ProactivePlanner()
         self.rng = np.random.default_rng(rng)
         self.interaction = InteractionModel(1, len(self.human_actions), self.settings.window)
         self.databases: dict[str, tuple] = {a: () for a in self.human_actions}

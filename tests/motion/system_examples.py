@@ -14,8 +14,8 @@ from hrc_drake.messages import (
     SkeletonEstimate,
     SweptVolumes,
 )
-from hrc_drake.motion.config import GPMotionModel, SeparationSpeedScaling
-from hrc_drake.motion.proactive import ProactivePlannerCore, ProactiveSettings, nominal_path
+from hrc_drake.motion.config import GPMotionModel, ProactivePlanner, SeparationSpeedScaling
+from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path
 from hrc_drake.motion.systems import HumanMotionPredictor, ProactivePlannerSystem, SpeedScaler
 from hrc_drake.robots.chain import SerialChain
 from tests.contract import SystemExample
@@ -63,7 +63,7 @@ def _reach(y: float, seed: int) -> np.ndarray:
 def proactive_planner() -> SystemExample:
     qa = np.array([-0.858, -0.681, 2.086, 0.062, 4.18, 0.645, -1.942])
     qb = np.array([-0.922, -0.442, 1.624, 0.778, 4.382, 0.894, -0.897])
-    settings = ProactiveSettings(replan_period=100.0, grid=8, latent_dim=2, gpdm_iterations=10, iterations=8,
+    settings = ProactivePlanner(replan_period=100.0, grid=8, latent_dim=2, gpdm_iterations=10, iterations=8,
                                  lambda1=20.0)
     core = ProactivePlannerCore("yumi_left", "r1", ["a1", "a2"], {"a1": "right", "a2": "right"},
                                 nominal_path(qa, qb, 9), SerialChain.from_model("yumi", "left"),

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from hrc_drake.messages import R_ELBOW, R_SHOULDER, R_WRIST
+from hrc_drake.motion.config import ProactivePlanner
 from hrc_drake.motion.geometry import point_capsule_distance
-from hrc_drake.motion.proactive import ProactivePlannerCore, ProactiveSettings, nominal_path, table_box
+from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path, table_box
 from hrc_drake.robots.chain import SerialChain
 
 QA = np.array([-0.858, -0.681, 2.086, 0.062, 4.18, 0.645, -1.942])
@@ -29,7 +30,7 @@ def run(overlap: str, seed: int = 0):
     """Three reaches of a1 (across the robot's path) and of a2 (far to the side), the robot doing
     r1 while the human does `overlap`; returns the core after its first replanning."""
     chain = SerialChain.from_model("yumi", "left")
-    settings = ProactiveSettings(gpdm_iterations=30, latent_dim=2)
+    settings = ProactivePlanner(gpdm_iterations=30, latent_dim=2)
     core = ProactivePlannerCore("yumi_left", "r1", ["a1", "a2"], {"a1": "right", "a2": "right"},
                                 nominal_path(QA, QB), chain, [table_box([0.5, 0.0], [1.2, 1.6, 0.1], 0.0)],
                                 settings, rng=seed)
