@@ -475,7 +475,7 @@ def main() -> None:
         print(f"cycle-time comparison on {scenario.name}: switched off")
         figures["cycle_time"] = None
     else:
-        seeds, duration = ((5,), 12.0) if args.quick else ((5, 6, 7), 75.0)
+        seeds, duration = ((5,), 12.0) if args.quick else (tuple(range(5, 15)), 75.0)  # 10 per arm
         print(f"\ncycle-time comparison on {scenario.name}: seeds {list(seeds)}, {duration:.0f} s each ...",
               flush=True)
         comparison = cycle_time_comparison(scenario, seeds, duration, workers=1 if args.quick else 2)

@@ -173,6 +173,12 @@ class ProactivePlannerCore:
             cloud_s += _time.perf_counter() - start
         return out, gpdm_s, cloud_s
 
+    def busy(self, time: float) -> bool:
+        """Whether an estimate or a replanning could change anything now (a realisation is being
+        recorded, or a replanning is due): lets a system skip its copy of the core."""
+        return self._recording is not None or (
+            self.ready and time - self.last_plan_ >= self.settings.replan_period)
+
     def maybe_replan(self, time: float) -> bool:
         """Replan when the databases are full, the period has passed and P_RH's row of r is
         defined (the robot did r within the window); True when a new path was made."""

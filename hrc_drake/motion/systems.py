@@ -216,6 +216,8 @@ class ProactivePlannerSystem(LeafSystem):
         human_seq, robot_seq = get_state(context, self._seen)
         human = input_or(self._human, context, EventLog()).since(human_seq)
         robot = input_or(self._robot, context, EventLog()).since(robot_seq)
+        if not human and not robot and not get_state(context, self._core).core.busy(time):
+            return EventStatus.DidNothing()  # nothing to record or replan: no copy of the core
         core = get_state(context, self._core).thaw()
         for event in sorted(robot + human, key=lambda e: e.time):
             if isinstance(event, RobotEvent):
