@@ -150,7 +150,8 @@ def _simulate(args) -> int:
         safety = m.get("safety")
         if safety and safety["below"]:
             line += (f"  BELOW the safety distance {safety['safety_distance']:g} m for "
-                     f"{safety['time_below_s']:.1f} s ({100 * safety['fraction_below']:.1f} % of the run)")
+                     f"{safety['time_below_s']:.1f} s ({100 * safety['fraction_below']:.1f} % of the run; "
+                     f"{safety['time_below_not_stopped_s']:.1f} s of it with the robot not stopped)")
         elif safety:
             line += f"  (never below the safety distance {safety['safety_distance']:g} m)"
         print(line)

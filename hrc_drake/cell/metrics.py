@@ -112,20 +112,28 @@ class DecimatedTrace:
         return self
 
 
+#: Speed override at or below which the robot counts as stopped (8.2.4's idle: under 1 % of nominal).
+STOPPED_OVERRIDE = 0.01
+
+
 @dataclass(frozen=True)
 class SampleStats:
     """Exact running figures over every periodic sample, however many the trace dropped;
-    `below`: samples whose true human-robot distance was under the safety distance."""
+    `below`: samples whose true human-robot distance was under the safety distance;
+    `below_not_stopped`: those of them with a speed override above `STOPPED_OVERRIDE` (the
+    safety system let the robot move; below it the robot is held and the human came to it)."""
 
     count: int = 0
     min_distance: float = np.inf
     override_sum: float = 0.0
     below: int = 0
+    below_not_stopped: int = 0
 
     def add(self, distance: float, override: float, safety_distance: float = -np.inf) -> SampleStats:
+        below = bool(distance < safety_distance)
         return SampleStats(self.count + 1, min(self.min_distance, distance) if np.isfinite(distance)
-                           else self.min_distance, self.override_sum + override,
-                           self.below + bool(distance < safety_distance))
+                           else self.min_distance, self.override_sum + override, self.below + below,
+                           self.below_not_stopped + (below and override > STOPPED_OVERRIDE))
 
 
 @dataclass
@@ -217,7 +225,9 @@ DEFINITIONS = {
                                 "every 0.1 s sample (m; negative: the capsules overlap)",
     "mean_speed_override": "mean robot speed override over every sample (1: full speed)",
     "safety": "samples whose true human-robot distance is under the scenario's safety_distance: their "
-              "time (samples x period, s), their fraction of all samples, and whether there is any",
+              "time (samples x period, s), their fraction of all samples, and whether there is any; "
+              "time_below_not_stopped_s: the time of those samples where the speed override was above 1 % "
+              "(the robot was not held; with a speed scaler the rest is the human coming to a stopped robot)",
     "detection": "the action detector's perceived events against the truth (precision, recall, latency)",
     "realtime_factor": "simulated_time / wall_time",
 }
@@ -255,6 +265,7 @@ def _safety(stats: SampleStats, log: MetricsLog) -> dict | None:
     return {"safety_distance": log.safety_distance,
             "time_below_s": round(stats.below * log.sample_period, 3),
             "fraction_below": round(stats.below / stats.count, 4),
+            "time_below_not_stopped_s": round(stats.below_not_stopped * log.sample_period, 3),
             "below": bool(stats.below)}
 
 

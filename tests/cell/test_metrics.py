@@ -67,15 +67,18 @@ def test_time_below_the_safety_distance_is_counted_over_every_sample():
     from hrc_drake.cell.metrics import SampleStats, summarize
 
     log = MetricsLog(safety_distance=0.1, sample_period=0.1)
+    overrides = [1.0, 0.0, 0.5, 0.005, 1.0, 1.0, 1.0, 1.0]
     for k, d in enumerate([0.5, 0.09, 0.05, -0.02, 0.1, 0.3, float("inf"), 0.2]):
-        log.record(0.1 * k, d, 1.0, {}, 0)
+        log.record(0.1 * k, d, overrides[k], {}, 0)
     safety = summarize(log, 0.8, [], {})["safety"]
-    # 0.09, 0.05 and -0.02 are under 0.1 (0.1 itself is not; no distance, inf, is not)
-    assert safety == {"safety_distance": 0.1, "time_below_s": 0.3, "fraction_below": 0.375, "below": True}
+    # 0.09, 0.05 and -0.02 are under 0.1 (0.1 itself is not; no distance, inf, is not); of them
+    # only 0.05 had the robot moving (override 0.5 > 1 %)
+    assert safety == {"safety_distance": 0.1, "time_below_s": 0.3, "fraction_below": 0.375,
+                      "time_below_not_stopped_s": 0.1, "below": True}
     # the recorder's running figures give the same count as the samples
     stats = SampleStats()
-    for d in log.distances:
-        stats = stats.add(d, 1.0, 0.1)
+    for d, override in zip(log.distances, log.overrides, strict=True):
+        stats = stats.add(d, override, 0.1)
     log.stats = stats
     assert summarize(log, 0.8, [], {})["safety"] == safety
     clear = MetricsLog(safety_distance=0.1)
