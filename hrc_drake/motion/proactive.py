@@ -196,7 +196,7 @@ class ProactivePlannerCore:
         union = weighted_union(clouds, weights)
         s = self.settings
         cost = ProactiveCost(self.chain.capsules, self.chain.points, self.nominal, union.points, union.gamma,
-                             self.boxes, s.lambda1, s.lambda2, s.alpha)
+                             self.boxes, s.lambda1, s.lambda2, s.alpha, dtype=np.dtype(s.potential_precision))
         start = _time.perf_counter()
         result = plan_proactive_path(self.nominal, cost, self.chain.joint_limits, self.rng,
                                      n_rollouts=s.n_rollouts, max_iterations=s.iterations,

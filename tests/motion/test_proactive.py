@@ -26,11 +26,11 @@ def reach(y: float, rng, frames: int = 30) -> np.ndarray:
     return points + rng.normal(0.0, 0.005, points.shape)
 
 
-def run(overlap: str, seed: int = 0):
+def run(overlap: str, seed: int = 0, precision: str = "float32"):
     """Three reaches of a1 (across the robot's path) and of a2 (far to the side), the robot doing
     r1 while the human does `overlap`; returns the core after its first replanning."""
     chain = SerialChain.from_model("yumi", "left")
-    settings = ProactivePlanner(gpdm_iterations=30, latent_dim=2)
+    settings = ProactivePlanner(gpdm_iterations=30, latent_dim=2, potential_precision=precision)
     core = ProactivePlannerCore("yumi_left", "r1", ["a1", "a2"], {"a1": "right", "a2": "right"},
                                 nominal_path(QA, QB), chain, [table_box([0.5, 0.0], [1.2, 1.6, 0.1], 0.0)],
                                 settings, rng=seed)
@@ -84,7 +84,20 @@ def test_an_action_done_elsewhere_leaves_the_path_nominal():
     assert deformation < 0.5 * np.abs(away.path_ - away.nominal).max()
 
 
+def test_float32_potentials_plan_the_path_of_float64():
+    single, _ = run("a1", precision="float32")
+    double, _ = run("a1", precision="float64")
+    assert single.reports_[-1].nominal_cost == pytest.approx(double.reports_[-1].nominal_cost, rel=1e-5)
+    assert single.reports_[-1].proactive_cost == pytest.approx(double.reports_[-1].proactive_cost, rel=1e-3)
+    np.testing.assert_allclose(single.path_, double.path_, atol=1e-3)
+
+
 def test_bad_setup_is_refused():
+    from hrc_drake.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="proactive_planner.potential_precision"):
+        ProactivePlanner(robot_action="r1", start_pose="p", human_actions=["a1"],
+                         potential_precision="float16").validate("proactive_planner")
     chain = SerialChain.from_model("yumi", "left")
     with pytest.raises(ValueError, match="moving arm"):
         ProactivePlannerCore("yumi_left", "r1", ["a1"], {}, nominal_path(QA, QB), chain)
