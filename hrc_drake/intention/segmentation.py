@@ -21,6 +21,15 @@ The thesis' units, in the order of this module:
   precedence constraints with observations sampled from the library (Fig. 4.6).
 * 4.2 - the segmentation error E_s.
 
+Two graphs of a hypothesis: `build_segmentation_graph` is the MRF of Fig. 4.2 as the thesis draws
+it (observation variables and all); the fitness and the sliding window use the same MRF with the
+evidence already sliced into one unary factor per hidden action (eq. (C.21)) - the same energy and
+MAP (a test checks it) on a graph of |rho| variables instead of F L + |rho|, which is what makes a
+GA of hundreds of evaluations per window affordable. With order o = 1 the hidden chain is a tree
+and MAP, marginals and the sliding-window messages are exact; o >= 2 closes cycles (loopy BP,
+approximate), and the messages into several survivors are kept per variable (a unary simple
+potential each, as 4.1.4 says), which drops their correlation.
+
 Actions are any hashable labels; inside they are codes 0..m-1 (the order of `SegmentationModel.
 actions`). A segment is (start_frame, end_frame, action), end exclusive. The choices the thesis
 leaves open are stated where they are made; the main ones: Phi_OjY is the count of the thesis
@@ -215,10 +224,15 @@ def observation_phi(codes, labels, n_bins: int, n_actions: int) -> np.ndarray:
         raise ValueError(f"observation_phi: codes {codes.shape} and labels {labels.shape} do not match")
     if codes.size and (codes.min() < 0 or codes.max() >= n_bins):
         raise ValueError(f"observation_phi: codes out of range 0..{n_bins - 1}")
+    if not np.issubdtype(labels.dtype, np.integer) or (
+        labels.size and not 0 <= labels.min() <= labels.max() < n_actions
+    ):
+        raise ValueError(f"observation_phi: labels must be action codes 0..{n_actions - 1}")
     per_action = np.bincount(labels, minlength=n_actions)
-    if len(per_action) > n_actions or np.any(per_action == 0):
-        missing = [a for a in range(n_actions) if a >= len(per_action) or per_action[a] == 0]
-        raise ValueError(f"observation_phi: labels out of range or actions {missing} have no windows")
+    if np.any(per_action == 0):
+        raise ValueError(
+            f"observation_phi: action codes {np.flatnonzero(per_action == 0).tolist()} have no windows"
+        )
     n_features = codes.shape[1]
     counts = np.zeros((n_features, n_bins, n_actions))
     feature = np.broadcast_to(np.arange(n_features), codes.shape)
@@ -276,9 +290,12 @@ class SegmentationModel:
         m = len(self.actions)
         if m < 1 or len(set(self.actions)) != m:
             raise ValueError(f"SegmentationModel: actions must be distinct labels, got {self.actions!r}")
+        if self.edges.ndim != 2:
+            raise ValueError(
+                f"SegmentationModel: edges must be (F, n_bins - 1), got shape {self.edges.shape}"
+            )
         n_features, n_bins = self.edges.shape[0], self.edges.shape[1] + 1
         expected = {
-            "edges": (self.edges.ndim, 2),
             "phi_obs": (self.phi_obs.shape, (n_features, n_bins, m)),
             "phi_seq": (self.phi_seq.shape[1:], (m, m)),
             "w_obs": (self.w_obs.shape, (n_features,)),
@@ -679,8 +696,13 @@ def incoming_messages(
     if not touched:
         return [None] * (len(chain) - n_deleted)
     marginals = chain_graph(model, unaries, pairs).marginals()
-    with np.errstate(divide="ignore"):
-        return [np.log(marginals[("Y", k)]) if k in touched else None for k in range(n_deleted, len(chain))]
+    # floored at the smallest normal float: a potential must stay finite, and a value the message
+    # makes 1e-308 times less likely than another is out of the MAP either way
+    tiny = np.finfo(float).tiny
+    return [
+        np.log(np.maximum(marginals[("Y", k)], tiny)) if k in touched else None
+        for k in range(n_deleted, len(chain))
+    ]
 
 
 class SlidingWindowSegmenter:
@@ -806,6 +828,19 @@ def artificial_sequence(n_actions: int, pairs, n_cycles: int, seed) -> np.ndarra
     )
 
 
+def sequence_slices(series: np.ndarray, length: int, n_sequences: int, seed) -> np.ndarray:
+    """`n_sequences` random contiguous slices of `length` actions of an artificial series, (N, K):
+    the action sequences of the training set (Fig. 4.6)."""
+    length = _check_int(length, "sequence_length", 1)
+    n_sequences = _check_int(n_sequences, "n_sequences", 1)
+    if length > len(series):
+        raise ValueError(
+            f"sequence_length={length} exceeds the {len(series)} actions of the artificial series"
+        )
+    starts = _generator(seed).integers(0, len(series) - length + 1, size=n_sequences)
+    return series[starts[:, None] + np.arange(length)[None, :]]
+
+
 @dataclass
 class TrainingResult:
     w_obs: np.ndarray
@@ -884,7 +919,7 @@ def learn_weights(
 # the segmenter
 
 
-def _library_windows(library, window_length: int, centres) -> tuple[list, list[np.ndarray], list[int]]:
+def library_windows(library, window_length: int, centres) -> tuple[list, list[np.ndarray], list[int]]:
     """Labels, F_O windows and lengths (in windows) of the recordings of a library [(action, frames)]."""
     if isinstance(library, str | bytes) or not isinstance(library, Sequence) or len(library) == 0:
         raise ValueError("library must be a non-empty sequence of (action, frames) recordings")
@@ -898,6 +933,23 @@ def _library_windows(library, window_length: int, centres) -> tuple[list, list[n
         features.append(values)
         lengths.append(len(values))
     return labels, features, lengths
+
+
+def _action_set(labels: list, actions: Sequence[Hashable] | None) -> tuple[Hashable, ...]:
+    """The actions (given, or the sorted labels of the library), each with a recording."""
+    if actions is None:
+        try:
+            actions = sorted(set(labels))
+        except TypeError:
+            raise ValueError("action labels are not sortable: pass actions=") from None
+    actions = tuple(actions)
+    unknown = [a for a in labels if a not in actions]
+    if unknown:
+        raise ValueError(f"library action {unknown[0]!r} is not in actions {list(actions)!r}")
+    unrecorded = [a for a in actions if a not in set(labels)]
+    if unrecorded:
+        raise ValueError(f"actions {unrecorded!r} have no recording in the library")
+    return actions
 
 
 class Segmenter:
@@ -969,17 +1021,9 @@ class Segmenter:
         actions (default max(m, o + 1)) with `windows_per_action` library windows each train w_O, w_Y.
         """
         rng = _generator(self.seed if seed is None else seed)
-        labels, features, lengths = _library_windows(library, self.window_length, self.centres)
-        if actions is None:
-            try:
-                actions = sorted(set(labels))
-            except TypeError:
-                raise ValueError("action labels are not sortable: pass actions=") from None
-        actions = tuple(actions)
+        labels, features, lengths = library_windows(library, self.window_length, self.centres)
+        actions = _action_set(labels, actions)
         code = {a: i for i, a in enumerate(actions)}
-        unknown = [a for a in labels if a not in code]
-        if unknown:
-            raise ValueError(f"library action {unknown[0]!r} is not in actions {list(actions)!r}")
         window_labels = np.concatenate(
             [np.full(len(f), code[a]) for a, f in zip(labels, features, strict=True)]
         )
@@ -987,17 +1031,10 @@ class Segmenter:
         edges = fit_ecdf_edges(values, self.n_bins)
         codes = discretise(values, edges)
         phi_obs = observation_phi(codes, window_labels, self.n_bins, len(actions))
-        pairs = precedence_pairs(precedence, actions)
-        series = artificial_sequence(len(actions), pairs, n_cycles, rng)
+        series = artificial_sequence(len(actions), precedence_pairs(precedence, actions), n_cycles, rng)
         phi_seq = sequence_phi(series, len(actions), self.order)
         length = max(len(actions), self.order + 1) if sequence_length is None else sequence_length
-        length = _check_int(length, "sequence_length", 1)
-        if length > len(series):
-            raise ValueError(
-                f"sequence_length={length} exceeds the {len(series)} actions of n_cycles={n_cycles}"
-            )
-        starts = rng.integers(0, len(series) - length + 1, size=_check_int(n_sequences, "n_sequences", 1))
-        sequences = series[starts[:, None] + np.arange(length)[None, :]]
+        sequences = sequence_slices(series, length, n_sequences, rng)
         trained = learn_weights(
             phi_obs, phi_seq, codes, window_labels, sequences,
             windows_per_action=windows_per_action, seed=rng, l2=l2, max_iter=max_iter,
@@ -1058,9 +1095,9 @@ class Segmenter:
     def segment(self, frames, *, merge: bool = True) -> list[Segment]:
         """Segment a whole recording (T, 8, 3) with the sliding window of 4.1.4 (from a reset state,
         so the same seed gives the same answer); `merge` joins adjacent segments of the same action."""
-        sliding = self._require_model("segment")
+        self._require_model("segment")
         frames = check_frames(frames)
-        self.reset()
+        self.reset()  # a fresh SlidingWindowSegmenter, its generator restarted from the seed
         sliding = self._sliding
         values, bounds = window_features(frames, self.window_length, self.centres)
         closed: list[Segment] = []

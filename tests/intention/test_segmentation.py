@@ -433,7 +433,7 @@ def test_same_seed_same_segmentation(segmenter, library):
 
 
 def test_training_learns_the_sign_of_w_y_from_the_sequences(segmenter, library):
-    labels, features, _ = seg._library_windows(library, WINDOW, CENTRES)
+    labels, features, _ = seg.library_windows(library, WINDOW, CENTRES)
     window_labels = np.concatenate([np.full(len(f), a) for a, f in zip(labels, features, strict=True)])
     codes = seg.discretise(np.vstack(features), segmenter.model_.edges)
     # a strict chain 0 -> 1 -> 2: Q puts all its mass on the successor, none on the predecessor
@@ -502,6 +502,16 @@ def test_segmentation_error_by_hand():
         (lambda: seg.Segmenter(5).fit([("a", np.zeros((3, 8)))], []), r"library\[0\] frames"),
         (lambda: seg.segmentation_error([(0, 5, "a"), (3, 8, "b")], [(0, 8, "a")]), "overlaps"),
         (lambda: seg.GeneticSettings(population=4, elite=4), "elite"),
+        (
+            lambda: seg.Segmenter(5).fit([("a", np.zeros((6, 8, 3)))], [], actions=("a", "b")),
+            r"\['b'\] have no",
+        ),
+        (
+            lambda: seg.SegmentationModel(
+                ("a",), np.zeros((2, 2)), np.zeros((2, 3, 2)), np.zeros((1, 1, 1)), np.ones(2), 1.0, 1.0
+            ),
+            "phi_obs has shape",
+        ),
         (lambda: seg.log_fitness(small_model(), np.array([[0, 3]]), [1.0]), "out of range"),
     ],
 )
