@@ -21,7 +21,7 @@ from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell import plugins
 from hrc_drake.cell.replay import add_replay_markers
-from hrc_drake.cell.scenario import ScenarioError, scenario_relative
+from hrc_drake.cell.scenario import ScenarioError, operator_places, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
     CellWorldSystem,
@@ -116,19 +116,6 @@ class Cell:
 CELL_RATE = 30.0
 #: period (s) of the robot task executor's decisions
 EXECUTOR_PERIOD = 0.1
-#: the operator's wrist stops this far above a buffer's base when picking or placing a part
-HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
-
-
-def _places(scenario: Scenario) -> dict[str, np.ndarray]:
-    """Where the operator's wrist goes for each goal sphere and buffer."""
-    places = {g.name: np.asarray(g.center, float) for g in scenario.layout.goals}
-    places.update(
-        {b.name: np.asarray(b.position, float) + HAND_ABOVE_BUFFER for b in scenario.layout.buffers}
-    )
-    return places
-
-
 def _add_robots(plant, scenario: Scenario):
     return add_robots(plant, scenario.robots)
 
@@ -149,7 +136,7 @@ def _operator_system(scenario: Scenario, body: BodyModel, rng):
     from hrc_drake.human.systems import OperatorSource
 
     op = scenario.operator
-    tasks = tasks_from_schema(op, _places(scenario))
+    tasks = tasks_from_schema(op, operator_places(scenario))
     rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
     operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, agent=op.name)
     return OperatorSource(operator, rate=CELL_RATE)

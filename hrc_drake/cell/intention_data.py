@@ -20,8 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.cell.build import HAND_ABOVE_BUFFER
-from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.scenario import HAND_ABOVE_BUFFER, load_scenario
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel

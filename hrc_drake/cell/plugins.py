@@ -64,10 +64,18 @@ def add_action_detector(builder, scenario: Scenario, estimate_port, systems):
     """The action detector on the goal regions of the operator's actions (thesis Ch. 2), if the
     scenario has one; systems["perceived_events"] is then its events port."""
     from hrc_drake.cell.scenario import action_regions
-    from hrc_drake.intention.config import NoActionDetector
+    from hrc_drake.intention.config import NoActionDetector, SegmenterActionDetector
     from hrc_drake.intention.systems import apply_action_detector_config
 
     if isinstance(scenario.action_detector, NoActionDetector):
+        return
+    if isinstance(scenario.action_detector, SegmenterActionDetector):
+        from hrc_drake.intention.systems import apply_segmenter_config
+
+        detector = apply_segmenter_config(scenario.action_detector, builder, skeleton_estimate=estimate_port,
+                                          segmenter=fitted_segmenter(scenario), agent=scenario.operator.name)
+        systems["action_detector"] = detector
+        systems["perceived_events"] = detector.GetOutputPort("human_events")
         return
     regions = action_regions(scenario)
     goals = {g.name: g for g in scenario.layout.goals}
@@ -84,6 +92,74 @@ def add_action_detector(builder, scenario: Scenario, estimate_port, systems):
     if detector is not None:
         systems["action_detector"] = detector
         systems["perceived_events"] = detector.GetOutputPort("human_events")
+
+
+def pattern_precedence(pattern) -> list[tuple[str, str]]:
+    """(before, after) pairs of consecutive actions of an operator's pattern, in the order of their
+    first appearance (a pattern that repeats actions gives no cycle)."""
+    first = {name: k for k, name in reversed(list(enumerate(pattern)))}
+    pairs = []
+    for before, after in zip(pattern[:-1], pattern[1:], strict=True):
+        if first[before] < first[after] and (before, after) not in pairs:
+            pairs.append((before, after))
+    return pairs
+
+
+def segmenter_library(scenario: Scenario, config, seed: int) -> list:
+    """The library of 4.1.5 for `SegmenterActionDetector`: [(action, frames (T, 8, 3))], every
+    action of `config.training_cycles` cycles of the scenario's pattern done by a synthetic
+    operator of its own seed, sampled at `config.rate` with the camera's noise."""
+    import warnings
+
+    from hrc_drake.cell.scenario import operator_places
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
+
+    op = scenario.operator
+    body = BodyModel(op.segments)
+    rng = np.random.default_rng(seed)
+    rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the cell itself warns once about goals out of reach
+        operator = SyntheticOperator(body, tasks_from_schema(op, operator_places(scenario)),
+                                     list(op.pattern) * config.training_cycles, rest_q, rng)
+    noise = scenario.layout.camera.noise_std
+    library, current, frames = [], None, []
+    t, step = 0.0, 1.0 / config.rate
+    remaining = len(op.pattern) * config.training_cycles
+    while remaining > 0:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            events = operator.update(t)
+        for event in events:
+            if event.kind == "begin":
+                current, frames = event.action, []
+            elif event.kind == "end" and current is not None:
+                if len(frames) >= 2:
+                    library.append((current, np.array(frames)))
+                current, remaining = None, remaining - 1
+        if current is not None:
+            frames.append(operator.points(t) + rng.normal(0.0, noise, (8, 3)))
+        t += step
+    return library
+
+
+def fitted_segmenter(scenario: Scenario):
+    """The `Segmenter` of the scenario's `SegmenterActionDetector`, fitted on `segmenter_library`
+    with the pattern's precedence (4.1.5); the goal centres are the layout's goals."""
+    from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
+
+    config = scenario.action_detector
+    seed = int(np.random.default_rng([scenario.seed, 4]).integers(2**31))
+    centres = np.array([g.center for g in scenario.layout.goals], float).reshape(-1, 3)
+    genetic = GeneticSettings(population=config.population, generations=config.generations)
+    segmenter = Segmenter(max(1, int(round(config.window * config.rate))), batch_windows=config.batch_windows,
+                          order=config.order, n_bins=config.n_bins,
+                          centres=centres if len(centres) else None, genetic=genetic, seed=seed)
+    pattern = list(scenario.operator.pattern)
+    library = segmenter_library(scenario, config, seed)
+    actions = list(dict.fromkeys(pattern))
+    return segmenter.fit(library, pattern_precedence(pattern), actions=actions, seed=seed)
 
 
 def decision_events(scenario: Scenario, human_events_port, systems):

@@ -14,6 +14,7 @@ import types
 import typing
 from pathlib import Path
 
+import numpy as np
 import yaml
 from pydrake.common.yaml import yaml_load_typed
 
@@ -45,6 +46,19 @@ HANDS = ("left", "right", "both")
 MAX_SCENARIO_BYTES = 2_000_000
 #: the sources of the human events the predictor and the scheduler read
 HUMAN_EVENT_SOURCES = ("auto", "perceived", "truth")
+
+
+#: the operator's wrist stops this far above a buffer's base when picking or placing a part
+HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
+
+
+def operator_places(scenario: Scenario) -> dict[str, np.ndarray]:
+    """Where the operator's wrist goes for each goal sphere and buffer."""
+    places = {g.name: np.asarray(g.center, float) for g in scenario.layout.goals}
+    places.update(
+        {b.name: np.asarray(b.position, float) + HAND_ABOVE_BUFFER for b in scenario.layout.buffers}
+    )
+    return places
 
 
 def scenario_relative(scenario_path: str | Path, name: str) -> Path:
@@ -728,7 +742,7 @@ def _check_best_scenario_scheduler(sc: Scenario, file) -> None:
 def _check_perceived_events(sc: Scenario, file) -> None:
     """`human_events` names a known source; an action detector needs a synthetic operator whose
     every action has its own goal sphere (one region per action, thesis Ch. 2)."""
-    from hrc_drake.intention.config import NoActionDetector
+    from hrc_drake.intention.config import NoActionDetector, SegmenterActionDetector
 
     _kind(file, "human_events", sc.human_events, HUMAN_EVENT_SOURCES)
     has_detector = not isinstance(sc.action_detector, NoActionDetector)
@@ -739,6 +753,12 @@ def _check_perceived_events(sc: Scenario, file) -> None:
         return
     if sc.operator.recorded:
         raise ScenarioError(file, "action_detector", "a recorded skeleton has no true actions to perceive")
+    if isinstance(sc.action_detector, SegmenterActionDetector):
+        # the segmenter learns from the operator's own actions (4.1.5), not from goal regions
+        if len(set(sc.operator.pattern)) < 2:
+            raise ScenarioError(file, "operator.pattern", "the segmenter needs a pattern of at least two "
+                                                          "different actions to learn from")
+        return
     goals = {g.name for g in sc.layout.goals}
     owner: dict[str, str] = {}
     for i, action in enumerate(sc.operator.actions):

@@ -17,6 +17,7 @@ from hrc_drake.intention.config import (
     GoalRegionActionDetector,
     NoActionDetector,
     NoIntention,
+    SegmenterActionDetector,
 )
 from hrc_drake.motion.config import (
     GPMotionModel,
@@ -81,7 +82,7 @@ class Metrics:
 #: area, chosen in YAML by tag: ``tracker: !ParticleFilterTracker {particles: 500}``).
 Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
 Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
-ActionDetector = Union[NoActionDetector, GoalRegionActionDetector]  # noqa: UP007
+ActionDetector = Union[NoActionDetector, GoalRegionActionDetector, SegmenterActionDetector]  # noqa: UP007
 MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007
 Proactive = Union[NoProactivePlanner, ProactivePlanner]  # noqa: UP007
 

@@ -152,5 +152,44 @@ class GoalRegionActionDetector:
               f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
 
 
+@dataclass
+class SegmenterActionDetector:
+    """Actions perceived by the segmenter of thesis 4.1 (`intention.segmentation.Segmenter`):
+    windows of the skeleton estimate, a variable-structure MRF per segmentation hypothesis, a
+    genetic algorithm, the sliding window of 4.1.4. Before the run it learns from a library of
+    the operator's own actions: `training_cycles` cycles of the scenario's pattern performed by a
+    synthetic operator of its own seed, recorded at `rate` with the camera's noise (4.1.5's
+    "library of recorded human motions"); the precedence constraints are the pattern's order."""
+
+    #: l_w, the length of an observation window (s; 400 ms in 4.2).
+    window: float = 0.4
+    #: L, observation windows per segmentation (30 in 4.2).
+    batch_windows: int = 30
+    #: o, the order of the sequence potentials (4.2); 1 keeps the chain a tree (exact MAP).
+    order: int = 1
+    #: Values of each discretised feature (the ECDF bins of Fig. 4.3).
+    n_bins: int = 5
+    #: Genetic algorithm (4.1.3): individuals per generation and generations per segmentation.
+    population: int = 24
+    generations: int = 20
+    #: Cycles of the operator's pattern recorded for the library before the run.
+    training_cycles: int = 8
+    #: Rate at which skeleton estimates are sampled (Hz), at most 50.
+    rate: float = 15.0
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the segmenter cannot use."""
+        check(math.isfinite(self.rate) and 0.0 < self.rate <= MAX_RATE, f"{path}.rate",
+              f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
+        check(math.isfinite(self.window) and 1.0 / self.rate <= self.window <= 10.0, f"{path}.window",
+              f"must be in [1 / rate, 10] s, got {self.window!r}")
+        for name, low, high in (("batch_windows", 2, 1000), ("order", 1, 5), ("n_bins", 2, 50),
+                                ("population", 2, 1000), ("generations", 1, 1000),
+                                ("training_cycles", 1, 1000)):
+            value = getattr(self, name)
+            check(isinstance(value, int) and not isinstance(value, bool) and low <= value <= high,
+                  f"{path}.{name}", f"must be an integer in [{low}, {high}], got {value!r}")
+
+
 #: Every action-detector kind a scenario can choose.
-ActionDetectorConfig = NoActionDetector | GoalRegionActionDetector
+ActionDetectorConfig = NoActionDetector | GoalRegionActionDetector | SegmenterActionDetector

@@ -40,6 +40,8 @@ rounded form it is evaluated in (`canonical_hypothesis`).
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -726,6 +728,15 @@ class SlidingWindowSegmenter:
         self._seed = seed
         self.reset()
 
+    def clone(self) -> SlidingWindowSegmenter:
+        """A copy that shares the (read-only) model: the state a Drake system keeps per Context."""
+        twin = object.__new__(SlidingWindowSegmenter)
+        twin.__dict__.update(self.__dict__)
+        twin.rng = copy.deepcopy(self.rng)
+        twin.survivors = [dataclasses.replace(link) for link in self.survivors]  # _process changes links
+        twin._codes, twin._bounds = list(self._codes), list(self._bounds)
+        return twin
+
     def reset(self) -> None:
         self.rng = _generator(self._seed)
         self.survivors: list[ChainLink] = []
@@ -990,6 +1001,14 @@ class Segmenter:
         if model is not None:
             self._check_model(model)
         self.reset()
+
+    def clone(self) -> Segmenter:
+        """A copy that shares the learnt model and copies the stream (frames, windows, links)."""
+        twin = object.__new__(Segmenter)
+        twin.__dict__.update(self.__dict__)
+        twin._frames = list(self._frames)
+        twin._sliding = None if self._sliding is None else self._sliding.clone()
+        return twin
 
     def _check_model(self, model: SegmentationModel) -> None:
         n_features = len(feature_names(len(self.centres)))

@@ -23,9 +23,10 @@ from hrc_drake.intention.config import (
     GoalRegionActionDetector,
     NoActionDetector,
     NoIntention,
+    SegmenterActionDetector,
 )
 from hrc_drake.intention.detector import GoalRegionDetector
-from hrc_drake.messages import EventLog, GoalBelief, Immutable, SkeletonEstimate
+from hrc_drake.messages import EventLog, GoalBelief, HumanEvent, Immutable, SkeletonEstimate
 from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
 
 #: the intention_events output keeps at most this many of the latest events
@@ -226,3 +227,114 @@ def apply_action_detector_config(config: NoActionDetector | GoalRegionActionDete
     detector.set_name("action_detector")
     builder.Connect(skeleton_estimate, detector.GetInputPort("skeleton_estimate"))
     return detector
+
+
+class SegmenterRun:
+    """What changes during a run of `ActionSegmenterSystem`: the segmenter's stream, the time of
+    its first frame, the last finite estimate of each point (held over a lost one), the last
+    closed segment (held until a segment of another action closes: adjacent segments of one
+    action are one action), the event count and the log."""
+
+    def __init__(self, segmenter, rate: float):
+        self.segmenter = segmenter
+        self.rate = float(rate)
+        self.start_time: float | None = None
+        self.points: np.ndarray | None = None
+        self.pending = None
+        self.seq = 0
+        self.log = EventLog()
+
+    def clone(self) -> SegmenterRun:
+        twin = object.__new__(SegmenterRun)
+        twin.__dict__.update(self.__dict__)
+        twin.segmenter = self.segmenter.clone()
+        return twin
+
+    def frame_time(self, index: int) -> float:
+        return self.start_time + index / self.rate
+
+    def step(self, time: float, points: np.ndarray, agent: str) -> bool:
+        """Feed one sample; True when an event was emitted."""
+        if self.points is None:
+            if not np.all(np.isfinite(points)):
+                return False  # the segmenter starts once every point has been seen
+            self.start_time, self.points = float(time), points.copy()
+        else:
+            self.points = np.where(np.isfinite(points), points, self.points)
+        new = []
+        for segment in self.segmenter.update(self.points):
+            new += self._close(segment, agent)
+        if new:
+            self.log = self.log.appended(new, MAX_EVENTS_OUT)
+        return bool(new)
+
+    def _close(self, segment, agent: str) -> list:
+        from hrc_drake.intention.segmentation import Segment
+
+        held = self.pending
+        if held is not None and held.action == segment.action and held.end == segment.start:
+            self.pending = Segment(held.start, segment.end, held.action)
+            return []
+        self.pending = segment
+        if held is None:
+            return []
+        events = []
+        for kind, frame in (("begin", held.start), ("end", held.end - 1)):
+            self.seq += 1
+            events.append(HumanEvent(self.frame_time(frame), str(held.action), kind, self.seq, agent=agent))
+        return events
+
+
+class ActionSegmenterSystem(LeafSystem):
+    """The operator's actions perceived by the segmenter of thesis 4.1 (factor graphs evolved by
+    a genetic algorithm on sliding windows, `intention.segmentation.Segmenter`), at `config.rate`.
+
+    segmenter: a fitted `Segmenter` whose window_length is config.window * config.rate samples.
+    Input "skeleton_estimate" (abstract `SkeletonEstimate`; a lost point keeps its last estimate).
+    Output "human_events" (abstract `EventLog` of `HumanEvent`, the last MAX_EVENTS_OUT), read as
+    the goal-region detector's are. An action is known once its segment is closed: up to one
+    batch of L windows (12 s in 4.2) after it ends, plus the next segment of another action.
+    State: `Frozen(SegmenterRun)`.
+    """
+
+    def __init__(self, config: SegmenterActionDetector, segmenter, agent: str = "human"):
+        super().__init__()
+        config.validate("action_detector")
+        if segmenter.model_ is None:
+            raise ValueError("ActionSegmenterSystem: the segmenter has no model; fit it first")
+        self.config, self.agent = config, agent
+        self._initial = Frozen(SegmenterRun(segmenter.clone(), config.rate))
+        self._input = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                    AbstractValue.Make(SkeletonEstimate()))
+        self._run = declare_state(self, lambda context: self._initial)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
+        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
+                                       self._calc_events,
+                                       {self.abstract_state_ticket(AbstractStateIndex(self._run))})
+
+    def run(self, context) -> SegmenterRun:
+        """The run of `context` (read only)."""
+        return get_state(context, self._run).core
+
+    def _update(self, context, state):
+        estimate = input_or(self._input, context, None)
+        points = None if estimate is None else np.asarray(estimate.points, dtype=float)
+        if points is None or points.shape != (8, 3):
+            return EventStatus.DidNothing()
+        run = get_state(context, self._run).thaw()
+        run.step(context.get_time(), points, self.agent)
+        set_state(state, self._run, Frozen(run))
+        return EventStatus.Succeeded()
+
+    def _calc_events(self, context, output):
+        output.set_value(get_state(context, self._run).core.log)
+
+
+def apply_segmenter_config(config: SegmenterActionDetector, builder, *, skeleton_estimate, segmenter,
+                           agent: str = "human") -> ActionSegmenterSystem:
+    """Add the segmenter of `config` (with its fitted `segmenter`), named "action_detector", fed
+    by the `skeleton_estimate` output port."""
+    system = builder.AddSystem(ActionSegmenterSystem(config, segmenter, agent))
+    system.set_name("action_detector")
+    builder.Connect(skeleton_estimate, system.GetInputPort("skeleton_estimate"))
+    return system

@@ -2,8 +2,9 @@
 
 import numpy as np
 
-from hrc_drake.intention.config import GmmBayesIntention, GoalRegionActionDetector
-from hrc_drake.intention.systems import ActionDetector, IntentionEstimator
+from hrc_drake.intention.config import GmmBayesIntention, GoalRegionActionDetector, SegmenterActionDetector
+from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
+from hrc_drake.intention.systems import ActionDetector, ActionSegmenterSystem, IntentionEstimator
 from hrc_drake.messages import SkeletonEstimate
 from tests.contract import SystemExample
 from tests.intention.intention_reaches import GOALS, straight_reach
@@ -40,4 +41,41 @@ def action_detector() -> SystemExample:
                          {"skeleton_estimate": _wrists_at(away, GOALS[2])}, duration=0.5)
 
 
-EXAMPLES = {IntentionEstimator: intention_estimator, ActionDetector: action_detector}
+def reaching_library(rng, frames: int = 12) -> list:
+    """[(action, frames)]: action "a" with the left wrist at goal A, "b" ... B, "c" ... C."""
+    away = np.array([0.0, 0.0, 2.0])
+    library = []
+    for _ in range(3):
+        for action, goal in zip("abc", GOALS, strict=True):
+            points = np.tile(np.linspace(0.0, 1.0, 8)[:, None] * [0.1, 0.2, 0.3], (frames, 1, 1))
+            points[:, 6], points[:, 7] = goal, away
+            library.append((action, points + rng.normal(0.0, 0.01, points.shape)))
+    return library
+
+
+def small_segmenter(config: SegmenterActionDetector, seed: int = 0) -> Segmenter:
+    genetic = GeneticSettings(population=config.population, generations=config.generations)
+    segmenter = Segmenter(int(round(config.window * config.rate)), batch_windows=config.batch_windows,
+                          centres=GOALS, genetic=genetic, seed=seed)
+    return segmenter.fit(reaching_library(np.random.default_rng(seed)), [("a", "b"), ("b", "c")],
+                         n_cycles=4, n_sequences=10, seed=seed)
+
+
+SMALL_SEGMENTER = SegmenterActionDetector(window=0.2, batch_windows=3, population=6, generations=3, rate=10.0)
+
+
+def action_segmenter() -> SystemExample:
+    """Constant inputs make one action that never closes (a segment is held until one of another
+    action closes), so the event logs stay empty either way (inputs_matter=False); the events of
+    two different streams are checked in tests/intention/test_systems.py."""
+    points_a = np.tile(np.linspace(0.0, 1.0, 8)[:, None] * [0.1, 0.2, 0.3], (1, 1))
+    points_b = points_a.copy()
+    points_a[6], points_b[6] = GOALS[0], GOALS[2]
+    system = ActionSegmenterSystem(SMALL_SEGMENTER, small_segmenter(SMALL_SEGMENTER))
+    return SystemExample(system, {"skeleton_estimate": SkeletonEstimate(time=0.0, points=points_a)},
+                         {"skeleton_estimate": SkeletonEstimate(time=0.0, points=points_b)}, duration=2.0,
+                         inputs_matter=False)
+
+
+EXAMPLES = {IntentionEstimator: intention_estimator, ActionDetector: action_detector,
+            ActionSegmenterSystem: action_segmenter}

@@ -122,3 +122,41 @@ def test_two_contexts_fed_different_reaches_stay_independent(small_model):
     np.testing.assert_array_equal(together["a"].probabilities, alone["a"].probabilities)
     assert together["a"].probabilities[1].argmax() == 0
     assert together["b"].probabilities[1].argmax() == 2
+
+
+def _segmenter_stream(system, context, simulator, goals_in_order, seconds_each):
+    """Drive the segmenter with the left wrist held at each goal in turn; the final event log."""
+    from tests.intention.system_examples import GOALS as EXAMPLE_GOALS
+
+    points = np.tile(np.linspace(0.0, 1.0, 8)[:, None] * [0.1, 0.2, 0.3], (1, 1))
+    port = system.GetInputPort("skeleton_estimate")
+    t = 0.0
+    for k in goals_in_order:
+        frame = points.copy()
+        frame[6], frame[7] = EXAMPLE_GOALS[k], [0.0, 0.0, 2.0]
+        port.FixValue(context, AbstractValue.Make(SkeletonEstimate(time=t, points=frame)))
+        t += seconds_each
+        simulator.AdvanceTo(t)
+    return system.GetOutputPort("human_events").Eval(context)
+
+
+def test_the_segmenter_system_reports_the_actions_of_its_stream():
+    from hrc_drake.intention.systems import ActionSegmenterSystem
+    from tests.intention.system_examples import SMALL_SEGMENTER, small_segmenter
+
+    system = ActionSegmenterSystem(SMALL_SEGMENTER, small_segmenter(SMALL_SEGMENTER))
+    logs = []
+    for order in ([0, 1, 2, 0, 1, 2], [2, 0, 1, 2, 0, 1]):
+        context = system.CreateDefaultContext()
+        simulator = Simulator(system, context)
+        simulator.Initialize()
+        logs.append(_segmenter_stream(system, context, simulator, order, 1.8))
+    names = "abc"
+    for log, order in zip(logs, ([0, 1, 2, 0, 1, 2], [2, 0, 1, 2, 0, 1]), strict=True):
+        begins = [e.action for e in log.events if e.kind == "begin"]
+        # every action but the last (still held: no later segment closed it) is reported, in order
+        assert begins == [names[k] for k in order[:len(begins)]] and len(begins) >= 4
+        times = [e.time for e in log.events]
+        assert times == sorted(times) and [e.seq for e in log.events] == list(range(1, len(log.events) + 1))
+        first_end = next(e.time for e in log.events if e.kind == "end")
+        assert abs(first_end - 1.8) < 0.5  # the first action ends when the wrist moves on
