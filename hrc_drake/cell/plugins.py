@@ -11,6 +11,7 @@ import numpy as np
 from hrc_drake.cell.scenario import scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import RobotCapsules
+from hrc_drake.errors import ConfigError
 
 
 def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsules, systems, overrides, seed):
@@ -105,10 +106,12 @@ def pattern_precedence(pattern) -> list[tuple[str, str]]:
     return pairs
 
 
-def segmenter_library(scenario: Scenario, config, seed: int) -> list:
-    """The library of 4.1.5 for `SegmenterActionDetector`: [(action, frames (T, 8, 3))], every
-    action of `config.training_cycles` cycles of the scenario's pattern done by a synthetic
-    operator of its own seed, sampled at `config.rate` with the camera's noise."""
+def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, segments=None,
+                    max_seconds: float | None = None):
+    """A synthetic operator of the scenario doing `cycles` cycles of its pattern on its own (no
+    world: it never waits), sampled at `rate` with the camera's noise: (frames (T, 8, 3), labels
+    (T,): the action running at each frame, None between actions). segments: the operator's
+    anthropometrics (default the scenario's); the recording stops after `max_seconds`."""
     import warnings
 
     from hrc_drake.cell.scenario import operator_places
@@ -116,31 +119,44 @@ def segmenter_library(scenario: Scenario, config, seed: int) -> list:
     from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
 
     op = scenario.operator
-    body = BodyModel(op.segments)
+    body = BodyModel(op.segments if segments is None else segments)
     rng = np.random.default_rng(seed)
     rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the cell itself warns once about goals out of reach
         operator = SyntheticOperator(body, tasks_from_schema(op, operator_places(scenario)),
-                                     list(op.pattern) * config.training_cycles, rest_q, rng)
+                                     list(op.pattern) * cycles, rest_q, rng)
+    from hrc_drake.cell.scenario import SEGMENTER_LIBRARY_SECONDS
+
+    max_seconds = SEGMENTER_LIBRARY_SECONDS if max_seconds is None else max_seconds
     noise = scenario.layout.camera.noise_std
-    library, current, frames = [], None, []
-    t, step = 0.0, 1.0 / config.rate
-    remaining = len(op.pattern) * config.training_cycles
-    while remaining > 0:
+    frames, labels, current = [], [], None
+    t, remaining = 0.0, len(op.pattern) * cycles
+    while remaining > 0 and t <= max_seconds:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             events = operator.update(t)
         for event in events:
             if event.kind == "begin":
-                current, frames = event.action, []
+                current = event.action
             elif event.kind == "end" and current is not None:
-                if len(frames) >= 2:
-                    library.append((current, np.array(frames)))
                 current, remaining = None, remaining - 1
-        if current is not None:
-            frames.append(operator.points(t) + rng.normal(0.0, noise, (8, 3)))
-        t += step
+        frames.append(operator.points(t) + rng.normal(0.0, noise, (8, 3)))
+        labels.append(current)
+        t += 1.0 / rate
+    return np.array(frames), labels
+
+
+def segmenter_library(scenario: Scenario, config, seed: int, segments=None) -> list:
+    """The library of 4.1.5 for `SegmenterActionDetector`: [(action, frames (T, 8, 3))], every
+    action of `config.training_cycles` cycles of `operator_stream`."""
+    frames, labels = operator_stream(scenario, config.training_cycles, config.rate, seed, segments)
+    library, start = [], 0
+    for k in range(1, len(labels) + 1):
+        if k == len(labels) or labels[k] != labels[start]:
+            if labels[start] is not None and k - start >= 2:
+                library.append((labels[start], frames[start:k]))
+            start = k
     return library
 
 
@@ -159,6 +175,13 @@ def fitted_segmenter(scenario: Scenario):
     pattern = list(scenario.operator.pattern)
     library = segmenter_library(scenario, config, seed)
     actions = list(dict.fromkeys(pattern))
+    from hrc_drake.cell.scenario import SEGMENTER_LIBRARY_SECONDS
+
+    missing = sorted(set(actions) - {action for action, _ in library})
+    if missing:
+        raise ConfigError("action_detector.training_cycles",
+                          f"the operator's library (at most {SEGMENTER_LIBRARY_SECONDS:.0f} s of their work) "
+                          f"holds no realisation of {missing}: shorter actions are needed")
     return segmenter.fit(library, pattern_precedence(pattern), actions=actions, seed=seed)
 
 

@@ -48,6 +48,8 @@ MAX_SCENARIO_BYTES = 2_000_000
 HUMAN_EVENT_SOURCES = ("auto", "perceived", "truth")
 
 
+#: longest recording of the operator for the segmenter's library (s of simulated work)
+SEGMENTER_LIBRARY_SECONDS = 1800.0
 #: the operator's wrist stops this far above a buffer's base when picking or placing a part
 HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
 
@@ -758,6 +760,16 @@ def _check_perceived_events(sc: Scenario, file) -> None:
         if len(set(sc.operator.pattern)) < 2:
             raise ScenarioError(file, "operator.pattern", "the segmenter needs a pattern of at least two "
                                                           "different actions to learn from")
+        from hrc_drake.distributions import mean_duration
+
+        means = {a.name: mean_duration(a.duration) for a in sc.operator.actions}
+        cycle = sum(means.get(name, 0.0) for name in sc.operator.pattern)
+        budget = SEGMENTER_LIBRARY_SECONDS / 1.5  # room for durations longer than their means
+        work = sc.action_detector.training_cycles * cycle
+        if work > budget:
+            raise ScenarioError(file, "action_detector.training_cycles",
+                                f"the segmenter's library would take {work:.0f} s of the operator's work "
+                                f"(at most {budget:.0f} s): fewer cycles")
         return
     goals = {g.name for g in sc.layout.goals}
     owner: dict[str, str] = {}

@@ -116,3 +116,29 @@ def test_the_segmenter_of_chapter_4_perceives_the_operator_in_a_cell(tmp_path):
     detection = result.metrics["detection"]
     # measured: recall 0.88 over 120 s (the segmenter labels the operator's waits too: precision 0.43)
     assert detection["event_recall"] >= 0.6 and detection["event_precision"] > 0.2
+
+
+def test_the_segmenter_feeds_the_predictor_in_the_torch_cell():
+    """diagrams/torch_segmentation.yaml (4.2): the HOMM of Ch. 5 learns from the segmenter's events
+    (human_events: perceived), not from the truth."""
+    path = DIAGRAMS / "torch_segmentation.yaml"
+    scenario = load_scenario(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cell = build_cell(scenario, path)
+        result = simulate(cell, 90.0, progress=None)
+    predictor = cell.diagram.GetSubsystemByName("activity_predictor")
+    history = predictor.core(predictor.GetMyContextFromRoot(result.context)).history
+    perceived = [e.action for e in result.log.perceived_events if e.kind == "begin"]
+    assert len(history) >= 4 and list(history) == perceived[-len(history):]
+    forecast = predictor.GetOutputPort("forecast").Eval(predictor.GetMyContextFromRoot(result.context))
+    assert set(forecast.actions) == {"a1", "a2", "a3", "a4", "a5"}
+    assert forecast.next_probabilities.sum() == pytest.approx(1.0)
+
+
+def test_validate_refuses_a_segmenter_library_too_long_to_record(tmp_path):
+    path = tmp_path / "long_library.yaml"
+    path.write_text(f"extends: {DIAGRAMS / 'torch_segmentation.yaml'}\n"
+                    "action_detector: !SegmenterActionDetector {training_cycles: 100}\n")
+    with pytest.raises(ScenarioError, match="action_detector.training_cycles"):
+        check_scenario(load_scenario(path), path)

@@ -1,0 +1,187 @@
+"""Action segmentation of thesis 4.2 on the torch cell: E_s with and without buffer distances,
+against the goal-region detector, and the segmenter's step times.
+
+On `diagrams/torch_segmentation.yaml` (a1..a5 of 4.2, shared buffers A and B): the segmenter
+learns from a library recorded by a synthetic operator of other seeds and other anthropometrics
+(arms 8 % longer, shoulders 5 % wider) than the test runs; each test run is a seeded operator
+doing the pattern (three orders of a1..a5) on their own, at the segmenter's rate with the
+camera's noise. E_s (4.2.1) is the share of the frames of the true actions labelled with another
+action. Variants (Fig. 4.10): F_O with the wrists' distances to the buffer and station centres
+("buffers"), or to the camera origin only ("no_buffers"). Baseline: the goal-region detector
+(each action marked by its first goal, `end_rule: next`) on the same frames.
+
+    python tools/bench_segmentation.py [--quick] [--runs N]
+
+Last line: one JSON object with `segmentation_error_buffers`, `segmentation_error_no_buffers`,
+`goal_region_error` (medians over the test runs, with the per-run values), `window_ms_median`
+(one sliding-window step: the GA and the marginals of a batch of L windows), `batch_period_s`
+(the time a batch of L windows covers), `bp_ms_median_chain_30` (marginals of a 30-variable
+chain with 5 values).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+SCENARIO = REPO / "diagrams" / "torch_segmentation.yaml"
+
+
+def truth_segments(labels) -> list:
+    """(start, end, action) of the frames labelled with an action (None: between actions)."""
+    segments, start = [], 0
+    for k in range(1, len(labels) + 1):
+        if k == len(labels) or labels[k] != labels[start]:
+            if labels[start] is not None:
+                segments.append((start, k, labels[start]))
+            start = k
+    return segments
+
+
+def goal_region_labels(scenario, frames, rate: float) -> list:
+    """Per-frame actions of the goal-region detector (each action marked by its first goal; an
+    action lasts until the next begins)."""
+    from hrc_drake.intention.detector import GoalRegionDetector
+
+    goals = {g.name: g for g in scenario.layout.goals}
+    marks = [(a.name, a.region or a.goals[0]) for a in scenario.operator.actions]
+    detector = GoalRegionDetector(tuple(goal for _, goal in marks),
+                                  np.array([goals[goal].center for _, goal in marks], float),
+                                  np.array([goals[goal].radius for _, goal in marks], float),
+                                  actions=tuple(name for name, _ in marks), end_rule="next")
+    labels, current = [], None
+    for k, frame in enumerate(frames):
+        wrists, known = detector.known_wrists(frame, np.zeros(8))
+        detector, events = detector.update(k / rate, wrists, known)
+        for event in events:
+            if event.kind == "begin":
+                current = event.action
+            elif event.action == current:
+                current = None
+        labels.append(current)
+    return labels
+
+
+def make_segmenter(scenario, config, centres, seed: int):
+    from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
+
+    genetic = GeneticSettings(population=config.population, generations=config.generations)
+    return Segmenter(int(round(config.window * config.rate)), batch_windows=config.batch_windows,
+                     order=config.order, n_bins=config.n_bins, centres=centres, genetic=genetic, seed=seed)
+
+
+def batch_step_ms(segmenter, frames) -> list[float]:
+    """Wall time (ms) of each sliding-window step that ran the GA on a full batch."""
+    from hrc_drake.intention.segmentation import discretise, window_features
+
+    segmenter.reset()
+    sliding = segmenter._sliding
+    values, bounds = window_features(frames, segmenter.window_length, segmenter.centres)
+    steps = []
+    for k, (row, window) in enumerate(zip(discretise(values, segmenter.model_.edges), bounds, strict=True)):
+        start = time.perf_counter()
+        sliding.push(row, tuple(window))
+        if (k + 1) % segmenter.batch_windows == 0:
+            steps.append(1000 * (time.perf_counter() - start))
+    segmenter.reset()
+    return steps
+
+
+def chain_bp_ms(repeats: int = 20) -> float:
+    """Median time (ms) of the marginals of a 30-variable chain with 5 values (App. C.0.1)."""
+    from hrc_drake.intention.factor_graph import FactorGraph
+
+    rng = np.random.default_rng(0)
+    graph = FactorGraph()
+    for k in range(30):
+        graph.add_variable(k, 5)
+        graph.add_factor([k], rng.uniform(0.1, 1.0, 5))
+        if k:
+            graph.add_factor([k - 1, k], rng.uniform(0.1, 1.0, (5, 5)))
+    graph.marginals()  # the first call compiles the structure
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        graph.marginals({0: 1})
+        times.append(1000 * (time.perf_counter() - start))
+    return float(np.median(times))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2 test runs of one cycle (under a minute)")
+    parser.add_argument("--runs", type=int, default=6, help="test runs (default 6)")
+    args = parser.parse_args()
+    warnings.filterwarnings("ignore")
+    from hrc_drake.cell.plugins import operator_stream, pattern_precedence, segmenter_library
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.intention.segmentation import segmentation_error
+
+    scenario = load_scenario(SCENARIO)
+    config = scenario.action_detector
+    if args.quick:
+        config = dataclasses.replace(config, training_cycles=2)
+    runs, cycles = (2, 1) if args.quick else (args.runs, 2)
+    s = scenario.operator.segments
+    trainer = dataclasses.replace(s, upper_arm=1.08 * s.upper_arm, forearm=1.08 * s.forearm,
+                                  shoulder_width=1.05 * s.shoulder_width)
+    pattern = list(scenario.operator.pattern)
+    actions = list(dict.fromkeys(pattern))
+    library = segmenter_library(scenario, config, seed=1000, segments=trainer)
+    variants = {
+        "buffers": np.array([g.center for g in scenario.layout.goals], float),
+        "no_buffers": np.array([scenario.layout.camera.position], float),
+    }
+    segmenters = {}
+    for name, centres in variants.items():
+        start = time.perf_counter()
+        segmenters[name] = make_segmenter(scenario, config, centres, seed=7).fit(
+            library, pattern_precedence(pattern), actions=actions, seed=7)
+        print(f"{name}: learnt from {len(library)} recorded actions in {time.perf_counter() - start:.1f} s",
+              flush=True)
+    errors = {"buffers": [], "no_buffers": [], "goal_region": []}
+    steps = []
+    print(f"{'run':>4} {'frames':>7} {'E_s buffers':>12} {'E_s no buffers':>15} {'goal regions':>13}")
+    for run in range(runs):
+        frames, labels = operator_stream(scenario, cycles, config.rate, seed=run)
+        truth = truth_segments(labels)
+        for name, segmenter in segmenters.items():
+            errors[name].append(segmentation_error(segmenter.segment(frames), truth))
+        regions = goal_region_labels(scenario, frames, config.rate)
+        errors["goal_region"].append(segmentation_error(regions, truth))
+        steps += batch_step_ms(segmenters["buffers"], frames)
+        print(f"{run:>4} {len(frames):>7} {errors['buffers'][-1]:>12.3f} {errors['no_buffers'][-1]:>15.3f} "
+              f"{errors['goal_region'][-1]:>13.3f}", flush=True)
+    batch_period = config.window * config.batch_windows
+    figures = {
+        "quick": bool(args.quick), "runs": runs, "cycles_per_run": cycles, "library_actions": len(library),
+        "segmentation_error_buffers": float(np.median(errors["buffers"])),
+        "segmentation_error_no_buffers": float(np.median(errors["no_buffers"])),
+        "goal_region_error": float(np.median(errors["goal_region"])),
+        "per_run": errors,
+        "window_ms_median": float(np.median(steps)) if steps else None,
+        "window_s": config.window, "batch_period_s": batch_period,
+        "bp_ms_median_chain_30": chain_bp_ms(),
+    }
+    print(f"E_s median: buffers {figures['segmentation_error_buffers']:.3f}, no buffers "
+          f"{figures['segmentation_error_no_buffers']:.3f}, goal regions {figures['goal_region_error']:.3f} "
+          f"(thesis Fig. 4.10: buffers lower)")
+    if steps:
+        print(f"one sliding-window step (GA + marginals of L = {config.batch_windows} windows): "
+              f"{figures['window_ms_median']:.0f} ms median, for {batch_period:.0f} s of camera data")
+    print(f"marginals of a 30-variable chain, 5 values: {figures['bp_ms_median_chain_30']:.2f} ms")
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()
