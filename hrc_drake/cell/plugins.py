@@ -147,10 +147,23 @@ def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, seg
     return np.array(frames), labels
 
 
-def segmenter_library(scenario: Scenario, config, seed: int, segments=None) -> list:
+def library_segments(scenario: Scenario, config):
+    """The anthropometrics of the library's operator: the scenario's, arms and shoulders scaled
+    by `config.library_arm_scale` and `config.library_shoulder_scale`."""
+    import dataclasses
+
+    s = scenario.operator.segments
+    return dataclasses.replace(s, upper_arm=config.library_arm_scale * s.upper_arm,
+                               forearm=config.library_arm_scale * s.forearm,
+                               shoulder_width=config.library_shoulder_scale * s.shoulder_width)
+
+
+def segmenter_library(scenario: Scenario, config, seed: int) -> list:
     """The library of 4.1.5 for `SegmenterActionDetector`: [(action, frames (T, 8, 3))], every
-    action of `config.training_cycles` cycles of `operator_stream`."""
-    frames, labels = operator_stream(scenario, config.training_cycles, config.rate, seed, segments)
+    action of `config.training_cycles` cycles of `operator_stream` by the `library_segments`
+    operator."""
+    frames, labels = operator_stream(scenario, config.training_cycles, config.rate, seed,
+                                     library_segments(scenario, config))
     library, start = [], 0
     for k in range(1, len(labels) + 1):
         if k == len(labels) or labels[k] != labels[start]:

@@ -158,8 +158,9 @@ class SegmenterActionDetector:
     windows of the skeleton estimate, a variable-structure MRF per segmentation hypothesis, a
     genetic algorithm, the sliding window of 4.1.4. Before the run it learns from a library of
     the operator's own actions: `training_cycles` cycles of the scenario's pattern performed by a
-    synthetic operator of its own seed, recorded at `rate` with the camera's noise (4.1.5's
-    "library of recorded human motions"); the precedence constraints are the pattern's order."""
+    synthetic operator of its own seed and anthropometrics, recorded at `rate` with the camera's
+    noise (4.1.5's "library of recorded human motions"); the precedence constraints are the
+    pattern's order."""
 
     #: l_w, the length of an observation window (s; 400 ms in 4.2).
     window: float = 0.4
@@ -174,6 +175,10 @@ class SegmenterActionDetector:
     generations: int = 20
     #: Cycles of the operator's pattern recorded for the library before the run.
     training_cycles: int = 8
+    #: The library's operator is another person: arms (upper arm, forearm) and shoulder width
+    #: scaled by these factors from the scenario's operator (4.2 trains on other volunteers).
+    library_arm_scale: float = 1.08
+    library_shoulder_scale: float = 1.05
     #: Rate at which skeleton estimates are sampled (Hz), at most 50.
     rate: float = 15.0
 
@@ -183,6 +188,10 @@ class SegmenterActionDetector:
               f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
         check(math.isfinite(self.window) and 1.0 / self.rate <= self.window <= 10.0, f"{path}.window",
               f"must be in [1 / rate, 10] s, got {self.window!r}")
+        for name in ("library_arm_scale", "library_shoulder_scale"):
+            value = getattr(self, name)
+            check(math.isfinite(value) and 0.5 <= value <= 2.0, f"{path}.{name}",
+                  f"must be in [0.5, 2], got {value!r}")
         for name, low, high in (("batch_windows", 2, 1000), ("order", 1, 5), ("n_bins", 2, 50),
                                 ("population", 2, 1000), ("generations", 1, 1000),
                                 ("training_cycles", 1, 1000)):
