@@ -237,8 +237,10 @@ class ProactivePlanner:
     latent_dim: int = 3
     #: L-BFGS iterations of each GPDM fit.
     gpdm_iterations: int = 100
-    #: lambda_1 (repulsion) and lambda_2 (deformation) of eq. (8.32).
-    lambda1: float = 0.05
+    #: lambda_1 (repulsion) and lambda_2 (deformation) of eq. (8.32); the thesis gives no values
+    #: ("problem-specific"). 0.5 / 1 is the smallest ratio at which STOMP bends r_1 of
+    #: box_usb_proactive.yaml at alpha = 10 (`tools/bench_proactive_sweep.py`: ratios 0.02-2).
+    lambda1: float = 0.5
     lambda2: float = 1.0
     #: alpha, decay of the repulsive field of eq. (8.32) (1/m).
     alpha: float = 10.0
