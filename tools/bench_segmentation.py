@@ -38,17 +38,6 @@ sys.path.insert(0, str(REPO))
 SCENARIO = REPO / "diagrams" / "torch_segmentation.yaml"
 
 
-def truth_segments(labels) -> list:
-    """(start, end, action) of the frames labelled with an action (None: between actions)."""
-    segments, start = [], 0
-    for k in range(1, len(labels) + 1):
-        if k == len(labels) or labels[k] != labels[start]:
-            if labels[start] is not None:
-                segments.append((start, k, labels[start]))
-            start = k
-    return segments
-
-
 def goal_region_labels(scenario, frames, rate: float) -> list:
     """Per-frame actions of the goal-region detector (each action marked by its first goal; an
     action lasts until the next begins)."""
@@ -71,14 +60,6 @@ def goal_region_labels(scenario, frames, rate: float) -> list:
                 current = None
         labels.append(current)
     return labels
-
-
-def make_segmenter(scenario, config, centres, seed: int):
-    from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
-
-    genetic = GeneticSettings(population=config.population, generations=config.generations)
-    return Segmenter(int(round(config.window * config.rate)), batch_windows=config.batch_windows,
-                     order=config.order, n_bins=config.n_bins, centres=centres, genetic=genetic, seed=seed)
 
 
 def batch_step_ms(segmenter, frames) -> list[float]:
@@ -124,7 +105,13 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=6, help="test runs (default 6)")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
-    from hrc_drake.cell.plugins import operator_stream, pattern_precedence, segmenter_library
+    from hrc_drake.cell.plugins import (
+        label_segments,
+        new_segmenter,
+        operator_stream,
+        pattern_precedence,
+        segmenter_library,
+    )
     from hrc_drake.cell.scenario import load_scenario
     from hrc_drake.intention.segmentation import segmentation_error
 
@@ -143,7 +130,7 @@ def main() -> None:
     segmenters = {}
     for name, centres in variants.items():
         start = time.perf_counter()
-        segmenters[name] = make_segmenter(scenario, config, centres, seed=7).fit(
+        segmenters[name] = new_segmenter(config, centres, seed=7).fit(
             library, pattern_precedence(pattern), actions=actions, seed=7)
         print(f"{name}: learnt from {len(library)} recorded actions in {time.perf_counter() - start:.1f} s",
               flush=True)
@@ -152,7 +139,7 @@ def main() -> None:
     print(f"{'run':>4} {'frames':>7} {'E_s buffers':>12} {'E_s no buffers':>15} {'goal regions':>13}")
     for run in range(runs):
         frames, labels = operator_stream(scenario, cycles, config.rate, seed=run)
-        truth = truth_segments(labels)
+        truth = label_segments(labels)
         for name, segmenter in segmenters.items():
             errors[name].append(segmentation_error(segmenter.segment(frames), truth))
         regions = goal_region_labels(scenario, frames, config.rate)

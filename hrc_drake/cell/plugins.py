@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hrc_drake.cell.scenario import scenario_relative
+from hrc_drake.cell.scenario import SEGMENTER_LIBRARY_SECONDS, operator_places, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import RobotCapsules
 from hrc_drake.errors import ConfigError
@@ -114,7 +114,6 @@ def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, seg
     anthropometrics (default the scenario's); the recording stops after `max_seconds`."""
     import warnings
 
-    from hrc_drake.cell.scenario import operator_places
     from hrc_drake.human.body import BodyModel
     from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
 
@@ -126,8 +125,6 @@ def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, seg
         warnings.simplefilter("ignore")  # the cell itself warns once about goals out of reach
         operator = SyntheticOperator(body, tasks_from_schema(op, operator_places(scenario)),
                                      list(op.pattern) * cycles, rest_q, rng)
-    from hrc_drake.cell.scenario import SEGMENTER_LIBRARY_SECONDS
-
     max_seconds = SEGMENTER_LIBRARY_SECONDS if max_seconds is None else max_seconds
     noise = scenario.layout.camera.noise_std
     frames, labels, current = [], [], None
@@ -158,38 +155,45 @@ def library_segments(scenario: Scenario, config):
                                shoulder_width=config.library_shoulder_scale * s.shoulder_width)
 
 
+def label_segments(labels) -> list[tuple[int, int, str]]:
+    """(start, end, action) of the runs of frames labelled with one action (None: no action)."""
+    segments, start = [], 0
+    for k in range(1, len(labels) + 1):
+        if k == len(labels) or labels[k] != labels[start]:
+            if labels[start] is not None:
+                segments.append((start, k, labels[start]))
+            start = k
+    return segments
+
+
 def segmenter_library(scenario: Scenario, config, seed: int) -> list:
     """The library of 4.1.5 for `SegmenterActionDetector`: [(action, frames (T, 8, 3))], every
     action of `config.training_cycles` cycles of `operator_stream` by the `library_segments`
     operator."""
     frames, labels = operator_stream(scenario, config.training_cycles, config.rate, seed,
                                      library_segments(scenario, config))
-    library, start = [], 0
-    for k in range(1, len(labels) + 1):
-        if k == len(labels) or labels[k] != labels[start]:
-            if labels[start] is not None and k - start >= 2:
-                library.append((labels[start], frames[start:k]))
-            start = k
-    return library
+    return [(action, frames[start:end]) for start, end, action in label_segments(labels) if end - start >= 2]
+
+
+def new_segmenter(config, centres, seed: int):
+    """An unfitted `Segmenter` with the settings of a `SegmenterActionDetector` config."""
+    from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
+
+    genetic = GeneticSettings(population=config.population, generations=config.generations)
+    return Segmenter(max(1, int(round(config.window * config.rate))), batch_windows=config.batch_windows,
+                     order=config.order, n_bins=config.n_bins, centres=centres, genetic=genetic, seed=seed)
 
 
 def fitted_segmenter(scenario: Scenario):
     """The `Segmenter` of the scenario's `SegmenterActionDetector`, fitted on `segmenter_library`
     with the pattern's precedence (4.1.5); the goal centres are the layout's goals."""
-    from hrc_drake.intention.segmentation import GeneticSettings, Segmenter
-
     config = scenario.action_detector
     seed = int(np.random.default_rng([scenario.seed, 4]).integers(2**31))
     centres = np.array([g.center for g in scenario.layout.goals], float).reshape(-1, 3)
-    genetic = GeneticSettings(population=config.population, generations=config.generations)
-    segmenter = Segmenter(max(1, int(round(config.window * config.rate))), batch_windows=config.batch_windows,
-                          order=config.order, n_bins=config.n_bins,
-                          centres=centres if len(centres) else None, genetic=genetic, seed=seed)
+    segmenter = new_segmenter(config, centres if len(centres) else None, seed)
     pattern = list(scenario.operator.pattern)
     library = segmenter_library(scenario, config, seed)
     actions = list(dict.fromkeys(pattern))
-    from hrc_drake.cell.scenario import SEGMENTER_LIBRARY_SECONDS
-
     missing = sorted(set(actions) - {action for action, _ in library})
     if missing:
         raise ConfigError("action_detector.training_cycles",

@@ -26,6 +26,7 @@ from hrc_drake.intention.config import (
     SegmenterActionDetector,
 )
 from hrc_drake.intention.detector import GoalRegionDetector
+from hrc_drake.intention.segmentation import Segment
 from hrc_drake.messages import EventLog, GoalBelief, HumanEvent, Immutable, SkeletonEstimate
 from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
 
@@ -153,6 +154,20 @@ def apply_intention_config(config: NoIntention | GmmBayesIntention, builder, *, 
     return estimator
 
 
+def _declare_event_source(system: LeafSystem, rate: float, initial):
+    """The ports of a system that perceives the operator's actions: input "skeleton_estimate",
+    one abstract state value (`initial(context)`) updated every 1/rate s by `system._update`,
+    and output "human_events" computed by `system._calc_events` from that state. Returns
+    (input port, state index)."""
+    port = system.DeclareAbstractInputPort("skeleton_estimate", AbstractValue.Make(SkeletonEstimate()))
+    index = declare_state(system, initial)
+    system.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / rate, 0.0, system._update)
+    system.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
+                                     system._calc_events,
+                                     {system.abstract_state_ticket(AbstractStateIndex(index))})
+    return port, index
+
+
 @dataclass(frozen=True)
 class DetectorRun(Immutable):
     """What changes during a run of `ActionDetector`: the detector (an immutable value) and the
@@ -184,13 +199,7 @@ class ActionDetector(LeafSystem):
             actions=tuple(actions) if actions else (), entry_scale=config.entry_scale,
             exit_scale=config.exit_scale, min_dwell=config.min_dwell, max_spread=config.max_spread,
             lost_timeout=config.lost_timeout, agent=agent, end_rule=config.end_rule))
-        self._input = self.DeclareAbstractInputPort("skeleton_estimate",
-                                                    AbstractValue.Make(SkeletonEstimate()))
-        self._run = declare_state(self, lambda context: self._initial)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
-        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_events,
-                                       {self.abstract_state_ticket(AbstractStateIndex(self._run))})
+        self._input, self._run = _declare_event_source(self, config.rate, lambda context: self._initial)
 
     def detector(self, context) -> GoalRegionDetector:
         """The detector of `context` (read only): e.g. `.active()`."""
@@ -269,8 +278,6 @@ class SegmenterRun:
         return bool(new)
 
     def _close(self, segment, agent: str) -> list:
-        from hrc_drake.intention.segmentation import Segment
-
         held = self.pending
         if held is not None and held.action == segment.action and held.end == segment.start:
             self.pending = Segment(held.start, segment.end, held.action)
@@ -304,13 +311,7 @@ class ActionSegmenterSystem(LeafSystem):
             raise ValueError("ActionSegmenterSystem: the segmenter has no model; fit it first")
         self.config, self.agent = config, agent
         self._initial = Frozen(SegmenterRun(segmenter.clone(), config.rate))
-        self._input = self.DeclareAbstractInputPort("skeleton_estimate",
-                                                    AbstractValue.Make(SkeletonEstimate()))
-        self._run = declare_state(self, lambda context: self._initial)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / config.rate, 0.0, self._update)
-        self.DeclareAbstractOutputPort("human_events", lambda: AbstractValue.Make(EventLog()),
-                                       self._calc_events,
-                                       {self.abstract_state_ticket(AbstractStateIndex(self._run))})
+        self._input, self._run = _declare_event_source(self, config.rate, lambda context: self._initial)
 
     def run(self, context) -> SegmenterRun:
         """The run of `context` (read only)."""
