@@ -15,8 +15,13 @@ A cell whose header says why it runs without speed scaling cites these figures.
     python tools/bench_safety.py                    # every cell, 120 s, the scenario's seed
     python tools/bench_safety.py --duration 300 --seeds 3 diagrams/torch_clock.yaml
 
+It first prints, per cell, how far the worst-case volume reaches ahead of the resting operator
+and how near the robots' targets are (`separation_at_rest`): where the targets are nearer, speed
+and separation monitoring stops the robot whenever the operator rests.
+
 Last line: one JSON object, `<scenario>.<arm>.{products, min_distance_m, time_below_s,
-fraction_below, time_below_not_stopped_s, mean_override}` (each a list over the seeds).
+fraction_below, time_below_not_stopped_s, mean_override}` (each a list over the seeds) and
+`<scenario>.layout.{rest_reach_m, nearest_robot_target_m}`.
 """
 
 from __future__ import annotations
@@ -79,6 +84,50 @@ def _run(job):
     return run(*job)
 
 
+def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
+    """How far the worst-case volume of [107] reaches from the resting operator, and how near
+    the robot's targets are: speed and separation monitoring can only let the robot work where
+    `nearest_robot_target_m` > `rest_reach_m` + clearance (+ the robot's capsule radius).
+
+    rest_reach_m: the farthest the 0.3 s worst-case volume (default limits, from rest) reaches
+    ahead of the resting wrists; nearest_robot_target_m: horizontal distance from a resting
+    wrist to the nearest Cartesian target of the robots' poses.
+    """
+    import numpy as np
+
+    from hrc_drake.cell.scenario import load_scenario, operator_places
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
+    from hrc_drake.motion.reactive import ReactiveMotionPredictor, worst_case_excursions
+
+    scenario = load_scenario(path)
+    op = scenario.operator
+    if op.recorded:
+        return {"rest_reach_m": None, "nearest_robot_target_m": None}
+    body = BodyModel()
+    yaw = op.base.rpy[2]
+    operator = SyntheticOperator(body, tasks_from_schema(op, operator_places(scenario)), list(op.pattern),
+                                 body.rest_q(base_xy=op.base.xyz[:2], yaw=yaw), 0, agent=op.name)
+    predictor = ReactiveMotionPredictor(body, kind="worst_case", horizon=horizon)
+    for _ in range(predictor.order + 2):
+        predictor.update_q(operator.rest_config, 1e-3)
+    plus, minus = worst_case_excursions(np.zeros(12), predictor.horizon, predictor.v_max, predictor.a_max)
+    volumes = predictor.swept_volumes(0.0, plus, minus)
+    forward = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+    wrists = np.array(list(operator.rest_wrists.values()))
+    ends = np.vstack([volumes.start, volumes.end])
+    radius = np.concatenate([volumes.radius, volumes.radius])
+    reach = float((ends @ forward + radius).max() - (wrists @ forward).max())
+    targets = np.array([pose.target.xyz for robot in scenario.robots for pose in robot.poses
+                        if pose.target is not None])
+    nearest = None
+    if len(targets):
+        gaps = np.linalg.norm(targets[None, :, :2] - wrists[:, None, :2], axis=2)
+        nearest = float(gaps.min())
+    return {"rest_reach_m": round(reach, 3), "nearest_robot_target_m": None if nearest is None
+            else round(nearest, 3)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenarios", nargs="*", help="scenario files (default: every diagrams/*.yaml)")
@@ -100,6 +149,13 @@ def main() -> None:
     for path in paths:
         base_seed = load_scenario(path).seed
         jobs += [(str(path), arm, base_seed + k, args.duration) for arm in arms for k in range(args.seeds)]
+    print(f"{'scenario':<22} {'worst-case reach from rest':>27} {'nearest robot target':>21}")
+    layouts = {}
+    for path in paths:
+        layouts[path.stem] = separation_at_rest(str(path))
+        shown = {k: float("nan") if v is None else v for k, v in layouts[path.stem].items()}
+        print(f"{path.stem:<22} {shown['rest_reach_m']:>25.3f} m {shown['nearest_robot_target_m']:>19.3f} m",
+              flush=True)
     print(f"{len(jobs)} runs of {args.duration:.0f} s on {args.workers} workers ...", flush=True)
     print(f"{'scenario':<22} {'arm':<14} {'seed':>4} {'products':>8} {'min dist':>9} {'below s':>8} "
           f"{'below %':>8} {'moving s':>8} {'override':>8} {'wall s':>7}", flush=True)
@@ -118,6 +174,8 @@ def main() -> None:
             for key in ("products", "min_distance_m", "time_below_s", "fraction_below",
                         "time_below_not_stopped_s", "mean_override"):
                 cell.setdefault(key, []).append(row[key])
+    for name, layout in layouts.items():
+        figures.setdefault(name, {})["layout"] = layout
     figures["duration_s"] = args.duration
     print(json.dumps(figures))
 
