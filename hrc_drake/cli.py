@@ -1,4 +1,4 @@
-"""`hrc-drake` command: simulate or validate a cell scenario."""
+"""`hrc-drake` command: simulate or validate a cell scenario, run and compare campaigns of runs."""
 
 from __future__ import annotations
 
@@ -189,6 +189,72 @@ def _validate(args) -> int:
     return 0
 
 
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= 512:
+        raise argparse.ArgumentTypeError(f"must be in [0, 512] (0: in this process, no Dask), got {text!r}")
+    return value
+
+
+def _campaign(args) -> int:
+    from hrc_drake.campaign.engine import run_campaign
+    from hrc_drake.campaign.spec import load_campaign
+    from hrc_drake.campaign.store import check_output_dir
+
+    out = Path(args.out)
+    check_output_dir(out)  # before the scenarios are loaded: a bad folder costs nothing
+    campaign = load_campaign(args.spec)
+    runs = len(campaign.seeds) * len(campaign.scenarios) * len(campaign.variants)
+    where = args.address or (f"{args.workers} local worker process(es)" if args.workers else "this process")
+    print(f"{campaign.name}: {runs} runs ({len(campaign.scenarios)} scenario(s) x {len(campaign.variants)} "
+          f"variant(s) x {len(campaign.seeds)} seed(s), {campaign.duration:g} s each) on {where}", flush=True)
+    try:
+        outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"interrupted: the finished runs are in {out / 'runs.parquet'}; run the same command again to "
+              "resume", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(f"{outcome.ran} run(s) now ({outcome.failed} failed), {outcome.skipped} done before, in "
+          f"{outcome.wall_time:.1f} s")
+    _print_results(out)
+    return 0
+
+
+def _compare(args) -> int:
+    from hrc_drake.campaign.analysis import compare_campaigns
+    from hrc_drake.campaign.store import check_output_dir
+
+    dirs = [Path(d) for d in args.dirs]
+    for d in dirs:
+        if not (d / "campaign.json").is_file() or not (d / "runs.parquet").is_file():
+            raise ScenarioError(d, "", "not a campaign folder (no campaign.json and runs.parquet)")
+    if args.out is None and len(dirs) > 1:
+        raise ScenarioError("", "--out", "comparing several campaigns needs a folder for the result")
+    out = Path(args.out) if args.out else dirs[0]
+    check_output_dir(out)
+    paths = compare_campaigns(dirs, out)
+    print(f"{len(paths)} file(s) in {out}")
+    _print_results(out)
+    return 0
+
+
+def _print_results(out: Path) -> None:
+    """The summary and the tests of a campaign folder, as short tables."""
+    import pandas as pd
+
+    for name in ("summary.csv", "tests.csv"):
+        path = out / name
+        if path.is_file():
+            table = pd.read_csv(path)
+            if name == "tests.csv":
+                table = table[table["test"] == "wilcoxon_signed_rank"]
+            with pd.option_context("display.width", 160, "display.max_columns", 20, "display.max_rows", 60):
+                print(f"{path}:\n{table.to_string(index=False, float_format=lambda x: f'{x:.4g}')}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="hrc-drake", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -223,6 +289,21 @@ def main(argv: list[str] | None = None) -> int:
     )
     val.add_argument("scenario")
     val.set_defaults(func=_validate)
+    camp = sub.add_parser(
+        "campaign", help="run scenarios x variants x seeds on Dask; write runs.parquet, statistics, plots"
+    )
+    camp.add_argument("spec", help="campaign YAML file (see diagrams/campaigns/)")
+    camp.add_argument("--out", required=True, help="folder for runs.parquet, summary.csv, tests.csv, *.png; "
+                                                   "rerun with the same folder to resume")
+    camp.add_argument("--workers", type=_workers, default=2,
+                      help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
+    camp.add_argument("--address", default=None,
+                      help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
+    camp.set_defaults(func=_campaign)
+    comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
+    comp.add_argument("dirs", nargs="+", help="campaign output folders")
+    comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
+    comp.set_defaults(func=_compare)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

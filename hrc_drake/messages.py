@@ -78,6 +78,67 @@ class SkeletonFrame(Immutable):
     gaze_valid: bool = True
 
 
+def _no_depth() -> np.ndarray:
+    return np.zeros((0, 0), dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class DepthFrame(Immutable):
+    """One depth image of the rendered camera, how to project into it, and what it hid of the
+    skeleton (thesis Ch. 9: the depth map behind L_c1 of eq. (9.10)).
+
+    depth: (H, W) float32 depth along the optical axis (m); inf where nothing is within
+        max_depth, 0 where a surface is nearer than min_depth (no measure: it hides what is
+        behind it).
+    X_CW: (4, 4) world -> camera transform; camera frame x right, y down, z forward (Drake's).
+    intrinsics: (fx, fy, cx, cy) in pixels; pixel (row v, column u) is centred on (u, v).
+    tolerance: a position is hidden where the image is in front of it by more than this (m).
+    hidden: (8,) the skeletal points this image hides (before the tracker's failure modes);
+    wrong_surface: (8,) hidden points the camera reported as tracked, on the surface in front;
+    true_points: (8, 3) where the skeletal points were (for the replay).
+    An empty image (before the first frame) hides everything.
+    """
+
+    time: float = -math.inf
+    depth: np.ndarray = field(default_factory=_no_depth)
+    X_CW: np.ndarray = field(default_factory=lambda: np.eye(4))
+    intrinsics: tuple[float, float, float, float] = (1.0, 1.0, 0.0, 0.0)
+    min_depth: float = 0.5
+    max_depth: float = 4.5
+    tolerance: float = 0.03
+    hidden: np.ndarray = field(default_factory=lambda: np.ones(8, dtype=bool))
+    wrong_surface: np.ndarray = field(default_factory=lambda: np.zeros(8, dtype=bool))
+    true_points: np.ndarray = field(default_factory=lambda: np.full((8, 3), np.nan))
+
+    def project(self, points) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Pinhole projection of points (..., 3): column u, row v (int pixel indices), depth z
+        along the optical axis, and whether the pixel lies in the image."""
+        pts = np.asarray(points, dtype=float)
+        p_c = pts @ self.X_CW[:3, :3].T + self.X_CW[:3, 3]
+        z = p_c[..., 2]
+        fx, fy, cx, cy = self.intrinsics
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = np.floor(fx * p_c[..., 0] / z + cx + 0.5)
+            v = np.floor(fy * p_c[..., 1] / z + cy + 0.5)
+        height, width = self.depth.shape
+        inside = np.isfinite(u) & np.isfinite(v) & (u >= 0) & (u < width) & (v >= 0) & (v < height) & (z > 0)
+        u = np.where(inside, u, 0).astype(int)
+        v = np.where(inside, v, 0).astype(int)
+        return u, v, z, inside
+
+    def is_hidden(self, points, tolerance=None) -> np.ndarray:
+        """(...,) True where the image cannot show the point: outside the image or the depth
+        range, or a surface in front of it by more than `tolerance` (default self.tolerance;
+        an array broadcasts against the points' leading axes)."""
+        tol = self.tolerance if tolerance is None else np.asarray(tolerance, dtype=float)
+        u, v, z, inside = self.project(points)
+        if not self.depth.size:
+            return np.ones(np.shape(z), dtype=bool)
+        image = self.depth[v, u]
+        in_range = (z >= self.min_depth) & (z <= self.max_depth)
+        return ~(inside & in_range & ~(image < z - tol))
+
+
 @dataclass(frozen=True)
 class SkeletonEstimate(Immutable):
     """The tracker's belief about the skeleton.

@@ -2,7 +2,7 @@
 
 Every import statement counts, at module level or inside a function:
 (a) pydrake is imported only by `*/systems.py`, `hrc_drake/robots/`, `hrc_drake/cell/`,
-    `hrc_drake/systems.py` and `hrc_drake/cli.py`;
+    `hrc_drake/campaign/`, `hrc_drake/systems.py` and `hrc_drake/cli.py`;
 (b) nothing imports from a higher layer. Layers from the bottom:
     0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
       `allocator`;
@@ -11,7 +11,7 @@ Every import statement counts, at module level or inside a function:
       import cores of another area when no cycle results;
     2 each area's `systems.py` and the robots' Drake modules (`ROBOTS_DRAKE_MODULES`);
     3 `cell/`;
-    4 `cli.py`, `tools/`;
+    4 `cli.py`, `campaign/` (runs of whole cells, on Dask), `tools/`;
 (c) no import cycle between modules.
 
 Known violations in files this branch does not own are listed in `ALLOWED`, one commented entry
@@ -34,7 +34,8 @@ LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rn
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}
-PYDRAKE_ALLOWED = ("hrc_drake/systems.py", "hrc_drake/cli.py", "hrc_drake/robots/", "hrc_drake/cell/")
+PYDRAKE_ALLOWED = ("hrc_drake/systems.py", "hrc_drake/cli.py", "hrc_drake/robots/", "hrc_drake/cell/",
+                   "hrc_drake/campaign/")
 
 #: (importing file, imported module) pairs tolerated for now. Each names a file another engineer
 #: owns on this branch's base and is TO BE REMOVED once that file no longer makes the import.
@@ -59,7 +60,7 @@ def module_name(rel: str) -> str:
 
 def layer(module: str) -> int:
     parts = module.split(".")
-    if parts[0] == "tools" or module == f"{PACKAGE}.cli":
+    if parts[0] == "tools" or module == f"{PACKAGE}.cli" or module.startswith(f"{PACKAGE}.campaign"):
         return 4
     if parts[0] != PACKAGE:
         raise ValueError(f"not a module of the project: {module}")

@@ -9,7 +9,10 @@ of the time, as with the thesis' Kinect) and in a second layout no model was tra
 switch): % false positives, % true negatives (3.1.3) and the distance before recognition
 (Fig. 3.9). Speed: one update for two hands x 5 goals.
 
-    python tools/bench_intention.py [--quick] [--operators N] [--reaches N]
+    python tools/bench_intention.py [--quick] [--operators N] [--reaches N] [--realistic]
+--realistic: the test operators have the `RealisticBehaviour` (random eye-hand lead, glances at
+other goals and at the robot, smooth gaze and hand noise, hesitations, aborted reaches, personal
+speeds) instead of the ideal one (gaze exactly on the goal 0.3 s before the hand).
 The last line printed is one JSON object with the figures.
 """
 
@@ -34,6 +37,9 @@ from hrc_drake.cell.intention_data import (  # noqa: E402
     record_task_cycles,
     second_layout,
 )
+from hrc_drake.cell.plugins import ROBOT_LOOK_HEIGHT  # noqa: E402
+from hrc_drake.cell.scenario import load_scenario  # noqa: E402
+from hrc_drake.human.config import RealisticBehaviour  # noqa: E402
 from hrc_drake.intention.bayes import GoalIntentionEstimator  # noqa: E402
 from hrc_drake.intention.evaluation import reach_outcomes, run_estimator, table_3_1  # noqa: E402
 from hrc_drake.intention.likelihood import default_model  # noqa: E402
@@ -47,8 +53,17 @@ THESIS_TABLE_3_1 = {  # goal -> method -> (% false positives, % true negatives)
 }
 
 
-def evaluate_layout(layout, n_operators, n_reaches, seed, model):
-    """Outcomes per method over `n_operators` test operators; also the share of frames with F valid."""
+def robot_points() -> list:
+    """Where a glance at the robot looks: the box cell's robots (the second layout has none of its
+    own and is taken to face the same robot across the table)."""
+    scenario = load_scenario(BOX_USB_SCENARIO)
+    return [np.asarray(r.base.xyz, dtype=float) + np.array([0.0, 0.0, ROBOT_LOOK_HEIGHT])
+            for r in scenario.robots]
+
+
+def evaluate_layout(layout, n_operators, n_reaches, seed, model, behaviour=None):
+    """Outcomes per method over `n_operators` test operators; also the share of frames with F valid.
+    behaviour: the operators' `RealisticBehaviour`, None for the ideal one."""
     outcomes = {m: [] for m in METHODS}
     valid = []
     for i in range(n_operators):
@@ -57,6 +72,8 @@ def evaluate_layout(layout, n_operators, n_reaches, seed, model):
         gaze_noise = float(rng.choice((0.05, 0.1, 0.2)))
         segments = random_segments(rng)
         options = {"target_scatter": TEST_SCATTER}
+        if behaviour is not None:
+            options.update(behaviour=behaviour, robot_points=robot_points())
         if layout.tasks:
             cycles = max(1, round(n_reaches / 10))  # a cycle of the box cell reaches 10 goals
             recording = record_task_cycles(layout, segments, cycles, rng, noise, gaze_noise, **options)
@@ -110,6 +127,8 @@ def main(argv=None) -> int:
     parser.add_argument("--operators", type=int, default=None)
     parser.add_argument("--reaches", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--realistic", action="store_true",
+                        help="realistic test operators (RealisticBehaviour)")
     args = parser.parse_args(argv)
     n_operators = args.operators or (2 if args.quick else 10)
     n_reaches = args.reaches or (18 if args.quick else 36)
@@ -121,9 +140,11 @@ def main(argv=None) -> int:
         "operators_per_layout": n_operators,
         "reaches_per_operator": n_reaches,
         "evidence_weight": model.evidence_weight,
+        "operator_behaviour": "realistic" if args.realistic else "ideal",
     }
+    behaviour = RealisticBehaviour() if args.realistic else None
     for layout in layouts:
-        outcomes, gaze_valid = evaluate_layout(layout, n_operators, n_reaches, args.seed, model)
+        outcomes, gaze_valid = evaluate_layout(layout, n_operators, n_reaches, args.seed, model, behaviour)
         print(
             f"\nlayout {layout.name}: goals {', '.join(layout.goal_names)}; "
             f"gaze flag F valid in {100 * gaze_valid:.0f} % of the frames"

@@ -10,6 +10,8 @@ Parts:
          the PF run's very frames, run alongside, and in its own run); which points were lost,
          why, and in which case of 9.1.2; (Fig. 9.7) robot cycle-time distributions, the true
          minimum human-robot distance vs the scenario's safety distance, time spent slowed;
+  render ms per depth frame of the rendered camera (issue 15) in the PCB cell, at the
+         scenario's resolution and the Kinect v2's 512 x 424;
   lego   RMS error of occluded points, PF vs KF, on the real arm trajectories of
          ../shared/data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
          the elbow for 1-3 s (frame rate unknown: 30 Hz assumed).
@@ -348,6 +350,43 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
     return result
 
 
+RENDERED_SCENARIO = REPO / "diagrams" / "pcb_occlusion_rendered.yaml"
+
+
+def bench_render(n_frames: int, named_poses) -> dict:
+    """Milliseconds per depth frame of the rendered camera (RgbdSensor, RenderEngineVtk) in the
+    PCB cell (diagrams/pcb_occlusion_rendered.yaml), median over `n_frames` frames of a run,
+    at the scenario's resolution and at the Kinect v2's full 512 x 424."""
+    from pydrake.systems.analysis import Simulator
+
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.scenario import load_scenario
+
+    out = {}
+    for width, height in ((None, None), (512, 424)):
+        scenario = load_scenario(RENDERED_SCENARIO)
+        sensor = scenario.layout.camera.sensor
+        if width is not None:
+            sensor.width, sensor.height = width, height
+        cell = build_cell(scenario, RENDERED_SCENARIO, named_poses=named_poses)
+        simulator = Simulator(cell.diagram)
+        simulator.Initialize()
+        simulator.AdvanceTo(5.0)  # the operator and the robot at work
+        context = simulator.get_mutable_context()
+        depth_sensor = cell.system("rendered_depth_sensor")
+        sensor_context = depth_sensor.GetMyContextFromRoot(context)
+        port = depth_sensor.depth_image_32F_output_port()
+        times = []
+        for k in range(n_frames):
+            context.SetTime(5.0 + k / 30.0)  # new poses: the image is rendered again
+            cell.scene_graph.get_query_output_port().Eval(cell.scene_graph.GetMyContextFromRoot(context))
+            start = time.perf_counter()
+            port.Eval(sensor_context)
+            times.append(time.perf_counter() - start)
+        out[f"{sensor.width}x{sensor.height}"] = 1e3 * float(np.median(times))
+    return out
+
+
 def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
     """Text histogram of the cycle times of every tracker on common bins (cf. Fig. 9.7)."""
     values = np.concatenate([np.asarray(v, float) for v in samples.values() if len(v)])
@@ -399,6 +438,9 @@ def main() -> None:
     }
     pf, kf = cell["particle_filter"], cell["kalman"]
 
+    print("rendered depth camera (pcb_occlusion_rendered.yaml)", flush=True)
+    render = bench_render(30 if quick else 200, named_poses)
+
     print("lego_assembly_arm with synthetic occluders", flush=True)
     lego = bench_lego(3 if quick else 20, 2 if quick else 5)
 
@@ -418,6 +460,8 @@ def main() -> None:
         ("seen_bootstrap", "same, literal bootstrap mode, all seen (ms)"),
     ]:
         print(f"{label:52s} {speed[key]:10.3f}")
+    for resolution, ms in render.items():
+        print(f"{'rendered depth frame ' + resolution + ' (ms, median)':52s} {ms:10.3f}")
     shadow = pf["shadow_kf_error"]
     for stat in ("rms", "median", "p95"):
         print(
@@ -461,6 +505,8 @@ def main() -> None:
         "quick": quick,
         "elbow_occluders": args.elbow_occluders,
         "operator_x": args.operator_x,
+        "render_ms_per_frame": round(next(iter(render.values())), 3),
+        "render_ms_per_frame_by_resolution": {k: round(v, 3) for k, v in render.items()},
         "update_ms_median_8x500_occluded": round(speed["occluded_kalman"], 3),
         "update_ms_median_8x500_all_seen": round(speed["seen_kalman"], 3),
         "update_ms_median_8x500_occluded_bootstrap": round(speed["occluded_bootstrap"], 3),

@@ -9,6 +9,10 @@ slowed while a hand is in their workspace (`tracker: !KalmanTracker {}`, the slo
 scheduler runs the same seeds (the operator's durations); a round-robin arm (the arms'
 programs in order) is a reference the thesis does not have.
 
+The runs go through the campaign API (`hrc_drake.campaign`): one campaign per experiment (its
+duration), a variant per scheduler (overrides of torch_clock.yaml's raw document: lists replace),
+the per-product samples from the `per_product` extra metrics (`campaign.extras`).
+
 Idle time: as Fig. 7.27, one sample per product, the operator's waiting time (blocked, from
 wait_begin to wait_end) within the interval from the previous product (or t = 0) to this one.
 Cycle time: the interval between consecutive products (Fig. 7.28). The thesis's claims are
@@ -16,113 +20,134 @@ one-sided Wilcoxon rank-sum tests, fuzzy < uniform: idle p = 0.0023 (A), 0.0251 
 p = 0.065 (A), 0.122 (B); here `scipy.stats.mannwhitneyu(alternative="less")`.
 
 Prints a line per run and, as its last line, one JSON object: `use_case_c.<A|B>.<arm>.idle_median`,
-`.idle_mean`, `.cycle_median`, `.products`, `.decision_ms_median`, and `use_case_c.<A|B>.wilcoxon_p`
-(idle), `.wilcoxon_p_cycle`.
+`.idle_mean`, `.cycle_median`, `.products`, `.runs`, `.idle_samples`, and `use_case_c.<A|B>.wilcoxon_p`
+(idle), `.wilcoxon_p_cycle`; `seeds`. (The scheduler's decision time is not measured here.)
 
 Usage:
     PYTHONPATH=. python3 tools/bench_use_case_c.py [--seeds N] [--quick] [--workers W]
---quick: 2 seeds, fuzzy and uniform only (about a minute on 2 cores).
+        [--address tcp://HOST:PORT] [--out DIR]
+--quick: 2 seeds, fuzzy and uniform only (about a minute on 2 cores). --workers 1 (default):
+in this process, one run after the other; W > 1: a Dask `LocalCluster` of W processes. --out
+keeps the campaigns' runs.parquet (a rerun skips the runs done); default: a temporary folder.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import sys
 import tempfile
-import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_use_case_b import _one_sided, run_jobs  # noqa: E402
+from bench_use_case_b import _one_sided  # noqa: E402
 
+from hrc_drake.campaign.engine import ClusterClient, run_campaign  # noqa: E402
+from hrc_drake.campaign.spec import make_campaign  # noqa: E402
 from hrc_drake.cell.scenario import Tagged, _raw_document  # noqa: E402
-from tests.cell.fuzz import _Dumper  # noqa: E402
 
+SCENARIO = ROOT / "diagrams" / "torch_clock.yaml"
 #: products per run (7.5.3) and the simulated time allowed for them (s)
 EXPERIMENTS = {"A": (5, 420.0), "B": (10, 900.0)}
 TORCH_ONLY = {"R1", "H1", "L1", "H2", "R2", "H3"}
 ARMS = {"fuzzy": "FuzzyScheduler", "uniform": "UniformScheduler", "round_robin": "RoundRobinScheduler"}
 
 
-def scenario_text(experiment: str, arm: str) -> str:
-    """torch_clock.yaml made into Experiment A or B with the arm's scheduler (T_sch 50 s, t_w 5 s)."""
-    raw = _raw_document((ROOT / "diagrams" / "torch_clock.yaml").read_text())
-    if experiment == "A":
-        raw["operator"]["pattern"] = ["H1", "H2", "H3"]
-        raw["operator"]["actions"] = [a for a in raw["operator"]["actions"] if a["name"] in TORCH_ONLY]
-        raw["flow"]["actions"] = [a for a in raw["flow"]["actions"] if a["name"] in TORCH_ONLY]
-        for arm_ in raw["robots"][0]["arms"]:
-            arm_["program"] = [a for a in arm_["program"] if a in TORCH_ONLY]
+def experiment_overrides(experiment: str) -> dict:
+    """The overrides of torch_clock.yaml's raw document that make Experiment A (B is the file)."""
+    if experiment == "B":
+        return {}
+    raw = _raw_document(SCENARIO.read_text())
+    robots = copy.deepcopy(raw["robots"])
+    for arm in robots[0]["arms"]:
+        arm["program"] = [a for a in arm["program"] if a in TORCH_ONLY]
+    return {
+        "operator": {
+            "pattern": ["H1", "H2", "H3"],
+            "actions": [a for a in raw["operator"]["actions"] if a["name"] in TORCH_ONLY],
+        },
+        "flow": {"actions": [a for a in raw["flow"]["actions"] if a["name"] in TORCH_ONLY]},
+        "robots": robots,  # a list: replaced whole, so every robot is given
+    }
+
+
+def scheduler_overrides(arm: str) -> dict:
+    """The arm's scheduler (T_sch 50 s, t_w 5 s) and the tracker that slows the robots."""
     fields = {"wait_quantum": 5.0}
     if arm != "round_robin":
         fields["horizon"] = 50.0
-    raw["scheduler"] = Tagged(ARMS[arm], fields)
-    raw["tracker"] = Tagged("KalmanTracker", {})
-    return yaml.dump(raw, Dumper=_Dumper, sort_keys=False)
+    return {"scheduler": Tagged(ARMS[arm], fields), "tracker": Tagged("KalmanTracker", {})}
 
 
-def per_product(events, product_times: list[float]) -> tuple[list[float], list[float]]:
-    """Idle (the human's waits) within each product's interval, and the cycle times."""
-    waits, start = [], None
-    for e in sorted(events, key=lambda e: (e.time, e.seq)):
-        if getattr(e, "agent", "human") != "human":
-            continue
-        if e.kind == "wait_begin":
-            start = e.time
-        elif e.kind == "wait_end" and start is not None:
-            waits.append((start, e.time))
-            start = None
-    if start is not None:
-        waits.append((start, np.inf))
-    idle, previous = [], 0.0
-    for t in product_times:
-        idle.append(sum(max(0.0, min(b, t) - max(a, previous)) for a, b in waits))
-        previous = t
-    return idle, [float(c) for c in np.diff(product_times)]
+def experiment_campaign(experiment: str, arms: list[str], seeds: int):
+    """Experiment A or B as a campaign: a variant per arm, seeds 100, 101, ..."""
+    _, duration = EXPERIMENTS[experiment]
+    base = experiment_overrides(experiment)
+    document = {
+        "name": f"use_case_c_{experiment}",
+        "duration": duration,
+        "seeds": {"count": seeds, "first": 100},
+        "scenarios": [str(SCENARIO)],
+        "variants": {arm: {**base, **scheduler_overrides(arm)} for arm in arms},
+        "metrics": ["mean_cycle_time", "agents.human.idle_time"],
+        "extra_metrics": ["per_product"],
+    }
+    return make_campaign(document, ROOT / "tools" / f"use_case_c_{experiment}.campaign")
 
 
-def run_one(job) -> dict:
-    experiment, arm, seed = job
-    from hrc_drake.cell.build import build_cell
-    from hrc_drake.cell.run import simulate
-    from hrc_drake.cell.scenario import load_scenario
-
-    n_products, duration = EXPERIMENTS[experiment]
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"torch_clock_{experiment}_{arm}.yaml"
-        path.write_text(scenario_text(experiment, arm))
-        scenario = load_scenario(path)
-    scenario.seed = seed
-    cell = build_cell(scenario, path)
-    start = time.perf_counter()
-    result = simulate(cell, duration, progress=None)
-    wall = time.perf_counter() - start
-    times = result.metrics["product_times"][:n_products]
-    idle, cycles = per_product(result.log.events, times)
-    return {"experiment": experiment, "arm": arm, "seed": seed, "products": len(times), "idle": idle,
-            "cycles": cycles, "wall_s": round(wall, 1), "simulated_s": duration}
+def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out: Path) -> list[dict]:
+    """Every experiment x arm x seed through the campaign API: a row per run as the old loop's
+    (experiment, arm, seed, products, idle, cycles, wall_s, simulated_s)."""
+    rows = []
+    in_process = address is None and workers <= 1
+    with nullcontext(None) if in_process else ClusterClient(address, workers) as client:
+        for experiment, (n_products, duration) in EXPERIMENTS.items():
+            campaign = experiment_campaign(experiment, arms, seeds)
+            outcome = run_campaign(
+                campaign, out / experiment, workers=0, client=client, progress=sys.stderr, analyze=False
+            )
+            for run in outcome.rows.to_dict("records"):
+                if run["status"] != "ok":
+                    print(f"  {experiment} {run['variant']} seed {run['seed']} FAILED: {run['error']}", flush=True)
+                    continue
+                times = list(run["per_product.times"])[:n_products]
+                rows.append({
+                    "experiment": experiment,
+                    "arm": run["variant"],
+                    "seed": int(run["seed"]),
+                    "products": len(times),
+                    "idle": [float(x) for x in run["per_product.operator_wait"][:n_products]],
+                    "cycles": [float(x) for x in run["per_product.cycle_times"][: max(len(times) - 1, 0)]],
+                    "wall_s": round(float(run["wall_time"]), 1),
+                    "simulated_s": duration,
+                })
+                _print_row(rows[-1])
+    return rows
 
 
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeded runs per arm and experiment")
     parser.add_argument("--quick", action="store_true", help="2 seeds, fuzzy and uniform only")
-    parser.add_argument("--workers", type=int, default=1, help="runs at once (processes)")
+    parser.add_argument("--workers", type=int, default=1, help="runs at once (1: this process; W: W processes)")
+    parser.add_argument("--address", default=None, help="a Dask scheduler (tcp://HOST:PORT) instead")
+    parser.add_argument("--out", default=None, help="keep the campaigns' rows here (default: a temp folder)")
     args = parser.parse_args(argv)
     seeds = 2 if args.quick else args.seeds
     arms = ["fuzzy", "uniform"] if args.quick else ["fuzzy", "uniform", "round_robin"]
-    jobs = [(e, a, 100 + s) for e in EXPERIMENTS for s in range(seeds) for a in arms]
-    print(f"{len(jobs)} runs ({seeds} seeds x {len(arms)} arms x 2 experiments), {args.workers} workers",
-          flush=True)
-    rows = run_jobs(run_one, jobs, args.workers, _print_row)
+    n_runs = len(EXPERIMENTS) * seeds * len(arms)
+    where = args.address or f"{args.workers} workers"
+    print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 experiments), {where}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = run_rows(seeds, arms, args.workers, args.address, Path(args.out or tmp))
     out: dict = {}
     for experiment in EXPERIMENTS:
         block: dict = {}

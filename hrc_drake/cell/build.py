@@ -31,11 +31,13 @@ from hrc_drake.cell.systems import (
     MinOverride,
     RobotCapsules,
     register_scene,
+    use_coarse_perception_meshes,
 )
 from hrc_drake.cell.world import CellWorld
 from hrc_drake.human.body import BodyModel
-from hrc_drake.human.camera import DepthCameraModel
-from hrc_drake.human.systems import DepthCamera
+from hrc_drake.human.camera import DepthCameraModel, RenderedCameraModel
+from hrc_drake.human.config import RenderedDepthCamera
+from hrc_drake.human.systems import DepthCamera, add_rendered_camera
 from hrc_drake.intention.config import NoActionDetector, NoIntention
 from hrc_drake.messages import EventLog
 from hrc_drake.motion.config import NoMotionModel, NoProactivePlanner
@@ -138,7 +140,8 @@ def _operator_system(scenario: Scenario, body: BodyModel, rng):
     op = scenario.operator
     tasks = tasks_from_schema(op, operator_places(scenario))
     rest_q = body.rest_q(base_xy=op.base.xyz[:2], yaw=op.base.rpy[2])
-    operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, agent=op.name)
+    operator = SyntheticOperator(body, tasks, list(op.pattern), rest_q, rng, agent=op.name,
+                                 **plugins.operator_behaviour(scenario))
     return OperatorSource(operator, rate=CELL_RATE)
 
 
@@ -251,16 +254,27 @@ def camera_model(scenario: Scenario) -> DepthCameraModel:
     )
 
 
+def rendered_camera_model(scenario: Scenario, body: BodyModel) -> RenderedCameraModel | None:
+    """The rendered depth camera of the layout, or None where the camera is the analytic one."""
+    cam = scenario.layout.camera
+    if not isinstance(cam.sensor, RenderedDepthCamera):
+        return None
+    return RenderedCameraModel.from_config(cam, cam.sensor, body.capsule_radius)
+
+
 def _add_human(
     builder, scenario, scenario_path, body, robot_capsules, scene_graph, camera_seed, rng, systems
 ):
     """The operator (synthetic or recorded), its capsules in SceneGraph and the depth camera.
 
     Returns the camera (or recorded source), the human-capsules system, the human events port
-    and the operator source (None for a recorded skeleton).
+    and the operator source (None for a recorded skeleton). systems["camera_model"] is the
+    analytic camera, or None where the camera reads a rendered depth image (then the tracker
+    reads the camera's "depth_frame").
     """
+    rendered = rendered_camera_model(scenario, body)
     model = camera_model(scenario)
-    systems["camera_model"] = model
+    systems["camera_model"] = model if rendered is None else None
     operator_source = None
     if scenario.operator.recorded:
         # A recorded skeleton is already a measurement: it stands for the camera.
@@ -277,11 +291,15 @@ def _add_human(
         human_events_port = operator_source.GetOutputPort("human_events")
         human_capsules = builder.AddSystem(HumanCapsules(body, source="q"))
         builder.Connect(operator_source.GetOutputPort("q"), human_capsules.get_input_port())
-        camera = builder.AddSystem(DepthCamera(model, camera_seed))
-        camera.set_name("depth_camera")
+        if rendered is None:
+            camera = builder.AddSystem(DepthCamera(model, camera_seed))
+            camera.set_name("depth_camera")
+            builder.Connect(robot_capsules.get_output_port(), camera.GetInputPort("occluding_capsules"))
+        else:
+            # the robot, body, table, buffers and occluders are in the rendered image
+            camera = add_rendered_camera(builder, scene_graph, rendered, camera_seed)
         builder.Connect(operator_source.GetOutputPort("skeleton"), camera.GetInputPort("skeleton"))
         builder.Connect(operator_source.GetOutputPort("gaze"), camera.GetInputPort("gaze"))
-        builder.Connect(robot_capsules.get_output_port(), camera.GetInputPort("occluding_capsules"))
     human_capsules.set_name("human_capsules")
     systems["camera"] = camera
     systems["human_events"] = human_events_port
@@ -424,6 +442,8 @@ def build_cell(
         builder, scenario, scenario_path, body, robot_capsules, scene_graph, seed(1), rngs[0], systems
     )
     register_scene(scene_graph, scenario)
+    if camera.HasOutputPort("depth_frame"):
+        use_coarse_perception_meshes(scene_graph)  # fine capsules would cost ~2 ms each per frame
     world_system = _add_world(builder, scenario, operator_source, executor)
     systems["world"] = world_system.GetOutputPort("snapshot")
 

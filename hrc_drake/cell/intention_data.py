@@ -162,12 +162,16 @@ def record_reaches(
     pattern: list[int] | None = None,
     hands: tuple[str, ...] | None = None,
     target_scatter: float = 0.0,
+    behaviour=None,
+    robot_points=(),
 ) -> Recording:
     """Record `n_reaches` single-goal actions of a synthetic operator in `layout`.
 
     pattern: goal indices in order (default: random, never the same goal twice in a row);
     hands: the hand per goal, left|right|both (default: layout.hands). Durations are uniform in
     duration_range. target_scatter (m): std of this operator's personal offset from each centre.
+    behaviour: the operator's `IdealBehaviour` (None, the default) or `RealisticBehaviour`, whose
+    glances and aborted reaches go to the layout's goals and robot_points (3,).
     """
     n_goals = len(layout.goal_names)
     hands = tuple(hands or layout.hands)
@@ -188,7 +192,8 @@ def record_reaches(
         labels[tuple(np.round(target, 6))] = i
     names = [f"reach_{i}" for i in pattern]
     total = high * len(names)
-    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate)
+    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate,
+                   behaviour, robot_points)
 
 
 def record_task_cycles(
@@ -200,11 +205,14 @@ def record_task_cycles(
     gaze_noise: float = 0.1,
     rate: float = 30.0,
     target_scatter: float = 0.0,
+    behaviour=None,
+    robot_points=(),
 ) -> Recording:
     """Record `n_cycles` of the scenario's operator pattern (layout.tasks, e.g. fill, foam, bring, tape).
 
     Each action reaches its targets with its hand(s) as in the cell (thesis 3.1.3); durations
     are normal (mean, std) truncated at `low`; the world never makes the operator wait.
+    behaviour, robot_points: as in `record_reaches`.
     """
     if not layout.tasks or not layout.pattern:
         raise ValueError(f"record_task_cycles: layout {layout.name!r} has no operator tasks")
@@ -225,16 +233,19 @@ def record_task_cycles(
         longest = max(longest, mean + 4 * std)
     names = list(layout.pattern) * int(n_cycles)
     total = longest * len(names)
-    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate)
+    return _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate,
+                   behaviour, robot_points)
 
 
-def _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate) -> Recording:
+def _record(layout, segments, tasks, names, labels, total, rng, noise_std, gaze_noise, rate, behaviour=None,
+            robot_points=()) -> Recording:
     x, y, yaw = layout.operator_base
     body = BodyModel(segments)
     rest_q = body.rest_q((x, y), yaw)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a goal slightly out of a short arm's reach is fine here
-        operator = SyntheticOperator(body, tasks, names, rest_q, rng)
+        operator = SyntheticOperator(body, tasks, names, rest_q, rng, behaviour=behaviour,
+                                     other_goals=list(layout.centers), robot_points=robot_points)
     camera = DepthCameraModel(layout.camera_position, layout.camera_target, noise_std=noise_std, rate=rate)
     times = np.arange(0.0, total, 1.0 / rate)
     count = len(times)

@@ -26,12 +26,16 @@ def add_tracker(builder, scenario: Scenario, camera, camera_model, robot_capsule
         # fastest system that reads it, so those reads find the camera frame already measured.
         readers = [getattr(c, "rate", 0.0) for c in (scenario.intention, scenario.motion_model)]
         rate = min(rate, max(readers)) if max(readers) > 0 else rate
+    # A rendered camera gives the tracker its depth image for L_c1 (eq. 9.10); the analytic one
+    # its sight-line test with the robot's capsules.
+    rendered = camera.HasOutputPort("depth_frame")
     tracker = apply_tracker_config(
         scenario.tracker,
         builder,
         skeleton_frame=camera.GetOutputPort("skeleton_frame"),
-        occluding_capsules=robot_capsules.get_output_port(),
-        is_hidden=camera_model.is_hidden,
+        occluding_capsules=None if rendered else robot_capsules.get_output_port(),
+        is_hidden=None if rendered else camera_model.is_hidden,
+        depth_frame=camera.GetOutputPort("depth_frame") if rendered else None,
         workspace_center=lay.workspace_center,
         workspace_size=lay.workspace_size,
         rate=rate,
@@ -106,6 +110,22 @@ def pattern_precedence(pattern) -> list[tuple[str, str]]:
     return pairs
 
 
+#: a glance at a robot looks this far above its base: about the middle of a YuMi's body (m;
+#: assumption)
+ROBOT_LOOK_HEIGHT = 0.35
+
+
+def operator_behaviour(scenario: Scenario) -> dict:
+    """`SyntheticOperator`'s keyword arguments of the scenario's `operator.behaviour`: the
+    behaviour, the layout's goals and buffers (glances, aborted reaches) and the robots (glances)."""
+    return {
+        "behaviour": scenario.operator.behaviour,
+        "other_goals": list(operator_places(scenario).values()),
+        "robot_points": [np.asarray(r.base.xyz, dtype=float) + np.array([0.0, 0.0, ROBOT_LOOK_HEIGHT])
+                         for r in scenario.robots],
+    }
+
+
 def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, segments=None,
                     max_seconds: float | None = None):
     """A synthetic operator of the scenario doing `cycles` cycles of its pattern on its own (no
@@ -124,7 +144,7 @@ def operator_stream(scenario: Scenario, cycles: int, rate: float, seed: int, seg
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the cell itself warns once about goals out of reach
         operator = SyntheticOperator(body, tasks_from_schema(op, operator_places(scenario)),
-                                     list(op.pattern) * cycles, rest_q, rng)
+                                     list(op.pattern) * cycles, rest_q, rng, **operator_behaviour(scenario))
     max_seconds = SEGMENTER_LIBRARY_SECONDS if max_seconds is None else max_seconds
     noise = scenario.layout.camera.noise_std
     frames, labels, current = [], [], None

@@ -14,6 +14,7 @@ from pydrake.systems.framework import EventStatus, LeafSystem
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import segment_pose
 from hrc_drake.messages import (
+    DepthFrame,
     EventLog,
     Immutable,
     SkeletonEstimate,
@@ -45,8 +46,11 @@ class ReplayMarkers(LeafSystem):
     intention flashes and a speed lamp as Meshcat objects (recorded with the replay).
 
     Inputs "world" (WorldSnapshot), "skeleton_frame", "skeleton_estimate", "intention_events",
-    "swept_volumes", "speed_override" (1,). State: a `MarkerState`, updated at `fps`; the
-    drawing is a publish event that sends what changed since the previous tick.
+    "swept_volumes", "speed_override" (1,), "depth_frame" (a rendered camera's `DepthFrame`:
+    the points its depth image hides are drawn dark grey at their true place, those that
+    jumped to a wrong surface magenta where they were measured). State: a `MarkerState`,
+    updated at `fps`; the drawing is a publish event that sends what changed since the
+    previous tick.
     """
 
     def __init__(self, scenario: Scenario, meshcat, fps: float, show_skeleton: bool, show_swept: bool):
@@ -82,6 +86,7 @@ class ReplayMarkers(LeafSystem):
         )
         self._swept_port = self.DeclareAbstractInputPort("swept_volumes", AbstractValue.Make(SweptVolumes()))
         self._override_port = self.DeclareVectorInputPort("speed_override", 1)
+        self._depth_port = self.DeclareAbstractInputPort("depth_frame", AbstractValue.Make(DepthFrame()))
         initial = frozenset(self._initially_shown())
         self._markers = declare_state(self, lambda context: MarkerState(shown=initial, shown_before=initial))
         self.DeclareInitializationPublishEvent(self._setup)
@@ -107,6 +112,15 @@ class ReplayMarkers(LeafSystem):
             ):
                 for k in range(8):
                     meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
+            # What a rendered camera's depth image did with each point (hidden until it has a frame).
+            for name, radius, color in (
+                ("untracked", 0.022, Rgba(0.15, 0.15, 0.15, 1.0)),
+                ("wrong_surface", 0.032, Rgba(1.0, 0.1, 0.9, 0.7)),
+            ):
+                for k in range(8):
+                    path = f"/markers/skeleton/{name}/{k}"
+                    meshcat.SetObject(path, Sphere(radius), color)
+                    self._hide(path)
             # The belief's spread around a lost point: a unit sphere scaled to 2 standard deviations.
             for k in range(8):
                 path = f"/markers/skeleton/spread/{k}"
@@ -171,6 +185,9 @@ class ReplayMarkers(LeafSystem):
                             yield f"/markers/skeleton/{name}/{k}"
                         if lost:
                             yield f"/markers/skeleton/spread/{k}"
+            if self._depth_port.HasValue(context):
+                for name, flags in _depth_flags(self._depth_port.Eval(context)):
+                    yield from (f"/markers/skeleton/{name}/{k}" for k in np.flatnonzero(flags))
         yield from (f"/markers/flash/{goal}" for goal in self._goals if until.get(goal, -1.0) > t)
         if self._show_swept and self._swept_port.HasValue(context):
             yield from (
@@ -194,6 +211,13 @@ class ReplayMarkers(LeafSystem):
         return EventStatus.Succeeded()
 
     def _publish_skeleton(self, context, t: float) -> None:
+        if self._depth_port.HasValue(context):
+            depth = self._depth_port.Eval(context)
+            frame = self._frame_port.Eval(context) if self._frame_port.HasValue(context) else None
+            for name, flags in _depth_flags(depth):
+                points = depth.true_points if name == "untracked" or frame is None else frame.points
+                for k in np.flatnonzero(flags):
+                    self.meshcat.SetTransform(f"/markers/skeleton/{name}/{k}", RigidTransform(points[k]), t)
         for port, name in ((self._frame_port, "measured"), (self._estimate_port, "estimated")):
             if not port.HasValue(context):
                 continue
@@ -216,6 +240,14 @@ class ReplayMarkers(LeafSystem):
             length = float(np.linalg.norm(end - start)) + 2.0 * radius
             self.meshcat.SetTransform(path, segment_pose(start, end), t)
             self.meshcat.SetProperty(path, "scale", [radius, radius, length], t)
+
+
+def _depth_flags(depth: DepthFrame):
+    """(marker name, (8,) flags) of a depth frame: the points its image hid and that stayed
+    lost ("untracked"), and those measured on a wrong surface ("wrong_surface")."""
+    finite = np.all(np.isfinite(depth.true_points), axis=1)
+    yield "untracked", depth.hidden & ~depth.wrong_surface & finite
+    yield "wrong_surface", depth.wrong_surface & finite
 
 
 def _skeleton_flags(value, name: str):
@@ -247,6 +279,9 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
         builder.Connect(
             systems["tracker"].GetOutputPort("skeleton_estimate"), markers.GetInputPort("skeleton_estimate")
         )
+        if systems["camera"].HasOutputPort("depth_frame"):
+            builder.Connect(systems["camera"].GetOutputPort("depth_frame"),
+                            markers.GetInputPort("depth_frame"))
     if "intention" in systems:
         builder.Connect(
             systems["intention"].GetOutputPort("intention_events"), markers.GetInputPort("intention_events")

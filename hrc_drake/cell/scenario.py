@@ -240,6 +240,11 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start}): save the file as UTF-8") from None
+    return _load_text(path, text, check_reachability, _chain)
+
+
+def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
+    """`load_scenario`'s steps on `text`, read as the file `path` (relative names from its folder)."""
     try:
         raw = _raw_document(text)
     except yaml.YAMLError as err:
@@ -271,6 +276,43 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
 
         solve_named_poses(scenario.robots, path)
     return scenario
+
+
+class TaggedDumper(yaml.SafeDumper):
+    """Safe YAML out, with `Tagged` mappings as `!Kind {...}` (the inverse of `_raw_document`)."""
+
+
+TaggedDumper.add_representer(Tagged, lambda d, t: d.represent_mapping("!" + t.tag, dict(t)))
+
+
+def dump_raw(document) -> str:
+    """A raw document (mappings, lists, scalars, `Tagged`) as YAML text."""
+    return yaml.dump(document, Dumper=TaggedDumper, sort_keys=False)
+
+
+def merge_raw(base, overrides):
+    """`overrides` merged into a copy of the raw document `base`: a plain mapping merges key by key
+    (recursively); a tagged mapping (a system chosen by `!Kind`), a list or a scalar replaces."""
+    if isinstance(overrides, dict) and not isinstance(overrides, Tagged) and isinstance(base, dict) \
+            and not isinstance(base, Tagged):
+        out = dict(base)
+        for key, value in overrides.items():
+            out[key] = merge_raw(base[key], value) if key in base else copy.deepcopy(value)
+        return out
+    return copy.deepcopy(overrides)
+
+
+def load_scenario_with(path: str | Path, overrides: dict, check_reachability: bool = False) -> Scenario:
+    """The scenario file `path` with `overrides` (a raw document, `merge_raw`) applied before the
+    typed load and the checks, as if the file said so; relative names resolve from its folder."""
+    path = Path(path)
+    if not overrides:
+        return load_scenario(path, check_reachability)
+    if not isinstance(overrides, dict) or isinstance(overrides, Tagged):
+        raise ScenarioError(path, "", f"overrides must be a mapping of scenario fields, got {overrides!r}")
+    load_scenario(path)  # the file alone first: its own problems are named as its own
+    raw = _raw_document(path.read_bytes().decode("utf-8"))
+    return _load_text(path, dump_raw(merge_raw(raw, overrides)), check_reachability)
 
 
 def _extended(path: Path, extends, chain: tuple) -> Scenario | None:
@@ -431,6 +473,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     if not 0 < lay.camera.rate <= 120:
         raise ScenarioError(file, "layout.camera.rate", f"must be in (0, 120] Hz, got {lay.camera.rate}")
     _in_range(file, "layout.camera.noise_std", lay.camera.noise_std, 0.0, MAX_CAMERA_NOISE, "m")
+    _check_camera_sensor(sc, file)
 
     agents: set[str] = set()
     _unique(file, "robots", [r.name for r in sc.robots])
@@ -539,11 +582,41 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         for k, name in enumerate(op.pattern):
             if name not in op_actions:
                 raise ScenarioError(file, f"operator.pattern[{k}]", f"unknown operator action '{name}'")
+    _check_operator_behaviour(sc, file)
 
     _check_flow(sc, file, agents, buffers)
     _check_names_apart(sc, file, places)
     _check_programs_cover_the_flow(sc, file)
     _check_systems(sc, file)
+
+
+def _check_operator_behaviour(sc: Scenario, file) -> None:
+    """`operator.behaviour` validates itself; it moves the synthetic operator, not a recording."""
+    from hrc_drake.human.config import IdealBehaviour
+
+    behaviour = sc.operator.behaviour
+    try:
+        behaviour.validate("operator.behaviour")
+    except ScenarioError as err:
+        raise ScenarioError(file, err.field, err.reason) from None
+    if sc.operator.recorded and not isinstance(behaviour, IdealBehaviour):
+        raise ScenarioError(file, "operator.behaviour", "a recorded operator replays its file: a "
+                                                        "behaviour applies to the synthetic operator only")
+
+
+def _check_camera_sensor(sc: Scenario, file) -> None:
+    """The camera's sensor config validates itself (`human.config.RenderedDepthCamera`); a
+    rendered camera measures a synthetic operator (a recorded skeleton is already measured)."""
+    from hrc_drake.human.config import RenderedDepthCamera
+
+    sensor = sc.layout.camera.sensor
+    try:
+        sensor.validate("layout.camera.sensor")
+    except ScenarioError as err:
+        raise ScenarioError(file, err.field, err.reason) from None
+    if isinstance(sensor, RenderedDepthCamera) and sc.operator.recorded:
+        raise ScenarioError(file, "layout.camera.sensor", "a recorded skeleton is already a measurement: "
+                                                          "the rendered camera needs a synthetic operator")
 
 
 def _check_robot_parts(sc: Scenario, file) -> None:
@@ -861,4 +934,4 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
                 )
 
 
-__all__ = ["ScenarioError", "load_scenario", "check_scenario", "schema"]
+__all__ = ["ScenarioError", "load_scenario", "load_scenario_with", "check_scenario", "schema"]

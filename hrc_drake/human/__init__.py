@@ -1,4 +1,4 @@
-"""The human: 12-dof body model, synthetic operator, depth camera, recorded skeletons.
+"""The human: 12-dof body model, synthetic operator, depth cameras, recorded skeletons.
 
 Cores (no pydrake): `body`, `trajectories`, `operator`, `camera`, `recorded`.
 Drake adapters: `hrc_drake.human.systems`.
@@ -15,6 +15,7 @@ _EXPORTS = {
     "N_DOF": "body",
     "BodyModel": "body",
     "DepthCameraModel": "camera",
+    "RenderedCameraModel": "camera",
     "OperatorTask": "operator",
     "SyntheticOperator": "operator",
     "sampler_from_distribution": "operator",
@@ -44,6 +45,7 @@ __all__ = [
     "N_DOF",
     "BodyModel",
     "DepthCameraModel",
+    "RenderedCameraModel",
     "OperatorTask",
     "SyntheticOperator",
     "load_skeleton_csv",

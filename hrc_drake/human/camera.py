@@ -1,5 +1,8 @@
 """A depth camera that measures the 8 skeletal points and loses the ones it cannot see (thesis Ch. 9).
 
+Two models: `DepthCameraModel`, the analytic one (below), and `RenderedCameraModel`, which
+reads a depth image rendered from the scene (the Drake system `RenderedSkeletonCamera`).
+
 A point is lost (tracked False, NaN row) when the line of sight from the camera to it crosses
 an occluder box (slab test) or passes closer than a capsule's radius to one of the given
 capsules (segment-segment distance), or when it lies outside the view cone (FOV_HALF_ANGLE
@@ -10,9 +13,11 @@ from the camera axis). Visible points get isotropic Gaussian noise. The gaze fla
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from hrc_drake.messages import HEAD, SkeletonFrame
+from hrc_drake.messages import HEAD, DepthFrame, SkeletonFrame
 
 #: half-angle of the view cone around the camera axis (rad)
 FOV_HALF_ANGLE = np.deg2rad(60.0)
@@ -235,3 +240,159 @@ class DepthCameraModel:
         valid = bool(not hidden[HEAD] and gnorm > _EPS and self.gaze_visible(pts[HEAD], unit_gaze))
         return SkeletonFrame(time=float(time), points=noisy, tracked=~hidden, gaze=unit_gaze,
                              gaze_valid=valid)
+
+
+def look_at_rotation(position, target) -> np.ndarray:
+    """R_WC (3, 3) of a camera at `position` looking at `target` with no roll: columns x right,
+    y down, z forward (Drake's camera frame), x horizontal (along the camera's world x when it
+    looks straight up or down)."""
+    forward = _vec3(target, "target") - _vec3(position, "position")
+    norm = np.linalg.norm(forward)
+    if norm < 1e-9:
+        raise ValueError("look_at_rotation: target must differ from position")
+    z = forward / norm
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    if np.linalg.norm(x) < 1e-9:
+        x = np.array([0.0, -1.0, 0.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+#: per skeletal point, the body capsules (CAPSULE_NAMES indices) it lies inside: the depth
+#: image shows their surface in front of the point, up to their radius
+POINT_CAPSULES: tuple[tuple[int, ...], ...] = ((0,), (1,), (2,), (3,), (2, 4), (3, 5), (4,), (5,))
+
+
+def point_surface_radius(capsule_radius) -> np.ndarray:
+    """(8,) how far in front of each skeletal point its own body surface may be: the largest
+    radius of the capsules it lies in (`POINT_CAPSULES`, radii in CAPSULE_NAMES order)."""
+    radius = np.asarray(capsule_radius, dtype=float).reshape(-1)
+    return np.array([max(radius[k] for k in caps) for caps in POINT_CAPSULES])
+
+
+class RenderedCameraModel:
+    """A skeleton tracker on a rendered depth image (thesis Ch. 9; issue 15 item 1).
+
+    Geometry: a pinhole camera at `position` looking at `target` (`look_at_rotation`), width x
+    height pixels over fov_x x fov_y (deg), depths min_depth..max_depth (m). Points are
+    measured from the true pose; point k is untracked where the image is in front of it by
+    more than depth_tolerance + point_radius[k] (its own body surface; self-occlusion
+    included), outside the image or outside the depth range. The failure modes of a
+    skeleton tracker: with probability wrong_surface_probability a hidden point with a surface
+    in front of it stays tracked at the back-projected depth of a pixel within
+    wrong_surface_pixels of its own (the occluder's surface), and every tracked point jitters
+    with the isotropic standard deviation noise_std * (z / 1 m) ** jitter_exponent, z its depth.
+    The gaze flag F (Sec. 3.1.2) as in `DepthCameraModel`.
+    """
+
+    def __init__(self, position, target, width: int = 256, height: int = 212, fov_x: float = 70.6,
+                 fov_y: float = 60.0, min_depth: float = 0.5, max_depth: float = 4.5,
+                 depth_tolerance: float = 0.03, point_radius=0.0, noise_std: float = 0.01,
+                 jitter_exponent: float = 2.0, wrong_surface_probability: float = 0.05,
+                 wrong_surface_pixels: int = 3, rate: float = 30.0, gaze_valid_angle: float = 1.2):
+        self.position = _vec3(position, "position")
+        self.target = _vec3(target, "target")
+        self.R_WC = look_at_rotation(self.position, self.target)
+        if int(width) != width or int(height) != height or width < 1 or height < 1:
+            raise ValueError(f"RenderedCameraModel: width and height must be positive integers, got "
+                             f"{width!r}, {height!r}")
+        self.width, self.height = int(width), int(height)
+        for name, value in (("fov_x", fov_x), ("fov_y", fov_y)):
+            if not (np.isfinite(value) and 0 < value < 180):
+                raise ValueError(f"RenderedCameraModel: {name} must be in (0, 180) deg, got {value!r}")
+        if not (0 < min_depth < max_depth and np.isfinite(max_depth)):
+            raise ValueError(f"RenderedCameraModel: need 0 < min_depth < max_depth, got {min_depth!r}, "
+                             f"{max_depth!r}")
+        for name, value in (("depth_tolerance", depth_tolerance), ("noise_std", noise_std),
+                            ("jitter_exponent", jitter_exponent)):
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"RenderedCameraModel: {name} must be >= 0, got {value!r}")
+        if not 0.0 <= wrong_surface_probability <= 1.0:
+            raise ValueError(f"RenderedCameraModel: wrong_surface_probability must be in [0, 1], got "
+                             f"{wrong_surface_probability!r}")
+        if not (np.isfinite(rate) and rate > 0):
+            raise ValueError(f"RenderedCameraModel: rate must be > 0, got {rate!r}")
+        #: (8,) how far in front of each point its own body surface may be (`point_surface_radius`)
+        self.point_radius = np.broadcast_to(np.asarray(point_radius, dtype=float), (8,)).copy()
+        # square pixels are not assumed: each axis spans its own field of view
+        self.fx = 0.5 * self.width / np.tan(0.5 * np.deg2rad(fov_x))
+        self.fy = 0.5 * self.height / np.tan(0.5 * np.deg2rad(fov_y))
+        self.cx, self.cy = 0.5 * self.width - 0.5, 0.5 * self.height - 0.5
+        self.min_depth, self.max_depth = float(min_depth), float(max_depth)
+        self.depth_tolerance = float(depth_tolerance)
+        self.noise_std = float(noise_std)
+        self.jitter_exponent = float(jitter_exponent)
+        self.wrong_surface_probability = float(wrong_surface_probability)
+        self.wrong_surface_pixels = int(wrong_surface_pixels)
+        self.rate = float(rate)
+        self._gaze = DepthCameraModel(self.position, self.target, gaze_valid_angle=gaze_valid_angle)
+        X_CW = np.eye(4)
+        X_CW[:3, :3] = self.R_WC.T
+        X_CW[:3, 3] = -self.R_WC.T @ self.position
+        self.X_CW = X_CW
+        self.X_CW.setflags(write=False)
+
+    @classmethod
+    def from_config(cls, camera, sensor, capsule_radius) -> RenderedCameraModel:
+        """From the typed configs `human.config.Camera` and its `RenderedDepthCamera` sensor and
+        the body capsules' radii (CAPSULE_NAMES order)."""
+        return cls(camera.position, camera.target, width=sensor.width, height=sensor.height,
+                   fov_x=sensor.fov_x, fov_y=sensor.fov_y, min_depth=sensor.min_depth,
+                   max_depth=sensor.max_depth, depth_tolerance=sensor.depth_tolerance,
+                   point_radius=point_surface_radius(capsule_radius), noise_std=camera.noise_std,
+                   jitter_exponent=sensor.jitter_exponent,
+                   wrong_surface_probability=sensor.wrong_surface_probability,
+                   wrong_surface_pixels=sensor.wrong_surface_pixels, rate=camera.rate,
+                   gaze_valid_angle=camera.gaze_valid_angle)
+
+    def depth_frame(self, time: float, depth) -> DepthFrame:
+        """The image (H, W) as a `DepthFrame` (no skeleton seen in it yet)."""
+        depth = np.array(depth, dtype=np.float32).reshape(self.height, self.width)
+        depth.setflags(write=False)
+        return DepthFrame(time=float(time), depth=depth, X_CW=self.X_CW,
+                          intrinsics=(self.fx, self.fy, self.cx, self.cy), min_depth=self.min_depth,
+                          max_depth=self.max_depth, tolerance=self.depth_tolerance)
+
+    def jitter_std(self, z) -> np.ndarray:
+        """Jitter standard deviation (m) at depth z (m): noise_std * z ** jitter_exponent."""
+        return self.noise_std * np.maximum(np.asarray(z, dtype=float), 0.0) ** self.jitter_exponent
+
+    def back_project(self, u, v, z) -> np.ndarray:
+        """World points (..., 3) of pixels (u, v) at depths z."""
+        p_c = np.stack([(u - self.cx) / self.fx * z, (v - self.cy) / self.fy * z, z], axis=-1)
+        return p_c @ self.R_WC.T + self.position
+
+    def measure(self, time: float, true_points, gaze, depth,
+                rng: np.random.Generator) -> tuple[SkeletonFrame, DepthFrame]:
+        """One frame from the depth image (H, W): the measured skeleton and the image with
+        what it hid (`DepthFrame.hidden`, `wrong_surface`)."""
+        pts = np.asarray(true_points, dtype=float)
+        if pts.shape != (8, 3):
+            raise ValueError(f"RenderedCameraModel.measure: true_points must be (8, 3), got {pts.shape}")
+        gaze = np.asarray(gaze, dtype=float).reshape(-1)
+        if gaze.shape != (3,):
+            raise ValueError(f"RenderedCameraModel.measure: gaze must be (3,), got {gaze.shape}")
+        image = self.depth_frame(time, depth)
+        hidden = image.is_hidden(pts, self.depth_tolerance + self.point_radius) | ~np.all(np.isfinite(pts), 1)
+        measured = pts.copy()
+        # The wrong surface: the depth of a pixel near the hidden point's own, where it is a surface.
+        u, v, _, inside = image.project(np.where(np.isfinite(pts), pts, 0.0))
+        r = self.wrong_surface_pixels
+        jump = rng.random(8) < self.wrong_surface_probability
+        du, dv = rng.integers(-r, r + 1, size=(2, 8))
+        u2 = np.clip(u + du, 0, self.width - 1)
+        v2 = np.clip(v + dv, 0, self.height - 1)
+        surface = image.depth[v2, u2].astype(float)
+        valid = (surface >= self.min_depth) & (surface <= self.max_depth)
+        wrong = hidden & inside & jump & valid
+        measured[wrong] = self.back_project(u2[wrong], v2[wrong], surface[wrong])
+        tracked = ~hidden | wrong
+        z = (measured - self.position) @ self.R_WC[:, 2]
+        noise = rng.standard_normal((8, 3)) * self.jitter_std(z)[:, None]
+        measured = np.where(tracked[:, None], measured + noise, np.nan)
+        gnorm = np.linalg.norm(gaze)
+        unit_gaze = gaze / gnorm if gnorm > _EPS else np.array([1.0, 0.0, 0.0])
+        valid_gaze = bool(not hidden[HEAD] and gnorm > _EPS and self._gaze.gaze_visible(pts[HEAD], unit_gaze))
+        frame = SkeletonFrame(time=float(time), points=measured, tracked=tracked, gaze=unit_gaze,
+                              gaze_valid=valid_gaze)
+        return frame, dataclasses.replace(image, hidden=hidden, wrong_surface=wrong, true_points=pts.copy())

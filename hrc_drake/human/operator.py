@@ -16,6 +16,14 @@ synchronous world object instead (`world=`), it starts and finishes in place.
 Arm configurations come from a small inverse kinematics on wrist position only (torso
 flexion + the arm(s) of the action, base fixed), solved once per goal and cached, so that
 `q(t)` is closed-form minimum-jerk interpolation between cached configurations.
+
+That is the ideal behaviour (`IdealBehaviour`, the default). With `RealisticBehaviour` (see
+`behaviour.py`) the gaze leads the hand by a random time and glances at other goals and at the
+robot; a reach may pause half-way or start towards a wrong goal and turn back; the person's
+speed factor divides the reach times (the action's duration, hence every event, stays the
+sampled one); and smooth noise wobbles the head angles and the arm joints. The wrist noise is
+added to the joints, not to the points: the skeleton keeps its segment lengths, and `q`, the
+points and the gaze stay one body.
 """
 
 from __future__ import annotations
@@ -29,7 +37,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hrc_drake.distributions import sample_duration, validate_distribution
+from hrc_drake.human.behaviour import (
+    ABORT_MIN_SEPARATION,
+    GLANCE_TURN,
+    SmoothNoise,
+    draw_glances,
+    draw_phase,
+    person_speed,
+)
 from hrc_drake.human.body import ARM_DOFS, BodyModel
+from hrc_drake.human.config import IdealBehaviour, RealisticBehaviour
 from hrc_drake.messages import (
     HEAD,
     HUMAN_AGENT,
@@ -55,6 +72,10 @@ MIN_DURATION = 0.05
 _HEAD_LOWER = np.array([-1.4, -0.6])
 _HEAD_UPPER = np.array([1.4, 1.1])
 _HANDS_OF = {"left": ("left",), "right": ("right",), "both": ("left", "right")}
+#: the third word of the seed of the generators of an action's quirks, and of the person's
+#: (a seed [s, k] is the k-th action's duration; numpy reads [s, k, 0] as [s, k])
+_QUIRKS_STREAM = 1
+_PERSON_STREAM = 2
 
 
 @dataclass
@@ -119,10 +140,24 @@ class _Plan:
         i = bisect_right(self._starts, t) - 1
         if i < 0:
             return self.segments[0].start.copy()
-        seg = self.segments[i]
-        # the closed-form minimum-jerk position of `trajectories.minimum_jerk`, scalar time
-        u = min(max((t - seg.t0) / seg.duration, 0.0), 1.0)
-        return seg.start + (seg.end - seg.start) * (u * u * u * (10.0 + u * (-15.0 + 6.0 * u)))
+        return _segment_at(self.segments[i], t)
+
+
+def _segment_at(seg: _Segment, t: float) -> np.ndarray:
+    """The closed-form minimum-jerk position of `trajectories.minimum_jerk` at scalar time t."""
+    u = min(max((t - seg.t0) / seg.duration, 0.0), 1.0)
+    return seg.start + (seg.end - seg.start) * (u * u * u * (10.0 + u * (-15.0 + 6.0 * u)))
+
+
+def _chained(value: np.ndarray, moves) -> list[_Segment]:
+    """Segments of the moves (start time, duration, end value), in time order, each starting
+    where the previous one is at its start (a move may cut the previous one short)."""
+    segments: list[_Segment] = []
+    for t0, duration, end in sorted(moves, key=lambda move: move[0]):
+        if segments:
+            value = _segment_at(segments[-1], t0)
+        segments.append(_Segment(t0, max(duration, 1e-6), value, np.asarray(end, dtype=float)))
+    return segments
 
 
 class SyntheticOperator:
@@ -135,13 +170,19 @@ class SyntheticOperator:
     copy of a generator); world: synchronous object with `try_start(agent, action) -> bool`
     and `finish(agent, action)` (None: always starts, or the request protocol of `update`);
     rest_height: wrist height at rest (default: median goal height + 5 cm).
+    behaviour: `IdealBehaviour` (default) or `RealisticBehaviour`; with the latter, other_goals
+    (points (3,); default: the tasks' goals) are where the gaze glances and an aborted reach
+    may start towards, robot_points where a glance at the robot looks (its k-th action's
+    quirks are drawn from a generator seeded with (seed, k, 1), the person's from (seed, 0, 2)).
 
     The description (body, tasks, IK cache) is shared by copies (`clone`); the run state
     (plans, indices, events) is what an update changes.
     """
 
     def __init__(self, body: BodyModel, tasks: dict, pattern, rest_q, rng: np.random.Generator,
-                 world=None, agent: str = HUMAN_AGENT, rest_height: float | None = None):
+                 world=None, agent: str = HUMAN_AGENT, rest_height: float | None = None,
+                 behaviour: IdealBehaviour | RealisticBehaviour | None = None, other_goals=None,
+                 robot_points=()):
         self.body = body
         generator = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         self.seed = int(generator.integers(2**62))
@@ -210,6 +251,54 @@ class SyntheticOperator:
         self._request_seq = 0
         self._joints = _Plan(self.rest_config, 0.0)
         self._head = _Plan(self._head_angles(self.rest_config, self._rest_look), 0.0)
+        self._set_behaviour(behaviour, other_goals, robot_points)
+
+    def _set_behaviour(self, behaviour, other_goals, robot_points) -> None:
+        """The realistic behaviour's description: places, the person's speed and noise."""
+        if behaviour is None or isinstance(behaviour, IdealBehaviour):
+            self.behaviour, self.speed = None, 1.0
+            return
+        if not isinstance(behaviour, RealisticBehaviour):
+            raise ValueError(f"SyntheticOperator: behaviour must be an IdealBehaviour or a "
+                             f"RealisticBehaviour, got {type(behaviour).__name__}")
+        behaviour.validate("behaviour")
+        self.behaviour = behaviour
+        if other_goals is None:
+            other_goals = [g for task in self.tasks.values() for g in task.goals]
+        self.other_goals = _unique_points(other_goals, "other_goals")
+        self.robot_points = _unique_points(robot_points, "robot_points")
+        person = np.random.default_rng([self.seed, 0, _PERSON_STREAM])
+        self.speed = person_speed(behaviour, person)
+        # both noises are drawn even when off, so that turning one off leaves the other as it was
+        head_noise = SmoothNoise([behaviour.gaze_noise_std] * 2, behaviour.gaze_noise_time, person)
+        arm_noise = SmoothNoise(self._arm_joint_noise_std(behaviour.hand_noise_std),
+                                behaviour.hand_noise_time, person)
+        self._head_noise = head_noise if behaviour.gaze_noise_std > 0 else None
+        self._arm_noise = arm_noise if behaviour.hand_noise_std > 0 else None
+
+    def _arm_joint_noise_std(self, wrist_std: float) -> np.ndarray:
+        """Per arm joint (8,): the std that moves each wrist by about `wrist_std` per coordinate
+        at rest, sigma_q = wrist_std sqrt(3 / trace(J J^T)) with J the wrist's Jacobian (3, 4)."""
+        stds = np.zeros(8)
+        step = 1e-6
+        for hand in ("left", "right"):
+            dofs = range(12)[ARM_DOFS[hand]]
+            wrist = self.body._points(self.rest_config)[WRIST_OF_HAND[hand]]
+            jacobian = np.empty((3, 4))
+            for j, dof in enumerate(dofs):
+                q = self.rest_config.copy()
+                q[dof] += step
+                jacobian[:, j] = (self.body._points(q)[WRIST_OF_HAND[hand]] - wrist) / step
+            stds[dofs.start - 4:dofs.stop - 4] = wrist_std * math.sqrt(3.0 / max(np.sum(jacobian**2), 1e-12))
+        return stds
+
+    def with_behaviour(self, behaviour, other_goals=None, robot_points=()) -> SyntheticOperator:
+        """This person (seed, body, tasks, IK cache) with another behaviour, before its first update."""
+        if self._time is not None:
+            raise ValueError("SyntheticOperator.with_behaviour: only before the first update")
+        other = self.clone()
+        other._set_behaviour(behaviour, other_goals, robot_points)
+        return other
 
     def clone(self) -> SyntheticOperator:
         """A copy whose run state an update may change; shares the description and IK cache
@@ -220,8 +309,9 @@ class SyntheticOperator:
         return other
 
     # ------------------------------------------------------------------ kinematics helpers
-    def _solve(self, hands, targets, q_start) -> np.ndarray:
-        """IK on wrist positions only: torso flexion + the hands' arms free, base fixed."""
+    def _solve(self, hands, targets, q_start, report: bool = True) -> np.ndarray:
+        """IK on wrist positions only: torso flexion + the hands' arms free, base fixed; a target
+        out of reach is recorded in `unreachable` (with `report`)."""
         free = [3] + [i for hand in hands for i in range(12)[ARM_DOFS[hand]]]
         wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
         target = np.asarray(targets, dtype=float)
@@ -251,21 +341,23 @@ class SyntheticOperator:
         q = q_start.copy()
         q[free] = best.x
         error = float(np.linalg.norm(self.body._points(q)[wrist_rows] - target, axis=1).max())
-        if error > 0.01:
+        if error > 0.01 and report:
             self.unreachable.append((",".join(hands), target.copy(), error))
             warnings.warn(f"SyntheticOperator: goal {target.tolist()} out of reach by {error:.3f} m",
                           stacklevel=3)
         return q
 
-    def _goal_config(self, hand: str, goal: np.ndarray) -> np.ndarray:
-        key = (hand, tuple(np.round(goal, 6)))
+    def _goal_config(self, hand: str, goal: np.ndarray, aside: bool = False) -> np.ndarray:
+        """The configuration reaching `goal`; aside: a goal only started towards by mistake
+        (an aborted reach: not reaching it is no problem, and is not reported)."""
+        key = (hand, tuple(np.round(goal, 6))) + (("aside",) if aside else ())
         if key not in self._cache:
             hands = _HANDS_OF[hand]
             if hand == "both":
                 targets = [goal + BOTH_HANDS_OFFSET * self._left, goal - BOTH_HANDS_OFFSET * self._left]
             else:
                 targets = [goal]
-            self._cache[key] = self._solve(hands, targets, self.rest_config)
+            self._cache[key] = self._solve(hands, targets, self.rest_config, report=not aside)
         return self._cache[key]
 
     def _head_angles(self, q: np.ndarray, look_at: np.ndarray) -> np.ndarray:
@@ -283,6 +375,9 @@ class SyntheticOperator:
 
     # ------------------------------------------------------------------ planning
     def _plan_action(self, t0: float, task: OperatorTask, duration: float):
+        if self.behaviour is not None:
+            self._plan_realistic(t0, task, duration)
+            return
         hands = _HANDS_OF[task.hand]
         n = len(task.goals)
         phase = duration / n
@@ -303,6 +398,83 @@ class SyntheticOperator:
             self._phase_goals.append({hand: goal for hand in hands})
         self._joints.reset(t0, joint_segments)
         self._head.reset(t0, head_segments)
+
+    def _plan_realistic(self, t0: float, task: OperatorTask, duration: float) -> None:
+        """The phases of `_plan_action` with the quirks of `RealisticBehaviour` (module docstring)."""
+        # _begin counted this action already: it is the (_started - 1)-th
+        rng = np.random.default_rng([self.seed, self._started - 1, _QUIRKS_STREAM])
+        phase = duration / len(task.goals)
+        joint_moves, head_moves, windows = [], [], []
+        q_prev = self._joints.at(t0)
+        self._phase_starts, self._phase_goals = [], []
+        for k, goal in enumerate(task.goals):
+            start = t0 + k * phase
+            wrong_goals = self._wrong_goals(goal, q_prev, task.hand)
+            timing = draw_phase(self.behaviour, rng, phase, self.speed, len(wrong_goals), REACH_FRACTION)
+            q_goal = self._goal_config(task.hand, goal)
+            look = self._head_angles(q_goal, goal)
+            settled = self._plan_phase(start, timing, task.hand, q_prev, q_goal, look,
+                                       wrong_goals, joint_moves, head_moves)
+            windows.append((settled, start + phase))
+            q_prev = q_goal
+            self._phase_starts.append(start)
+            self._phase_goals.append({hand: goal for hand in _HANDS_OF[task.hand]})
+        self._joints.reset(t0, _chained(self._joints.at(t0), joint_moves))
+        head_moves += self._glance_moves(rng, windows, task)
+        self._head.reset(t0, _chained(self._head.at(t0), head_moves))
+
+    def _wrong_goals(self, goal: np.ndarray, q_now: np.ndarray, hand: str) -> list[np.ndarray]:
+        """The goals an aborted reach may start towards: away from the right one and from the hands."""
+        wrists = self.body._points(q_now)[[WRIST_OF_HAND[h] for h in _HANDS_OF[hand]]]
+        return [g for g in self.other_goals
+                if np.linalg.norm(g - goal) >= ABORT_MIN_SEPARATION
+                and np.linalg.norm(wrists - g, axis=1).min() >= ABORT_MIN_SEPARATION]
+
+    def _plan_phase(self, start, timing, hand, q_prev, q_goal, look, wrong_goals, joint_moves,
+                    head_moves) -> float:
+        """Adds the joint and head moves of one phase; returns when the gaze is on the goal for good."""
+        hand_start = start + timing.lead
+        turn = min(timing.lead, HEAD_LEAD)
+        q_from, reach_start, settled = q_prev, hand_start, max(start + turn, hand_start)
+        if timing.wrong_goal is None:
+            head_moves.append((start, turn, look))
+        else:
+            wrong = wrong_goals[timing.wrong_goal]
+            q_wrong = self._goal_config(hand, wrong, aside=True)
+            head_moves.append((start, turn, self._head_angles(q_wrong, wrong)))
+            q_from = q_prev + self.behaviour.abort_fraction * (q_wrong - q_prev)
+            joint_moves.append((hand_start, timing.wrong_time, q_from))
+            reach_start = hand_start + timing.wrong_time
+            # half-way the person sees the mistake: the gaze goes to the right goal, then the hand
+            notice = hand_start + 0.5 * timing.wrong_time
+            head_moves.append((notice, min(HEAD_LEAD, 0.5 * timing.wrong_time), look))
+            settled = max(notice + min(HEAD_LEAD, 0.5 * timing.wrong_time), reach_start)
+        if timing.hesitate_at is None:
+            joint_moves.append((reach_start, timing.reach, q_goal))
+            return settled
+        first = timing.hesitate_at * timing.reach
+        q_pause = q_from + timing.hesitate_at * (q_goal - q_from)
+        joint_moves.append((reach_start, first, q_pause))
+        joint_moves.append((reach_start + first + timing.pause, timing.reach - first, q_goal))
+        return settled
+
+    def _glance_moves(self, rng, windows, task) -> list:
+        """Head moves of the glances: away to another goal or the robot, and back to the phase's goal."""
+        moves = []
+        for t, fixation, (kind, index) in draw_glances(self.behaviour, rng, windows, len(self.other_goals),
+                                                       len(self.robot_points)):
+            k = max(bisect_right(self._phase_starts, t) - 1, 0)
+            goal = task.goals[k]
+            if kind == "robot":
+                target = self.robot_points[index]
+            else:
+                others = [g for g in self.other_goals if np.linalg.norm(g - goal) > 1e-6] or [goal]
+                target = others[index % len(others)]
+            q_then = self._joints.at(t + GLANCE_TURN)
+            moves.append((t, GLANCE_TURN, self._head_angles(q_then, target)))
+            back = self._head_angles(self._goal_config(task.hand, goal), goal)
+            moves.append((t + GLANCE_TURN + fixation, GLANCE_TURN, back))
+        return moves
 
     def _plan_rest(self, t0: float, look_at: np.ndarray):
         q_now = self._joints.at(t0)
@@ -437,10 +609,18 @@ class SyntheticOperator:
         Only the current plan is kept: for t before the last replanning (an action start or
         a wait start) it returns the pose at that replanning.
         """
-        return self._joints.at(float(t))
+        q = self._joints.at(float(t))
+        if self.behaviour is not None and self._arm_noise is not None:
+            q[4:] += self._arm_noise.at(t)
+            q = self.body._clip(q)
+        return q
 
     def head_yaw_pitch(self, t: float) -> np.ndarray:
-        return self._head.at(float(t))
+        """Head yaw and pitch (2,) relative to the torso at time t (as `q`: the current plan)."""
+        angles = self._head.at(float(t))
+        if self.behaviour is not None and self._head_noise is not None:
+            angles = np.clip(angles + self._head_noise.at(t), _HEAD_LOWER, _HEAD_UPPER)
+        return angles
 
     def points(self, t: float) -> np.ndarray:
         """True skeletal points (8, 3) at time t."""
@@ -459,3 +639,15 @@ class SyntheticOperator:
 
     def thorax(self, t: float) -> np.ndarray:
         return self.points(t)[THORAX]
+
+
+def _unique_points(points, what: str) -> list[np.ndarray]:
+    """Finite points (3,), each once."""
+    out: list[np.ndarray] = []
+    for k, point in enumerate(points):
+        p = np.asarray(point, dtype=float).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ValueError(f"SyntheticOperator: {what}[{k}] must be 3 finite numbers, got {point!r}")
+        if all(np.linalg.norm(p - other) > 1e-9 for other in out):
+            out.append(p)
+    return out

@@ -1,4 +1,5 @@
-"""Drake adapters of the human model: the synthetic operator, a recorded skeleton, the depth camera.
+"""Drake adapters of the human model: the synthetic operator, a recorded skeleton, the depth cameras
+(analytic, and on a depth image rendered by an `RgbdSensor`).
 
 Each keeps its run in its Context (DESIGN.md): the operator's plans and event logs, the camera's
 last frame are abstract state set again at initialization; outputs read only the Context.
@@ -10,12 +11,22 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    ClippingRange,
+    DepthRange,
+    DepthRenderCamera,
+    MakeRenderEngineVtk,
+    RenderCameraCore,
+    RenderEngineVtkParams,
+)
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem
+from pydrake.systems.sensors import CameraInfo, ImageDepth32F, RgbdSensor
 
-from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.camera import DepthCameraModel, RenderedCameraModel
 from hrc_drake.human.operator import SyntheticOperator
 from hrc_drake.human.recorded import frame_at, load_skeleton_csv
-from hrc_drake.messages import EventLog, Immutable, SkeletonFrame, WorldSnapshot, no_capsules
+from hrc_drake.messages import DepthFrame, EventLog, Immutable, SkeletonFrame, WorldSnapshot, no_capsules
 from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state, state_ticket
 
 #: the human_events and world_requests outputs keep at most this many of the latest events
@@ -215,3 +226,90 @@ class DepthCamera(LeafSystem):
         capsules = input_or(self._capsules, context, None)
         rng = np.random.default_rng([self.seed, k])
         output.set_value(self.camera.measure(t, points, self._gaze.Eval(context), rng, capsules))
+
+
+@dataclass(frozen=True)
+class RenderedFrames(Immutable):
+    """The rendered camera's last frame: the measured skeleton and the depth image it came from."""
+
+    skeleton: SkeletonFrame
+    depth: DepthFrame
+
+
+class RenderedSkeletonCamera(LeafSystem):
+    """A skeleton tracker on a rendered depth image (thesis Ch. 9 measurement model, see
+    `RenderedCameraModel`), in place of `DepthCamera`.
+
+    Inputs: "depth_image" (ImageDepth32F, width x height of the model; from an `RgbdSensor`'s
+    depth_image_32f port), "skeleton" (24, true points), "gaze" (3).
+    Outputs: "skeleton_frame" (SkeletonFrame, as `DepthCamera`'s) and "depth_frame"
+    (`DepthFrame`: the image, its projection and the points it hid; the tracker's L_c1 and the
+    replay read it).
+    State: a `RenderedFrames`, measured by a periodic update at the camera ticks k / rate (so the
+    sensor renders once per frame, when this update reads it), with the noise of frame k drawn
+    from a generator seeded with (rng_seed, k). Before the first tick nothing is tracked.
+    """
+
+    def __init__(self, camera_model: RenderedCameraModel, rng_seed=0):
+        super().__init__()
+        self.camera = camera_model
+        self.seed = int(rng_seed)
+        self._image = self.DeclareAbstractInputPort("depth_image", AbstractValue.Make(ImageDepth32F()))
+        self._skeleton = self.DeclareVectorInputPort("skeleton", 24)
+        self._gaze = self.DeclareVectorInputPort("gaze", 3)
+        initial = RenderedFrames(empty_skeleton_frame(), DepthFrame())
+        self._frames = declare_state(self, lambda context: initial)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(1.0 / camera_model.rate, 0.0, self._update)
+        ticket = state_ticket(self, self._frames)
+        self.DeclareAbstractOutputPort("skeleton_frame", lambda: AbstractValue.Make(SkeletonFrame()),
+                                       self._calc_frame, ticket)
+        self.DeclareAbstractOutputPort("depth_frame", lambda: AbstractValue.Make(DepthFrame()),
+                                       self._calc_depth, ticket)
+
+    def _update(self, context, state):
+        t = context.get_time()
+        k = int(np.floor(t * self.camera.rate + 1e-9))
+        image = self._image.Eval(context)
+        if (image.width(), image.height()) != (self.camera.width, self.camera.height):
+            raise ValueError(f"RenderedSkeletonCamera: the depth image is {image.width()} x "
+                             f"{image.height()}, the camera model {self.camera.width} x {self.camera.height}")
+        rng = np.random.default_rng([self.seed, k])
+        points = self._skeleton.Eval(context).reshape(8, 3)
+        frame, depth = self.camera.measure(t, points, self._gaze.Eval(context), image.data[:, :, 0], rng)
+        set_state(state, self._frames, RenderedFrames(frame, depth))
+        return EventStatus.Succeeded()
+
+    def _calc_frame(self, context, output):
+        output.set_value(get_state(context, self._frames).skeleton)
+
+    def _calc_depth(self, context, output):
+        output.set_value(get_state(context, self._frames).depth)
+
+
+#: the name of the VTK renderer the rendered camera adds to SceneGraph
+DEPTH_RENDERER = "hrc_depth_vtk"
+
+
+def add_rendered_camera(builder, scene_graph, camera_model: RenderedCameraModel, rng_seed=0):
+    """Add the rendered camera: a VTK renderer in `scene_graph` (headless), an `RgbdSensor` at
+    the model's pose and intrinsics rendering depth only, and the `RenderedSkeletonCamera` that
+    reads it (named "rendered_depth_sensor" and "depth_camera"). The skeleton and gaze inputs
+    are left to the caller. Geometry appears in the image where it has the perception role.
+    Returns the skeleton camera.
+    """
+    if not scene_graph.HasRenderer(DEPTH_RENDERER):
+        scene_graph.AddRenderer(DEPTH_RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    m = camera_model
+    info = CameraInfo(m.width, m.height, m.fx, m.fy, m.cx, m.cy)
+    # the clipping planes bracket the depth range, so that nearer surfaces still hide what is behind
+    clipping = ClippingRange(min(0.01, 0.5 * m.min_depth), 1.05 * m.max_depth)
+    core = RenderCameraCore(DEPTH_RENDERER, info, clipping, RigidTransform())
+    depth_camera = DepthRenderCamera(core, DepthRange(m.min_depth, m.max_depth))
+    X_WC = RigidTransform(RotationMatrix(m.R_WC), m.position)
+    sensor = builder.AddSystem(RgbdSensor(scene_graph.world_frame_id(), X_WC, depth_camera))
+    sensor.set_name("rendered_depth_sensor")
+    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    camera = builder.AddSystem(RenderedSkeletonCamera(camera_model, rng_seed))
+    camera.set_name("depth_camera")
+    builder.Connect(sensor.depth_image_32F_output_port(), camera.GetInputPort("depth_image"))
+    return camera

@@ -11,7 +11,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
-from hrc_drake.messages import SkeletonEstimate, SkeletonFrame, no_capsules
+from hrc_drake.messages import DepthFrame, SkeletonEstimate, SkeletonFrame, no_capsules
 from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.perception.tracker import SkeletonTracker, speed_override
 from hrc_drake.systems import (
@@ -49,6 +49,9 @@ class OcclusionTracker(LeafSystem):
       "occluding_capsules": optional abstract `Capsules`, the capsules that also hide points
         from the camera (robot links); when connected they are passed to
         `is_hidden(points, capsules)`.
+      "depth_frame": optional abstract `DepthFrame` (a rendered camera's image); when
+        connected, L_c1 is `DepthFrame.is_hidden` of that frame's image, and `is_hidden` and
+        the capsules are not used.
     Outputs:
       "skeleton_estimate": abstract `SkeletonEstimate` (particles (8, <= display_particles, 3)).
       "speed_override": BasicVector(1), the slow-down rule of 9.1.3 (`slow_factor` or 1).
@@ -79,6 +82,7 @@ class OcclusionTracker(LeafSystem):
         self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
         self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
                                                        AbstractValue.Make(no_capsules()))
+        self._depth_frame = self.DeclareAbstractInputPort("depth_frame", AbstractValue.Make(DepthFrame()))
         self._core = declare_state(self, lambda context: self._initial)
         period = 1.0 / float(rate)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.5 * period if offset is None else offset,
@@ -89,6 +93,8 @@ class OcclusionTracker(LeafSystem):
         self.DeclareVectorOutputPort("speed_override", BasicVector(1), self._calc_speed, ticket)
 
     def _depth_query(self, context):
+        if self._depth_frame.HasValue(context):
+            return self._depth_frame.Eval(context).is_hidden
         if self.is_hidden is None or not self._capsules.HasValue(context):
             return self.is_hidden
         capsules = self._capsules.Eval(context)
@@ -178,12 +184,14 @@ class MeasurementAsEstimate(LeafSystem):
 
 
 def apply_tracker_config(config: NoTracker | ParticleFilterTracker | KalmanTracker, builder, *,
-                         skeleton_frame, occluding_capsules=None, is_hidden=None, workspace_center,
-                         workspace_size, rate: float = 30.0, seed: int = 0) -> LeafSystem:
+                         skeleton_frame, occluding_capsules=None, is_hidden=None, depth_frame=None,
+                         workspace_center, workspace_size, rate: float = 30.0, seed: int = 0) -> LeafSystem:
     """Add the tracker of `config` to `builder`, named "tracker", and connect its inputs.
 
     skeleton_frame: the camera's `SkeletonFrame` output port. occluding_capsules: optional
     `Capsules` output port (robot links) of the depth query `is_hidden(points, capsules)`.
+    depth_frame: optional `DepthFrame` output port of a rendered camera: the depth query is
+    then its image (`is_hidden` and the capsules are not needed).
     workspace_center, workspace_size: the robot workspace box (m). rate: camera rate (Hz).
     Returns the system: read "skeleton_estimate" (and, but for `NoTracker`, "speed_override").
     """
@@ -194,6 +202,8 @@ def apply_tracker_config(config: NoTracker | ParticleFilterTracker | KalmanTrack
             OcclusionTracker(config, is_hidden, workspace_center, workspace_size, rate=rate, seed=seed))
         if occluding_capsules is not None:
             builder.Connect(occluding_capsules, tracker.GetInputPort("occluding_capsules"))
+        if depth_frame is not None:
+            builder.Connect(depth_frame, tracker.GetInputPort("depth_frame"))
     tracker.set_name("tracker")
     builder.Connect(skeleton_frame, tracker.GetInputPort("skeleton_frame"))
     return tracker

@@ -9,6 +9,7 @@ from pathlib import Path
 import yaml
 
 from hrc_drake.cell.scenario import Tagged, _raw_document
+from hrc_drake.cell.scenario import TaggedDumper as _Dumper
 
 NUMBER_MUTATIONS = (("negative", lambda v: -abs(v) - 1), ("nan", lambda v: math.nan),
                     ("huge", lambda v: 1e12), ("zero", lambda v: 0), ("text", lambda v: "x"),
@@ -16,13 +17,6 @@ NUMBER_MUTATIONS = (("negative", lambda v: -abs(v) - 1), ("nan", lambda v: math.
 TEXT_MUTATIONS = (("unknown", lambda v: "no_such_name"), ("empty", lambda v: ""), ("number", lambda v: 7),
                   ("list", lambda v: [v]))
 LIST_MUTATIONS = (("empty", lambda v: []),)
-
-
-class _Dumper(yaml.SafeDumper):
-    """Safe YAML out, with `Tagged` mappings as `!Kind {...}`."""
-
-
-_Dumper.add_representer(Tagged, lambda d, t: d.represent_mapping("!" + t.tag, dict(t)))
 
 
 def leaves(node, path=()):

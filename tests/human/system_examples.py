@@ -1,11 +1,17 @@
 """Contract examples of the human systems (see tests/contract.py)."""
 
 import numpy as np
+from pydrake.systems.sensors import ImageDepth32F
 
 from hrc_drake.human.body import BodyModel
-from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.human.camera import DepthCameraModel, RenderedCameraModel
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator
-from hrc_drake.human.systems import DepthCamera, OperatorSource, RecordedSkeletonSource
+from hrc_drake.human.systems import (
+    DepthCamera,
+    OperatorSource,
+    RecordedSkeletonSource,
+    RenderedSkeletonCamera,
+)
 from hrc_drake.messages import HUMAN_AGENT, Capsules, WorldSnapshot, no_capsules
 from tests.contract import SystemExample
 
@@ -72,7 +78,31 @@ def depth_camera() -> SystemExample:
     )
 
 
+def depth_image(depth, width: int = 64, height: int = 48) -> ImageDepth32F:
+    """A depth image (m) of one value everywhere."""
+    image = ImageDepth32F(width, height)
+    image.mutable_data[:] = depth
+    return image
+
+
+def rendered_skeleton_camera() -> SystemExample:
+    """A: an empty depth image (nothing in range: every point in view is seen, with jitter);
+    B: a wall 0.6 m from the camera hides every point."""
+    body = BodyModel()
+    model = RenderedCameraModel([-0.2, 0.0, 1.8], [1.0, 0.0, 1.0], width=64, height=48, rate=30.0)
+    system = RenderedSkeletonCamera(model, rng_seed=3)
+    skeleton = body.points(body.rest_q((1.05, 0.0), np.pi)).ravel()
+    gaze = np.array([-1.0, 0.0, 0.0])
+    return SystemExample(
+        system,
+        {"skeleton": skeleton, "gaze": gaze, "depth_image": depth_image(np.inf)},
+        {"skeleton": skeleton, "gaze": gaze, "depth_image": depth_image(0.6)},
+        duration=0.2,
+    )
+
+
 EXAMPLES = {
+    RenderedSkeletonCamera: rendered_skeleton_camera,
     OperatorSource: operator_source,
     RecordedSkeletonSource: recorded_skeleton_source,
     DepthCamera: depth_camera,

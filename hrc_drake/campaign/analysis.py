@@ -1,0 +1,324 @@
+"""Statistics and plots of finished campaigns: DIR/summary.csv, DIR/tests.csv, DIR/box_*.png
+and DIR/ecdf_*.png (box plots and ECDFs per metric, as thesis Figs. 7.19-7.22 and 7.27-7.28).
+
+Groups are (scenario, variant); only `ok` runs count. Tests compare two groups of one scenario
+(or one variant across scenarios) on each metric: Wilcoxon signed-rank on their common seeds
+(paired) and Wilcoxon rank-sum / Mann-Whitney U (unpaired), two-sided, or one-sided where the
+campaign expects one variant to win. Effect sizes are rank-biserial correlations: for the
+signed-rank test r = (R+ - R-) / (R+ + R-) of the differences a - b (matched pairs), for the
+rank-sum test r = 2 U_a / (n_a n_b) - 1; both are positive when the first group is larger.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hrc_drake.campaign.spec import expand_metrics, larger_is_better
+from hrc_drake.campaign.worker import KEY_COLUMNS, RUN_COLUMNS
+
+#: bootstrap resamples of the 95 % confidence interval of a mean
+BOOTSTRAP_RESAMPLES = 2000
+GROUP = ("scenario", "variant")
+
+
+def bootstrap_ci(
+    values, rng: np.random.Generator, resamples: int = BOOTSTRAP_RESAMPLES, level: float = 0.95
+) -> tuple[float, float]:
+    """Percentile bootstrap interval of the mean of `values` (nan, nan with fewer than 2)."""
+    values = np.asarray(values, float)
+    if len(values) < 2:
+        return math.nan, math.nan
+    means = values[rng.integers(0, len(values), size=(resamples, len(values)))].mean(axis=1)
+    tail = 100 * (1 - level) / 2
+    low, high = np.percentile(means, [tail, 100 - tail])
+    return float(low), float(high)
+
+
+def metric_columns(runs, patterns: list[str]) -> list[str]:
+    """The numeric metric columns of `runs` the patterns name."""
+    candidates = [c for c in runs.columns if c not in (*KEY_COLUMNS, *RUN_COLUMNS)]
+    return [c for c in expand_metrics(patterns, candidates) if _numeric(runs[c]) is not None]
+
+
+def _numeric(column):
+    import pandas as pd
+
+    values = pd.to_numeric(column, errors="coerce")
+    return values.astype(float) if values.notna().any() else None
+
+
+def summary_table(runs, metrics: list[str], seed: int = 0):
+    """Per scenario, variant and metric: n, median, quartiles, IQR, mean and its 95 % bootstrap CI."""
+    import pandas as pd
+
+    rng = np.random.default_rng(seed)
+    ok = runs[runs["status"] == "ok"]
+    rows = []
+    for (scenario, variant), group in ok.groupby(list(GROUP), sort=True):
+        for metric in metrics:
+            values = _numeric(group[metric]).dropna().to_numpy() if metric in group else np.zeros(0)
+            if not len(values):
+                continue
+            q1, median, q3 = np.percentile(values, [25, 50, 75])
+            low, high = bootstrap_ci(values, rng)
+            rows.append(
+                {
+                    "scenario": scenario,
+                    "variant": variant,
+                    "metric": metric,
+                    "n": len(values),
+                    "median": median,
+                    "q1": q1,
+                    "q3": q3,
+                    "iqr": q3 - q1,
+                    "mean": float(values.mean()),
+                    "ci95_low": low,
+                    "ci95_high": high,
+                }
+            )
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "scenario",
+            "variant",
+            "metric",
+            "n",
+            "median",
+            "q1",
+            "q3",
+            "iqr",
+            "mean",
+            "ci95_low",
+            "ci95_high",
+        ],
+    )
+
+
+def _alternative(variant_a: str, variant_b: str, metric: str, expect: list[dict]) -> tuple[str, str]:
+    """("less" / "greater" / "two-sided", the claim in words) of a against b on `metric`."""
+    for claim in expect:
+        patterns = claim.get("metrics") or ["*"]
+        if not any(fnmatch.fnmatch(metric, p) for p in patterns):
+            continue
+        if (claim["better"], claim["than"]) in ((variant_a, variant_b), (variant_b, variant_a)):
+            a_better = claim["better"] == variant_a
+            a_less = a_better != larger_is_better(metric)
+            return ("less" if a_less else "greater"), f"{claim['better']} better than {claim['than']}"
+    return "two-sided", ""
+
+
+def paired_test(a, b, alternative: str = "two-sided") -> tuple[float, float, int]:
+    """Wilcoxon signed-rank on pairs: (statistic, p, n pairs) with matched-pairs rank-biserial as
+    the effect size returned by `matched_rank_biserial`."""
+    from scipy.stats import wilcoxon
+
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if len(a) < 2 or np.all(a == b):
+        return math.nan, math.nan, len(a)
+    result = wilcoxon(a, b, alternative=alternative)
+    return float(result.statistic), float(result.pvalue), len(a)
+
+
+def matched_rank_biserial(a, b) -> float:
+    """(R+ - R-) / (R+ + R-) of the nonzero differences a - b (Kerby 2014)."""
+    from scipy.stats import rankdata
+
+    d = np.asarray(a, float) - np.asarray(b, float)
+    d = d[d != 0]
+    if not len(d):
+        return math.nan
+    ranks = rankdata(np.abs(d))
+    return float((ranks[d > 0].sum() - ranks[d < 0].sum()) / ranks.sum())
+
+
+def rank_sum_test(a, b, alternative: str = "two-sided") -> tuple[float, float, float]:
+    """Mann-Whitney U of a against b: (U_a, p, rank-biserial 2 U_a / (n_a n_b) - 1)."""
+    from scipy.stats import mannwhitneyu
+
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if len(a) < 2 or len(b) < 2:
+        return math.nan, math.nan, math.nan
+    result = mannwhitneyu(a, b, alternative=alternative)
+    return float(result.statistic), float(result.pvalue), float(2 * result.statistic / (len(a) * len(b)) - 1)
+
+
+def tests_table(runs, metrics: list[str], expect: list[dict]):
+    """Paired and unpaired tests of every two variants of a scenario (and of every two scenarios
+    of a variant) on every metric."""
+    import pandas as pd
+
+    ok = runs[runs["status"] == "ok"]
+    rows = []
+    for fixed, varied in (("scenario", "variant"), ("variant", "scenario")):
+        for held, frame in ok.groupby(fixed, sort=True):
+            names = sorted(frame[varied].unique())
+            for first, second in itertools.combinations(names, 2):
+                a_rows, b_rows = frame[frame[varied] == first], frame[frame[varied] == second]
+                for metric in metrics:
+                    if metric not in frame:
+                        continue
+                    alternative, claim = ("two-sided", "")
+                    if varied == "variant":
+                        alternative, claim = _alternative(first, second, metric, expect)
+                    a = _numeric(a_rows[metric])
+                    b = _numeric(b_rows[metric])
+                    if a is None or b is None:
+                        continue
+                    paired = (
+                        pd.DataFrame({"seed": a_rows["seed"].to_numpy(), "a": a.to_numpy()})
+                        .merge(
+                            pd.DataFrame({"seed": b_rows["seed"].to_numpy(), "b": b.to_numpy()}), on="seed"
+                        )
+                        .dropna()
+                    )
+                    w, p_w, n_pairs = paired_test(paired["a"], paired["b"], alternative)
+                    u, p_u, r_u = rank_sum_test(a.dropna(), b.dropna(), alternative)
+                    base = {
+                        fixed: held,
+                        "metric": metric,
+                        "a": first,
+                        "b": second,
+                        "compared": varied,
+                        "alternative": alternative,
+                        "claim": claim,
+                        "median_a": float(a.median()),
+                        "median_b": float(b.median()),
+                    }
+                    rows.append(
+                        {
+                            **base,
+                            "test": "wilcoxon_signed_rank",
+                            "n_a": n_pairs,
+                            "n_b": n_pairs,
+                            "statistic": w,
+                            "p": p_w,
+                            "effect_size": matched_rank_biserial(paired["a"], paired["b"])
+                            if n_pairs
+                            else math.nan,
+                        }
+                    )
+                    rows.append(
+                        {
+                            **base,
+                            "test": "rank_sum",
+                            "n_a": int(a.notna().sum()),
+                            "n_b": int(b.notna().sum()),
+                            "statistic": u,
+                            "p": p_u,
+                            "effect_size": r_u,
+                        }
+                    )
+    columns = [
+        "scenario",
+        "variant",
+        "compared",
+        "metric",
+        "a",
+        "b",
+        "test",
+        "alternative",
+        "claim",
+        "n_a",
+        "n_b",
+        "median_a",
+        "median_b",
+        "statistic",
+        "p",
+        "effect_size",
+    ]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> list[Path]:
+    """One box plot and one ECDF figure per metric, a box / curve per (scenario, variant)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = runs[runs["status"] == "ok"]
+    groups = [
+        (f"{s}\n{v}" if ok["scenario"].nunique() > 1 else str(v), g)
+        for (s, v), g in ok.groupby(list(GROUP), sort=True)
+    ]
+    paths = []
+    for metric in metrics:
+        data = [
+            (label, _numeric(g[metric]).dropna().to_numpy() if metric in g else np.zeros(0))
+            for label, g in groups
+        ]
+        data = [(label, values) for label, values in data if len(values)]
+        if not data:
+            continue
+        stem = metric.replace(".", "_")
+        fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(data) + 2), 4))
+        ax.boxplot([v for _, v in data], showmeans=True)
+        ax.set_xticks(range(1, len(data) + 1), [label for label, _ in data])
+        ax.set_ylabel(metric)
+        ax.set_title(f"{title}: {metric}" if title else metric, fontsize=10)
+        ax.grid(axis="y", alpha=0.3)
+        fig.tight_layout()
+        paths.append(Path(out_dir) / f"box_{stem}.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for label, values in data:
+            x = np.sort(values)
+            ax.step(x, np.arange(1, len(x) + 1) / len(x), where="post", label=label.replace("\n", " / "))
+        ax.set_xlabel(metric)
+        ax.set_ylabel("fraction of runs")
+        ax.set_title(f"{title}: ECDF of {metric}" if title else f"ECDF of {metric}", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        paths.append(Path(out_dir) / f"ecdf_{stem}.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths
+
+
+def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:
+    """summary.csv, tests.csv and the plots of `runs` in `out_dir`; returns their paths."""
+    out_dir = Path(out_dir)
+    if runs.empty or not (runs["status"] == "ok").any():
+        return []
+    metrics = metric_columns(runs, description.get("metrics", []))
+    summary = summary_table(runs, metrics)
+    tests = tests_table(runs, metrics, description.get("expect", []))
+    summary_path, tests_path = out_dir / "summary.csv", out_dir / "tests.csv"
+    summary.to_csv(summary_path, index=False, float_format="%.6g")
+    tests.to_csv(tests_path, index=False, float_format="%.6g")
+    return [summary_path, tests_path, *plot_metrics(runs, metrics, out_dir, description.get("name", ""))]
+
+
+def compare_campaigns(dirs: list[Path], out_dir: Path) -> list[Path]:
+    """Redraw and compare finished campaigns: their rows together (variants named
+    `campaign/variant` when there are several), the union of their metrics and claims."""
+    import json
+
+    import pandas as pd
+
+    from hrc_drake.campaign.store import read_runs
+
+    frames, metrics, expect, names = [], [], [], []
+    for directory in dirs:
+        description = json.loads((Path(directory) / "campaign.json").read_text())
+        runs = read_runs(directory)
+        name = description.get("name", Path(directory).name)
+        names.append(name)
+        if len(dirs) > 1:
+            runs = runs.assign(variant=[f"{name}/{v}" for v in runs["variant"]])
+        frames.append(runs)
+        metrics += [m for m in description.get("metrics", []) if m not in metrics]
+        for claim in description.get("expect", []):
+            if len(dirs) > 1:
+                claim = {**claim, "better": f"{name}/{claim['better']}", "than": f"{name}/{claim['than']}"}
+            expect.append(claim)
+    runs = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    return analyze_campaign(runs, {"name": " vs ".join(names), "metrics": metrics, "expect": expect}, out_dir)

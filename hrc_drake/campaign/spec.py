@@ -1,0 +1,462 @@
+"""Campaign files: which scenarios, variants (overrides of a scenario's fields), seeds and
+simulated duration a campaign runs, which metrics it compares and which variant should win.
+
+Read like scenarios: a raw walk names unknown keys, pydrake's typed loader reads the typed part,
+and every problem is a `ScenarioError(file, field path, reason)`. `load_campaign` also loads
+every scenario x variant with its overrides (`load_scenario_with`), so a bad override is found
+before any run starts, named by the campaign file, the variant and the field.
+
+No `from __future__ import annotations`: pydrake's typed YAML loader reads the annotations as
+real types at run time.
+"""
+
+import dataclasses
+import fnmatch
+import hashlib
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+
+from hrc_drake.campaign.extras import resolve_extra_metrics
+from hrc_drake.cell.scenario import (
+    MAX_SCENARIO_BYTES,
+    Tagged,
+    _check_keys,
+    _raw_document,
+    dump_raw,
+    load_scenario,
+    load_scenario_with,
+)
+from hrc_drake.cell.schema import Scenario
+from hrc_drake.config_common import MAX_SIMULATED_DURATION
+from hrc_drake.errors import ScenarioError
+
+#: the most runs one campaign may hold (scenarios x variants x seeds)
+MAX_RUNS = 1_000_000
+#: a variant's or a scenario's label: it names files and table cells
+LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]*$")
+#: the metrics a campaign compares unless its file says which (`*` matches any agent or product)
+DEFAULT_METRICS = ("mean_cycle_time", "agents.*.idle_time", "min_human_robot_distance", "safety.time_below_s")
+#: metrics where a larger value is the better one (the rest: smaller is better, e.g. times)
+LARGER_IS_BETTER = (
+    "min_human_robot_distance",
+    "products_finished",
+    "mean_speed_override",
+    "agents.*.utilisation",
+    "agents.*.busy_time",
+    "agents.*.actions_finished",
+    "products.*.finished",
+)
+
+
+@dataclass
+class SeedRange:
+    """`count` consecutive seeds from `first`."""
+
+    count: int = 0
+    first: int = 0
+
+
+@dataclass
+class Expectation:
+    """A one-sided claim: variant `better` beats variant `than` on `metrics` (in every scenario)."""
+
+    better: str = ""
+    than: str = ""
+    #: metric names (patterns with `*`); empty: every metric of the campaign
+    metrics: list[str] = field(default_factory=list)
+
+
+@dataclass
+class ReplayRequest:
+    """One run whose meshcat replay is written to DIR/replays/ (a run is recorded only when asked)."""
+
+    variant: str = ""
+    seed: int = 0
+    #: the scenario's label (its file name without .yaml); may be left out with one scenario
+    scenario: str = ""
+
+
+@dataclass
+class CampaignFile:
+    """The typed fields of a campaign file (`variants` and `seeds` are read by hand: overrides are
+    raw scenario fragments, and seeds are a list or a `SeedRange`)."""
+
+    name: str = ""
+    description: str = ""
+    #: simulated time of every run (s)
+    duration: float = 0.0
+    #: scenario files, relative to the campaign file
+    scenarios: list[str] = field(default_factory=list)
+    #: compared metrics: flattened names of metrics.json (`agents.human.idle_time`), `*` allowed
+    metrics: list[str] = field(default_factory=list)
+    expect: list[Expectation] = field(default_factory=list)
+    replays: list[ReplayRequest] = field(default_factory=list)
+    #: frames per second of the replays
+    replay_fps: float = 10.0
+    #: extra columns per run (`campaign.extras`): registered names or `module:function` paths
+    extra_metrics: list[str] = field(default_factory=list)
+
+
+HAND_READ = ("variants", "seeds")
+KNOWN_KEYS = tuple(f.name for f in dataclasses.fields(CampaignFile)) + HAND_READ
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One run of a campaign, sent to a worker: everything it needs, in plain values."""
+
+    scenario: str
+    scenario_path: str
+    variant: str
+    #: the variant's overrides (a raw document, `merge_raw`); empty for the scenario as it is
+    overrides: dict
+    seed: int
+    duration: float
+    #: hash of the scenario text, the overrides and the duration: a finished row counts on
+    #: resume only if its run had the same configuration
+    config_hash: str
+    replay: bool = False
+    replay_fps: float = 10.0
+    #: extra-metrics functions whose columns the row gets (`campaign.extras`)
+    extra_metrics: tuple[str, ...] = ()
+
+    @property
+    def key(self) -> tuple:
+        return (self.scenario, self.variant, self.seed, self.duration)
+
+
+@dataclass
+class Campaign:
+    """A loaded and checked campaign file."""
+
+    file: Path
+    name: str
+    description: str
+    duration: float
+    seeds: list[int]
+    #: scenario label -> its file
+    scenarios: dict[str, Path]
+    #: variant name -> overrides (raw document); {"base": {}} when the file names none
+    variants: dict[str, dict]
+    #: compared metric names as given (patterns)
+    metrics: list[str]
+    expect: list[Expectation]
+    #: (scenario, variant, seed) of the runs to record as replays
+    replays: set[tuple[str, str, int]]
+    replay_fps: float = 10.0
+    #: scenario label -> the metric names its runs report
+    metric_names: dict[str, list[str]] = field(default_factory=dict)
+    #: extra-metrics functions run after every run (`campaign.extras`)
+    extra_metrics: list[str] = field(default_factory=list)
+
+    def tasks(self) -> list[RunTask]:
+        """Every run, seed by seed (an interrupted campaign holds whole seeds of every variant)."""
+        hashes = {
+            (s, v): _config_hash(self.scenarios[s], self.variants[v], self.duration, self.extra_metrics)
+            for s in self.scenarios
+            for v in self.variants
+        }
+        return [
+            RunTask(
+                scenario=s,
+                scenario_path=str(self.scenarios[s]),
+                variant=v,
+                overrides=self.variants[v],
+                seed=seed,
+                duration=self.duration,
+                config_hash=hashes[s, v],
+                replay=(s, v, seed) in self.replays,
+                replay_fps=self.replay_fps,
+                extra_metrics=tuple(self.extra_metrics),
+            )
+            for seed in self.seeds
+            for s in self.scenarios
+            for v in self.variants
+        ]
+
+    def describe(self) -> dict:
+        """The campaign as plain values, for DIR/campaign.json and `hrc-drake compare`."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "file": str(self.file),
+            "duration": self.duration,
+            "seeds": self.seeds,
+            "scenarios": {k: str(v) for k, v in self.scenarios.items()},
+            "variants": {k: dump_raw(v) for k, v in self.variants.items()},
+            "metrics": self.metrics,
+            "expect": [dataclasses.asdict(e) for e in self.expect],
+            "extra_metrics": self.extra_metrics,
+        }
+
+
+def _config_hash(scenario_path: Path, overrides: dict, duration: float, extra_metrics=()) -> str:
+    text = Path(scenario_path).read_bytes() + dump_raw(overrides).encode() + repr(float(duration)).encode()
+    if extra_metrics:  # a row without the extra columns asked for is not done
+        text += repr(list(extra_metrics)).encode()
+    return hashlib.sha256(text).hexdigest()[:16]
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
+    path = Path(path)
+    return make_campaign(_read_raw(path), path)
+
+
+def make_campaign(document: dict, file: str | Path) -> Campaign:
+    """A campaign from its document (the fields of a campaign file as plain values; overrides may
+    hold `Tagged` nodes for `!Tag` fields), checked as `load_campaign` checks a file. `file` names
+    the campaign in errors and relative scenario paths resolve from its folder (it need not exist)."""
+    path = Path(file)
+    if not isinstance(document, dict) or isinstance(document, Tagged):
+        raise ScenarioError(path, "", "the top level must be a mapping of campaign fields")
+    raw = document
+    for key in raw:
+        if key not in KNOWN_KEYS:
+            raise ScenarioError(
+                path, str(key), f"unknown key '{key}' (known keys: {', '.join(sorted(KNOWN_KEYS))})"
+            )
+    typed_part = {k: v for k, v in raw.items() if k not in HAND_READ}
+    if isinstance(typed_part.get("expect"), dict):
+        typed_part["expect"] = [typed_part["expect"]]  # one claim may be written without a list
+    _check_keys(typed_part, CampaignFile, "", str(path))
+    try:
+        spec = yaml_load_typed(schema=CampaignFile, data=dump_raw(typed_part))
+    except (RuntimeError, ValueError, TypeError) as err:
+        raise ScenarioError(path, "", f"cannot be read as a campaign: {err}") from err
+    if not spec.name or not LABEL.match(spec.name):
+        raise ScenarioError(
+            path, "name", f"needs a name of letters, digits, '_', '-', '.', got {spec.name!r}"
+        )
+    if not (math.isfinite(spec.duration) and 0 < spec.duration <= MAX_SIMULATED_DURATION):
+        raise ScenarioError(
+            path,
+            "duration",
+            f"must be a number of simulated seconds in (0, "
+            f"{MAX_SIMULATED_DURATION:g}], got {spec.duration!r}",
+        )
+    if not 0 < spec.replay_fps <= 120:
+        raise ScenarioError(path, "replay_fps", f"must be in (0, 120], got {spec.replay_fps!r}")
+    seeds = _seeds(path, raw.get("seeds"))
+    scenarios = _scenarios(path, spec.scenarios)
+    variants = _variants(path, raw.get("variants"))
+    if len(seeds) * len(scenarios) * len(variants) > MAX_RUNS:
+        raise ScenarioError(
+            path, "seeds", f"{len(seeds) * len(scenarios) * len(variants)} runs: at most {MAX_RUNS}"
+        )
+    metric_names = {}
+    for label, scenario_path in scenarios.items():
+        load_scenario(scenario_path)  # the scenario's own problems are named by its own file
+        for name, overrides in variants.items():
+            try:
+                scenario = load_scenario_with(scenario_path, overrides)
+            except ScenarioError as err:
+                where = f"variants.{name}" + (f".{err.field}" if err.field else "")
+                raise ScenarioError(path, where, f"{err.reason} (applied to {scenario_path})") from None
+            metric_names[label] = sorted(
+                set(metric_names.get(label, [])) | set(scenario_metric_names(scenario))
+            )
+    metrics = list(spec.metrics) or list(DEFAULT_METRICS)
+    for k, name in enumerate(spec.extra_metrics):
+        try:
+            resolve_extra_metrics(name)
+        except KeyError as err:
+            raise ScenarioError(path, f"extra_metrics[{k}]", err.args[0]) from None
+    known = sorted({m for names in metric_names.values() for m in names})
+    for k, pattern in enumerate(metrics):
+        if not fnmatch.filter(known, pattern):
+            raise ScenarioError(
+                path, f"metrics[{k}]", f"unknown metric '{pattern}' (known: {', '.join(known)})"
+            )
+    for k, claim in enumerate(spec.expect):
+        for key in ("better", "than"):
+            if getattr(claim, key) not in variants:
+                raise ScenarioError(
+                    path,
+                    f"expect[{k}].{key}",
+                    f"unknown variant '{getattr(claim, key)}' ({', '.join(variants)})",
+                )
+        if claim.better == claim.than:
+            raise ScenarioError(path, f"expect[{k}]", f"a variant cannot beat itself ('{claim.better}')")
+        for j, pattern in enumerate(claim.metrics):
+            if not any(fnmatch.fnmatch(m, pattern) for m in expand_metrics(metrics, known)):
+                raise ScenarioError(
+                    path,
+                    f"expect[{k}].metrics[{j}]",
+                    f"'{pattern}' is not one of the campaign's metrics {metrics}",
+                )
+    replays = set()
+    for k, request in enumerate(spec.replays):
+        label = request.scenario or (next(iter(scenarios)) if len(scenarios) == 1 else "")
+        if label not in scenarios:
+            raise ScenarioError(
+                path,
+                f"replays[{k}].scenario",
+                f"unknown scenario '{request.scenario}' ({', '.join(scenarios)})",
+            )
+        if request.variant not in variants:
+            raise ScenarioError(
+                path, f"replays[{k}].variant", f"unknown variant '{request.variant}' ({', '.join(variants)})"
+            )
+        if request.seed not in seeds:
+            raise ScenarioError(
+                path, f"replays[{k}].seed", f"seed {request.seed} is not one of the campaign's"
+            )
+        replays.add((label, request.variant, request.seed))
+    return Campaign(
+        file=path,
+        name=spec.name,
+        description=spec.description,
+        duration=float(spec.duration),
+        seeds=seeds,
+        scenarios=scenarios,
+        variants=variants,
+        metrics=metrics,
+        expect=list(spec.expect),
+        replays=replays,
+        replay_fps=spec.replay_fps,
+        metric_names=metric_names,
+        extra_metrics=list(spec.extra_metrics),
+    )
+
+
+def _read_raw(path: Path) -> dict:
+    if not path.is_file():
+        raise ScenarioError(path, "", "no such file")
+    if path.stat().st_size > MAX_SCENARIO_BYTES:
+        raise ScenarioError(path, "", "too large for a campaign file")
+    try:
+        raw = _raw_document(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as err:
+        raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
+    except yaml.YAMLError as err:
+        raise ScenarioError(path, "", f"not valid YAML: {err}") from None
+    if not isinstance(raw, dict) or isinstance(raw, Tagged):
+        raise ScenarioError(path, "", "the top level must be a mapping of campaign fields")
+    return raw
+
+
+def _seeds(path: Path, node) -> list[int]:
+    """A list of distinct seeds, or {count, first}."""
+
+    def seed_ok(value) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 2**32
+
+    if isinstance(node, dict) and not isinstance(node, Tagged):
+        _check_keys(node, SeedRange, "seeds", str(path))
+        count, first = node.get("count", 0), node.get("first", 0)
+        if not 1 <= count <= MAX_RUNS:
+            raise ScenarioError(path, "seeds.count", f"must be an integer in [1, {MAX_RUNS}], got {count!r}")
+        if not (seed_ok(first) and first + count <= 2**32):
+            raise ScenarioError(path, "seeds.first", f"seeds must lie in [0, 2^32), got first {first!r}")
+        return list(range(first, first + count))
+    if not isinstance(node, list):
+        raise ScenarioError(path, "seeds", "needs a list of seeds or {count: N, first: S}")
+    if not node:
+        raise ScenarioError(path, "seeds", "the list of seeds is empty")
+    seen = set()
+    for k, value in enumerate(node):
+        if not seed_ok(value):
+            raise ScenarioError(path, f"seeds[{k}]", f"must be an integer in [0, 2^32), got {value!r}")
+        if value in seen:
+            raise ScenarioError(path, f"seeds[{k}]", f"seed {value} is listed twice")
+        seen.add(value)
+    return list(node)
+
+
+def _scenarios(path: Path, names: list[str]) -> dict[str, Path]:
+    if not names:
+        raise ScenarioError(path, "scenarios", "names no scenario file")
+    out: dict[str, Path] = {}
+    for k, name in enumerate(names):
+        file = (path.parent / name).resolve()
+        if not file.is_file():
+            raise ScenarioError(path, f"scenarios[{k}]", f"no such scenario file: {file}")
+        label = file.stem
+        if label in out:
+            raise ScenarioError(path, f"scenarios[{k}]", f"two scenarios are called '{label}'")
+        out[label] = file
+    return out
+
+
+def _variants(path: Path, node) -> dict[str, dict]:
+    if node is None:
+        return {"base": {}}
+    if not isinstance(node, dict) or isinstance(node, Tagged) or not node:
+        raise ScenarioError(
+            path, "variants", "needs a mapping of variant name -> scenario fields to override"
+        )
+    out = {}
+    for name, overrides in node.items():
+        if not isinstance(name, str) or not LABEL.match(name):
+            raise ScenarioError(
+                path, f"variants.{name}", "a variant's name is letters, digits, '_', '-', '.'"
+            )
+        if overrides is None:
+            overrides = {}
+        if not isinstance(overrides, dict) or isinstance(overrides, Tagged):
+            raise ScenarioError(
+                path, f"variants.{name}", f"needs a mapping of scenario fields, got {overrides!r}"
+            )
+        for key in ("seed", "duration", "extends"):
+            if key in overrides:
+                raise ScenarioError(
+                    path, f"variants.{name}.{key}", f"'{key}' is set by the campaign, not a variant"
+                )
+        unknown = [k for k in overrides if k not in {f.name for f in dataclasses.fields(Scenario)}]
+        if unknown:
+            raise ScenarioError(
+                path, f"variants.{name}.{unknown[0]}", f"unknown scenario field '{unknown[0]}'"
+            )
+        out[name] = overrides
+    return out
+
+
+def scenario_metric_names(scenario: Scenario) -> list[str]:
+    """The flattened scalar metrics (`worker.flatten_metrics`) a run of `scenario` reports;
+    `detection.*` only where it has an action detector."""
+    agents = [scenario.operator.name] + [arm.agent for robot in scenario.robots for arm in robot.arms]
+    made = {b for action in scenario.flow.actions for b in action.outputs}
+    products = [b.name for b in scenario.layout.buffers if b.kind == "product" and b.name in made]
+    names = [
+        "simulated_time",
+        "products_finished",
+        "mean_cycle_time",
+        "min_human_robot_distance",
+        "mean_speed_override",
+        "wall_time",
+        "realtime_factor",
+        "warmup.products",
+        "warmup.time",
+        "safety.safety_distance",
+        "safety.time_below_s",
+        "safety.fraction_below",
+        "safety.time_below_not_stopped_s",
+        "safety.below",
+    ]
+    names += [
+        f"agents.{a}.{k}"
+        for a in agents
+        for k in ("busy_time", "wait_time", "idle_time", "utilisation", "actions_finished")
+    ]
+    names += [f"products.{p}.{k}" for p in products for k in ("finished", "mean_cycle_time")]
+    if type(scenario.action_detector).__name__ != "NoActionDetector":
+        names += ["detection.*"]
+    return names
+
+
+def expand_metrics(patterns: list[str], columns) -> list[str]:
+    """The columns matched by `patterns`, in the patterns' order, each once."""
+    out: list[str] = []
+    for pattern in patterns:
+        out += [c for c in sorted(columns) if fnmatch.fnmatch(c, pattern) and c not in out]
+    return out
+
+
+def larger_is_better(metric: str) -> bool:
+    return any(fnmatch.fnmatch(metric, p) for p in LARGER_IS_BETTER)

@@ -1,0 +1,176 @@
+"""Benchmark: campaigns on Dask (issue #16). The same set of torch_clock runs (the scenario as
+shipped, seeds 0..N-1) in this process one after the other, then as a campaign on a
+`LocalCluster` of 1 worker process and of 2, side by side in one invocation.
+
+Figures: runs per minute with 1 and 2 workers (runs / wall time of the campaign, workers already
+started and warm: pydrake imported, one cell built), the scaling efficiency
+rpm_2 / (2 rpm_1), the overhead per run (campaign wall time per run with 1 worker minus the
+mean in-process run, build + simulate), the peak resident memory of a worker, and whether the
+three ways give the same rows. Goals: efficiency >= 0.9; overhead below 5 % of a 300 s
+torch_clock run; 1,000 runs of 300 s in under 10 minutes on 2 cores.
+
+Usage:
+    PYTHONPATH=. python3 tools/bench_campaign.py [--quick] [--runs N] [--duration S]
+--quick: 6 runs of 40 s (under a minute on an idle machine). Default: 40 runs of 300 s.
+Last line: one JSON object (`runs`, `runs_per_min_1_worker`, `runs_per_min_2_workers`,
+`scaling_efficiency_2`, `overhead_per_run_ms`, `peak_worker_rss_mb`, and details).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from hrc_drake.campaign.engine import run_campaign  # noqa: E402
+from hrc_drake.campaign.spec import load_campaign  # noqa: E402
+from hrc_drake.campaign.store import RunStore  # noqa: E402
+from hrc_drake.campaign.worker import TIMING_COLUMNS, peak_rss_mb, run_task, warm_up  # noqa: E402
+
+SCENARIO = ROOT / "diagrams" / "torch_clock.yaml"
+
+
+def write_spec(folder: Path, runs: int, duration: float, first_seed: int = 0) -> Path:
+    path = folder / f"bench_{first_seed}.yaml"
+    path.write_text(
+        f"name: bench_campaign\nduration: {duration}\nseeds: {{count: {runs}, first: {first_seed}}}\n"
+        f"scenarios: [{SCENARIO}]\nmetrics: [mean_cycle_time]\n"
+    )
+    return path
+
+
+def in_process(campaign) -> tuple[list[float], list[dict]]:
+    """Wall time (s) and row of every run, one after the other in this process (after a warm-up run)."""
+    tasks = campaign.tasks()
+    run_task(tasks[0])  # imports and the first build's one-off costs
+    walls, rows = [], []
+    for task in tasks:
+        start = time.perf_counter()
+        rows.append(run_task(task)["row"])
+        walls.append(time.perf_counter() - start)
+    return walls, rows
+
+
+def on_cluster(campaign, warm_campaign, workers: int, out: Path) -> dict:
+    """The campaign on a warm LocalCluster of `workers` processes: wall time, rows, peak RSS."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    settings = {"distributed.worker.profile.enabled": False, "distributed.scheduler.worker-saturation": 1.0}
+    with dask.config.set(settings):
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+    client = Client(cluster)
+    try:
+        client.run(warm_up)
+        addresses = list(client.scheduler_info()["workers"])
+        warm_tasks = warm_campaign.tasks()
+        client.gather(
+            [client.submit(run_task, warm_tasks[k], workers=[a], pure=False) for k, a in enumerate(addresses)]
+        )
+        start = time.perf_counter()
+        outcome = run_campaign(campaign, out, client=client, progress=None, analyze=False)
+        wall = time.perf_counter() - start
+        rss = max(client.run(peak_rss_mb).values())
+    finally:
+        client.close()
+        cluster.close()
+    return {"wall": wall, "rows": outcome.rows, "failed": outcome.failed, "rss": rss}
+
+
+def _comparable(frame):
+    frame = frame.drop(columns=[c for c in TIMING_COLUMNS if c in frame.columns])
+    return frame.sort_values(["scenario", "variant", "seed"]).reset_index(drop=True)
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="6 runs of 40 s")
+    parser.add_argument("--runs", type=int, default=None, help="runs per measurement (default 40; quick 6)")
+    parser.add_argument(
+        "--duration", type=float, default=None, help="simulated s per run (default 300; quick 40)"
+    )
+    args = parser.parse_args(argv)
+    runs = args.runs or (6 if args.quick else 40)
+    duration = args.duration or (40.0 if args.quick else 300.0)
+
+    load = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        campaign = load_campaign(write_spec(tmp, runs, duration))
+        warm_campaign = load_campaign(write_spec(tmp, 2, duration, first_seed=100_000))
+        print(
+            f"{runs} torch_clock runs of {duration:g} s; load average at start {load:.2f} on "
+            f"{os.cpu_count()} CPUs",
+            flush=True,
+        )
+        walls, rows = in_process(campaign)
+        print(f"in process : {np.mean(walls):.3f} s per run (median {np.median(walls):.3f} s)", flush=True)
+        one = on_cluster(campaign, warm_campaign, 1, tmp / "one")
+        rpm1 = 60.0 * runs / one["wall"]
+        print(f"1 worker   : {one['wall']:.1f} s, {rpm1:.1f} runs/min", flush=True)
+        two = on_cluster(campaign, warm_campaign, 2, tmp / "two")
+        rpm2 = 60.0 * runs / two["wall"]
+        print(f"2 workers  : {two['wall']:.1f} s, {rpm2:.1f} runs/min", flush=True)
+        reference_store = RunStore(tmp / "reference")  # the same column types as a campaign's table
+        for row in rows:
+            reference_store.add(row)
+        reference = _comparable(reference_store.frame())
+        same = all(_same(r["rows"], reference) for r in (one, two))
+    overhead_ms = 1000.0 * (one["wall"] / runs - float(np.mean(walls)))
+    result = {
+        "runs": runs,
+        "duration_s": duration,
+        "runs_per_min_1_worker": round(rpm1, 2),
+        "runs_per_min_2_workers": round(rpm2, 2),
+        "scaling_efficiency_2": round(rpm2 / (2 * rpm1), 3),
+        "overhead_per_run_ms": round(overhead_ms, 1),
+        "overhead_fraction_of_run": round(overhead_ms / (1000.0 * float(np.mean(walls))), 4),
+        "in_process_s_per_run": round(float(np.mean(walls)), 3),
+        "peak_worker_rss_mb": round(max(one["rss"], two["rss"]), 1),
+        "projected_min_for_1000_runs_2_workers": round(1000.0 / rpm2, 1),
+        "same_rows": bool(same),
+        "failed": one["failed"] + two["failed"],
+        "load_average_at_start": round(load, 2),
+    }
+    print(
+        f"scaling efficiency {result['scaling_efficiency_2']}, overhead {result['overhead_per_run_ms']} ms "
+        "per "
+        f"run ({100 * result['overhead_fraction_of_run']:.2f} % of a run), peak worker RSS "
+        f"{result['peak_worker_rss_mb']} MB; 1,000 such runs on 2 workers would take "
+        f"{result['projected_min_for_1000_runs_2_workers']} min (projected, not measured)",
+        flush=True,
+    )
+    print(json.dumps(result))
+    return result
+
+
+def _same(frame, reference) -> bool:
+    import pandas as pd
+
+    got = _comparable(frame)
+    columns = sorted(reference.columns)
+    try:
+        pd.testing.assert_frame_equal(got[columns], reference[columns], check_dtype=False)
+    except AssertionError:
+        return False
+    return True
+
+
+if __name__ == "__main__":
+    main()
