@@ -3,17 +3,23 @@ shipped, seeds 0..N-1) in this process one after the other, then as a campaign o
 `LocalCluster` of 1 worker process and of 2, side by side in one invocation.
 
 Figures: runs per minute with 1 and 2 workers (runs / wall time of the campaign, workers already
-started and warm: pydrake imported, one cell built), the scaling efficiency
-rpm_2 / (2 rpm_1), the overhead per run (campaign wall time per run with 1 worker minus the
-mean in-process run, build + simulate), the peak resident memory of a worker, and whether the
-three ways give the same rows. Goals: efficiency >= 0.9; overhead below 5 % of a 300 s
-torch_clock run; 1,000 runs of 300 s in under 10 minutes on 2 cores.
+started and warm: pydrake imported, one cell of the same configuration built and run), the
+scaling efficiency rpm_2 / (2 rpm_1), the peak resident memory of a worker, whether the three
+ways give the same rows, and the overhead per run with 1 worker, in two parts measured on the
+same runs: the dispatch (campaign wall time minus the runs' own wall times in the worker, per
+run: scheduling, transfer, the table's rewrites) plus the median over seeds of the run's wall
+time in the worker minus the same seed's in-process run (build + simulate). Under load the
+second part is mostly noise: the same difference of the runs' CPU times (`run_cpu_time`, the
+run thread's) is given beside it, and the load average at start and end. Goals: efficiency
+>= 0.9; overhead below 5 % of a 300 s torch_clock run; 1,000 runs of 300 s in under 10 minutes
+on 2 cores.
 
 Usage:
     PYTHONPATH=. python3 tools/bench_campaign.py [--quick] [--runs N] [--duration S]
 --quick: 6 runs of 40 s (under a minute on an idle machine). Default: 40 runs of 300 s.
 Last line: one JSON object (`runs`, `runs_per_min_1_worker`, `runs_per_min_2_workers`,
-`scaling_efficiency_2`, `overhead_per_run_ms`, `peak_worker_rss_mb`, and details).
+`scaling_efficiency_2`, `overhead_per_run_ms` (= `dispatch_ms_per_run` +
+`worker_slowdown_ms_median`), `worker_cpu_slowdown_ms_median`, `peak_worker_rss_mb`, and details).
 """
 
 from __future__ import annotations
@@ -120,7 +126,8 @@ def main(argv=None) -> dict:
             flush=True,
         )
         walls, rows = in_process(campaign)
-        print(f"in process : {np.mean(walls):.3f} s per run (median {np.median(walls):.3f} s)", flush=True)
+        print(f"in process : {np.median(walls):.3f} s per run (median; mean {np.mean(walls):.3f} s)",
+              flush=True)
         one = on_cluster(campaign, warm_campaign, 1, tmp / "one")
         rpm1 = 60.0 * runs / one["wall"]
         print(f"1 worker   : {one['wall']:.1f} s, {rpm1:.1f} runs/min", flush=True)
@@ -132,7 +139,19 @@ def main(argv=None) -> dict:
             reference_store.add(row)
         reference = _comparable(reference_store.frame())
         same = all(_same(r["rows"], reference) for r in (one, two))
-    overhead_ms = 1000.0 * (one["wall"] / runs - float(np.mean(walls)))
+    in_process_median = float(np.median(walls))
+    worker_rows = one["rows"].set_index("seed")
+    alone = {int(r["seed"]): r for r in rows}
+    seeds = sorted(alone)
+    dispatch_ms = 1000.0 * (one["wall"] - float(worker_rows["run_wall_time"].sum())) / runs
+    slowdown_ms = 1000.0 * float(
+        np.median([worker_rows.loc[k, "run_wall_time"] - alone[k]["run_wall_time"] for k in seeds])
+    )
+    cpu_slowdown_ms = 1000.0 * float(
+        np.median([worker_rows.loc[k, "run_cpu_time"] - alone[k]["run_cpu_time"] for k in seeds])
+    )
+    overhead_ms = dispatch_ms + slowdown_ms
+    load_end = os.getloadavg()[0]
     result = {
         "runs": runs,
         "duration_s": duration,
@@ -140,18 +159,25 @@ def main(argv=None) -> dict:
         "runs_per_min_2_workers": round(rpm2, 2),
         "scaling_efficiency_2": round(rpm2 / (2 * rpm1), 3),
         "overhead_per_run_ms": round(overhead_ms, 1),
-        "overhead_fraction_of_run": round(overhead_ms / (1000.0 * float(np.mean(walls))), 4),
-        "in_process_s_per_run": round(float(np.mean(walls)), 3),
+        "overhead_fraction_of_run": round(overhead_ms / (1000.0 * in_process_median), 4),
+        "dispatch_ms_per_run": round(dispatch_ms, 1),
+        "worker_slowdown_ms_median": round(slowdown_ms, 1),
+        "worker_cpu_slowdown_ms_median": round(cpu_slowdown_ms, 1),
+        # the former figure: campaign wall per run minus the mean in-process run
+        "overhead_wall_minus_mean_ms": round(1000.0 * (one["wall"] / runs - float(np.mean(walls))), 1),
+        "in_process_s_per_run": round(in_process_median, 3),
         "peak_worker_rss_mb": round(max(one["rss"], two["rss"]), 1),
         "projected_min_for_1000_runs_2_workers": round(1000.0 / rpm2, 1),
         "same_rows": bool(same),
         "failed": one["failed"] + two["failed"],
         "load_average_at_start": round(load, 2),
+        "load_average_at_end": round(load_end, 2),
     }
     print(
         f"scaling efficiency {result['scaling_efficiency_2']}, overhead {result['overhead_per_run_ms']} ms "
-        "per "
-        f"run ({100 * result['overhead_fraction_of_run']:.2f} % of a run), peak worker RSS "
+        f"per run ({100 * result['overhead_fraction_of_run']:.2f} % of a run: dispatch {dispatch_ms:.1f} ms "
+        "+ "
+        f"run in a worker {slowdown_ms:.1f} ms, CPU {cpu_slowdown_ms:.1f} ms), peak worker RSS "
         f"{result['peak_worker_rss_mb']} MB; 1,000 such runs on 2 workers would take "
         f"{result['projected_min_for_1000_runs_2_workers']} min (projected, not measured)",
         flush=True,

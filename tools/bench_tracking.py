@@ -10,13 +10,34 @@ Parts:
          the PF run's very frames, run alongside, and in its own run); which points were lost,
          why, and in which case of 9.1.2; (Fig. 9.7) robot cycle-time distributions, the true
          minimum human-robot distance vs the scenario's safety distance, time spent slowed;
+  compare (issue 15 item 3, Fig. 9.7) the thesis's metric for every tracker x camera, through
+         the campaign API (diagrams/campaigns/trackers.yaml: seeds x 120 s per cell):
+         trackers hold (HoldLastSeenTracker: a lost point stays where last seen), kf2 / kf4
+         (KalmanTracker order 2 / 4, kf4 the thesis's open loop), pf (the particle filter),
+         each driving the slow-down rule of 9.1.3; cameras analytic (pcb_occlusion.yaml) and
+         rendered (pcb_occlusion_rendered.yaml). Per cell: robot cycle time (one L_carry begin
+         to the next, the extra column robot_cycles.times; mean over all cycles of all seeds),
+         share of the 0.1 s samples whose true distance is under the safety distance
+         (safety.fraction_below, mean over seeds) and the true minimum distance (min over
+         seeds). "pf has shorter cycles than kf4 / kf2": one-sided Mann-Whitney rank-sum test
+         (campaign.analysis.rank_sum_test) on the pooled robot cycles of the two cells;
+  regions coverage of hidden points by each tracker's belief region (perception.regions), from
+         the cell runs above (analytic camera, one run per tracker, every frame where the
+         camera lost a point that the tracker has seen before): pf the particles inflated by
+         0.02 m (union of balls, all 500 particles); kf2 / kf4 the 95 % covariance
+         ellipsoid; hold a ball of 0.02 m around the held point. Next to the coverage the
+         region's mean volume (coverage alone rewards huge regions) and its equal-volume ball
+         radius. On the pf run's very frames also: the 95 % ellipsoid of the particles' own
+         mean and covariance (pf_ellipsoid), and a ball around the last seen point with the
+         pf region's volume in that frame (hold_at_pf_volume: the same size, another place);
   render ms per depth frame of the rendered camera (issue 15) in the PCB cell, at the
          scenario's resolution and the Kinect v2's 512 x 424;
   lego   RMS error of occluded points, PF vs KF, on the real arm trajectories of
          ../shared/data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
          the elbow for 1-3 s (frame rate unknown: 30 Hz assumed).
 
-Usage: python tools/bench_tracking.py [--quick] [--cycles N] [--elbow-occluders]
+Usage: python tools/bench_tracking.py [--quick] [--cycles N] [--seeds N] [--duration S]
+       [--workers N] [--elbow-occluders]
 Last line: one JSON object with the figures.
 """
 
@@ -46,6 +67,12 @@ from hrc_drake.messages import (  # noqa: E402
 )
 from hrc_drake.perception.geometry import BoxOcclusion  # noqa: E402
 from hrc_drake.perception.particle_filter import SkeletonParticleFilter  # noqa: E402
+from hrc_drake.perception.regions import (  # noqa: E402
+    PARTICLE_RADIUS,
+    REGION_MASS,
+    ellipsoid_volume,
+    in_ellipsoid,
+)
 from hrc_drake.perception.synthetic import reaching_sequence  # noqa: E402
 from hrc_drake.perception.tracker import SkeletonTracker  # noqa: E402
 
@@ -218,6 +245,38 @@ class OcclusionProbe:
         self.cases = {"wrist": 0, "elbow": 0, "both": 0}
         self.errors: list = []
         self.shadow_errors: list = []
+        #: per (hidden point, frame) of every region: (inside, volume m^3)
+        self.regions: dict = {}
+        self._last_seen = np.full((8, 3), np.nan)
+
+    def _add_region(self, name, inside, volume) -> None:
+        store = self.regions.setdefault(name, ([], []))
+        store[0].extend(np.asarray(inside, bool).tolist())
+        store[1].extend(np.asarray(volume, float).tolist())
+
+    def on_core(self, frame, core) -> None:
+        """Core listener: is each lost point inside the tracker's belief region (regions.py)?"""
+        truth = self.truth(frame.time)
+        lost = ~(np.asarray(frame.tracked, bool) & np.all(np.isfinite(frame.points), axis=1))
+        inside, volume = core.region_contains(truth, lost)
+        judged = lost & np.isfinite(volume)
+        if np.any(judged):
+            self._add_region("own", inside[judged], volume[judged])
+            pf = core.particle_filter
+            if pf is not None:
+                cloud = pf.positions[judged]
+                mean = cloud.mean(axis=1)
+                offset = cloud - mean[:, None, :]
+                cov = np.einsum("pni,pnj->pij", offset, offset) / cloud.shape[1] + 1e-12 * np.eye(3)
+                self._add_region("pf_ellipsoid", in_ellipsoid(mean, cov, truth[judged]),
+                                 ellipsoid_volume(cov))
+                radius = np.cbrt(3.0 * volume[judged] / (4.0 * np.pi))
+                held = self._last_seen[judged]
+                near = np.linalg.norm(truth[judged] - held, axis=1) <= radius
+                self._add_region("hold_at_pf_volume", near & np.all(np.isfinite(held), axis=1),
+                                 volume[judged])
+        seen = ~lost
+        self._last_seen[seen] = np.asarray(frame.points, float)[seen]
 
     def __call__(self, frame, estimate) -> None:
         truth = self.truth(frame.time)
@@ -239,6 +298,19 @@ class OcclusionProbe:
                 self.shadow_errors.append(np.linalg.norm(shadow_estimate.points[lost] - truth[lost], axis=1))
 
 
+def region_stats(inside, volume) -> dict:
+    """Coverage (share of hidden point-frames whose truth lies in the region), the region's mean
+    and median volume (m^3) and the radius (m) of a ball of the mean volume."""
+    inside, volume = np.asarray(inside, bool), np.asarray(volume, float)
+    if not inside.size:
+        return {"coverage": float("nan"), "mean_volume_m3": float("nan"), "median_volume_m3": float("nan"),
+                "mean_volume_radius_m": float("nan"), "n": 0}
+    mean = float(np.mean(volume))
+    return {"coverage": float(np.mean(inside)), "mean_volume_m3": mean,
+            "median_volume_m3": float(np.median(volume)),
+            "mean_volume_radius_m": float(np.cbrt(3.0 * mean / (4.0 * np.pi))), "n": int(inside.size)}
+
+
 def error_stats(errors) -> dict:
     e = np.concatenate(errors) if errors else np.zeros(0)
     if not e.size:
@@ -251,12 +323,34 @@ def error_stats(errors) -> dict:
     }
 
 
+#: The trackers compared (issue 15 item 3): name -> config (kf4 is the thesis's open loop).
+TRACKERS = ("hold", "kf2", "kf4", "pf")
+#: The cameras compared: name -> scenario label of diagrams/campaigns/trackers.yaml.
+CAMERAS = {"analytic": "pcb_occlusion", "rendered": "pcb_occlusion_rendered"}
+CAMPAIGN = REPO / "diagrams" / "campaigns" / "trackers.yaml"
+#: Regions judged on the pf run's frames: its own, its particles' 95 % ellipsoid, a ball of its volume
+#: around the last seen point.
+PF_FRAME_REGIONS = ("own", "pf_ellipsoid", "hold_at_pf_volume")
+
+
+def tracker_config(kind: str):
+    from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, ParticleFilterTracker
+
+    return {
+        "particle_filter": lambda: ParticleFilterTracker(particles=500),
+        "pf": lambda: ParticleFilterTracker(particles=500),
+        "kalman": KalmanTracker,
+        "kf4": KalmanTracker,
+        "kf2": lambda: KalmanTracker(order=2),
+        "hold": HoldLastSeenTracker,
+    }[kind]()
+
+
 def load_pcb_scenario(kind: str, elbow_occluders: bool, operator_x: float | None = None):
     from hrc_drake.cell.scenario import load_scenario
-    from hrc_drake.perception.config import KalmanTracker, ParticleFilterTracker
 
     scenario = load_scenario(SCENARIO)
-    scenario.tracker = ParticleFilterTracker(particles=500) if kind == "particle_filter" else KalmanTracker()
+    scenario.tracker = tracker_config(kind)
     if operator_x is not None:
         scenario.operator.base.xyz[0] = float(operator_x)
     if elbow_occluders:
@@ -276,7 +370,7 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
     cell = build_cell(scenario, SCENARIO, named_poses=named_poses)
     lay = scenario.layout
     shadow = None
-    if kind == "particle_filter":
+    if kind in ("particle_filter", "pf"):
         shadow = SkeletonTracker(
             "kalman", {}, None, lay.workspace_center, lay.workspace_size, lay.camera.rate
         )
@@ -289,6 +383,7 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
 
     probe = OcclusionProbe(truth, camera_model(scenario), shadow)
     cell.system("tracker").listeners.append(probe)
+    cell.system("tracker").core_listeners.append(probe.on_core)
     simulator.set_target_realtime_rate(0.0)
     simulator.Initialize()
     start_wall = time.perf_counter()
@@ -344,6 +439,7 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
         "hidden_out_of_view": probe.by_view.tolist(),
         "arm_cases": dict(probe.cases),
         "error": error_stats(probe.errors),
+        "regions": {name: region_stats(*values) for name, values in probe.regions.items()},
     }
     if shadow is not None:
         result["shadow_kf_error"] = error_stats(probe.shadow_errors)
@@ -387,6 +483,53 @@ def bench_render(n_frames: int, named_poses) -> dict:
     return out
 
 
+def bench_compare(seeds: int, duration: float, workers: int, out_dir: Path) -> dict:
+    """Every tracker x camera of diagrams/campaigns/trackers.yaml over `seeds` seeds of `duration`
+    s, through the campaign API; the cell figures of Fig. 9.7 per cell and the one-sided tests."""
+    import dataclasses
+
+    from hrc_drake.campaign.analysis import rank_sum_test
+    from hrc_drake.campaign.engine import run_campaign
+    from hrc_drake.campaign.spec import load_campaign
+
+    campaign = load_campaign(CAMPAIGN)
+    campaign = dataclasses.replace(campaign, duration=float(duration), seeds=list(range(seeds)))
+    outcome = run_campaign(campaign, out_dir, workers=workers, progress=sys.stderr)
+    rows = outcome.rows[outcome.rows["status"] == "ok"]
+    out = {"cycles_s": {}, "cycle_mean_s": {}, "below_safety_fraction": {}, "min_distance_m": {},
+           "time_below_s": {}, "mean_speed_override": {}, "products_mean_cycle_s": {}, "runs": {},
+           "failed": int(outcome.failed)}
+    for tracker in TRACKERS:
+        for key in out:
+            if key != "failed":
+                out[key].setdefault(tracker, {})
+        for camera, label in CAMERAS.items():
+            cell = rows[(rows["variant"] == tracker) & (rows["scenario"] == label)]
+            cycles = [float(c) for run in cell["robot_cycles.times"] for c in run]
+            out["cycles_s"][tracker][camera] = cycles
+            out["cycle_mean_s"][tracker][camera] = float(np.mean(cycles)) if cycles else float("nan")
+            out["below_safety_fraction"][tracker][camera] = float(cell["safety.fraction_below"].mean())
+            out["min_distance_m"][tracker][camera] = float(cell["min_human_robot_distance"].min())
+            out["time_below_s"][tracker][camera] = float(cell["safety.time_below_s"].sum())
+            out["mean_speed_override"][tracker][camera] = float(cell["mean_speed_override"].mean())
+            out["products_mean_cycle_s"][tracker][camera] = float(cell["mean_cycle_time"].mean())
+            out["runs"][tracker][camera] = int(len(cell))
+    tests = {}
+    for baseline in ("kf4", "kf2", "hold"):
+        for camera in CAMERAS:
+            _, p, effect = rank_sum_test(out["cycles_s"]["pf"][camera], out["cycles_s"][baseline][camera],
+                                         alternative="less")
+            tests[f"pf_shorter_than_{baseline}.{camera}"] = {"p": p, "rank_biserial": effect}
+    out["tests"] = tests
+    out["tests_csv"] = str(Path(out_dir) / "tests.csv")
+    return out
+
+
+def nested(table: dict, fn) -> dict:
+    """{tracker: {camera: fn(value)}}."""
+    return {t: {c: fn(v) for c, v in cams.items()} for t, cams in table.items()}
+
+
 def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
     """Text histogram of the cycle times of every tracker on common bins (cf. Fig. 9.7)."""
     values = np.concatenate([np.asarray(v, float) for v in samples.values() if len(v)])
@@ -403,7 +546,8 @@ def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, under a minute")
-    parser.add_argument("--cycles", type=int, default=None, help="robot cycles per tracker (30; --quick 2)")
+    parser.add_argument("--cycles", type=int, default=None,
+                        help="robot cycles per tracker run (30; --quick 1)")
     parser.add_argument(
         "--elbow-occluders",
         action="store_true",
@@ -415,9 +559,17 @@ def main() -> None:
         default=None,
         help="operator base x (m; the scenario has 1.0, 1.1 keeps the safety distance)",
     )
+    parser.add_argument("--seeds", type=int, default=None, help="seeds per tracker x camera (5; --quick 1)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="simulated s of every comparison run (120; --quick 30)")
+    parser.add_argument("--workers", type=int, default=2, help="campaign worker processes (0: this one)")
+    parser.add_argument("--out", type=Path, default=Path("/tmp/bench_tracking_campaign"),
+                        help="folder of the comparison campaign (runs.parquet, tests.csv, plots)")
     args = parser.parse_args()
     quick = args.quick
-    n_cycles = args.cycles if args.cycles is not None else (2 if quick else 30)
+    n_seeds = args.seeds if args.seeds is not None else (1 if quick else 5)
+    duration = args.duration if args.duration is not None else (30.0 if quick else 120.0)
+    n_cycles = args.cycles if args.cycles is not None else (1 if quick else 30)
     if n_cycles < 1:
         parser.error(f"--cycles must be >= 1, got {n_cycles}")
     print("speed (8 points x 500 particles, one update)", flush=True)
@@ -434,9 +586,13 @@ def main() -> None:
     named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False).robots, SCENARIO)
     cell = {
         kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
-        for kind in ("particle_filter", "kalman")
+        for kind in TRACKERS
     }
-    pf, kf = cell["particle_filter"], cell["kalman"]
+    pf, kf = cell["pf"], cell["kf4"]
+
+    print(f"tracker x camera comparison ({CAMPAIGN.name}): {n_seeds} seeds x {duration:g} s per cell",
+          flush=True)
+    compare = bench_compare(n_seeds, duration, args.workers, args.out)
 
     print("rendered depth camera (pcb_occlusion_rendered.yaml)", flush=True)
     render = bench_render(30 if quick else 200, named_poses)
@@ -498,8 +654,36 @@ def main() -> None:
     for row in histogram_rows({"PF": pf["cycles"], "KF": kf["cycles"]}):
         print(row)
 
+    print()
+    print(f"Fig. 9.7 per tracker x camera ({n_seeds} seeds x {duration:g} s; robot cycles pooled):")
+    print(f"  {'tracker':8s} {'camera':9s} {'cycles':>6s} {'cycle mean (s)':>14s} {'below safety':>12s} "
+          f"{'min dist (m)':>12s} {'speed':>6s}")
+    for tracker in TRACKERS:
+        for camera in CAMERAS:
+            print(f"  {tracker:8s} {camera:9s} {len(compare['cycles_s'][tracker][camera]):6d} "
+                  f"{compare['cycle_mean_s'][tracker][camera]:14.2f} "
+                  f"{compare['below_safety_fraction'][tracker][camera]:12.4f} "
+                  f"{compare['min_distance_m'][tracker][camera]:12.3f} "
+                  f"{compare['mean_speed_override'][tracker][camera]:6.3f}")
+    for name, test in compare["tests"].items():
+        print(f"  one-sided rank-sum {name}: p = {test['p']:.3g}, rank-biserial {test['rank_biserial']:.2f}")
+    print()
+    print(f"hidden points inside the belief region (analytic camera, {n_cycles} cycles per tracker run):")
+    print(f"  {'region':20s} {'coverage':>9s} {'n':>7s} {'mean vol (cm^3)':>16s} "
+          f"{'equal-vol radius (m)':>21s}")
+    region_rows = [(k, cell[k]["regions"].get("own")) for k in TRACKERS]
+    region_rows += [(k, pf["regions"].get(k)) for k in PF_FRAME_REGIONS[1:]]
+    for name, stats in region_rows:
+        if stats:
+            print(f"  {name:20s} {stats['coverage']:9.3f} {stats['n']:7d} "
+                  f"{1e6 * stats['mean_volume_m3']:16.1f} "
+                  f"{stats['mean_volume_radius_m']:21.3f}")
+
     def r4(x):
         return None if x is None or not np.isfinite(x) else round(float(x), 4)
+
+    def region(run, name, field, scale=1.0):
+        return r4(scale * run["regions"].get(name, {}).get(field, float("nan")))
 
     figures = {
         "quick": quick,
@@ -535,6 +719,29 @@ def main() -> None:
         "below_safety_fraction_pf": r4(pf["below_safety_fraction"]),
         "below_safety_fraction_kf": r4(kf["below_safety_fraction"]),
         "safety_distance_m": pf["safety_distance_m"],
+        "compare_seeds": n_seeds,
+        "compare_duration_s": duration,
+        "cycle_mean_s": nested(compare["cycle_mean_s"], r4),
+        "below_safety_fraction": nested(compare["below_safety_fraction"], r4),
+        "min_distance_m": nested(compare["min_distance_m"], r4),
+        "time_below_s": nested(compare["time_below_s"], r4),
+        "mean_speed_override": nested(compare["mean_speed_override"], r4),
+        "robot_cycles_n": nested(compare["cycles_s"], len),
+        "products_mean_cycle_s": nested(compare["products_mean_cycle_s"], r4),
+        "compare_failed_runs": compare["failed"],
+        "pf_shorter_cycles_tests": {k: {"p": r4(v["p"]), "rank_biserial": r4(v["rank_biserial"])}
+                                    for k, v in compare["tests"].items()},
+        "region_coverage": {k: region(cell[k], "own", "coverage") for k in TRACKERS},
+        "region_mean_volume_cm3": {k: region(cell[k], "own", "mean_volume_m3", 1e6) for k in TRACKERS},
+        "region_mean_volume_radius_m": {k: region(cell[k], "own", "mean_volume_radius_m") for k in TRACKERS},
+        "region_hidden_point_frames": {k: cell[k]["regions"].get("own", {}).get("n", 0) for k in TRACKERS},
+        "region_coverage_pf_frames": {k: region(pf, k, "coverage") for k in PF_FRAME_REGIONS},
+        "region_mean_volume_cm3_pf_frames": {
+            k: region(pf, k, "mean_volume_m3", 1e6) for k in PF_FRAME_REGIONS},
+        "region_rule": f"pf: particles + {PARTICLE_RADIUS} m balls; kf: {REGION_MASS:.0%} ellipsoid; "
+                       f"hold: {PARTICLE_RADIUS} m ball",
+        "cell_cycle_mean_s_by_tracker_own_runs": {k: r4(np.mean(cell[k]["cycles"])) for k in TRACKERS},
+        "loadavg": [round(x, 2) for x in os.getloadavg()],
     }
     print(json.dumps(figures))
 

@@ -12,8 +12,10 @@ Prints a line per run and, as its last line, one JSON object:
 `cycle_mean` (= time per product after the first), `products`, `human_wait_per_product`, and
 `.wilcoxon_p` (one-sided rank sum, best scenario < round robin, cycles), `.wilcoxon_p_runs`.
 
+The runs go through the campaign API, as `bench_use_case_b.py`'s (`run_patterns`).
+
 Usage:
-    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick] [--workers W]
+    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick] [--workers W] [--address A] [--out DIR]
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_use_case_b import run_cell, run_jobs, summarize  # noqa: E402
+from bench_use_case_b import add_campaign_arguments, run_patterns, summarize  # noqa: E402
 
 N_PRODUCTS, DURATION = 10, 600.0
 PATTERNS = {"pattern1": "[ic, collab]", "pattern2": "[ic, ic, collab, collab]"}
@@ -39,24 +41,19 @@ SCHEDULERS = {
 THESIS = {"pattern1": (35.80, 27.63), "pattern2": (33.35, 30.10)}
 
 
-def run_one(job) -> dict:
-    pattern, arm, seed = job
-    return run_cell(ROOT / "diagrams" / "pcb_collab.yaml", PATTERNS[pattern], pattern, arm, SCHEDULERS[arm],
-                    seed, N_PRODUCTS, DURATION)
-
-
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeded runs per arm and pattern")
     parser.add_argument("--quick", action="store_true", help="2 seeds, best scenario and round robin only")
-    parser.add_argument("--workers", type=int, default=1, help="runs at once (processes)")
+    add_campaign_arguments(parser)
     args = parser.parse_args(argv)
     seeds = 2 if args.quick else args.seeds
     arms = ["best_scenario", "round_robin"] if args.quick else list(SCHEDULERS)
-    jobs = [(p, a, 100 + s) for p in PATTERNS for s in range(seeds) for a in arms]
-    print(f"{len(jobs)} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.workers} workers",
-          flush=True)
-    rows = run_jobs(run_one, jobs, args.workers)
+    n_runs = len(PATTERNS) * seeds * len(arms)
+    print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.address or args.workers} "
+          "workers", flush=True)
+    rows = run_patterns("use_case_a_cell", ROOT / "diagrams" / "pcb_collab.yaml", PATTERNS, SCHEDULERS, arms,
+                        seeds, N_PRODUCTS, DURATION, args)
     out = summarize(rows, arms, PATTERNS, test=("best_scenario", "round_robin"))
     for pattern, block in out.items():
         bs, rr = block["best_scenario"]["cycle_mean"], block["round_robin"]["cycle_mean"]

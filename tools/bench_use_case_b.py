@@ -14,24 +14,36 @@ Prints a line per run and, as its last line, one JSON object: `use_case_b.<patte
 with `cycle_median`, `cycle_mean`, `products`, `human_wait_per_product`, and
 `use_case_b.<pattern>.wilcoxon_p` (cycles), `.wilcoxon_p_runs`.
 
+The runs go through the campaign API (`hrc_drake.campaign`): one campaign, a variant per pattern
+and scheduler (`pattern1-A`, ...), the per-product samples from the `per_product` extra metrics.
+
 Usage:
-    python3 tools/bench_use_case_b.py [--seeds N] [--quick] [--workers W]
---quick: 2 seeds, A and B only (about a minute on 2 cores).
+    python3 tools/bench_use_case_b.py [--seeds N] [--quick] [--workers W] [--address tcp://HOST:PORT]
+        [--out DIR]
+--quick: 2 seeds, A and B only (about a minute on 2 cores). --workers 1 (default): in this
+process; W > 1: a Dask `LocalCluster` of W processes. --out keeps the campaign's runs.parquet (a
+rerun skips the runs done); default: a temporary folder.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
+import sys
 import tempfile
-import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import mannwhitneyu
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from hrc_drake.campaign.engine import ClusterClient, run_campaign  # noqa: E402
+from hrc_drake.campaign.spec import make_campaign  # noqa: E402
+from hrc_drake.cell.scenario import _raw_document  # noqa: E402
+
 #: products per run (7.5.2) and the simulated time allowed for them (s)
 N_PRODUCTS, DURATION = 9, 560.0
 PATTERNS = {"pattern1": "[pad, trim, label]", "pattern2": "[pad, pad, trim, trim, label, label]"}
@@ -44,55 +56,78 @@ SCHEDULERS = {
 }
 
 
-def scenario_text(base: Path, pattern: str, scheduler: str, seed: int) -> str:
-    """`base` with the operator's pattern, a scheduler and the seed (`extends`)."""
-    return (f"extends: {base}\nseed: {seed}\noperator: {{pattern: {pattern}}}\nscheduler: {scheduler}\n")
+def pattern_campaign(name: str, base: Path, patterns: dict[str, str], schedulers: dict[str, str],
+                     arms: list[str], seeds: int, duration: float):
+    """`base` as a campaign: a variant `<pattern>-<arm>` per operator pattern and scheduler (the
+    YAML texts above, overrides of the scenario), seeds 100, 101, ...; per-product samples."""
+    variants = {
+        f"{p}-{arm}": _raw_document(f"operator: {{pattern: {patterns[p]}}}\nscheduler: {schedulers[arm]}\n")
+        for p in patterns
+        for arm in arms
+    }
+    document = {
+        "name": name,
+        "duration": duration,
+        "seeds": {"count": seeds, "first": 100},
+        "scenarios": [str(base)],
+        "variants": variants,
+        "metrics": ["mean_cycle_time", "agents.*.idle_time"],
+        "extra_metrics": ["per_product"],
+    }
+    return make_campaign(document, ROOT / "tools" / f"{name}.campaign")
 
 
-def run_cell(base: Path, pattern: str, pattern_name: str, arm: str, scheduler: str, seed: int,
-             n_products: int, duration: float) -> dict:
-    """One seeded run of `base` with the pattern and the scheduler: the first `n_products`
-    products' cycles and the operator's blocked time until the last of them."""
-    from hrc_drake.cell.build import build_cell
-    from hrc_drake.cell.run import simulate
-    from hrc_drake.cell.scenario import load_scenario
+def run_campaigns(campaigns: list, workers: int, address: str | None, out: Path) -> list:
+    """Each campaign through the campaign API, in this process one run after the other
+    (`workers` <= 1, no address) or on one Dask client shared by all (a LocalCluster of `workers`
+    processes, or the scheduler at `address`); the rows (a DataFrame) of each, its failed runs
+    printed and left out."""
+    frames = []
+    in_process = address is None and workers <= 1
+    with nullcontext(None) if in_process else ClusterClient(address, workers) as client:
+        for campaign in campaigns:
+            outcome = run_campaign(
+                campaign, out / campaign.name, workers=0, client=client, progress=sys.stderr, analyze=False
+            )
+            rows = outcome.rows
+            for failed in rows[rows["status"] != "ok"].to_dict("records"):
+                print(f"  {failed['variant']} seed {failed['seed']} FAILED: {failed['error']}", flush=True)
+            frames.append(rows[rows["status"] == "ok"])
+    return frames
 
+
+def pattern_rows(frame, n_products: int) -> list[dict]:
+    """A campaign's rows as the benchmarks use them: per run the first `n_products` products'
+    cycles and the operator's blocked time until the last of them (until the end without one)."""
+    rows = []
+    for run in frame.to_dict("records"):
+        pattern, _, arm = run["variant"].partition("-")
+        times = list(run["per_product.times"])[:n_products]
+        wait = sum(run["per_product.operator_wait"][:n_products]) if times else run[
+            "per_product.operator_wait_after_last"]
+        rows.append({"pattern": pattern, "arm": arm, "seed": int(run["seed"]), "products": len(times),
+                     "cycles": [float(c) for c in run["per_product.cycle_times"][: max(len(times) - 1, 0)]],
+                     "human_wait": round(float(wait), 3), "wall_s": round(float(run["wall_time"]), 1)})
+    return rows
+
+
+def run_patterns(name: str, base: Path, patterns: dict[str, str], schedulers: dict[str, str], arms: list[str],
+                 seeds: int, n_products: int, duration: float, args) -> list[dict]:
+    """Every pattern x arm x seed of `base` as one campaign; a row per run, printed."""
+    campaign = pattern_campaign(name, base, patterns, schedulers, arms, seeds, duration)
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"{base.stem}_{pattern_name}_{arm}.yaml"
-        path.write_text(scenario_text(base, pattern, scheduler, seed))
-        scenario = load_scenario(path)
-        cell = build_cell(scenario, path)
-    start = time.perf_counter()
-    result = simulate(cell, duration, progress=None)
-    wall = time.perf_counter() - start
-    times = result.metrics["product_times"][:n_products]
-    end = times[-1] if times else duration
-    waits = _waits(result.log.events, end)
-    return {"pattern": pattern_name, "arm": arm, "seed": seed, "products": len(times),
-            "cycles": [float(c) for c in np.diff(times)], "human_wait": waits,
-            "wall_s": round(wall, 1)}
+        (frame,) = run_campaigns([campaign], args.workers, args.address, Path(args.out or tmp))
+    rows = pattern_rows(frame, n_products)
+    for row in rows:
+        _print_row(row)
+    return rows
 
 
-def run_one(job) -> dict:
-    pattern, arm, seed = job
-    return run_cell(ROOT / "diagrams" / "carts.yaml", PATTERNS[pattern], pattern, arm, SCHEDULERS[arm], seed,
-                    N_PRODUCTS, DURATION)
-
-
-def _waits(events, until: float) -> float:
-    """The operator's time blocked (wait_begin to wait_end) before `until`."""
-    total, start = 0.0, None
-    for e in sorted(events, key=lambda e: (e.time, e.seq)):
-        if getattr(e, "agent", "human") != "human":
-            continue
-        if e.kind == "wait_begin":
-            start = e.time
-        elif e.kind == "wait_end" and start is not None:
-            total += max(0.0, min(e.time, until) - start)
-            start = None
-    if start is not None and start < until:
-        total += until - start
-    return round(total, 3)
+def add_campaign_arguments(parser: argparse.ArgumentParser) -> None:
+    """--workers, --address, --out of the benchmarks that run whole cells over seeds."""
+    parser.add_argument("--workers", type=int, default=1, help="runs at once (1: this process, W: processes)")
+    parser.add_argument("--address", default=None, help="a Dask scheduler (tcp://HOST:PORT) instead")
+    parser.add_argument("--out", default=None, help="keep the campaign's rows here (default: a temp folder)")
 
 
 def summarize(rows: list[dict], arms: list[str], patterns=PATTERNS, test=("A", "B")) -> dict:
@@ -124,14 +159,15 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeded runs per arm and pattern")
     parser.add_argument("--quick", action="store_true", help="2 seeds, A and B only")
-    parser.add_argument("--workers", type=int, default=1, help="runs at once (processes)")
+    add_campaign_arguments(parser)
     args = parser.parse_args(argv)
     seeds = 2 if args.quick else args.seeds
     arms = ["A", "B"] if args.quick else ["A", "B", "RR"]
-    jobs = [(p, a, 100 + s) for p in PATTERNS for s in range(seeds) for a in arms]
-    print(f"{len(jobs)} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.workers} workers",
-          flush=True)
-    rows = run_jobs(run_one, jobs, args.workers)
+    n_runs = len(PATTERNS) * seeds * len(arms)
+    print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.address or args.workers} "
+          "workers", flush=True)
+    rows = run_patterns("use_case_b", ROOT / "diagrams" / "carts.yaml", PATTERNS, SCHEDULERS, arms, seeds,
+                        N_PRODUCTS, DURATION, args)
     out = summarize(rows, arms)
     for pattern, block in out.items():
         print(f"{pattern}: median cycle A {block['A']['cycle_median']} s, B {block['B']['cycle_median']} s"
@@ -141,22 +177,6 @@ def main(argv=None) -> dict:
     result = {"use_case_b": out, "seeds": seeds}
     print(json.dumps(result))
     return result
-
-
-def run_jobs(function, jobs: list, workers: int, print_row=None) -> list[dict]:
-    """`function` on every job, in `workers` processes, printing a line per run as it ends."""
-    print_row = print_row or _print_row
-    rows = []
-    if workers > 1:
-        with multiprocessing.get_context("spawn").Pool(workers) as pool:
-            for row in pool.imap(function, jobs):
-                rows.append(row)
-                print_row(row)
-    else:
-        for job in jobs:
-            rows.append(function(job))
-            print_row(rows[-1])
-    return rows
 
 
 def _print_row(row: dict) -> None:

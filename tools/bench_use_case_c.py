@@ -38,7 +38,6 @@ import copy
 import json
 import sys
 import tempfile
-from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -48,9 +47,8 @@ sys.path.insert(0, str(ROOT))
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_use_case_b import _one_sided  # noqa: E402
+from bench_use_case_b import _one_sided, add_campaign_arguments, run_campaigns  # noqa: E402
 
-from hrc_drake.campaign.engine import ClusterClient, run_campaign  # noqa: E402
 from hrc_drake.campaign.spec import make_campaign  # noqa: E402
 from hrc_drake.cell.scenario import Tagged, _raw_document  # noqa: E402
 
@@ -106,30 +104,23 @@ def experiment_campaign(experiment: str, arms: list[str], seeds: int):
 def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out: Path) -> list[dict]:
     """Every experiment x arm x seed through the campaign API: a row per run as the old loop's
     (experiment, arm, seed, products, idle, cycles, wall_s, simulated_s)."""
+    campaigns = [experiment_campaign(experiment, arms, seeds) for experiment in EXPERIMENTS]
+    frames = run_campaigns(campaigns, workers, address, out)
     rows = []
-    in_process = address is None and workers <= 1
-    with nullcontext(None) if in_process else ClusterClient(address, workers) as client:
-        for experiment, (n_products, duration) in EXPERIMENTS.items():
-            campaign = experiment_campaign(experiment, arms, seeds)
-            outcome = run_campaign(
-                campaign, out / experiment, workers=0, client=client, progress=sys.stderr, analyze=False
-            )
-            for run in outcome.rows.to_dict("records"):
-                if run["status"] != "ok":
-                    print(f"  {experiment} {run['variant']} seed {run['seed']} FAILED: {run['error']}", flush=True)
-                    continue
-                times = list(run["per_product.times"])[:n_products]
-                rows.append({
-                    "experiment": experiment,
-                    "arm": run["variant"],
-                    "seed": int(run["seed"]),
-                    "products": len(times),
-                    "idle": [float(x) for x in run["per_product.operator_wait"][:n_products]],
-                    "cycles": [float(x) for x in run["per_product.cycle_times"][: max(len(times) - 1, 0)]],
-                    "wall_s": round(float(run["wall_time"]), 1),
-                    "simulated_s": duration,
-                })
-                _print_row(rows[-1])
+    for (experiment, (n_products, duration)), frame in zip(EXPERIMENTS.items(), frames, strict=True):
+        for run in frame.to_dict("records"):
+            times = list(run["per_product.times"])[:n_products]
+            rows.append({
+                "experiment": experiment,
+                "arm": run["variant"],
+                "seed": int(run["seed"]),
+                "products": len(times),
+                "idle": [float(x) for x in run["per_product.operator_wait"][:n_products]],
+                "cycles": [float(x) for x in run["per_product.cycle_times"][: max(len(times) - 1, 0)]],
+                "wall_s": round(float(run["wall_time"]), 1),
+                "simulated_s": duration,
+            })
+            _print_row(rows[-1])
     return rows
 
 
@@ -137,9 +128,7 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeded runs per arm and experiment")
     parser.add_argument("--quick", action="store_true", help="2 seeds, fuzzy and uniform only")
-    parser.add_argument("--workers", type=int, default=1, help="runs at once (1: this process; W: W processes)")
-    parser.add_argument("--address", default=None, help="a Dask scheduler (tcp://HOST:PORT) instead")
-    parser.add_argument("--out", default=None, help="keep the campaigns' rows here (default: a temp folder)")
+    add_campaign_arguments(parser)
     args = parser.parse_args(argv)
     seeds = 2 if args.quick else args.seeds
     arms = ["fuzzy", "uniform"] if args.quick else ["fuzzy", "uniform", "round_robin"]

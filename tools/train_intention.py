@@ -12,7 +12,10 @@ the significance test of `features`): a wrist lingering at its goal is no eviden
 The exponent w of the likelihoods (L^w in eq. 3.2: consecutive features share most of their
 velocity window, so they are not independent) is chosen on separate validation operators
 (seeds from VALIDATION_SEED_OFFSET, neither training nor benchmark operators), as the value
-with the fewest false positives + missed goals averaged over M2 and M3, and saved with the model.
+with the fewest false positives + missed goals averaged over M2 and M3, on a grid extended
+downwards until the error rises below the chosen w (`evaluation.bracketed_minimum`), and saved
+with the model. tools/bench_intention.py does not use this model: it learns its own, from other
+splits, and chooses w separately for M2 and M3.
 
     python tools/train_intention.py [--operators 24] [--reaches 40] [--validation 6] [--out PATH] [--seed 0]
 """

@@ -254,7 +254,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
         load_scenario(scenario_path)  # the scenario's own problems are named by its own file
         for name, overrides in variants.items():
             try:
-                scenario = load_scenario_with(scenario_path, overrides)
+                scenario = load_scenario_with(scenario_path, overrides, check_file_alone=False)
             except ScenarioError as err:
                 where = f"variants.{name}" + (f".{err.field}" if err.field else "")
                 raise ScenarioError(path, where, f"{err.reason} (applied to {scenario_path})") from None

@@ -521,3 +521,17 @@ def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def robot_cycles(result, scenario) -> dict:
+    """Robot cycles of thesis 9.1.3 (Fig. 9.7): the intervals between consecutive begins of the
+    first action of the first arm's program (in pcb_occlusion, the left arm's pick of a board at
+    the slide, L_carry). An extra-metrics function of campaigns
+    (`extra_metrics: [hrc_drake.cell.metrics:robot_cycles]`): `times` the intervals (s), `mean`
+    their mean (NaN with fewer than two begins), `count` how many."""
+    arm = scenario.robots[0].arms[0]
+    begins = sorted(e.time for e in result.log.events if getattr(e, "agent", "") == arm.agent
+                    and e.action == arm.program[0] and e.kind == "begin")
+    cycles = np.diff(begins) if len(begins) > 1 else np.zeros(0)
+    mean = float(np.mean(cycles)) if len(cycles) else float("nan")
+    return {"times": [float(c) for c in cycles], "mean": mean, "count": len(cycles)}

@@ -302,15 +302,21 @@ def merge_raw(base, overrides):
     return copy.deepcopy(overrides)
 
 
-def load_scenario_with(path: str | Path, overrides: dict, check_reachability: bool = False) -> Scenario:
+def load_scenario_with(
+    path: str | Path, overrides: dict, check_reachability: bool = False, check_file_alone: bool = True
+) -> Scenario:
     """The scenario file `path` with `overrides` (a raw document, `merge_raw`) applied before the
-    typed load and the checks, as if the file said so; relative names resolve from its folder."""
+    typed load and the checks, as if the file said so; relative names resolve from its folder.
+
+    check_file_alone: load the file without the overrides first, so that its own problems are
+    named as its own; a caller that has just loaded it (a campaign) skips that second load."""
     path = Path(path)
     if not overrides:
         return load_scenario(path, check_reachability)
     if not isinstance(overrides, dict) or isinstance(overrides, Tagged):
         raise ScenarioError(path, "", f"overrides must be a mapping of scenario fields, got {overrides!r}")
-    load_scenario(path)  # the file alone first: its own problems are named as its own
+    if check_file_alone:
+        load_scenario(path)  # the file alone first: its own problems are named as its own
     raw = _raw_document(path.read_bytes().decode("utf-8"))
     return _load_text(path, dump_raw(merge_raw(raw, overrides)), check_reachability)
 

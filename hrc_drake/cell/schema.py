@@ -27,7 +27,7 @@ from hrc_drake.motion.config import (
     SeparationSpeedScaling,
     WorstCaseMotionModel,
 )
-from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
 from hrc_drake.scheduling.config import NoScheduler, SchedulerConfig
@@ -80,7 +80,7 @@ class Metrics:
 
 #: Each optional system's kinds, as scenario field types (one dataclass per kind, owned by its
 #: area, chosen in YAML by tag: ``tracker: !ParticleFilterTracker {particles: 500}``).
-Tracker = Union[NoTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
+Tracker = Union[NoTracker, HoldLastSeenTracker, ParticleFilterTracker, KalmanTracker]  # noqa: UP007 (the YAML loader needs it)
 Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
 ActionDetector = Union[NoActionDetector, GoalRegionActionDetector, SegmenterActionDetector]  # noqa: UP007
 MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007

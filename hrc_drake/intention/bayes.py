@@ -300,6 +300,16 @@ class GoalIntentionEstimator:
         A still or lost wrist keeps its hand's probabilities.
         """
         log_lik, active = self.log_likelihood(time, points, gaze, gaze_valid)
+        return self.posterior_step(time, log_lik, active)
+
+    def posterior_step(self, time: float, log_likelihood: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """The Bayes half of `update`, eq. (3.2) with the goal switch and restart: from log L (2, G)
+        and the hands with evidence (2,) of `log_likelihood`. Returns probabilities (2, G).
+
+        Split out so that one likelihood trace can be replayed under other switch settings
+        (`evaluation.replay_posteriors`); the likelihood half advances the velocity window."""
+        log_lik = np.asarray(log_likelihood, dtype=float)
+        active = np.asarray(active, dtype=bool)
         restart = active & (time - self._last_motion >= self.restart_after)
         switch = np.where(restart, max(self.restart_switch, self.switch_probability), self.switch_probability)
         self.probabilities_ = bayes_update(self.probabilities_, log_lik, switch, active)

@@ -1,6 +1,7 @@
 """Typed configs of the skeleton tracker, one dataclass per kind (thesis 9.1).
 
-A scenario's `tracker` field is one of `NoTracker`, `ParticleFilterTracker`, `KalmanTracker`;
+A scenario's `tracker` field is one of `NoTracker`, `HoldLastSeenTracker`, `ParticleFilterTracker`,
+`KalmanTracker`;
 `perception.systems.apply_tracker_config` builds the system. The defaults reproduce the
 tracker of `diagrams/pcb_occlusion.yaml` (the thesis' settings of 9.1.3).
 No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
@@ -51,6 +52,25 @@ class NoTracker:
 
     def validate(self, path: str) -> None:
         """Nothing to check."""
+
+
+@dataclass
+class HoldLastSeenTracker:
+    """The hold-last-seen baseline of the tracker comparison (thesis 9.1.3, Fig. 9.7): a lost
+    point stays where it was last seen, as with `NoTracker`, but the estimate also drives the
+    slow-down rule of 9.1.3 (a held point inside the robot workspace box counts as belief 1
+    there, outside as 0), so its cycle times compare with the filters' on equal terms.
+    `NoTracker` drives no slow-down rule at all."""
+
+    #: Slow-down rule of 9.1.3: the robot slows when some point has at least this fraction of
+    #: its belief (0 or 1 for a held point) inside the robot workspace box.
+    slow_down_threshold: float = 0.1
+    #: Speed override while the slow-down rule holds (fraction of the nominal speed).
+    slow_factor: float = 0.3
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the rule cannot use."""
+        _slow_down(self, path)
 
 
 @dataclass
@@ -150,4 +170,4 @@ class KalmanTracker:
 
 
 #: Every tracker kind a scenario can choose.
-TrackerConfig = NoTracker | ParticleFilterTracker | KalmanTracker
+TrackerConfig = NoTracker | HoldLastSeenTracker | ParticleFilterTracker | KalmanTracker

@@ -1,5 +1,6 @@
-"""Drake adapters of skeleton tracking (thesis 9.1): `OcclusionTracker` (particle filter or
-Kalman baseline), `MeasurementAsEstimate` (no tracker), and `apply_tracker_config`.
+"""Drake adapters of skeleton tracking (thesis 9.1): `OcclusionTracker` (particle filter, Kalman
+baseline or hold-last-seen with the slow-down rule), `MeasurementAsEstimate` (no tracker), and
+`apply_tracker_config`.
 
 The run lives in the Context (DESIGN.md): the tracker core is abstract state held as a
 `Frozen` value, cloned (copy-on-write) by each update and rebuilt by the initialization event.
@@ -12,7 +13,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import AbstractStateIndex, BasicVector, EventStatus, LeafSystem
 
 from hrc_drake.messages import DepthFrame, SkeletonEstimate, SkeletonFrame, no_capsules
-from hrc_drake.perception.config import KalmanTracker, NoTracker, ParticleFilterTracker
+from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.perception.tracker import SkeletonTracker, speed_override
 from hrc_drake.systems import (
     Frozen,
@@ -22,9 +23,13 @@ from hrc_drake.systems import (
     set_state,
 )
 
+TrackingConfig = ParticleFilterTracker | KalmanTracker | HoldLastSeenTracker
 
-def tracker_params(config: ParticleFilterTracker | KalmanTracker) -> tuple[str, dict]:
+
+def tracker_params(config: TrackingConfig) -> tuple[str, dict]:
     """(kind, params) of `SkeletonTracker` for a tracker config."""
+    if isinstance(config, HoldLastSeenTracker):
+        return "none", {}
     names = ("order", "sigma_position", "sigma_velocity", "sigma_acceleration", "sigma_jerk",
              "measurement_std", "initial_velocity_std", "initial_acceleration_std", "initial_jerk_std",
              "display_particles")
@@ -41,8 +46,9 @@ def tracker_params(config: ParticleFilterTracker | KalmanTracker) -> tuple[str, 
 
 
 class OcclusionTracker(LeafSystem):
-    """Occlusion-aware skeleton tracker at `rate` Hz: the particle filter of 9.1.2 or the Kalman
-    baseline of 9.1.3, chosen by the type of `config`.
+    """Occlusion-aware skeleton tracker at `rate` Hz: the particle filter of 9.1.2, the Kalman
+    baseline of 9.1.3, or the hold-last-seen baseline (`HoldLastSeenTracker`), chosen by the
+    type of `config`; each drives the slow-down rule of 9.1.3.
 
     Inputs:
       "skeleton_frame": abstract `SkeletonFrame` (from `DepthCamera`).
@@ -63,10 +69,12 @@ class OcclusionTracker(LeafSystem):
     period) after the camera ticks, so it reads the frame measured at the same tick.
     `listeners`: pure observers `fn(frame, estimate)` called after every update that produced a
     new estimate (probes of benchmarks); they hold no state of the run and must not modify
-    their arguments.
+    their arguments. `core_listeners`: the same for `fn(frame, core)`, given the updated
+    `SkeletonTracker` itself (whole particle sets, Kalman covariances: the belief regions of
+    `perception.regions`); they must not modify it.
     """
 
-    def __init__(self, config: ParticleFilterTracker | KalmanTracker, is_hidden, workspace_center,
+    def __init__(self, config: TrackingConfig, is_hidden, workspace_center,
                  workspace_size, rate: float = 30.0, seed: int = 0, offset: float | None = None):
         super().__init__()
         config.validate("tracker")
@@ -79,6 +87,7 @@ class OcclusionTracker(LeafSystem):
         speed_override(core.estimate_, self.threshold, self.slow)  # validates both
         self._initial = Frozen(core)
         self.listeners: list = []
+        self.core_listeners: list = []
         self._frame = self.DeclareAbstractInputPort("skeleton_frame", AbstractValue.Make(SkeletonFrame()))
         self._capsules = self.DeclareAbstractInputPort("occluding_capsules",
                                                        AbstractValue.Make(no_capsules()))
@@ -116,6 +125,8 @@ class OcclusionTracker(LeafSystem):
         set_state(state, self._core, Frozen(core))
         for listener in self.listeners:
             listener(frame, estimate)
+        for listener in self.core_listeners:
+            listener(frame, core)
         return EventStatus.Succeeded()
 
     def estimate(self, context) -> SkeletonEstimate:
@@ -183,7 +194,7 @@ class MeasurementAsEstimate(LeafSystem):
         )
 
 
-def apply_tracker_config(config: NoTracker | ParticleFilterTracker | KalmanTracker, builder, *,
+def apply_tracker_config(config: NoTracker | TrackingConfig, builder, *,
                          skeleton_frame, occluding_capsules=None, is_hidden=None, depth_frame=None,
                          workspace_center, workspace_size, rate: float = 30.0, seed: int = 0) -> LeafSystem:
     """Add the tracker of `config` to `builder`, named "tracker", and connect its inputs.

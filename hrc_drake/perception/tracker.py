@@ -36,6 +36,15 @@ from hrc_drake.perception.kalman import (
     valid_measurements,
 )
 from hrc_drake.perception.particle_filter import DEFAULT_INITIAL_STD, DEFAULT_SIGMA, SkeletonParticleFilter
+from hrc_drake.perception.regions import (
+    PARTICLE_RADIUS,
+    REGION_MASS,
+    ball_union_volume,
+    ball_volume,
+    ellipsoid_volume,
+    in_ball_union,
+    in_ellipsoid,
+)
 
 KINDS = ("particle_filter", "kalman", "none")
 #: Spread (m) reported for a point never seen yet.
@@ -181,6 +190,41 @@ class SkeletonTracker:
     @property
     def kalman_filter(self) -> KalmanFilter | None:
         return self._kf
+
+    def region_contains(self, truth, which=None, mass: float = REGION_MASS,
+                        radius: float = PARTICLE_RADIUS) -> tuple[np.ndarray, np.ndarray]:
+        """Whether each true point lies inside this tracker's belief region, and the region's
+        volume (`perception.regions`; thesis 9.1.3): the particle filter's particles inflated
+        by `radius`, the Kalman filter's `mass` ellipsoid, a ball of `radius` around a held
+        point.
+
+        truth (8, 3): true positions; which (8,) bool: the points to judge (default all).
+        Returns inside (8,) bool and volume (8,) m^3; a point not judged, or never seen yet
+        (no region), is False with volume NaN.
+        """
+        truth = np.asarray(truth, dtype=float).reshape(8, 3)
+        which = np.ones(8, dtype=bool) if which is None else np.asarray(which, dtype=bool).copy()
+        inside, volume = np.zeros(8, dtype=bool), np.full(8, np.nan)
+        if self._pf is not None:
+            which &= self._pf.initialized_
+            idx = np.flatnonzero(which)
+            cloud = self._pf.positions[idx]
+            inside[idx] = in_ball_union(cloud, truth[idx], radius)
+            # The same seed for every point and frame: the volume's Monte Carlo noise is common
+            # to all regions compared.
+            volume[idx] = [ball_union_volume(c, radius) for c in cloud]
+        elif self._kf is not None:
+            which &= self._kf.initialized_
+            idx = np.flatnonzero(which)
+            cov = self._kf.position_covariances[idx]
+            inside[idx] = in_ellipsoid(self._kf.positions[idx], cov, truth[idx], mass)
+            volume[idx] = ellipsoid_volume(cov, mass)
+        else:
+            which &= self._ever_seen
+            idx = np.flatnonzero(which)
+            inside[idx] = np.linalg.norm(truth[idx] - self._held[idx], axis=1) <= radius
+            volume[idx] = ball_volume(radius)
+        return inside, volume
 
     def _check_frame(self, frame: SkeletonFrame):
         points = np.asarray(frame.points, dtype=float)

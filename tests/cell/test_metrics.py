@@ -85,3 +85,22 @@ def test_time_below_the_safety_distance_is_counted_over_every_sample():
     clear.record(0.0, 0.4, 1.0, {}, 0)
     assert summarize(clear, 0.1, [], {})["safety"]["below"] is False
     assert summarize(MetricsLog(), 0.1, [], {})["safety"] is None  # no threshold given
+
+
+def test_robot_cycles_are_the_intervals_between_begins_of_the_first_program_action():
+    """robot_cycles (Fig. 9.7): only the first arm's agent and its program's first action count."""
+    from types import SimpleNamespace
+
+    from hrc_drake.cell.metrics import robot_cycles
+    from hrc_drake.messages import RobotEvent
+
+    arm = SimpleNamespace(agent="yumi_left", program=["L_carry", "L_unload"])
+    scenario = SimpleNamespace(robots=[SimpleNamespace(arms=[arm])])
+    events = [RobotEvent(time=t, agent=agent, action=action, kind=kind, seq=0) for t, agent, action, kind in [
+        (1.0, "yumi_left", "L_carry", "begin"), (5.0, "yumi_left", "L_carry", "end"),
+        (6.0, "yumi_left", "L_unload", "begin"), (9.0, "yumi_right", "L_carry", "begin"),
+        (31.0, "yumi_left", "L_carry", "begin"), (71.0, "yumi_left", "L_carry", "begin")]]
+    out = robot_cycles(SimpleNamespace(log=SimpleNamespace(events=events)), scenario)
+    assert out == {"times": [30.0, 40.0], "mean": 35.0, "count": 2}
+    one = robot_cycles(SimpleNamespace(log=SimpleNamespace(events=events[:1])), scenario)
+    assert one["count"] == 0 and one["times"] == [] and one["mean"] != one["mean"]  # NaN

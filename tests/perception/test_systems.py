@@ -10,7 +10,7 @@ from pydrake.systems.analysis import Simulator  # noqa: E402
 from pydrake.systems.framework import DiagramBuilder, LeafSystem  # noqa: E402
 
 from hrc_drake.messages import L_WRIST, Capsules, SkeletonEstimate, SkeletonFrame  # noqa: E402
-from hrc_drake.perception.config import KalmanTracker, ParticleFilterTracker  # noqa: E402
+from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, ParticleFilterTracker  # noqa: E402
 from hrc_drake.perception.systems import OcclusionTracker  # noqa: E402
 
 POSE = np.array([
@@ -77,3 +77,40 @@ def test_tracker_in_a_diagram(kind):
         assert speed == 1.0
         assert np.linalg.norm(est.points[L_WRIST] - POSE[L_WRIST]) < 0.2
         assert calls and calls[-1] is not None  # the capsules reached the depth query
+
+
+@pytest.mark.parametrize("center, expected", [([0.27, 0.2, 1.1], 0.3), ([0.27, 0.2, 2.5], 1.0)])
+def test_hold_last_seen_tracker_slows_on_the_held_point(center, expected):
+    """HoldLastSeenTracker: the lost wrist stays where it was seen, and the slow-down rule of
+    9.1.3 reads it (slow while it is inside the workspace box); core listeners see the core."""
+    builder = DiagramBuilder()
+    source = builder.AddSystem(FrameSource())
+    box = np.array([0.1, 0.1, 0.1])  # a small box round the wrist's last seen point, or away from it
+    tracker = builder.AddSystem(OcclusionTracker(HoldLastSeenTracker(), None, center, box, rate=30.0))
+    builder.Connect(source.get_output_port(), tracker.GetInputPort("skeleton_frame"))
+    regions = []
+    tracker.core_listeners.append(lambda frame, core: regions.append(core.region_contains(POSE)[0][L_WRIST]))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.6)
+    context = tracker.GetMyContextFromRoot(simulator.get_context())
+    est = tracker.GetOutputPort("skeleton_estimate").Eval(context)
+    assert not est.tracked[L_WRIST]
+    np.testing.assert_allclose(est.points[L_WRIST], POSE[L_WRIST])
+    assert tracker.GetOutputPort("speed_override").Eval(context)[0] == expected
+    assert len(regions) == 18 and all(regions)
+
+
+def test_shipped_tracker_campaign_loads_every_tracker_and_camera():
+    """diagrams/campaigns/trackers.yaml: the !HoldLastSeenTracker tag and the kf2 / kf4 orders
+    reach the scenarios (item 3 of issue 15)."""
+    from pathlib import Path
+
+    from hrc_drake.campaign.spec import load_campaign
+    from hrc_drake.cell.scenario import load_scenario_with
+
+    campaign = load_campaign(Path(__file__).resolve().parents[2] / "diagrams" / "campaigns" / "trackers.yaml")
+    assert set(campaign.variants) == {"pf", "kf2", "kf4", "hold"}
+    assert set(campaign.scenarios) == {"pcb_occlusion", "pcb_occlusion_rendered"}
+    path = campaign.scenarios["pcb_occlusion"]
+    assert isinstance(load_scenario_with(path, campaign.variants["hold"]).tracker, HoldLastSeenTracker)
+    assert load_scenario_with(path, campaign.variants["kf2"]).tracker.order == 2
