@@ -5,12 +5,13 @@ shipped, seeds 0..N-1) in this process one after the other, then as a campaign o
 Figures: runs per minute with 1 and 2 workers (runs / wall time of the campaign, workers already
 started and warm: pydrake imported, one cell of the same configuration built and run), the
 scaling efficiency rpm_2 / (2 rpm_1), the peak resident memory of a worker, whether the three
-ways give the same rows, and the overhead per run with 1 worker, in two parts measured on the
-same runs: the dispatch (campaign wall time minus the runs' own wall times in the worker, per
-run: scheduling, transfer, the table's rewrites) plus the median over seeds of the run's wall
-time in the worker minus the same seed's in-process run (build + simulate). Under load the
-second part is mostly noise: the same difference of the runs' CPU times (`run_cpu_time`, the
-run thread's) is given beside it, and the load average at start and end. Goals: efficiency
+ways give the same rows, and the overhead per run with 1 worker, in two parts: the dispatch
+(campaign wall time minus the runs' own wall times in the worker, per run: scheduling, transfer,
+the table's rewrites) plus the run's slow-down in a worker process: the median over up to 8
+seeds, each run in this process and then on the warm worker, alternately (a drift of the load
+hits both alike), of the worker's run wall time minus the in-process one (build + simulate);
+beside it the same difference of CPU times (`run_cpu_time`, the run thread's: steadier under
+load) and of the round trip (submit to result), and the load average at start and end. Goals: efficiency
 >= 0.9; overhead below 5 % of a 300 s torch_clock run; 1,000 runs of 300 s in under 10 minutes
 on 2 cores.
 
@@ -67,8 +68,15 @@ def in_process(campaign) -> tuple[list[float], list[dict]]:
     return walls, rows
 
 
-def on_cluster(campaign, warm_campaign, workers: int, out: Path) -> dict:
-    """The campaign on a warm LocalCluster of `workers` processes: wall time, rows, peak RSS."""
+#: seeds of the paired overhead measurement (each run once in this process and once in the worker)
+PAIRED_RUNS = 8
+
+
+def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0) -> dict:
+    """The campaign on a warm LocalCluster of `workers` processes: wall time, rows, peak RSS; and
+    for the first `paired` tasks, each run in this process then in the worker, alternately (so a
+    change of the machine's load hits both alike): the in-process wall and CPU times, the round
+    trip (submit to result) and the run's own wall and CPU times in the worker."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -92,11 +100,24 @@ def on_cluster(campaign, warm_campaign, workers: int, out: Path) -> dict:
         start = time.perf_counter()
         outcome = run_campaign(campaign, out, client=client, progress=None, analyze=False)
         wall = time.perf_counter() - start
+        pairs = []
+        for task in campaign.tasks()[:paired]:
+            alone = run_task(task)["row"]
+            start_trip = time.perf_counter()
+            there = client.submit(run_task, task, pure=False).result()["row"]
+            trip = time.perf_counter() - start_trip
+            pairs.append({
+                "alone_wall": alone["run_wall_time"],
+                "alone_cpu": alone["run_cpu_time"],
+                "trip": trip,
+                "worker_wall": there["run_wall_time"],
+                "worker_cpu": there["run_cpu_time"],
+            })
         rss = max(client.run(peak_rss_mb).values())
     finally:
         client.close()
         cluster.close()
-    return {"wall": wall, "rows": outcome.rows, "failed": outcome.failed, "rss": rss}
+    return {"wall": wall, "rows": outcome.rows, "failed": outcome.failed, "rss": rss, "pairs": pairs}
 
 
 def _comparable(frame):
@@ -128,7 +149,7 @@ def main(argv=None) -> dict:
         walls, rows = in_process(campaign)
         print(f"in process : {np.median(walls):.3f} s per run (median; mean {np.mean(walls):.3f} s)",
               flush=True)
-        one = on_cluster(campaign, warm_campaign, 1, tmp / "one")
+        one = on_cluster(campaign, warm_campaign, 1, tmp / "one", paired=min(runs, PAIRED_RUNS))
         rpm1 = 60.0 * runs / one["wall"]
         print(f"1 worker   : {one['wall']:.1f} s, {rpm1:.1f} runs/min", flush=True)
         two = on_cluster(campaign, warm_campaign, 2, tmp / "two")
@@ -140,16 +161,15 @@ def main(argv=None) -> dict:
         reference = _comparable(reference_store.frame())
         same = all(_same(r["rows"], reference) for r in (one, two))
     in_process_median = float(np.median(walls))
-    worker_rows = one["rows"].set_index("seed")
-    alone = {int(r["seed"]): r for r in rows}
-    seeds = sorted(alone)
-    dispatch_ms = 1000.0 * (one["wall"] - float(worker_rows["run_wall_time"].sum())) / runs
-    slowdown_ms = 1000.0 * float(
-        np.median([worker_rows.loc[k, "run_wall_time"] - alone[k]["run_wall_time"] for k in seeds])
-    )
-    cpu_slowdown_ms = 1000.0 * float(
-        np.median([worker_rows.loc[k, "run_cpu_time"] - alone[k]["run_cpu_time"] for k in seeds])
-    )
+    # the campaign's own share: its wall time beyond the runs' wall times in the worker
+    dispatch_ms = 1000.0 * (one["wall"] - float(one["rows"]["run_wall_time"].sum())) / runs
+
+    def paired_ms(a: str, b: str) -> float:
+        return 1000.0 * float(np.median([p[a] - p[b] for p in one["pairs"]]))
+
+    slowdown_ms = paired_ms("worker_wall", "alone_wall")
+    cpu_slowdown_ms = paired_ms("worker_cpu", "alone_cpu")
+    round_trip_ms = paired_ms("trip", "alone_wall")
     overhead_ms = dispatch_ms + slowdown_ms
     load_end = os.getloadavg()[0]
     result = {
@@ -163,6 +183,8 @@ def main(argv=None) -> dict:
         "dispatch_ms_per_run": round(dispatch_ms, 1),
         "worker_slowdown_ms_median": round(slowdown_ms, 1),
         "worker_cpu_slowdown_ms_median": round(cpu_slowdown_ms, 1),
+        "round_trip_minus_in_process_ms_median": round(round_trip_ms, 1),
+        "paired_runs": len(one["pairs"]),
         # the former figure: campaign wall per run minus the mean in-process run
         "overhead_wall_minus_mean_ms": round(1000.0 * (one["wall"] / runs - float(np.mean(walls))), 1),
         "in_process_s_per_run": round(in_process_median, 3),
