@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
-from pydrake.common.yaml import yaml_load_typed
 
 from hrc_drake.campaign.extras import resolve_extra_metrics
 from hrc_drake.cell.scenario import (
@@ -30,6 +29,7 @@ from hrc_drake.cell.scenario import (
     dump_raw,
     load_scenario,
     load_scenario_with,
+    load_typed,
 )
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
@@ -226,7 +226,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
         typed_part["expect"] = [typed_part["expect"]]  # one claim may be written without a list
     _check_keys(typed_part, CampaignFile, "", str(path))
     try:
-        spec = yaml_load_typed(schema=CampaignFile, data=dump_raw(typed_part))
+        spec = load_typed(CampaignFile, dump_raw(typed_part))
     except (RuntimeError, ValueError, TypeError) as err:
         raise ScenarioError(path, "", f"cannot be read as a campaign: {err}") from err
     if not spec.name or not LABEL.match(spec.name):

@@ -54,17 +54,15 @@ def run_task(task: RunTask) -> dict:
     _test_kill(task)
     try:
         from hrc_drake.cell.build import build_cell
-        from hrc_drake.cell.run import simulate
+        from hrc_drake.cell.run import local_meshcat, simulate
 
         scenario = copy.deepcopy(_scenario(task.scenario_path, task.config_hash, task.overrides))
         scenario.seed = task.seed
         meshcat, fps = None, task.replay_fps
         if task.replay:
-            from pydrake.geometry import Meshcat, MeshcatParams
-
             from hrc_drake.config_common import replay_fps_within
 
-            meshcat = Meshcat(MeshcatParams(host="localhost"))
+            meshcat = local_meshcat()
             fps = replay_fps_within(task.replay_fps, task.duration)
         cell = build_cell(scenario, task.scenario_path, meshcat=meshcat, replay_fps=fps)
         result = simulate(cell, task.duration, progress=None, record=task.replay)

@@ -92,6 +92,13 @@ def simulate(
                      interrupted=interrupted)
 
 
+def local_meshcat():
+    """A Meshcat that serves localhost only: a replay's recorder, not a view for the network."""
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    return Meshcat(MeshcatParams(host="localhost"))
+
+
 def write_replay(cell: Cell, path: Path) -> int:
     """Write the recorded run as one self-contained HTML file; returns its size in bytes."""
     html = cell.meshcat.StaticHtml()

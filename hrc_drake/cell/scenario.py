@@ -278,6 +278,12 @@ def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: 
     return scenario
 
 
+def load_typed(schema, text: str):
+    """`text` read into the dataclass `schema` by pydrake's typed YAML loader (the one scenarios
+    use), for other typed files such as campaign specs; raises its RuntimeError / ValueError."""
+    return yaml_load_typed(schema=schema, data=text)
+
+
 class TaggedDumper(yaml.SafeDumper):
     """Safe YAML out, with `Tagged` mappings as `!Kind {...}` (the inverse of `_raw_document`)."""
 
