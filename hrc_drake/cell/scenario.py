@@ -723,6 +723,7 @@ def _check_systems(sc: Scenario, file) -> None:
     _check_proactive_planner(sc, file)
     _check_collaboration_scheduler(sc, file)
     _check_best_scenario_scheduler(sc, file)
+    _check_scheduler_net(sc, file)
     robot_agents = {arm.agent for robot in sc.robots for arm in robot.arms}
     for agent in getattr(sc.scheduler, "agent_costs", {}):
         if agent not in robot_agents:
@@ -758,6 +759,21 @@ def _check_proactive_planner(sc: Scenario, file) -> None:
             raise ScenarioError(file, f"proactive_planner.human_actions[{k}]",
                                 f"'{name}' moves {hands[name]!r} hands; an action of A_S moves one arm "
                                 "(8.2.2)")
+
+
+def _check_scheduler_net(sc: Scenario, file) -> None:
+    """A scheduler of Ch. 6-7 runs on the pcTPN compiled from the flow and the operator's pattern:
+    compile it here, so that a flow or pattern the compiler refuses fails validation too."""
+    from hrc_drake.scheduling.compiler import FlowError, net_from_scenario
+    from hrc_drake.scheduling.config import COLLABORATION_SCHEDULERS, NoScheduler
+
+    if isinstance(sc.scheduler, (NoScheduler, *COLLABORATION_SCHEDULERS)):
+        return
+    try:
+        net_from_scenario(sc, sc.scheduler)
+    except FlowError as err:
+        raise ScenarioError(file, "scheduler", f"its Petri net cannot be compiled from the flow and the "
+                                               f"operator's pattern: {err}") from None
 
 
 def _check_collaboration_scheduler(sc: Scenario, file) -> None:

@@ -27,7 +27,7 @@ from hrc_drake.scheduling.collaboration import (
     PredictiveRobotPolicy,
     ReactiveRobotPolicy,
 )
-from hrc_drake.scheduling.compiler import compile_flow
+from hrc_drake.scheduling.compiler import compile_flow, net_from_scenario
 from hrc_drake.scheduling.config import (
     COLLABORATION_SCHEDULERS,
     BestOfRolloutsPlanScheduler,
@@ -101,24 +101,6 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             net, plan_horizon=config.plan_horizon, n_candidates=config.n_candidates, random_state=seed
         )
     raise ConfigError(path, f"{type(config).__name__} is not a scheduler config")
-
-
-def net_from_scenario(scenario, config) -> PcTPN:
-    """Compile the scenario's flow with the net fields of the scheduler `config` (wait_quantum
-    t_w, cost_robot c_R, cost_human c_H)."""
-    robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
-    return compile_flow(
-        scenario.flow,
-        scenario.layout.buffers,
-        scenario.operator.name,
-        scenario.operator.pattern,
-        robots,
-        wait_quantum=float(config.wait_quantum),
-        cost_robot=float(config.cost_robot),
-        cost_human=float(config.cost_human),
-        collab_patience=getattr(config, "max_wait", 0.0) or None,
-        agent_costs=dict(getattr(config, "agent_costs", {})),
-    )
 
 
 class SchedulerCore:

@@ -386,3 +386,14 @@ def test_an_arm_without_a_program_or_a_scheduler_is_refused(tmp_path, diagrams_d
     path.write_text(text.replace(old, "program: []}"))
     with pytest.raises(ScenarioError, match=r"arms\[1\].program"):
         load_scenario(path)
+
+
+def test_a_scheduler_whose_net_cannot_be_compiled_fails_validation(tmp_path, diagrams_dir):
+    # box_pcb_coexistence's pattern has 'foam', which its flow lacks: harmless without a scheduler,
+    # but a scheduler's net is compiled from the pattern, and the build would fail on it.
+    base = diagrams_dir / "box_pcb_coexistence.yaml"
+    assert load_scenario(base).operator.pattern == ["fill", "foam", "bring", "tape"]
+    path = tmp_path / "coexistence_scheduled.yaml"
+    path.write_text(f"extends: {base}\nscheduler: !MonteCarloScheduler {{}}\n")
+    with pytest.raises(ScenarioError, match=r"scheduler: .*unknown action 'foam'"):
+        load_scenario(path)
