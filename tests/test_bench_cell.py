@@ -57,15 +57,18 @@ def test_figures_json_keys_and_table(bench):
     current = {"torch_clock": bench.summarize_runs([run(1.0, 1.0, products=3)], 20.0)}
     baseline = {"torch_clock": bench.summarize_runs([run(2.0, 2.0, products=2)], 20.0)}
     states = [{"system": "torch_clock:world", "deepcopy_us": 1.0, "clone_us": 4.0}]
-    fig = bench.figures_json(names, current, baseline, states, 20.0, 1, "3b262b1", 1.0, 1.5)
-    assert fig["rtf_torch_clock_kinematic"] == 20.0
-    assert fig["baseline_rtf_cpu_torch_clock_kinematic"] == 10.0
+    startup = {"current": {"help_s": 0.08, "import_s": 0.5}, "baseline": {"help_s": 0.2}}
+    fig = bench.figures_json(names, current, baseline, states, 20.0, 1, "3b262b1", 1.0, 1.5, startup)
+    assert fig["rtf_torch_clock"] == 20.0 and fig["rtf_wall_torch_clock"] == 20.0
+    assert fig["baseline_rtf_torch_clock"] == 10.0
+    assert fig["help_s"] == 0.08 and fig["import_s"] == 0.5 and fig["baseline_help_s"] == 0.2
+    assert fig["below_goal"] == ["torch_clock"]  # 20x < 50x
     assert fig["cpu_change_percent_torch_clock"] == -50.0
     assert fig["products_torch_clock"] == 3 and fig["baseline_products_torch_clock"] == 2
     assert fig["clone_largest_state_system"] == "torch_clock:world"
     json.dumps(fig)
     no_base = bench.figures_json(names, current, None, states, 20.0, 1, None, 1.0, 1.5)
-    assert "baseline_rtf_torch_clock_kinematic" not in no_base
+    assert "baseline_rtf_torch_clock" not in no_base and "help_s" not in no_base
     assert "torch_clock" in bench.format_table(names, current, baseline)
     assert "torch_clock" in bench.format_table(names, current, None)
 
@@ -94,6 +97,15 @@ def test_a_scenario_new_since_the_baseline_is_reported_on_the_current_code_only(
     current = {n: bench.summarize_runs([run(1.0, 1.0)], 20.0) for n in names}
     baseline = {"torch_clock": bench.summarize_runs([run(2.0, 2.0)], 20.0)}
     fig = bench.figures_json(names, current, baseline, [], 20.0, 1, "3b262b1", 1.0, 1.0)
-    assert fig["rtf_pcb_ic_kinematic"] == 20.0 and "cpu_change_percent_pcb_ic" not in fig
+    assert fig["rtf_pcb_ic"] == 20.0 and "cpu_change_percent_pcb_ic" not in fig
     assert fig["cpu_change_percent_torch_clock"] == pytest.approx(-50.0)
     assert "pcb_ic" in bench.format_table(names, current, baseline)
+
+
+def test_the_goal_leaves_out_the_rendered_cells_and_counts_cpu_time(bench):
+    names = ["fast", "slow", "pcb_occlusion_rendered"]
+    current = {"fast": bench.summarize_runs([run(1.0, 0.1)], 20.0),        # 200x CPU
+               "slow": bench.summarize_runs([run(0.1, 1.0)], 20.0),        # 200x wall, 20x CPU
+               "pcb_occlusion_rendered": bench.summarize_runs([run(2.0, 2.0)], 20.0)}
+    fig = bench.figures_json(names, current, None, [], 20.0, 1, None, 1.0, 1.0)
+    assert fig["below_goal"] == ["slow"]

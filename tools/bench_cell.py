@@ -1,8 +1,8 @@
 """Benchmark: realtime factor of every cell in diagrams/, current code against a baseline, side by side.
 
 For each scenario `diagrams/<name>.yaml` (found by glob) the script measures the current checkout
-and a baseline revision (default 3b262b1, the commit before the Drake-native rework) in the same
-run. The baseline is checked out with `git worktree add --detach` into a temporary directory,
+and a baseline revision (default 71681c9, main before the realtime work of issue 18) in the
+same run. The baseline is checked out with `git worktree add --detach` into a temporary directory,
 which is removed at the end (also on error or Ctrl-C). Each tree is measured with its own
 `diagrams/<name>.yaml` (the scenario format changed between the versions; the cells are the same).
 
@@ -30,15 +30,33 @@ single wall-time runs vary by +-20 %: it is the figure to compare two versions b
 Keys `instructions_g_<name>` (10^9 instructions), `baseline_instructions_g_<name>` and
 `instructions_change_percent_<name>` = 100 * (current / baseline - 1).
 
-Prints progress lines, a table, then as its last line one JSON object with the figures.
+A scenario the baseline tree does not have (e.g. diagrams/full_pipeline.yaml, the cell with
+every stage on) is measured there with the current tree's file, when the baseline code can load
+it. Start-up of each tree is timed too, as the median of 7 fresh interpreters: `help_s`, the
+wall time of `python -m hrc_drake.cli --help`; `import_s`, the time to import what a simulation
+needs (scenario loader, builder, simulate), measured inside the interpreter; `interpreter_s`,
+`python -c pass` (the floor of both on this machine).
+
+The goal of issue 18 is every `rtf_<name>` >= 50 (CPU-based) except the rendered-camera cells,
+whose cost is reported separately, and `help_s` <= 0.1: `below_goal` lists the cells that miss.
+`--profile` runs cProfile on the current code's slowest cell (lowest CPU RTF, rendered cells
+excluded) for the same duration and prints its 25 largest functions by own time and by
+cumulative time.
+
+Prints progress lines, a table, then as its last line one JSON object with the figures: per
+scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name>`,
+`baseline_rtf_wall_<name>`, `cpu_change_percent_<name>`, `products_<name>`,
+`min_distance_<name>` (and their `baseline_` twins: results must agree up to seed noise), and
+`help_s`, `import_s`, `interpreter_s`, `baseline_help_s`, `baseline_import_s`.
 
 Usage:
-    PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N]
+    PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N] [--only NAME ...]
                                              [--baseline REV | --no-baseline] [--instructions S]
+                                             [--profile]
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
-A full run (120 s, 3 repeats) takes roughly 10-15 minutes.
+A full run (120 s, 3 repeats, 13 cells, two trees) takes roughly half an hour on 2 cores.
 """
 
 from __future__ import annotations
@@ -58,7 +76,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_BASELINE = "3b262b1"
+DEFAULT_BASELINE = "71681c9"  # main before issue 18 (the realtime work)
 PROBE_DURATION = 20.0
 
 # Run in a fresh interpreter with PYTHONPATH and cwd = the tree measured. argv: scenario path,
@@ -147,6 +165,20 @@ print(json.dumps(out))
 """.replace("PROBE_DURATION", repr(PROBE_DURATION))
 
 
+# Run in a fresh interpreter: the time to import what a simulation needs, measured inside.
+IMPORT_CODE = r"""
+import json, time
+start = time.perf_counter()
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.build import build_cell
+from hrc_drake.cell.run import simulate
+print(json.dumps({"import_s": time.perf_counter() - start}))
+"""
+
+#: fresh interpreters per start-up figure
+STARTUP_REPEATS = 7
+
+
 def median(values: list[float]) -> float:
     """The median of a non-empty list."""
     return statistics.median(values)
@@ -200,22 +232,32 @@ def figures_json(
     baseline_rev: str | None,
     load_start: float,
     load_end: float,
+    startup: dict[str, dict] | None = None,
 ) -> dict:
     """The last line's figures. `current`/`baseline`: {scenario: summarize_runs(...)}; `states`:
-    the probe entries of every scenario, each with "system" already prefixed by its scenario."""
+    the probe entries of every scenario, each with "system" already prefixed by its scenario;
+    `startup`: {"current": startup_times(...), "baseline": ...} where measured."""
     out: dict = {}
     for name in names:
         cur = current[name]
-        out[f"rtf_{name}_kinematic"] = round(cur["rtf"], 2)
-        out[f"rtf_cpu_{name}_kinematic"] = round(cur["rtf_cpu"], 2)
-        if baseline is not None and name in baseline:
-            base = baseline[name]
-            out[f"baseline_rtf_{name}_kinematic"] = round(base["rtf"], 2)
-            out[f"baseline_rtf_cpu_{name}_kinematic"] = round(base["rtf_cpu"], 2)
+        base = baseline.get(name) if baseline is not None else None
+        out[f"rtf_{name}"] = round(cur["rtf_cpu"], 2)
+        out[f"rtf_wall_{name}"] = round(cur["rtf"], 2)
+        if base is not None:
+            out[f"baseline_rtf_{name}"] = round(base["rtf_cpu"], 2)
+            out[f"baseline_rtf_wall_{name}"] = round(base["rtf"], 2)
             out[f"cpu_change_percent_{name}"] = round(change_percent(cur["cpu_s"], base["cpu_s"]), 1)
         out[f"products_{name}"] = cur["products"]
-        if baseline is not None and name in baseline:
-            out[f"baseline_products_{name}"] = baseline[name]["products"]
+        out[f"min_distance_{name}"] = round(cur["min_distance"], 4)
+        if base is not None:
+            out[f"baseline_products_{name}"] = base["products"]
+            out[f"baseline_min_distance_{name}"] = round(base["min_distance"], 4)
+    for label, prefix in (("current", ""), ("baseline", "baseline_")):
+        for key, value in ((startup or {}).get(label) or {}).items():
+            out[prefix + key] = round(value, 4)
+    out["below_goal"] = [n for n in names if not is_rendered(n) and current[n]["rtf_cpu"] < GOAL_RTF]
+    out["goal_rtf"] = GOAL_RTF
+    out["goal_help_s"] = GOAL_HELP_S
     by_copy, by_clone = largest_states(states)
     out["deepcopy_us_largest_state"] = round(by_copy["deepcopy_us"], 2) if by_copy else None
     out["deepcopy_largest_state_system"] = by_copy["system"] if by_copy else None
@@ -268,6 +310,75 @@ def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) ->
         tail = "\n".join(proc.stderr.strip().splitlines()[-15:])
         raise RuntimeError(f"measurement of {scenario} in {tree} failed (exit {proc.returncode}):\n{tail}")
     return last_json_line(proc.stdout)
+
+
+def startup_times(tree: Path) -> dict:
+    """Medians over STARTUP_REPEATS fresh interpreters of `tree`'s code: `help_s` (wall of
+    `python -m hrc_drake.cli --help`), `import_s` (inside the interpreter, see IMPORT_CODE) and
+    `interpreter_s` (wall of `python -c pass`)."""
+    env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
+
+    def wall(cmd: list[str]) -> float:
+        start = time.perf_counter()
+        proc = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+        elapsed = time.perf_counter() - start
+        if proc.returncode != 0:
+            raise RuntimeError(f"{cmd[1:]} in {tree} failed (exit {proc.returncode}): {proc.stderr[-500:]}")
+        return elapsed
+
+    def imported() -> float:
+        proc = subprocess.run([sys.executable, "-c", IMPORT_CODE], cwd=tree, env=env,
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"import of the cell modules in {tree} failed: {proc.stderr[-500:]}")
+        return last_json_line(proc.stdout)["import_s"]
+
+    help_s, import_s, interpreter_s = [], [], []
+    for _ in range(STARTUP_REPEATS):  # interleaved, so that load hits the three alike
+        help_s.append(wall([sys.executable, "-m", "hrc_drake.cli", "--help"]))
+        import_s.append(imported())
+        interpreter_s.append(wall([sys.executable, "-c", "pass"]))
+    return {"help_s": median(help_s), "import_s": median(import_s), "interpreter_s": median(interpreter_s)}
+
+
+# Run in a fresh interpreter of the current code: cProfile of one simulation, the top functions.
+PROFILE_CODE = r"""
+import cProfile, io, pstats, sys, warnings
+warnings.simplefilter("ignore")
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.build import build_cell
+from hrc_drake.cell.run import simulate
+
+path, duration = sys.argv[1], float(sys.argv[2])
+cell = build_cell(load_scenario(path), path)
+profile = cProfile.Profile()
+profile.enable()
+simulate(cell, duration, progress=None)
+profile.disable()
+for key in ("tottime", "cumulative"):
+    text = io.StringIO()
+    pstats.Stats(profile, stream=text).strip_dirs().sort_stats(key).print_stats(25)
+    print(text.getvalue())
+"""
+
+
+def profile_cell(scenario: Path, duration: float) -> str:
+    """cProfile's report (by own and by cumulative time) of one run of `scenario`, current code."""
+    env = dict(os.environ, PYTHONPATH=str(REPO), PYTHONWARNINGS="ignore")
+    proc = subprocess.run([sys.executable, "-c", PROFILE_CODE, str(scenario), repr(duration)],
+                          cwd=REPO, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"profile of {scenario} failed (exit {proc.returncode}): {proc.stderr[-800:]}")
+    return proc.stdout
+
+
+def is_rendered(name: str) -> bool:
+    """A cell with the rendered depth camera (its cost is reported apart from issue 18's goal)."""
+    return name.endswith("_rendered")
+
+
+#: issue 18's goals
+GOAL_RTF, GOAL_HELP_S = 50.0, 0.1
 
 
 #: valgrind's callgrind counting instructions only inside Simulator::AdvanceTo
@@ -366,6 +477,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--no-baseline", action="store_true", help="measure the current code only")
     parser.add_argument("--instructions", type=float, default=0.0, metavar="S",
                         help="also count instructions in AdvanceTo over S simulated s (valgrind)")
+    parser.add_argument("--only", nargs="+", default=None, metavar="NAME",
+                        help="measure only these scenarios of diagrams/ (names without .yaml)")
+    parser.add_argument("--profile", action="store_true",
+                        help="also profile the slowest cell (current code, cProfile)")
     args = parser.parse_args(argv)
     duration = args.duration or (20.0 if args.quick else 120.0)
     repeats = args.repeats or (1 if args.quick else 3)
@@ -380,6 +495,11 @@ def main(argv: list[str] | None = None) -> None:
     names = sorted(p.stem for p in (REPO / "diagrams").glob("*.yaml"))
     if not names:
         sys.exit(f"no scenarios in {REPO / 'diagrams'}")
+    if args.only:
+        unknown = sorted(set(args.only) - set(names))
+        if unknown:
+            parser.error(f"--only: no such scenario in diagrams/: {unknown} (there are {names})")
+        names = [n for n in names if n in args.only]
     load_start = os.getloadavg()[0]
     t_start = time.perf_counter()
     rev = None if args.no_baseline else args.baseline
@@ -398,17 +518,34 @@ def main(argv: list[str] | None = None) -> None:
         if rev is not None:
             trees["baseline"] = stack.enter_context(baseline_tree(rev))
             print(f"baseline {rev} checked out in {trees['baseline']}", flush=True)
+        startup = {}
+        for label, tree in trees.items():
+            startup[label] = startup_times(tree)
+            print(f"  start-up {label:8s} " + "  ".join(f"{k} {v:.3f}" for k, v in startup[label].items()),
+                  flush=True)
+        skipped: set[tuple[str, str]] = set()
         for k in range(repeats):
             for name in names:
                 for label, tree in trees.items():
+                    if (label, name) in skipped:
+                        continue
                     scenario = tree / "diagrams" / f"{name}.yaml"
                     if not scenario.is_file():
+                        # a cell new since the baseline: the baseline code runs the current file
+                        scenario = REPO / "diagrams" / f"{name}.yaml"
                         if k == 0:
-                            print(f"  {name}: not in the {label} tree, measured on the current code only")
-                        continue
+                            print(f"  {name}: not in the {label} tree, which runs the current file")
                     probe = label == "current" and k == 0
                     start = time.perf_counter()
-                    r = measure(tree, scenario, duration, probe=probe)
+                    try:
+                        r = measure(tree, scenario, duration, probe=probe)
+                    except RuntimeError as err:
+                        if label == "current":
+                            raise
+                        print(f"  {name}: the {label} code cannot run it, measured on the current code "
+                              f"only ({str(err).splitlines()[-1]})", flush=True)
+                        skipped.add((label, name))
+                        continue
                     runs[label][name].append(r)
                     for s in r.pop("states", []):
                         states.append(dict(s, system=f"{name}:{s['system']}"))
@@ -430,6 +567,9 @@ def main(argv: list[str] | None = None) -> None:
     print()
     print(f"Realtime factors (simulated s / median s, {repeats} run(s) of {duration:g} s), kinematic robots")
     print(format_table(names, current, baseline))
+    for label, times in startup.items():
+        print(f"start-up ({label}): --help {times['help_s']:.3f} s, cell imports {times['import_s']:.3f} s, "
+              f"bare interpreter {times['interpreter_s']:.3f} s (goal: --help <= {GOAL_HELP_S:g} s)")
     by_copy, by_clone = largest_states(states)
     print()
     print("Per-update copy cost of abstract state (current code, after 20 s), median us:")
@@ -452,7 +592,16 @@ def main(argv: list[str] | None = None) -> None:
             )
     for note in notes:
         print(f"note: {note}")
-    figures = figures_json(names, current, baseline, states, duration, repeats, rev, load_start, load_end)
+    figures = figures_json(names, current, baseline, states, duration, repeats, rev, load_start, load_end,
+                           startup)
+    if args.profile:
+        candidates = [n for n in names if not is_rendered(n)] or names
+        slowest = min(candidates, key=lambda n: current[n]["rtf_cpu"])
+        print()
+        print(f"Profile of the slowest cell, {slowest} ({current[slowest]['rtf_cpu']:.1f}x CPU), "
+              f"{duration:g} s simulated, current code (cProfile adds its own overhead):")
+        print(profile_cell(REPO / "diagrams" / f"{slowest}.yaml", duration))
+        figures["profiled"] = slowest
     if counts is not None:
         print()
         print(f"Instructions in Simulator::AdvanceTo over {args.instructions:g} simulated s "

@@ -234,6 +234,17 @@ def tests_table(runs, metrics: list[str], expect: list[dict]):
     return pd.DataFrame(rows, columns=columns)
 
 
+def metric_label(metric: str) -> str:
+    """An axis label: the metric's name with its unit where the name tells it (times in s,
+    distances in m; fractions, counts and others have none)."""
+    last = metric.rsplit(".", 1)[-1]
+    if last.endswith(("_time", "_s", "_times")) or last in ("mean_cycle_time", "wall_time"):
+        return f"{metric} (s)"
+    if "distance" in last or last.endswith("_m"):
+        return f"{metric} (m)"
+    return metric
+
+
 def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> list[Path]:
     """One box plot and one ECDF figure per metric, a box / curve per (scenario, variant)."""
     import matplotlib
@@ -259,7 +270,7 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
         fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(data) + 2), 4))
         ax.boxplot([v for _, v in data], showmeans=True)
         ax.set_xticks(range(1, len(data) + 1), [label for label, _ in data])
-        ax.set_ylabel(metric)
+        ax.set_ylabel(metric_label(metric))
         ax.set_title(f"{title}: {metric}" if title else metric, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
         fig.tight_layout()
@@ -270,7 +281,7 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
         for label, values in data:
             x = np.sort(values)
             ax.step(x, np.arange(1, len(x) + 1) / len(x), where="post", label=label.replace("\n", " / "))
-        ax.set_xlabel(metric)
+        ax.set_xlabel(metric_label(metric))
         ax.set_ylabel("fraction of runs")
         ax.set_title(f"{title}: ECDF of {metric}" if title else f"ECDF of {metric}", fontsize=10)
         ax.legend(fontsize=8)

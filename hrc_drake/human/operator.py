@@ -72,6 +72,8 @@ MIN_DURATION = 0.05
 _HEAD_LOWER = np.array([-1.4, -0.6])
 _HEAD_UPPER = np.array([1.4, 1.1])
 _HANDS_OF = {"left": ("left",), "right": ("right",), "both": ("left", "right")}
+#: relative forward-difference step of the IK's Jacobian (scipy's "2-point" default, sqrt(eps))
+_FD_STEP = float(np.finfo(float).eps) ** 0.5
 #: the third word of the seed of the generators of an action's quirks, and of the person's
 #: (a seed [s, k] is the k-th action's duration; numpy reads [s, k, 0] as [s, k])
 _QUIRKS_STREAM = 1
@@ -309,15 +311,16 @@ class SyntheticOperator:
         return other
 
     # ------------------------------------------------------------------ kinematics helpers
-    def _solve(self, hands, targets, q_start, report: bool = True) -> np.ndarray:
-        """IK on wrist positions only: torso flexion + the hands' arms free, base fixed; a target
-        out of reach is recorded in `unreachable` (with `report`)."""
+    def _wrist_problem(self, hands, targets, q_start):
+        """The IK of `_solve` as a bounded least-squares problem over the free joints: (free,
+        residual, jacobian, lower, upper). residual: wrist errors and a pull towards q_start."""
         free = [3] + [i for hand in hands for i in range(12)[ARM_DOFS[hand]]]
         wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
         target = np.asarray(targets, dtype=float)
         reference = q_start[free].copy()
         # leaning costs more than moving the arm: lean only when the arm alone cannot reach
         weights = np.array([0.03] + [0.003] * (len(free) - 1))
+        lower, upper = self.body.q_lower[free], self.body.q_upper[free]
 
         def residual(x):
             q = q_start.copy()
@@ -325,7 +328,32 @@ class SyntheticOperator:
             err = (self.body._points(q)[wrist_rows] - target).ravel()
             return np.concatenate([err, weights * (x - reference)])
 
-        lower, upper = self.body.q_lower[free], self.body.q_upper[free]
+        # Forward differences as least_squares's default "2-point" takes them (step sqrt(eps)
+        # relative to |x|, backwards where the forward step would leave the bounds), all the
+        # perturbed configurations in one batched forward kinematics instead of one call each.
+        n_free = len(free)
+        regularisation = np.diag(weights)
+
+        def jacobian(x):
+            step = _FD_STEP * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+            outside = (x + step > upper) | (x + step < lower)
+            step = np.where(outside, -step, step)
+            step = (x + step) - x  # the step as represented, as scipy takes it
+            qs = np.repeat(q_start[None, :], n_free + 1, axis=0)
+            qs[:, free] = x
+            qs[np.arange(1, n_free + 1), free] = x + step
+            wrists = self.body._points(qs)[:, wrist_rows].reshape(n_free + 1, -1)
+            return np.vstack([((wrists[1:] - wrists[0]) / step[:, None]).T, regularisation])
+
+        return free, residual, jacobian, lower, upper
+
+    def _solve(self, hands, targets, q_start, report: bool = True) -> np.ndarray:
+        """IK on wrist positions only: torso flexion + the hands' arms free, base fixed; a target
+        out of reach is recorded in `unreachable` (with `report`)."""
+        free, residual, jacobian, lower, upper = self._wrist_problem(hands, targets, q_start)
+        wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
+        target = np.asarray(targets, dtype=float)
+        reference = q_start[free].copy()
         best = None
         reach_arm = np.array([1.0, 0.2, 0.0, 1.2])
         for guess_arm in (None, reach_arm):
@@ -335,7 +363,8 @@ class SyntheticOperator:
             x0 = np.clip(x0, lower + 1e-6, upper - 1e-6)
             from scipy.optimize import least_squares  # lazily: scipy.optimize costs ~1 s to import
 
-            result = least_squares(residual, x0, bounds=(lower, upper), xtol=1e-10, ftol=1e-10, max_nfev=300)
+            result = least_squares(residual, x0, jac=jacobian, bounds=(lower, upper), xtol=1e-10, ftol=1e-10,
+                                   max_nfev=300)
             if best is None or result.cost < best.cost:
                 best = result
         q = q_start.copy()

@@ -95,8 +95,10 @@ def valid_measurements(y: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
+@lru_cache(maxsize=64)
 def chi2_quantile(confidence: float, dof: int) -> float:
-    """chi2_dof quantile at `confidence` (scipy.stats imported here, not at module import)."""
+    """chi2_dof quantile at `confidence` (scipy.stats imported here, not at module import;
+    remembered: a tracker asks for the same few quantiles at every frame)."""
     from scipy.stats import chi2
 
     return float(chi2.ppf(float(confidence), int(dof)))
@@ -106,13 +108,37 @@ def chi2_quantile(confidence: float, dof: int) -> float:
 _BALL_SAMPLES = 512
 
 
+@lru_cache(maxsize=16)
 def unit_ball_samples(n: int, dim: int) -> np.ndarray:
-    """(n, dim) fixed points uniform in the unit ball (seeded: the same on every call)."""
+    """(n, dim) fixed points uniform in the unit ball (seeded: the same on every call; one
+    read-only array per (n, dim))."""
     rng = np.random.default_rng(12345)
     direction = rng.standard_normal((n, dim))
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     radius = rng.random(n) ** (1.0 / dim)
-    return direction * radius[:, None]
+    samples = direction * radius[:, None]
+    samples.flags.writeable = False
+    return samples
+
+
+# Relative and absolute margins of the bounding-box shortcuts below: wider than the rounding of
+# the sample arithmetic, so that a shortcut never decides a case the samples would decide otherwise.
+_SHORTCUT_REL, _SHORTCUT_ABS = 1e-9, 1e-12
+
+
+#: the box grid of `box_fraction_in_ellipsoid`: 8 cells per axis, their centres spanning +-7/16
+_GRID_CELLS = 8
+_GRID_REACH = 0.5 - 0.5 / _GRID_CELLS
+
+
+@lru_cache(maxsize=4)
+def _box_grid(dim: int) -> np.ndarray:
+    """(8^dim, dim) cell centres of the unit box centred at 0 (read-only)."""
+    cells = np.arange(_GRID_CELLS)
+    index = np.stack(np.meshgrid(*[cells] * dim, indexing="ij"), -1).reshape(-1, dim)
+    grid = (index + 0.5) / _GRID_CELLS - 0.5
+    grid.flags.writeable = False
+    return grid
 
 
 class KalmanFilter:
@@ -235,39 +261,63 @@ class KalmanFilter:
         eigval, eigvec = np.linalg.eigh(self.position_covariances)
         return self.positions, np.sqrt(np.clip(eigval, 0.0, None) * scale), eigvec
 
-    def ellipsoid_fraction_in_box(self, center, size, confidence: float = 0.9) -> np.ndarray:
+    def ellipsoid_fraction_in_box(self, center, size, confidence: float = 0.9, ellipsoid=None) -> np.ndarray:
         """(T,) fraction of each confidence ellipsoid's volume inside an axis-aligned box (9.1.3).
 
-        Estimated on a fixed set of points uniform in the ellipsoid, so it is deterministic.
+        Estimated on a fixed set of points uniform in the ellipsoid, so it is deterministic. An
+        ellipsoid whose bounding box lies inside the box (or off it along some axis) has all its
+        points inside (none): 1 (0) without the points. ellipsoid: `self.ellipsoid(confidence)`,
+        when the caller has it already.
         """
         center = np.asarray(center, dtype=float)
         half = 0.5 * np.asarray(size, dtype=float)
         d = self.model.dim
         if center.shape != (d,) or half.shape != (d,):
             raise ValueError(f"ellipsoid_fraction_in_box: center and size must have shape ({d},)")
-        ball = unit_ball_samples(_BALL_SAMPLES, d)
-        m, semi, axes = self.ellipsoid(confidence)
-        pts = m[:, None, :] + np.einsum("tij,nj->tni", axes * semi[:, None, :], ball)
-        inside = np.all(np.abs(pts - center) <= half, axis=2)
-        return inside.mean(axis=1)
+        m, semi, axes = ellipsoid if ellipsoid is not None else self.ellipsoid(confidence)
+        factor = axes * semi[:, None, :]
+        reach = np.sqrt(np.einsum("tij,tij->ti", factor, factor)) * (1 + _SHORTCUT_REL) + _SHORTCUT_ABS
+        offset = np.abs(m - center)
+        inside = np.all(offset + reach <= half, axis=1)
+        outside = np.any(offset - reach > half, axis=1)
+        fraction = inside.astype(float)
+        mixed = np.flatnonzero(~inside & ~outside)
+        if len(mixed):
+            ball = unit_ball_samples(_BALL_SAMPLES, d)
+            pts = m[mixed, None, :] + np.einsum("tij,nj->tni", factor[mixed], ball)
+            fraction[mixed] = np.all(np.abs(pts - center) <= half, axis=2).mean(axis=1)
+        return fraction
 
-    def box_fraction_in_ellipsoid(self, center, size, confidence: float = 0.9) -> np.ndarray:
+    def box_fraction_in_ellipsoid(self, center, size, confidence: float = 0.9, tracks=None) -> np.ndarray:
         """(T,) fraction of an axis-aligned box's volume inside each confidence ellipsoid.
 
         Complements `ellipsoid_fraction_in_box`: an ellipsoid grown far larger than the box
-        (long open loop) has a small share inside the box yet covers all of it.
+        (long open loop) has a small share inside the box yet covers all of it. A track whose
+        ellipsoid is off the box along some axis counts 0 without the grid. tracks: (T,) bool,
+        the tracks to compute (the others are 0), default all.
         """
         center = np.asarray(center, dtype=float)
         size = np.asarray(size, dtype=float)
         d = self.model.dim
         if center.shape != (d,) or size.shape != (d,):
             raise ValueError(f"box_fraction_in_ellipsoid: center and size must have shape ({d},)")
-        grid = (np.stack(np.meshgrid(*[np.arange(8)] * d, indexing="ij"), -1).reshape(-1, d) + 0.5) / 8 - 0.5
-        pts = center + grid * size
-        offset = pts[None, :, :] - self.positions[:, None, :]
+        scale = chi2_quantile(confidence, d)
         cov = self.position_covariances + 1e-15 * np.eye(d)
-        m2 = np.einsum("tnd,tnd->tn", offset, np.linalg.solve(cov, np.swapaxes(offset, 1, 2)).swapaxes(1, 2))
-        return (m2 <= chi2_quantile(confidence, d)).mean(axis=1)
+        # Mahalanobis distance >= offset_k^2 / cov_kk: the grid's nearest offset along k (the
+        # grid spans +-7/16 of the box) beyond the ellipsoid's reach puts every grid point out.
+        gap = np.clip(np.abs(self.positions - center) - _GRID_REACH * size, 0.0, None)
+        diagonal = np.einsum("tkk->tk", cov)
+        off = np.any(gap**2 > scale * diagonal * (1 + _SHORTCUT_REL) + _SHORTCUT_ABS, axis=1)
+        todo = ~off if tracks is None else (~off & np.asarray(tracks, dtype=bool))
+        fraction = np.zeros(self.n_tracks)
+        idx = np.flatnonzero(todo)
+        if len(idx):
+            pts = center + _box_grid(d) * size
+            offset = pts[None, :, :] - self.positions[idx, None, :]
+            solved = np.linalg.solve(cov[idx], np.swapaxes(offset, 1, 2)).swapaxes(1, 2)
+            m2 = np.einsum("tnd,tnd->tn", offset, solved)
+            fraction[idx] = (m2 <= scale).mean(axis=1)
+        return fraction
 
     def filter_sequence(self, measurements, mask=None):
         """Filter a whole sequence from the current state.

@@ -300,15 +300,17 @@ class SkeletonTracker:
         cov = kf.position_covariances
         spread = np.sqrt(np.clip(np.trace(cov, axis1=1, axis2=2), 0.0, None) / 3.0)
         conf = self.params["confidence"]
+        ellipsoid = kf.ellipsoid(conf)
         # Share of the ellipsoid in the workspace, or of the workspace in the ellipsoid: a long
-        # open loop grows the ellipsoid past the box, which must still count as inside.
-        fraction = np.maximum(
-            kf.ellipsoid_fraction_in_box(self.workspace_center, self.workspace_size, conf),
-            kf.box_fraction_in_ellipsoid(self.workspace_center, self.workspace_size, conf))
+        # open loop grows the ellipsoid past the box, which must still count as inside (the
+        # second share matters only where the first is below 1).
+        in_box = kf.ellipsoid_fraction_in_box(self.workspace_center, self.workspace_size, conf, ellipsoid)
+        fraction = np.maximum(in_box, kf.box_fraction_in_ellipsoid(
+            self.workspace_center, self.workspace_size, conf, tracks=in_box < 1.0))
         positions, spread, fraction = self._fill_unknown(positions, spread, fraction, kf.initialized_)
         # Display samples: fixed points of the confidence ellipsoid.
         k = self.params["display_particles"]
-        _, semi, axes = kf.ellipsoid(self.params["confidence"])
+        _, semi, axes = ellipsoid
         ball = unit_ball_samples(k, 3)
         particles = positions[:, None, :] + np.einsum("tij,nj->tni", axes * semi[:, None, :], ball)
         particles[~kf.initialized_] = positions[~kf.initialized_, None, :]

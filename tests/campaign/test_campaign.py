@@ -364,3 +364,12 @@ def test_extra_metrics_from_the_python_api_are_columns_of_the_rows(tmp_path):
     changed = run_campaign(make_campaign(document, tmp_path / "extras.campaign"), tmp_path / "out",
                            workers=0, progress=None, analyze=False)
     assert (changed.skipped, changed.ran) == (0, 1)
+
+
+def test_plot_labels_carry_the_unit_the_metric_name_tells():
+    assert analysis.metric_label("mean_cycle_time") == "mean_cycle_time (s)"
+    assert analysis.metric_label("agents.human.idle_time") == "agents.human.idle_time (s)"
+    assert analysis.metric_label("safety.time_below_s") == "safety.time_below_s (s)"
+    assert analysis.metric_label("min_human_robot_distance") == "min_human_robot_distance (m)"
+    assert analysis.metric_label("safety.fraction_below") == "safety.fraction_below"
+    assert analysis.metric_label("products_finished") == "products_finished"

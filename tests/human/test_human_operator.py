@@ -252,3 +252,23 @@ def test_request_protocol_waits_for_the_worlds_answer():
     events = op.update(end, granted)
     assert [e.kind for e in events] == ["end"]
     assert [(r.kind, r.action) for r in op.new_requests] == [("finish", "pick_place"), ("start", "screw")]
+
+
+@pytest.mark.parametrize("hands", [("right",), ("left", "right")])
+def test_the_ik_jacobian_is_the_derivative_of_its_residual_also_at_the_bounds(hands):
+    op = make_operator()
+    q0 = op.rest_config
+    apart = 0.1 * BOTH_HANDS_OFFSET
+    targets = [GOAL] if len(hands) == 1 else [SCREW + apart, SCREW - apart]
+    free, residual, jacobian, lower, upper = op._wrist_problem(hands, targets, q0)
+    rng = np.random.default_rng(3)
+    points = [lower + rng.uniform(0.1, 0.9, len(free)) * (upper - lower) for _ in range(3)]
+    points.append(np.where(np.isfinite(upper), upper, 1.0))  # every joint at its upper bound
+    for x in points:
+        central = np.empty((len(residual(x)), len(free)))
+        for j in range(len(free)):
+            h = np.zeros(len(free))
+            h[j] = 1e-6
+            central[:, j] = (residual(x + h) - residual(x - h)) / 2e-6
+        assert jacobian(x).shape == central.shape
+        np.testing.assert_allclose(jacobian(x), central, atol=2e-6 * max(1.0, np.abs(x).max()) + 1e-6)

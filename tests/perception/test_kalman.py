@@ -150,3 +150,39 @@ def test_rts_rejects_bad_shapes_and_nan():
     means[1, 0] = np.nan
     with pytest.raises(ValueError, match="finite"):
         rts_smooth(model, means, covs)
+
+
+def _fractions_from_every_sample(kf, center, size, confidence):
+    """Both fractions of 9.1.3 the long way: every ball sample and every grid point, no shortcut."""
+    from hrc_drake.perception.kalman import _BALL_SAMPLES, _box_grid, chi2_quantile, unit_ball_samples
+
+    m, semi, axes = kf.ellipsoid(confidence)
+    ball = unit_ball_samples(_BALL_SAMPLES, 3)
+    pts = m[:, None, :] + np.einsum("tij,nj->tni", axes * semi[:, None, :], ball)
+    in_box = np.all(np.abs(pts - center) <= 0.5 * size, axis=2).mean(axis=1)
+    grid = center + _box_grid(3) * size
+    cov = kf.position_covariances + 1e-15 * np.eye(3)
+    offset = grid[None] - kf.positions[:, None, :]
+    m2 = np.einsum("tnd,tnd->tn", offset, np.linalg.solve(cov, np.swapaxes(offset, 1, 2)).swapaxes(1, 2))
+    return in_box, (m2 <= chi2_quantile(confidence, 3)).mean(axis=1)
+
+
+def test_the_bounding_box_shortcuts_give_the_fractions_of_every_sample():
+    rng = np.random.default_rng(4)
+    decided = 0
+    for _ in range(60):
+        kf = KalmanFilter(ChainOfIntegrators(order=int(rng.integers(1, 5))), n_tracks=8)
+        points = rng.uniform(-1, 1, (8, 3))
+        kf.update(points, np.ones(8, dtype=bool))
+        for _ in range(int(rng.integers(0, 30))):
+            kf.predict(1)
+            kf.update(points + rng.normal(0, 0.02, (8, 3)), rng.random(8) < 0.5)
+        center, size = rng.uniform(-0.5, 0.5, 3), rng.uniform(0.05, 1.5, 3)
+        in_box, box_in = _fractions_from_every_sample(kf, center, size, 0.9)
+        np.testing.assert_array_equal(kf.ellipsoid_fraction_in_box(center, size, 0.9), in_box)
+        np.testing.assert_array_equal(kf.box_fraction_in_ellipsoid(center, size, 0.9), box_in)
+        some = rng.random(8) < 0.5
+        np.testing.assert_array_equal(kf.box_fraction_in_ellipsoid(center, size, 0.9, tracks=some),
+                                      np.where(some, box_in, 0.0))
+        decided += np.sum((in_box == 0) | (in_box == 1))
+    assert decided > 100  # the shortcuts' cases occur
