@@ -125,6 +125,12 @@ class SkeletonParticleFilter:
     tracked_update: "kalman" (default, NOT the literal thesis: seen points sampled from their
         exact Kalman posterior) or "bootstrap" (the thesis' bootstrap PF for seen points too);
         see the module docstring.
+    seen_samples: in "kalman" mode, how many particles of a seen point are drawn from its
+        Kalman posterior each frame (None: all N). With fewer, the other rows of a seen point
+        are stale and unused: `spread` and `fraction_in_box` of a seen point come from the
+        posterior itself (exact spread; box probability from the per-axis marginals, exact for
+        the diagonal covariance the posterior has except in the frames after an occlusion),
+        not from its samples. A tracker that displays k particles per point passes k.
     rng: numpy Generator or seed.
 
     Learned/state attributes: particles_ (P, N, S), initialized_ (P,), segment_lengths_ (P,),
@@ -135,7 +141,7 @@ class SkeletonParticleFilter:
                  measurement_std: float = 0.01, crown: float = 0.05, resampling: str = "bootstrap",
                  calibration_frames: int = 10, segment_lengths=None, initial_std=DEFAULT_INITIAL_STD,
                  gate: float = 6.0, reseed_tries: int = 4, tracked_update: str = "kalman",
-                 parents=SKELETON_PARENTS, rng=None):
+                 parents=SKELETON_PARENTS, seen_samples: int | None = None, rng=None):
         if int(n_particles) != n_particles or n_particles < 2:
             raise ValueError(_WHERE + f"n_particles must be an integer >= 2, got {n_particles!r}")
         if resampling not in ("bootstrap", "systematic"):
@@ -162,6 +168,10 @@ class SkeletonParticleFilter:
         if tracked_update not in ("kalman", "bootstrap"):
             raise ValueError(_WHERE + f"tracked_update must be kalman|bootstrap, got {tracked_update!r}")
         self.tracked_update = tracked_update
+        if seen_samples is not None and (int(seen_samples) != seen_samples or seen_samples < 1):
+            raise ValueError(_WHERE + f"seen_samples must be None or an integer >= 1, got {seen_samples!r}")
+        self.seen_samples = None if seen_samples is None or seen_samples >= self.n_particles \
+            else int(seen_samples)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         init = _sigma_for_order(initial_std, order).copy()
         init[0] = measurement_std
@@ -212,6 +222,8 @@ class SkeletonParticleFilter:
             self.segment_lengths_ = np.full(self.n_points, np.nan)
         self._constraint_cache = {}
         self._hidden_before = np.zeros(self.n_points, dtype=bool)
+        # seen points whose particles are only seen_samples draws: moments from the posterior
+        self._posterior_only = np.zeros(self.n_points, dtype=bool)
         if hasattr(self, "_kf"):
             self._kf.reset()
 
@@ -221,14 +233,39 @@ class SkeletonParticleFilter:
         return self.particles_[:, :, :3]
 
     def spread(self) -> np.ndarray:
-        """(P,) isotropic standard deviation sqrt(trace(cov) / 3) of each point's particles."""
-        return np.sqrt(self.positions.var(axis=1).sum(axis=1) / 3.0)
+        """(P,) isotropic standard deviation sqrt(trace(cov) / 3) of each point's particles (of
+        its Kalman posterior for a seen point drawn with `seen_samples`)."""
+        out = np.empty(self.n_points)
+        cloud = ~self._posterior_only
+        out[cloud] = np.sqrt(self.positions[cloud].var(axis=1).sum(axis=1) / 3.0)
+        post = self._posterior_only
+        if np.any(post):
+            variances = np.einsum("pkk->pk", self._kf.P_[post, :3, :3])
+            out[post] = np.sqrt(variances.sum(axis=1) / 3.0)
+        return out
 
     def fraction_in_box(self, center, size) -> np.ndarray:
-        """(P,) fraction of each point's particles inside an axis-aligned box (the 9.1.3 rule)."""
+        """(P,) fraction of each point's particles inside an axis-aligned box (the 9.1.3 rule);
+        for a seen point drawn with `seen_samples`, the probability of its Kalman posterior's
+        per-axis marginals (see the class docstring)."""
+        from scipy.special import ndtr
+
+        center = np.asarray(center, dtype=float)
         half = 0.5 * np.asarray(size, dtype=float)
-        inside = np.all(np.abs(self.positions - np.asarray(center, dtype=float)) <= half, axis=2)
-        return inside.mean(axis=1)
+        out = np.empty(self.n_points)
+        cloud = ~self._posterior_only
+        inside = np.all(np.abs(self.positions[cloud] - center) <= half, axis=2)
+        out[cloud] = inside.mean(axis=1)
+        post = self._posterior_only
+        if np.any(post):
+            mean = self._kf.x_[post, :3]
+            std = np.sqrt(np.einsum("pkk->pk", self._kf.P_[post, :3, :3]))
+            low, high = (center - half - mean) / std, (center + half - mean) / std
+            # the tail on the far side of the mean: no cancellation of two values near 1
+            right = low > 0
+            per_axis = np.where(right, ndtr(-low) - ndtr(-high), ndtr(high) - ndtr(low))
+            out[post] = np.clip(per_axis, 0.0, 1.0).prod(axis=1)
+        return out
 
     # ------------------------------------------------------------ calibration
     def _calibrate(self, points: np.ndarray, seen: np.ndarray) -> None:
@@ -540,6 +577,11 @@ class SkeletonParticleFilter:
             # Only positions are sampled while seen (display, spread, workspace fraction); the
             # full state is sampled from the posterior when the point gets hidden.
             chol = np.linalg.cholesky(kf.P_[upd_seen, :d, :d])
-            z = self.rng.standard_normal((len(upd_seen), self.n_particles, d))
-            self.particles_[upd_seen, :, :d] = kf.x_[upd_seen, None, :d] + z @ np.swapaxes(chol, 1, 2)
+            k = self.seen_samples or self.n_particles
+            z = self.rng.standard_normal((len(upd_seen), k, d))
+            self.particles_[upd_seen, :k, :d] = kf.x_[upd_seen, None, :d] + z @ np.swapaxes(chol, 1, 2)
             self.means_[upd_seen] = kf.x_[upd_seen, :d]
+        posterior_only = np.zeros(self.n_points, dtype=bool)  # a new array: clones share the old
+        if self.seen_samples is not None:
+            posterior_only[upd_seen] = True
+        self._posterior_only = posterior_only

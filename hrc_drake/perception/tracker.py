@@ -161,7 +161,8 @@ class SkeletonTracker:
                 measurement_std=p["measurement_std"], crown=p["crown"],
                 resampling="systematic" if p["systematic"] else "bootstrap",
                 calibration_frames=p["calibration_frames"], initial_std=self._initial, gate=p["gate"],
-                tracked_update="bootstrap" if p["bootstrap_tracked"] else "kalman", rng=rng)
+                tracked_update="bootstrap" if p["bootstrap_tracked"] else "kalman",
+                seen_samples=p["display_particles"], rng=rng)  # only the displayed ones are read
         elif self.kind == "kalman":
             model = ChainOfIntegrators(p["order"], self.dt, self._sigma, dim=3)
             self._kf = KalmanFilter(model, 8, p["measurement_std"], self._initial)

@@ -258,3 +258,28 @@ def test_literal_bootstrap_mode_case3_constraints():
         assert np.all(pf.positions[[L_ELBOW, L_WRIST], :, 2] < 1.3)
     assert np.linalg.norm(pf.means_[R_WRIST] - POSE[R_WRIST]) < 0.03
     assert pf.n_reseeds_.sum() == 0
+
+
+def test_seen_samples_draws_only_the_displayed_particles_and_takes_moments_from_the_posterior():
+    full = settled_filter(n=2000, seed=3)
+    few = settled_filter(n=2000, seed=3, seen_samples=50)
+    frame = occluded(POSE, L_WRIST)
+    for _ in range(5):
+        full.step(frame, ~np.isnan(frame[:, 0]))
+        few.step(frame, ~np.isnan(frame[:, 0]))
+    seen = ~np.isnan(frame[:, 0])
+    # the displayed rows of a seen point are fresh draws around its posterior mean
+    assert np.all(np.linalg.norm(few.positions[seen, :50] - few.means_[seen, None], axis=2) < 0.1)
+    # the hidden point keeps a whole cloud in both
+    assert np.ptp(few.positions[L_WRIST], axis=0).max() > 0.0
+    # spread: exactly the posterior's for seen points, the cloud's where hidden
+    post = np.sqrt(np.einsum("pkk->p", few._kf.P_[seen, :3, :3]) / 3.0)
+    np.testing.assert_allclose(few.spread()[seen], post)
+    np.testing.assert_allclose(full.spread()[seen], post, rtol=0.1)  # 2000 samples of the same
+    # workspace fractions: a box through the shoulder line splits seen points near 1/2
+    center, size = POSE[L_SHOULDER] + [0.0, 0.0, 0.5], [2.0, 2.0, 1.0]
+    np.testing.assert_allclose(few.fraction_in_box(center, size)[seen],
+                               full.fraction_in_box(center, size)[seen], atol=0.05)
+    assert 0.3 < few.fraction_in_box(center, size)[L_SHOULDER] < 0.7
+    with pytest.raises(ValueError, match="seen_samples"):
+        SkeletonParticleFilter(seen_samples=0)
