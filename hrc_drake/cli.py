@@ -6,8 +6,6 @@ import argparse
 import math
 import os
 import sys
-import tempfile
-import traceback
 from pathlib import Path
 
 from hrc_drake.config_common import MAX_SIMULATED_DURATION, REPLAY_MAX_FRAMES, replay_fps_within
@@ -17,7 +15,7 @@ from hrc_drake.errors import ScenarioError
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 # Each command imports what it uses when it runs, so `hrc-drake --help` loads neither pydrake
-# nor scipy / scikit-learn.
+# nor scipy / scikit-learn (nor tempfile / traceback: `--help` has a 0.1 s budget, issue 18).
 
 
 def _duration(text: str) -> float:
@@ -71,6 +69,8 @@ def _number(text: str) -> float:
 
 def _check_writable_dir(option: str, path: Path) -> None:
     """`path` is, or can be made, a folder we can write in; else ScenarioError on `option`."""
+    import tempfile
+
     if path.exists() and not path.is_dir():
         raise ScenarioError(path, option, "exists and is not a folder")
     try:
@@ -319,6 +319,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _internal_error(err: Exception) -> int:
     """Write the traceback to a log file; print one line naming it."""
+    import tempfile
+    import traceback
+
     with tempfile.NamedTemporaryFile("w", prefix="hrc-drake-error-", suffix=".log", delete=False) as log:
         log.write(traceback.format_exc())
     print(f"internal error: {type(err).__name__}: {err} (traceback in {log.name})", file=sys.stderr)

@@ -210,8 +210,27 @@ class DepthCameraModel:
         """(...,) True where the camera cannot measure the point: occluded or outside the view cone.
 
         capsules: optional (start (K, 3), end (K, 3), radius (K,)), e.g. the robot links.
+        The same as `is_occluded(points, capsules) | ~in_view(points)`, with each test run only
+        on the points the cheaper ones before it left visible (view cone, boxes, capsules).
         """
-        return self.is_occluded(points, capsules) | ~self.in_view(points)
+        pts = np.asarray(points, dtype=float)
+        if pts.shape[-1] != 3:
+            raise ValueError(f"DepthCameraModel: points must end with size 3, got {pts.shape}")
+        flat = pts.reshape(-1, 3)
+        rel = flat - self.position
+        # the arithmetic of `in_view`, so that a point on the cone's edge gets the same answer
+        cos = np.einsum("...i,i->...", rel, self.axis) / np.maximum(np.linalg.norm(rel, axis=-1), _EPS)
+        hidden = ~(cos >= np.cos(self.fov_half_angle)) | ~np.all(np.isfinite(flat), axis=1)
+        todo = np.flatnonzero(~hidden)
+        if todo.size and self.box_lower.shape[0]:
+            hit = segments_hit_boxes(self.position, flat[todo], self.box_lower, self.box_upper).any(axis=1)
+            hidden[todo[hit]] = True
+            todo = todo[~hit]
+        if todo.size and capsules is not None:
+            start, end, radius = _check_capsules(capsules)
+            if start.shape[0]:
+                hidden[todo[self._sight_blocked_by_capsules(flat[todo], start, end, radius)]] = True
+        return hidden.reshape(pts.shape[:-1])
 
     def gaze_visible(self, head, gaze) -> bool:
         """Flag F: the face is turned towards the camera within gaze_valid_angle."""

@@ -127,3 +127,18 @@ def test_bad_input(camera):
         DepthCameraModel([0, 0, 0], [1, 0, 0], [([0, 0, 0], [1, 1])])
     with pytest.raises(ValueError, match=r"\(8, 3\)"):
         camera.measure(0, np.zeros((7, 3)), [1, 0, 0], np.random.default_rng())
+
+
+def test_is_hidden_is_occluded_or_out_of_view_on_random_points_and_capsules():
+    rng = np.random.default_rng(7)
+    boxes = [([0.6, 0.1, 1.0], [0.2, 0.3, 0.4]), ([0.9, -0.4, 1.2], [0.1, 0.1, 0.6])]
+    camera = DepthCameraModel([0.0, 0.0, 2.0], [1.2, 0.0, 1.0], boxes)
+    for _ in range(20):
+        pts = rng.uniform([-0.5, -1.5, 0.0], [2.5, 1.5, 2.5], (400, 3))
+        pts[rng.random(400) < 0.02] = np.nan
+        start = rng.uniform([0.2, -0.6, 0.8], [1.2, 0.6, 1.6], (6, 3))
+        caps = (start, start + rng.normal(0.0, 0.2, (6, 3)), rng.uniform(0.02, 0.1, 6))
+        expected = camera.is_occluded(pts, caps) | ~camera.in_view(pts)
+        assert 0 < expected.sum() < len(pts)
+        np.testing.assert_array_equal(camera.is_hidden(pts, caps), expected)
+        np.testing.assert_array_equal(camera.is_hidden(pts), camera.is_occluded(pts) | ~camera.in_view(pts))
