@@ -95,7 +95,9 @@ def _still_runs(wrist, dt, speed=0.02):
 # ---------------------------------------------------------------------------- the default
 def test_default_behaviour_is_the_operator_as_before():
     """Values of the seeded cell of tests/test_human_operator.py computed before behaviours
-    existed: the default (and an explicit IdealBehaviour) must reproduce them exactly."""
+    existed: the default (and an explicit IdealBehaviour) must reproduce them (joint angles to
+    1e-6 rad: the wrist IK's batched Jacobian of issue 18 rounds differently from scipy's own
+    differences and moves the solutions along the IK's flat directions by ~3e-8 rad)."""
     expected_events = [
         ("begin", "pick_place", 0.0), ("end", "pick_place", 3.0046831172), ("begin", "screw", 3.0046831172),
         ("end", "screw", 5.0046831172), ("wait_begin", "pick_place", 5.02), ("wait_end", "pick_place", 7.0),
@@ -127,8 +129,8 @@ def test_default_behaviour_is_the_operator_as_before():
             events += op.update(k * DT)
             if k in expected:
                 q, head = expected[k]
-                np.testing.assert_allclose(op.q(k * DT)[3:], q, atol=1e-9)
-                np.testing.assert_allclose(op.head_yaw_pitch(k * DT), head, atol=1e-9)
+                np.testing.assert_allclose(op.q(k * DT)[3:], q, atol=1e-6)
+                np.testing.assert_allclose(op.head_yaw_pitch(k * DT), head, atol=1e-6)
         assert [(e.kind, e.action) for e in events] == [e[:2] for e in expected_events]
         np.testing.assert_allclose([e.time for e in events], [e[2] for e in expected_events], atol=1e-9)
 
