@@ -723,12 +723,12 @@ def _check_systems(sc: Scenario, file) -> None:
     _check_proactive_planner(sc, file)
     _check_collaboration_scheduler(sc, file)
     _check_best_scenario_scheduler(sc, file)
-    _check_scheduler_net(sc, file)
     robot_agents = {arm.agent for robot in sc.robots for arm in robot.arms}
     for agent in getattr(sc.scheduler, "agent_costs", {}):
         if agent not in robot_agents:
             raise ScenarioError(file, f"scheduler.agent_costs.{agent}",
                                 f"'{agent}' is not a robot agent ({sorted(robot_agents)})")
+    _check_scheduler_net(sc, file)  # last: the fields it reads are checked above, by name
 
 
 def _check_proactive_planner(sc: Scenario, file) -> None:
