@@ -339,7 +339,8 @@ class GPMotionModel:
                 k_inv[i] = _cholesky_inverse(chol)
             self.buckets_.append({
                 "members": members, "joints": np.array([self.groups[g] for g in members]),
-                "x_train": x_train, "alpha": alpha, "k_inv": k_inv, "theta": self.theta_[members],
+                "x_train": x_train, "x_train_sq": (x_train**2).sum(-1), "alpha": alpha, "k_inv": k_inv,
+                "theta": self.theta_[members],
                 "x_mean": x_mean, "x_std": x_std, "y_mean": y_mean, "y_std": y_std,
             })
 
@@ -356,9 +357,15 @@ class GPMotionModel:
         """Mean and variance (E.6) of the standardised outputs for raw inputs (G, T, d_in)."""
         xs = (inputs - bucket["x_mean"][:, None]) / bucket["x_std"][:, None]
         theta = bucket["theta"]
-        k_x = kernel_8_7(xs, bucket["x_train"], theta)  # (G, T, N)
+        # eq. (8.7) as kernel_8_7 computes it, with the training side's squared norms kept
+        x_train = bucket["x_train"]
+        dot = xs @ np.swapaxes(x_train, -1, -2)  # (G, T, N)
+        xs_sq = (xs**2).sum(-1)
+        sq = np.maximum(xs_sq[..., :, None] + bucket["x_train_sq"][..., None, :] - 2.0 * dot, 0.0)
+        rbf = np.exp(-0.5 * theta[:, 1, None, None] * sq)
+        k_x = theta[:, 0, None, None] * dot + theta[:, 2, None, None] * rbf
         mean = k_x @ bucket["alpha"]  # (G, T, d_out)
-        k_xx = theta[:, 0, None] * (xs**2).sum(-1) + theta[:, 2, None] + theta[:, 3, None]
+        k_xx = theta[:, 0, None] * xs_sq + theta[:, 2, None] + theta[:, 3, None]
         explained = ((k_x @ bucket["k_inv"]) * k_x).sum(-1)
         return mean, np.maximum(k_xx - explained, 0.0)
 
