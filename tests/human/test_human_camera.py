@@ -142,3 +142,18 @@ def test_is_hidden_is_occluded_or_out_of_view_on_random_points_and_capsules():
         assert 0 < expected.sum() < len(pts)
         np.testing.assert_array_equal(camera.is_hidden(pts, caps), expected)
         np.testing.assert_array_equal(camera.is_hidden(pts), camera.is_occluded(pts) | ~camera.in_view(pts))
+
+
+def test_the_all_pairs_capsule_test_agrees_with_the_bounding_sphere_one():
+    rng = np.random.default_rng(11)
+    camera = DepthCameraModel([0.0, 0.0, 2.0], [1.2, 0.0, 1.0])
+    blocked = 0
+    for _ in range(50):
+        pts = rng.uniform([-0.5, -1.0, 0.0], [2.0, 1.0, 2.0], (8, 3))
+        start = rng.uniform([0.2, -0.6, 0.8], [1.2, 0.6, 1.6], (14, 3))
+        end, radius = start + rng.normal(0.0, 0.2, (14, 3)), rng.uniform(0.02, 0.1, 14)
+        few = camera._sight_blocked_by_capsules(pts, start, end, radius)  # 112 pairs: all at once
+        many = camera._sight_blocked_by_capsules(np.repeat(pts, 40, axis=0), start, end, radius)
+        np.testing.assert_array_equal(np.repeat(few, 40), many)  # 4480 pairs: the sphere test
+        blocked += few.sum()
+    assert 0 < blocked < 400
