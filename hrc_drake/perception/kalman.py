@@ -95,7 +95,6 @@ def valid_measurements(y: np.ndarray) -> np.ndarray:
 
 
 @lru_cache(maxsize=64)
-@lru_cache(maxsize=64)
 def chi2_quantile(confidence: float, dof: int) -> float:
     """chi2_dof quantile at `confidence` (scipy.stats imported here, not at module import;
     remembered: a tracker asks for the same few quantiles at every frame)."""
