@@ -214,6 +214,9 @@ def _campaign(args) -> int:
     try:
         outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr)
     except KeyboardInterrupt:
+        from hrc_drake.campaign.engine import quiet_interrupted_shutdown
+
+        quiet_interrupted_shutdown()  # the cluster's processes may still be closing
         print(f"interrupted: the finished runs are in {out / 'runs.parquet'}; run the same command again to "
               "resume", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -11,7 +11,9 @@ from __future__ import annotations
 import json
 import logging
 import math
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -267,13 +269,37 @@ class ClusterClient:
                 )
             self.client = Client(self.cluster)
         self.client.run(warm_up)  # import pydrake and the cell in every worker at once
+        if self.cluster is not None:  # our own workers only, never a user's cluster; after the
+            self.client.run(_quiet_local_worker)  # imports, which may install handlers of their own
         return self.client
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, exc, traceback):
+        if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+            quiet_interrupted_shutdown()
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
         return False
+
+
+def _quiet_local_worker() -> None:
+    """In a local worker process: ignore SIGINT, which a terminal's Ctrl-C sends to the whole
+    process group (asyncio's handler in the worker would print a KeyboardInterrupt traceback
+    while this process closes the cluster), and keep Dask's and tornado's logs to CRITICAL (their
+    ERRORs then are the lost heartbeats of that shutdown; a run that fails is reported in its
+    row, with its error)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for name in ("distributed", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def quiet_interrupted_shutdown() -> None:
+    """After Ctrl-C, Dask's nanny and tornado's loop log the cancelled tasks of the cluster's
+    shutdown as errors with tracebacks (distributed.nanny CancelledError, a tornado callback's
+    NameError); the user asked for the stop and the finished runs are saved: silence them."""
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _has_dashboard() -> bool:

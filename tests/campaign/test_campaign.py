@@ -23,7 +23,7 @@ from hrc_drake.campaign.engine import run_campaign
 from hrc_drake.campaign.spec import load_campaign, make_campaign, scenario_metric_names
 from hrc_drake.campaign.worker import TEST_KILL_VARIABLE, TIMING_COLUMNS
 from hrc_drake.cell.scenario import Tagged
-from hrc_drake.cli import EXIT_BAD_INPUT, main
+from hrc_drake.cli import EXIT_BAD_INPUT, EXIT_INTERRUPTED, main
 from hrc_drake.errors import ScenarioError
 from tests.conftest import DIAGRAMS, REPO
 
@@ -373,3 +373,28 @@ def test_plot_labels_carry_the_unit_the_metric_name_tells():
     assert analysis.metric_label("min_human_robot_distance") == "min_human_robot_distance (m)"
     assert analysis.metric_label("safety.fraction_below") == "safety.fraction_below"
     assert analysis.metric_label("products_finished") == "products_finished"
+
+
+@pytest.mark.slow
+def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_path):
+    import signal
+
+    long_runs = SPEC.replace("duration: 15", "duration: 600").replace("seeds: [1, 2]", "seeds: [1, 2, 3]")
+    spec = _spec(tmp_path, long_runs)
+    command = [sys.executable, "-m", "hrc_drake.cli", "campaign", str(spec), "--out", str(tmp_path / "out"),
+               "--workers", "2"]
+    # its own process group, which gets the signal as a terminal's Ctrl-C does (workers included)
+    proc = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline and not (tmp_path / "out" / "campaign.json").exists():
+            time.sleep(0.5)
+        time.sleep(20.0)  # the workers are running cells now
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == EXIT_INTERRUPTED, err
+    assert "interrupted: the finished runs are in" in err
+    assert "Traceback" not in err and "ERROR" not in err, err
