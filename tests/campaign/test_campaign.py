@@ -375,7 +375,30 @@ def test_plot_labels_carry_the_unit_the_metric_name_tells():
     assert analysis.metric_label("products_finished") == "products_finished"
 
 
+def _worker_processes(parent: int) -> list[int]:
+    """The Dask worker processes (multiprocessing spawns) among the children of `parent` (Linux /proc)."""
+    found = []
+    for status in Path("/proc").glob("[0-9]*/status"):
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
+            command = (status.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if fields.get("PPid", "").strip() == str(parent) and b"spawn_main" in command:
+            found.append(int(status.parent.name))
+    return found
+
+
+def _ignored_signals(pid: int) -> int:
+    """The SigIgn mask of process `pid` (Linux /proc)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("SigIgn:"):
+            return int(line.split()[1], 16)
+    raise AssertionError(f"no SigIgn line for process {pid}")
+
+
 @pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads worker signal masks from /proc")
 def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_path):
     import signal
 
@@ -391,6 +414,11 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_pat
         while time.monotonic() < deadline and not (tmp_path / "out" / "campaign.json").exists():
             time.sleep(0.5)
         time.sleep(20.0)  # the workers are running cells now
+        workers = _worker_processes(proc.pid)
+        assert len(workers) == 2
+        # the workers ignore SIGINT (bit 2 of SigIgn): whether one would print its traceback
+        # otherwise depends on when the main process closes it
+        assert all(_ignored_signals(pid) & (1 << (signal.SIGINT - 1)) for pid in workers)
         os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=60)
     finally:
