@@ -269,8 +269,9 @@ class ClusterClient:
                 )
             self.client = Client(self.cluster)
         self.client.run(warm_up)  # import pydrake and the cell in every worker at once
-        if self.cluster is not None:  # our own workers only, never a user's cluster; after the
-            self.client.run(_quiet_local_worker)  # imports, which may install handlers of their own
+        if self.cluster is not None:  # our own workers only, never a user's cluster
+            # a plugin: a worker the nanny restarts (after a death) gets it too
+            self.client.register_plugin(_quiet_local_worker_plugin())
         return self.client
 
     def __exit__(self, exc_type, exc, traceback):
@@ -292,6 +293,19 @@ def _quiet_local_worker() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     for name in ("distributed", "tornado"):
         logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def _quiet_local_worker_plugin():
+    """A Dask worker plugin running `_quiet_local_worker` on every worker, now and at each start."""
+    from distributed import WorkerPlugin
+
+    class QuietLocalWorker(WorkerPlugin):
+        name = "hrc-drake-quiet-local-worker"
+
+        def setup(self, worker):
+            _quiet_local_worker()
+
+    return QuietLocalWorker()
 
 
 def quiet_interrupted_shutdown() -> None:
