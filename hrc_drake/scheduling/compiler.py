@@ -433,19 +433,25 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
     return {"states": len(seen), "complete": complete}
 
 
-def net_from_scenario(scenario, config) -> PcTPN:
-    """Compile the scenario's flow with the net fields of the scheduler `config` (wait_quantum
-    t_w, cost_robot c_R, cost_human c_H)."""
-    robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
+def net_from_flow(flow, buffers, human_agent, human_pattern, robot_agents, config) -> PcTPN:
+    """Compile a flow with the net fields of the scheduler `config` (wait_quantum t_w,
+    cost_robot c_R, cost_human c_H, max_wait, agent_costs where the kind has them)."""
     return compile_flow(
-        scenario.flow,
-        scenario.layout.buffers,
-        scenario.operator.name,
-        scenario.operator.pattern,
-        robots,
+        flow,
+        buffers,
+        human_agent,
+        human_pattern,
+        robot_agents,
         wait_quantum=float(config.wait_quantum),
         cost_robot=float(config.cost_robot),
         cost_human=float(config.cost_human),
         collab_patience=getattr(config, "max_wait", 0.0) or None,
         agent_costs=dict(getattr(config, "agent_costs", {})),
     )
+
+
+def net_from_scenario(scenario, config) -> PcTPN:
+    """Compile the scenario's flow with the net fields of the scheduler `config` (`net_from_flow`)."""
+    robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
+    return net_from_flow(scenario.flow, scenario.layout.buffers, scenario.operator.name,
+                         scenario.operator.pattern, robots, config)

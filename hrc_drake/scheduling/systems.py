@@ -27,7 +27,7 @@ from hrc_drake.scheduling.collaboration import (
     PredictiveRobotPolicy,
     ReactiveRobotPolicy,
 )
-from hrc_drake.scheduling.compiler import compile_flow, net_from_scenario
+from hrc_drake.scheduling.compiler import net_from_flow, net_from_scenario
 from hrc_drake.scheduling.config import (
     COLLABORATION_SCHEDULERS,
     BestOfRolloutsPlanScheduler,
@@ -184,18 +184,7 @@ class Scheduler(LeafSystem):
     @classmethod
     def from_flow(cls, flow, buffers, human_agent, human_pattern, robot_agents, config, seed=0):
         """A Scheduler on the net compiled from a flow with the config's net fields."""
-        net = compile_flow(
-            flow,
-            buffers,
-            human_agent,
-            human_pattern,
-            robot_agents,
-            wait_quantum=float(config.wait_quantum),
-            cost_robot=float(config.cost_robot),
-            cost_human=float(config.cost_human),
-            collab_patience=getattr(config, "max_wait", 0.0) or None,
-            agent_costs=dict(getattr(config, "agent_costs", {})),
-        )
+        net = net_from_flow(flow, buffers, human_agent, human_pattern, robot_agents, config)
         return cls(net, config, robot_agents, seed)
 
     def core(self, context) -> SchedulerCore:
