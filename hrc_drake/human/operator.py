@@ -313,7 +313,8 @@ class SyntheticOperator:
     # ------------------------------------------------------------------ kinematics helpers
     def _wrist_problem(self, hands, targets, q_start):
         """The IK of `_solve` as a bounded least-squares problem over the free joints: (free,
-        residual, jacobian, lower, upper). residual: wrist errors and a pull towards q_start."""
+        wrist_rows, target, residual, jacobian, lower, upper). residual: wrist errors and a pull
+        towards q_start."""
         free = [3] + [i for hand in hands for i in range(12)[ARM_DOFS[hand]]]
         wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
         target = np.asarray(targets, dtype=float)
@@ -345,15 +346,14 @@ class SyntheticOperator:
             wrists = self.body._points(qs)[:, wrist_rows].reshape(n_free + 1, -1)
             return np.vstack([((wrists[1:] - wrists[0]) / step[:, None]).T, regularisation])
 
-        return free, residual, jacobian, lower, upper
+        return free, wrist_rows, target, residual, jacobian, lower, upper
 
     def _solve(self, hands, targets, q_start, report: bool = True) -> np.ndarray:
         """IK on wrist positions only: torso flexion + the hands' arms free, base fixed; a target
         out of reach is recorded in `unreachable` (with `report`)."""
-        free, residual, jacobian, lower, upper = self._wrist_problem(hands, targets, q_start)
-        wrist_rows = [WRIST_OF_HAND[hand] for hand in hands]
-        target = np.asarray(targets, dtype=float)
-        reference = q_start[free].copy()
+        problem = self._wrist_problem(hands, targets, q_start)
+        free, wrist_rows, target, residual, jacobian, lower, upper = problem
+        reference = q_start[free]
         best = None
         reach_arm = np.array([1.0, 0.2, 0.0, 1.2])
         for guess_arm in (None, reach_arm):

@@ -83,11 +83,14 @@ def kernel_theta(kernel) -> np.ndarray:
     return np.array([theta1, 1.0 / float(length) ** 2, theta3, theta4], dtype=float)
 
 
-def kernel_8_7(x_a, x_b, theta) -> np.ndarray:
-    """Eq. (8.7) without the white-noise term, between rows of x_a (..., A, D) and x_b (..., B, D)."""
+def kernel_8_7(x_a, x_b, theta, a_sq=None, b_sq=None) -> np.ndarray:
+    """Eq. (8.7) without the white-noise term, between rows of x_a (..., A, D) and x_b (..., B, D).
+    a_sq, b_sq: the rows' squared norms (..., A) and (..., B), when the caller has them."""
     theta1, theta2, theta3 = theta[..., 0], theta[..., 1], theta[..., 2]
     dot = x_a @ np.swapaxes(x_b, -1, -2)
-    sq = (x_a**2).sum(-1)[..., :, None] + (x_b**2).sum(-1)[..., None, :] - 2.0 * dot
+    a_sq = (x_a**2).sum(-1) if a_sq is None else a_sq
+    b_sq = (x_b**2).sum(-1) if b_sq is None else b_sq
+    sq = a_sq[..., :, None] + b_sq[..., None, :] - 2.0 * dot
     sq = np.maximum(sq, 0.0)
     rbf = np.exp(-0.5 * theta2[..., None, None] * sq)
     return theta1[..., None, None] * dot + theta3[..., None, None] * rbf
@@ -357,13 +360,8 @@ class GPMotionModel:
         """Mean and variance (E.6) of the standardised outputs for raw inputs (G, T, d_in)."""
         xs = (inputs - bucket["x_mean"][:, None]) / bucket["x_std"][:, None]
         theta = bucket["theta"]
-        # eq. (8.7) as kernel_8_7 computes it, with the training side's squared norms kept
-        x_train = bucket["x_train"]
-        dot = xs @ np.swapaxes(x_train, -1, -2)  # (G, T, N)
         xs_sq = (xs**2).sum(-1)
-        sq = np.maximum(xs_sq[..., :, None] + bucket["x_train_sq"][..., None, :] - 2.0 * dot, 0.0)
-        rbf = np.exp(-0.5 * theta[:, 1, None, None] * sq)
-        k_x = theta[:, 0, None, None] * dot + theta[:, 2, None, None] * rbf
+        k_x = kernel_8_7(xs, bucket["x_train"], theta, xs_sq, bucket["x_train_sq"])  # (G, T, N)
         mean = k_x @ bucket["alpha"]  # (G, T, d_out)
         k_xx = theta[:, 0, None] * xs_sq + theta[:, 2, None] + theta[:, 3, None]
         explained = ((k_x @ bucket["k_inv"]) * k_x).sum(-1)

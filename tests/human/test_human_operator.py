@@ -260,7 +260,7 @@ def test_the_ik_jacobian_is_the_derivative_of_its_residual_also_at_the_bounds(ha
     q0 = op.rest_config
     apart = 0.1 * BOTH_HANDS_OFFSET
     targets = [GOAL] if len(hands) == 1 else [SCREW + apart, SCREW - apart]
-    free, residual, jacobian, lower, upper = op._wrist_problem(hands, targets, q0)
+    free, _, _, residual, jacobian, lower, upper = op._wrist_problem(hands, targets, q0)
     rng = np.random.default_rng(3)
     points = [lower + rng.uniform(0.1, 0.9, len(free)) * (upper - lower) for _ in range(3)]
     points.append(np.where(np.isfinite(upper), upper, 1.0))  # every joint at its upper bound
