@@ -18,6 +18,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
+from hrc_drake import kernels
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell import plugins
 from hrc_drake.cell.replay import add_replay_markers
@@ -409,9 +410,10 @@ def build_cell(
     """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay).
 
     Also keeps freed heap memory in the process (`allocator.keep_freed_memory`), for simulators
-    the caller makes.
+    the caller makes, and compiles (or loads) the geometry kernels, so that a simulation does not.
     """
     keep_freed_memory()
+    kernels.warm_up()
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
 
     def seed(k: int) -> int:

@@ -27,7 +27,7 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 
 from hrc_drake.cell.metrics import AppendOnly, DecimatedTrace, LoggedEvent, MetricsLog, SampleStats
 from hrc_drake.cell.schema import Scenario
-from hrc_drake.human.camera import segment_segment_distance
+from hrc_drake.kernels import capsule_clearances
 from hrc_drake.messages import (
     AgentActivity,
     Capsules,
@@ -540,10 +540,7 @@ class MetricsRecorder(LeafSystem):
             r_start, r_end, r_radius = self._robot_capsules.Eval(context)
             h_start, h_end, h_radius = self._human_capsules.Eval(context)
             if len(r_radius) and len(h_radius):
-                d = segment_segment_distance(
-                    h_start[:, None, :], h_end[:, None, :], r_start[None, :, :], r_end[None, :, :]
-                )
-                distance = float(np.min(d - h_radius[:, None] - r_radius[None, :]))
+                distance = float(capsule_clearances(h_start, h_end, h_radius, r_start, r_end, r_radius).min())
         override = float(self._override.Eval(context)[0]) if self._override.HasValue(context) else 1.0
         world = input_or(self._world, context, WorldSnapshot())
         sample = (t, distance, override, world.buffers, world.finished_products, points)

@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 
+from hrc_drake.kernels import hidden_points
 from hrc_drake.messages import HEAD, DepthFrame, SkeletonFrame
 
 #: half-angle of the view cone around the camera axis (rad)
@@ -104,6 +105,9 @@ def sight_capsule_distance(origin, points, start, end) -> np.ndarray:
     return np.sqrt(np.maximum(squared, 0.0))
 
 
+_NO_SEGMENTS = np.zeros((0, 3))
+_NO_RADII = np.zeros(0)
+
 #: largest (point, capsule) pair count `_sight_blocked_by_capsules` computes in full
 _ALL_PAIRS = 256
 
@@ -163,6 +167,7 @@ class DepthCameraModel:
         half = 0.5 * np.reshape(sizes, (-1, 3)) + self.margin
         self.box_lower = centers - half
         self.box_upper = centers + half
+        self._cos_limit = float(np.cos(self.fov_half_angle))
 
     def in_view(self, points) -> np.ndarray:
         """(...,) True where the point lies inside the view cone."""
@@ -218,26 +223,18 @@ class DepthCameraModel:
         """(...,) True where the camera cannot measure the point: occluded or outside the view cone.
 
         capsules: optional (start (K, 3), end (K, 3), radius (K,)), e.g. the robot links.
-        The same as `is_occluded(points, capsules) | ~in_view(points)`, with each test run only
-        on the points the cheaper ones before it left visible (view cone, boxes, capsules).
+        The same as `is_occluded(points, capsules) | ~in_view(points)`, one compiled loop
+        (`kernels.hidden_points`: per point the view cone, then the boxes, then the capsules).
         """
         pts = np.asarray(points, dtype=float)
         if pts.shape[-1] != 3:
             raise ValueError(f"DepthCameraModel: points must end with size 3, got {pts.shape}")
-        flat = pts.reshape(-1, 3)
-        rel = flat - self.position
-        # the arithmetic of `in_view`, so that a point on the cone's edge gets the same answer
-        cos = np.einsum("...i,i->...", rel, self.axis) / np.maximum(np.linalg.norm(rel, axis=-1), _EPS)
-        hidden = ~(cos >= np.cos(self.fov_half_angle)) | ~np.all(np.isfinite(flat), axis=1)
-        todo = np.flatnonzero(~hidden)
-        if todo.size and self.box_lower.shape[0]:
-            hit = segments_hit_boxes(self.position, flat[todo], self.box_lower, self.box_upper).any(axis=1)
-            hidden[todo[hit]] = True
-            todo = todo[~hit]
-        if todo.size and capsules is not None:
+        if capsules is None:
+            start, end, radius = _NO_SEGMENTS, _NO_SEGMENTS, _NO_RADII
+        else:
             start, end, radius = _check_capsules(capsules)
-            if start.shape[0]:
-                hidden[todo[self._sight_blocked_by_capsules(flat[todo], start, end, radius)]] = True
+        hidden = hidden_points(self.position, self.axis, self._cos_limit, pts.reshape(-1, 3), self.box_lower,
+                               self.box_upper, start, end, radius)
         return hidden.reshape(pts.shape[:-1])
 
     def gaze_visible(self, head, gaze) -> bool:

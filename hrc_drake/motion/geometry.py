@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from hrc_drake.kernels import capsule_clearances
+
 _EPS = 1e-12
 
 
@@ -101,8 +103,8 @@ def capsule_capsule_distance(start_a, end_a, radius_a, start_b, end_b, radius_b)
         )
     if np.any(radius_a < 0) or np.any(radius_b < 0):
         raise ValueError("capsule radii must be >= 0")
-    distance, _, _ = segment_segment_closest(start_a[:, None], end_a[:, None], start_b[None], end_b[None])
-    return distance - radius_a[:, None] - radius_b[None, :]
+    # `segment_segment_closest` over all pairs as one compiled loop (equal to ~1e-15 m)
+    return capsule_clearances(start_a, end_a, radius_a, start_b, end_b, radius_b)
 
 
 def point_capsule_distance(points, start, end, radius) -> np.ndarray:

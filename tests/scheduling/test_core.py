@@ -4,7 +4,7 @@ import pytest
 from hrc_drake.distributions import Distribution, mean_duration, sample_duration
 from hrc_drake.scheduling.compiler import FlowError, compile_flow
 from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
-from hrc_drake.scheduling.montecarlo import CostNode, evaluate_cost_tree, evaluate_costs
+from hrc_drake.scheduling.montecarlo import CostNode, evaluate_cost_tree, evaluate_costs, percentile_linear
 from hrc_drake.scheduling.petri import PcTPN
 
 FIX = Distribution("fixed", mean=2.0)
@@ -187,3 +187,52 @@ def test_algorithm_4_min_branch_samples_unites_thin_branchings():
     assert best == 1 and pct == {0: 5.0, 1: 4.0}  # {1, 9} united: median 5
     with pytest.raises(ValueError, match="min_branch_samples"):
         evaluate_costs(paths, costs, ctrl, 0.5, min_branch_samples=0)
+
+
+def _algorithm_4_reference(paths, costs, controllable, beta, min_branch_samples=1):
+    """Algorithm 4 written directly on the unsorted trials (np.unique per node, np.percentile)."""
+    q = 100.0 * beta
+
+    def node(idx, d):
+        if idx.size < 2 * min_branch_samples or d >= paths.shape[1]:
+            return costs[idx]
+        js = paths[idx, d]
+        ended = js < 0
+        if ended.all():
+            return costs[idx]
+        cont, jc = idx[~ended], js[~ended]
+        children, sizes = np.unique(jc, return_counts=True)
+        if controllable[jc[0]] and sizes.min() >= min_branch_samples:
+            return min((node(cont[jc == u], d + 1) for u in children), key=lambda c: np.percentile(c, q))
+        return np.concatenate([costs[idx[ended]]] + [node(cont[jc == u], d + 1) for u in children])
+
+    idx = np.arange(len(costs))
+    return {int(u): float(np.percentile(node(idx[paths[:, 0] == u], 1), q)) for u in np.unique(paths[:, 0])}
+
+
+@pytest.mark.parametrize("min_branch_samples", [1, 3])
+def test_algorithm_4_on_sorted_trials_equals_the_direct_tree_walk(min_branch_samples):
+    rng = np.random.default_rng(5)
+    for trial in range(60):
+        n, length, n_tr = int(rng.integers(2, 120)), int(rng.integers(1, 7)), int(rng.integers(2, 6))
+        controllable = rng.random(n_tr) < 0.6
+        controllable[:2] = True
+        paths = rng.integers(0, n_tr, size=(n, length))
+        paths[:, 0] = rng.integers(0, 2, size=n)
+        for row, end in enumerate(rng.integers(1, length + 1, size=n)):
+            paths[row, end:] = -1  # trials that reached the horizon
+        costs = rng.gamma(2.0, 10.0, size=n).round(int(trial % 3))  # rounding makes ties
+        for beta in (0.0, 0.3, 0.5, 0.8, 1.0):
+            expected = _algorithm_4_reference(paths, costs, controllable, beta, min_branch_samples)
+            best, got = evaluate_costs(paths, costs, controllable, beta, min_branch_samples)
+            assert got == expected
+            assert best == min(expected, key=lambda u: (expected[u], u))
+
+
+def test_percentile_linear_is_numpys_percentile_bit_for_bit():
+    rng = np.random.default_rng(2)
+    for n in (1, 2, 3, 7, 50, 101):
+        values = rng.normal(size=n) * 10.0 ** rng.integers(-3, 4)
+        for beta in (0.0, 0.1, 0.25, 0.5, 0.8, 0.95, 1.0, 1 / 3):
+            quantile = 100 * beta / 100  # what np.percentile(values, 100 beta) works with
+            assert percentile_linear(values, quantile) == np.percentile(values, 100 * beta)
