@@ -5,7 +5,7 @@ Every import statement counts, at module level or inside a function:
     `hrc_drake/systems.py` and `hrc_drake/cli.py`;
 (b) nothing imports from a higher layer. Layers from the bottom:
     0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
-      `allocator`;
+      `allocator`, `kernels` (the numba kernels);
     1 the cores: every module of human, perception, intention, prediction, scheduling, motion and
       robots except each `systems.py` (and the robots' Drake modules); cores of one area may
       import cores of another area when no cycle results;
@@ -30,7 +30,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
-LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator"}
+LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}

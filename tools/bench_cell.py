@@ -35,7 +35,9 @@ every stage on) is measured there with the current tree's file, when the baselin
 it. Start-up of each tree is timed too, as the median of 7 fresh interpreters: `help_s`, the
 wall time of `python -m hrc_drake.cli --help`; `import_s`, the time to import what a simulation
 needs (scenario loader, builder, simulate), measured inside the interpreter; `interpreter_s`,
-`python -c pass` (the floor of both on this machine).
+`python -c pass` (the floor of both on this machine); `kernel_compile_s` and `kernel_load_s`, the
+seconds `hrc_drake.kernels.warm_up()` takes to compile the numba kernels into an empty cache and
+to load them from it (every cell calls it once when it is built).
 
 The goal of issue 18 is every `rtf_<name>` >= 50 (CPU-based) except the rendered-camera cells,
 whose cost is reported separately, and `help_s` <= 0.1: `below_goal` lists the cells that miss.
@@ -47,7 +49,8 @@ Prints progress lines, a table, then as its last line one JSON object with the f
 scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name>`,
 `baseline_rtf_wall_<name>`, `cpu_change_percent_<name>`, `products_<name>`,
 `min_distance_<name>` (and their `baseline_` twins: results must agree up to seed noise), and
-`help_s`, `import_s`, `interpreter_s`, `baseline_help_s`, `baseline_import_s`.
+`help_s`, `import_s`, `interpreter_s`, `kernel_compile_s`, `kernel_load_s`, `baseline_help_s`,
+`baseline_import_s`.
 
 Usage:
     PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N] [--only NAME ...]
@@ -338,7 +341,28 @@ def startup_times(tree: Path) -> dict:
         help_s.append(wall([sys.executable, "-m", "hrc_drake.cli", "--help"]))
         import_s.append(imported())
         interpreter_s.append(wall([sys.executable, "-c", "pass"]))
-    return {"help_s": median(help_s), "import_s": median(import_s), "interpreter_s": median(interpreter_s)}
+    return {"help_s": median(help_s), "import_s": median(import_s), "interpreter_s": median(interpreter_s),
+            **kernel_times(tree, env)}
+
+
+KERNEL_CODE = ("import json; from hrc_drake import kernels; "
+               "print(json.dumps({'warm_up_s': kernels.warm_up()}))")
+
+
+def kernel_times(tree: Path, env: dict) -> dict:
+    """`kernel_compile_s`: `kernels.warm_up()` with an empty numba cache (a fresh machine's first
+    cell); `kernel_load_s`: the same again, loading what it cached. {} for a tree without kernels."""
+    if not (tree / "hrc_drake" / "kernels.py").exists():
+        return {}
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
+        for key in ("kernel_compile_s", "kernel_load_s"):
+            proc = subprocess.run([sys.executable, "-c", KERNEL_CODE], cwd=tree,
+                                  env=dict(env, NUMBA_CACHE_DIR=cache), capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise RuntimeError(f"kernels.warm_up() in {tree} failed: {proc.stderr[-500:]}")
+            out[key] = last_json_line(proc.stdout)["warm_up_s"]
+    return out
 
 
 # Run in a fresh interpreter of the current code: cProfile of one simulation, the top functions.
