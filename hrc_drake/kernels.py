@@ -1,15 +1,23 @@
-"""Compiled kernels (numba) for the per-frame geometry that numpy runs as many calls on tiny arrays.
+"""Compiled kernels (numba) for the per-frame geometry and the per-step models that numpy runs as
+many calls on tiny arrays.
 
 A camera frame tests 8 sight segments against a dozen boxes and robot capsules, the recorder
-and the speed scaler take the clearance of ~15 x ~15 capsule pairs; in numpy each is 20-40 calls
-of 1-5 us whatever the size (DESIGN.md, performance rules). The kernels below are the same
-algorithms written as loops over the pairs: the slab test and Ericson's clamped closest points of
-two segments (Real-Time Collision Detection, 5.1.9), as `human.camera` and `motion.geometry`
-state them, whose numpy forms stay the reference the tests compare against.
+and the speed scaler take the clearance of ~15 x ~15 capsule pairs, the human motion predictor
+(thesis 8.1) solves a 12-joint IK, rolls out T x M GP predictions and bounds six swept point
+sets by capsules at every camera frame; in numpy each is 20-40 calls of 1-5 us whatever the
+size (DESIGN.md, performance rules). The kernels below are the same algorithms written as loops:
+the slab test and Ericson's clamped closest points of two segments (Real-Time Collision
+Detection, 5.1.9) as `human.camera` and `motion.geometry` state them; the skeleton forward
+kinematics of `human.body`, its forward-difference Jacobian and the damped Gauss-Newton steps of
+`motion.reactive.tracking_inverse`; the Monte Carlo rollouts of eq. (8.8) on the GP of (8.7);
+and `motion.reactive._bounding_capsule`. Their numpy forms stay the reference the tests
+compare against (tests/test_kernels.py).
 
 Compiled on first use and cached on disk (`cache=True`: next to this file, or numba's user
 cache when that is not writable); `warm_up()` compiles or loads every kernel, and
-`tools/bench_cell.py` reports how long that takes, fresh and cached.
+`tools/bench_cell.py` reports how long that takes, fresh and cached. Small products and
+reductions are written as loops: numba's ndarray.min/max, np.linalg.solve and slice
+assignments each take it a second or more to compile.
 """
 
 from __future__ import annotations
@@ -145,6 +153,289 @@ def _hidden_points(origin, axis, cos_limit, points, box_lower, box_upper, cap_st
     return hidden
 
 
+@njit(cache=True, inline="always")
+def _to_world(cy, sy, cl, sl, x, y, hz, px, py, pz, out, row):
+    """out[row] = hip + R_z(yaw) R_y(lean) p, the torso-to-world map of `human.body`."""
+    lx = cl * px + sl * pz
+    out[row, 0] = x + cy * lx - sy * py
+    out[row, 1] = y + sy * lx + cy * py
+    out[row, 2] = hz - sl * px + cl * pz
+
+
+@njit(cache=True)
+def _skeleton_points(dims, q, out):
+    """The 8 skeletal points (Fig. 9.1 order) of `human.body.BodyModel` at q (12,) into out (8, 3),
+    as `BodyModel._points_single` computes them; dims = (hip height, torso, neck, half shoulder
+    width, upper arm, forearm)."""
+    hz, torso, neck, half, upper, fore = dims[0], dims[1], dims[2], dims[3], dims[4], dims[5]
+    x, y = q[0], q[1]
+    cy, sy, cl, sl = math.cos(q[2]), math.sin(q[2]), math.cos(q[3]), math.sin(q[3])
+    _to_world(cy, sy, cl, sl, x, y, hz, 0.0, 0.0, torso, out, 0)
+    _to_world(cy, sy, cl, sl, x, y, hz, 0.0, 0.0, torso + neck, out, 1)
+    _to_world(cy, sy, cl, sl, x, y, hz, 0.0, half, torso, out, 2)
+    _to_world(cy, sy, cl, sl, x, y, hz, 0.0, -half, torso, out, 3)
+    for arm in range(2):
+        m = 1.0 - 2.0 * arm
+        base = 4 + 4 * arm
+        cf, sf = math.cos(q[base]), math.sin(q[base])
+        ca, sa = math.cos(q[base + 1]), math.sin(q[base + 1])
+        cr, sr = math.cos(q[base + 2]), math.sin(q[base + 2])
+        ce, se = math.cos(q[base + 3]), math.sin(q[base + 3])
+        msa = m * sa
+        ux, uy, uz = sf * ca, msa, -cf * ca  # upper arm direction (torso frame)
+        vx, vy, vz = cr * se, m * sr * se, -ce  # forearm direction in the upper-arm frame
+        wy = ca * vy - msa * vz
+        wz = msa * vy + ca * vz
+        fx, fy, fz = cf * vx - sf * wz, wy, sf * vx + cf * wz
+        ex, ey, ez = upper * ux, m * half + upper * uy, torso + upper * uz
+        _to_world(cy, sy, cl, sl, x, y, hz, ex, ey, ez, out, 4 + arm)
+        _to_world(cy, sy, cl, sl, x, y, hz, ex + fore * fx, ey + fore * fy, ez + fore * fz, out, 6 + arm)
+
+
+@njit(cache=True)
+def _skeleton_jacobian(dims, q, rows, step, model, jacobian):
+    """The points `rows` at q stacked (3V,) into model and their forward-difference Jacobian
+    (3V, 12) with step `step` into jacobian."""
+    base = np.empty((8, 3))
+    shifted = np.empty((8, 3))
+    _skeleton_points(dims, q, base)
+    for i in range(rows.shape[0]):
+        for c in range(3):
+            model[3 * i + c] = base[rows[i], c]
+    moved = q.copy()
+    for j in range(12):
+        moved[j] = q[j] + step
+        _skeleton_points(dims, moved, shifted)
+        moved[j] = q[j]
+        for i in range(rows.shape[0]):
+            for c in range(3):
+                jacobian[3 * i + c, j] = (shifted[rows[i], c] - base[rows[i], c]) / step
+
+
+@njit(cache=True)
+def _solve_positive_definite(matrix, rhs):
+    """matrix^-1 rhs for a small symmetric positive definite matrix, by Cholesky (written out:
+    numba's np.linalg.solve takes seconds to compile)."""
+    size = rhs.shape[0]
+    lower = np.zeros((size, size))
+    for i in range(size):
+        for j in range(i + 1):
+            total = matrix[i, j]
+            for k in range(j):
+                total -= lower[i, k] * lower[j, k]
+            lower[i, j] = math.sqrt(total) if i == j else total / lower[j, j]
+    y = np.empty(size)
+    for i in range(size):
+        total = rhs[i]
+        for k in range(i):
+            total -= lower[i, k] * y[k]
+        y[i] = total / lower[i, i]
+    x = np.empty(size)
+    for i in range(size - 1, -1, -1):
+        total = y[i]
+        for k in range(i + 1, size):
+            total -= lower[k, i] * x[k]
+        x[i] = total / lower[i, i]
+    return x
+
+
+@njit(cache=True)
+def _tracking_gauss_newton(dims, q_lower, q_upper, target, rows, q0, iterations, regularization, step):
+    """Damped Gauss-Newton on sum ||FK_i(q) - p_i||^2 + r^2 ||q - q0||^2 over the points `rows`
+    (target (3V,)), clipped to the joint limits after each step; returns q and the rms point
+    residual sqrt(3 mean(residual^2)) at it."""
+    n = 3 * rows.shape[0]
+    model = np.empty(n)
+    jacobian = np.empty((n, 12))
+    damping = regularization * regularization
+    q = q0.copy()
+    for _ in range(iterations):
+        _skeleton_jacobian(dims, q, rows, step, model, jacobian)
+        gradient = np.empty(12)
+        normal = np.empty((12, 12))
+        for a in range(12):
+            gradient[a] = -damping * (q[a] - q0[a])
+            for r in range(n):
+                gradient[a] += jacobian[r, a] * (target[r] - model[r])
+            for b in range(a + 1):
+                total = 0.0
+                for r in range(n):
+                    total += jacobian[r, a] * jacobian[r, b]
+                normal[a, b] = total
+                normal[b, a] = total
+            normal[a, a] += damping
+        step_q = _solve_positive_definite(normal, gradient)
+        for a in range(12):
+            q[a] = min(max(q[a] + step_q[a], q_lower[a]), q_upper[a])
+    final = np.empty((8, 3))
+    _skeleton_points(dims, q, final)
+    square = 0.0
+    for i in range(rows.shape[0]):
+        for c in range(3):
+            square += (final[rows[i], c] - target[3 * i + c]) ** 2
+    return q, math.sqrt(square / n * 3.0)
+
+
+@njit(cache=True)
+def _bounding_capsule(points, offsets, stride):
+    """`motion.reactive._bounding_capsule` (its numpy form, the reference) as loops: one capsule
+    around points (3, N) translated by every corner of offsets (C, 3); (start (3,), end (3,), radius)."""
+    n = points.shape[1]
+    mean = np.zeros(3)
+    for p in range(n):
+        for c in range(3):
+            mean[c] += points[c, p]
+    mean /= n
+    scatter = np.zeros((3, 3))
+    for p in range(n):
+        for a in range(3):
+            for b in range(a + 1):
+                scatter[a, b] += (points[a, p] - mean[a]) * (points[b, p] - mean[b])
+    for a in range(3):
+        for b in range(a):
+            scatter[b, a] = scatter[a, b]
+    _, vectors = np.linalg.eigh(scatter)  # columns: principal directions
+    rel = np.zeros((3, n))  # the points in those directions (small products written out: no BLAS)
+    for c in range(3):
+        for p in range(n):
+            for a in range(3):
+                rel[c, p] += vectors[a, c] * (points[a, p] - mean[a])
+    middle = np.empty(3)
+    for c in range(3):
+        low, high = rel[c, 0], rel[c, 0]
+        for p in range(1, n):  # loops: numba's ndarray.min/max take seconds to compile
+            low, high = min(low, rel[c, p]), max(high, rel[c, p])
+        middle[c] = 0.5 * (high + low)
+        for p in range(n):
+            rel[c, p] -= middle[c]
+    # the axis: the direction whose capsule around every `stride`-th point is smallest
+    best, best_k = np.inf, 0
+    for k in range(3):
+        cover2 = 0.0
+        for p in range(0, n, stride):
+            total = rel[0, p] ** 2 + rel[1, p] ** 2 + rel[2, p] ** 2
+            cover2 = max(cover2, total - rel[k, p] ** 2)
+        top, bottom = -np.inf, np.inf
+        for p in range(0, n, stride):
+            total = rel[0, p] ** 2 + rel[1, p] ** 2 + rel[2, p] ** 2
+            slack = math.sqrt(max(cover2 - (total - rel[k, p] ** 2), 0.0))
+            top = max(top, rel[k, p] - slack)
+            bottom = min(bottom, rel[k, p] + slack)
+        volume = cover2 * max(top - bottom, 0.0) + 4.0 / 3.0 * cover2**1.5
+        if volume < best:
+            best, best_k = volume, k
+    k = best_k
+    i, j = (1, 2) if k == 0 else ((0, 2) if k == 1 else (0, 1))
+    corners = offsets.shape[0]
+    shift = np.zeros((corners, 3))
+    for c in range(corners):
+        for d in range(3):
+            for a in range(3):
+                shift[c, d] += offsets[c, a] * vectors[a, d]
+    radius2 = 0.0
+    for c in range(corners):
+        for p in range(n):
+            radius2 = max(radius2, (rel[i, p] + shift[c, i]) ** 2 + (rel[j, p] + shift[c, j]) ** 2)
+    low, high = np.inf, -np.inf
+    for c in range(corners):
+        for p in range(n):
+            across2 = (rel[i, p] + shift[c, i]) ** 2 + (rel[j, p] + shift[c, j]) ** 2
+            slack = math.sqrt(max(radius2 - across2, 0.0))
+            along = rel[k, p] + shift[c, k]
+            low = min(low, along + slack)
+            high = max(high, along - slack)
+    radius = math.sqrt(radius2)
+    if low > high:  # rounding: the points fit a ball around the middle of the axis
+        low = high = 0.5 * (low + high)
+        far2 = 0.0
+        for c in range(corners):
+            for p in range(n):
+                along = rel[k, p] + shift[c, k]
+                across2 = (rel[i, p] + shift[c, i]) ** 2 + (rel[j, p] + shift[c, j]) ** 2
+                far2 = max(far2, (along - low) ** 2 + across2)
+        radius = math.sqrt(far2)
+    base = mean.copy()
+    for a in range(3):
+        for d in range(3):
+            base[a] += vectors[a, d] * middle[d]
+    return base + low * vectors[:, k], base + high * vectors[:, k], radius
+
+
+@njit(cache=True)
+def _gp_step(state, x_train, x_train_sq, alpha, k_inv, theta, x_mean, x_std):
+    """Predictive mean (T, d_out) and variance (T,) (E.6) of the standardised outputs of one
+    group's GP for the states (T, P, d_out), newest last: the input is phi_{k-1}, ..., phi_{k-P}
+    standardised, the kernel is (8.7) without its white-noise term."""
+    trials, order, width = state.shape
+    d_in = order * width
+    xs = np.empty((trials, d_in))
+    xs_sq = np.zeros(trials)
+    for t in range(trials):
+        for p in range(order):
+            for c in range(width):
+                f = p * width + c
+                value = (state[t, order - 1 - p, c] - x_mean[f]) / x_std[f]
+                xs[t, f] = value
+                xs_sq[t] += value * value
+    k_x = xs @ x_train.T  # (T, N) dot products, then (8.7) in place
+    scale = -0.5 * theta[1]
+    for t in range(trials):
+        for n in range(k_x.shape[1]):
+            dot = k_x[t, n]
+            sq = max(xs_sq[t] + x_train_sq[n] - 2.0 * dot, 0.0)
+            k_x[t, n] = theta[0] * dot + theta[2] * math.exp(scale * sq)
+    mean = k_x @ alpha
+    weighted = k_x @ k_inv
+    var = np.empty(trials)
+    for t in range(trials):
+        explained = 0.0
+        for n in range(k_x.shape[1]):
+            explained += weighted[t, n] * k_x[t, n]
+        var[t] = max(theta[0] * xs_sq[t] + theta[2] + theta[3] - explained, 0.0)
+    return mean, var
+
+
+@njit(cache=True)
+def _gp_rollouts(history, noise, x_train, x_train_sq, alpha, k_inv, theta, x_mean, x_std, y_mean, y_std):
+    """Monte Carlo rollouts of eq. (8.8) for the groups of one GP bucket: history (G, P, d_out)
+    the shared past states, newest last; noise (M, G, T, d_out) standard normal draws; returns the
+    sampled states (M, G, T, d_out). The first step's prediction is made once (every trial has
+    the same past), as `GPMotionModel._rollouts_numpy` does."""
+    steps, groups, trials, width = noise.shape
+    order = history.shape[1]
+    out = np.empty((steps, groups, trials, width))
+    # element loops rather than slice assignments: each of those costs numba a compilation
+    for g in range(groups):
+        state = np.empty((trials, order, width))
+        for t in range(trials):
+            for p in range(order):
+                for c in range(width):
+                    state[t, p, c] = history[g, p, c]
+        first_mean, first_var = _gp_step(state[:1], x_train[g], x_train_sq[g], alpha[g], k_inv[g], theta[g],
+                                         x_mean[g], x_std[g])
+        for step in range(steps):
+            if step == 0:
+                mean = np.empty((trials, width))
+                var = np.empty(trials)
+                for t in range(trials):
+                    var[t] = first_var[0]
+                    for c in range(width):
+                        mean[t, c] = first_mean[0, c]
+            else:
+                mean, var = _gp_step(state, x_train[g], x_train_sq[g], alpha[g], k_inv[g], theta[g],
+                                     x_mean[g], x_std[g])
+            for t in range(trials):
+                spread = math.sqrt(var[t])
+                for p in range(order - 1):
+                    for c in range(width):
+                        state[t, p, c] = state[t, p + 1, c]
+                for c in range(width):
+                    value = (mean[t, c] + spread * noise[step, g, t, c]) * y_std[g, c] + y_mean[g, c]
+                    state[t, order - 1, c] = value
+                    out[step, g, t, c] = value
+    return out
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -168,10 +459,60 @@ def hidden_points(origin, axis, cos_limit: float, points, box_lower, box_upper, 
                           *_arrays(points, box_lower, box_upper, cap_start, cap_end, cap_radius))
 
 
+def bounding_capsule(points, offsets, stride: int = 1) -> tuple[np.ndarray, np.ndarray, float]:
+    """One capsule around points (3, N) translated by every corner in offsets (C, 3), see
+    `_bounding_capsule`: (start (3,), end (3,), radius)."""
+    start, end, radius = _bounding_capsule(*_arrays(points, offsets), int(stride))
+    return start, end, float(radius)
+
+
+def gp_rollouts(history, noise, bucket) -> np.ndarray:
+    """`_gp_rollouts` with the arrays of a fitted `GPMotionModel` bucket (x_train, x_train_sq,
+    alpha, k_inv, theta, x_mean, x_std, y_mean, y_std)."""
+    return _gp_rollouts(*_arrays(history, noise, *(bucket[key] for key in _BUCKET_KEYS)))
+
+
+_BUCKET_KEYS = ("x_train", "x_train_sq", "alpha", "k_inv", "theta", "x_mean", "x_std", "y_mean", "y_std")
+
+
+def _rows(visible) -> np.ndarray:
+    return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
+
+
+def skeleton_points(dims, q) -> np.ndarray:
+    """The 8 skeletal points (8, 3) of the body with dims (see `_skeleton_points`) at q (12,)."""
+    out = np.empty((8, 3))
+    _skeleton_points(*_arrays(dims, q), out)
+    return out
+
+
+def skeleton_jacobian(dims, q, visible, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """The visible points (3V,) at q and their forward-difference Jacobian (3V, 12)."""
+    rows = _rows(visible)
+    model, jacobian = np.empty(3 * len(rows)), np.empty((3 * len(rows), 12))
+    _skeleton_jacobian(*_arrays(dims, q), rows, float(step), model, jacobian)
+    return model, jacobian
+
+
+def tracking_gauss_newton(dims, q_lower, q_upper, target, visible, q0, iterations: int,
+                          regularization: float, step: float) -> tuple[np.ndarray, float]:
+    """`_tracking_gauss_newton` over the visible points; target (3V,) their measured positions."""
+    return _tracking_gauss_newton(*_arrays(dims, q_lower, q_upper, target), _rows(visible),
+                                  *_arrays(q0), int(iterations), float(regularization), float(step))
+
+
 def warm_up() -> float:
     """Compile (or load from the disk cache) every kernel; returns the seconds it took."""
     started = time.perf_counter()
     one = np.zeros((1, 3))
     capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1))
     hidden_points(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.5, one + 1.0, one, one, one, one, np.ones(1))
+    bounding_capsule(np.eye(3), np.zeros((1, 3)))
+    bucket = {"x_train": np.ones((1, 2, 3)), "x_train_sq": np.ones((1, 2)), "alpha": np.ones((1, 2, 3)),
+              "k_inv": np.eye(2)[None], "theta": np.ones((1, 4)), "x_mean": np.zeros((1, 3)),
+              "x_std": np.ones((1, 3)), "y_mean": np.zeros((1, 3)), "y_std": np.ones((1, 3))}
+    gp_rollouts(np.zeros((1, 1, 3)), np.zeros((2, 1, 2, 3)), bucket)
+    dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
+    skeleton_jacobian(dims, q, visible, 1e-5)
+    tracking_gauss_newton(dims, q - 1.0, q + 1.0, skeleton_points(dims, q).ravel(), visible, q, 1, 1e-3, 1e-5)
     return time.perf_counter() - started

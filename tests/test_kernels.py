@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from hrc_drake import kernels
+from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.motion import reactive
 from hrc_drake.motion.geometry import segment_segment_closest
 
 
@@ -61,3 +63,94 @@ def test_warm_up_compiles_every_kernel_and_returns_its_seconds():
     seconds = kernels.warm_up()
     assert 0.0 < seconds < 120.0
     assert kernels.warm_up() < 1.0  # the second call finds them compiled
+
+
+def _random_poses(body, rng, count):
+    q = body.rest_q() + rng.normal(scale=0.4, size=(count, 12))
+    return np.clip(q, body.q_lower, body.q_upper)
+
+
+def test_skeleton_points_and_jacobian_equal_the_body_model_and_its_numpy_jacobian():
+    body = BodyModel()
+    dims = reactive._kernel_dims(body)
+    rng = np.random.default_rng(3)
+    for q in _random_poses(body, rng, 6):
+        np.testing.assert_allclose(kernels.skeleton_points(dims, q), body.points(q), atol=1e-14)
+        visible = rng.random(8) > 0.3
+        visible[:3] = True
+        model, jacobian = kernels.skeleton_jacobian(dims, q, visible, 1e-5)
+        ref_model, ref_jacobian = reactive._points_and_jacobian(body, q, visible)
+        np.testing.assert_allclose(model, ref_model, atol=1e-14)
+        np.testing.assert_allclose(jacobian, ref_jacobian, atol=1e-9)
+        assert jacobian.shape == (3 * visible.sum(), 12)
+
+
+def test_tracking_gauss_newton_equals_the_numpy_steps_and_a_moved_body_keeps_the_numpy_path():
+    body = BodyModel()
+    dims = reactive._kernel_dims(body)
+    rng = np.random.default_rng(4)
+    for q0 in _random_poses(body, rng, 6):
+        points = body.points(np.clip(q0 + rng.normal(scale=0.05, size=12), body.q_lower, body.q_upper))
+        visible = rng.random(8) > 0.2
+        target = points[visible].ravel()
+        ref_q, ref_rms = reactive._tracking_gauss_newton(body, target, visible, q0, 4, 1e-3)
+        q, rms = kernels.tracking_gauss_newton(dims, body.q_lower, body.q_upper, target, visible, q0, 4, 1e-3,
+                                               1e-5)
+        np.testing.assert_allclose(q, ref_q, atol=1e-9)
+        assert rms == pytest.approx(ref_rms, rel=1e-9, abs=1e-12)
+
+    class LongArms(BodyModel):  # other kinematics: the kernels, written for BodyModel's, must not be used
+        def _points(self, q, with_fore_dir=False):
+            return super()._points(q, with_fore_dir) * 1.1
+
+        def _points_single(self, q, with_fore_dir=False):
+            return self._points(q[None], with_fore_dir)[0]
+
+    assert reactive._kernel_dims(LongArms()) is None
+    long_arms = LongArms()
+    q0 = body.rest_q()
+    q = reactive.tracking_inverse(long_arms, long_arms.points(q0 + 0.02), q0)
+    np.testing.assert_allclose(long_arms.points(q), long_arms.points(q0 + 0.02), atol=0.02)
+
+
+def test_bounding_capsule_equals_its_numpy_form(monkeypatch):
+    rng = np.random.default_rng(5)
+    for points in (rng.normal(size=(3, 300)) * [[0.4], [0.1], [0.05]], rng.normal(size=(3, 2000)),
+                   np.zeros((3, 5)) + [[0.1], [0.2], [0.3]]):  # a single point: the ball branch
+        offsets = rng.uniform(-0.1, 0.1, size=(4, 3))
+        got = kernels.bounding_capsule(points, offsets, 3)
+        ref = reactive._bounding_capsule(points, offsets, 3)
+        ends = np.array([got[0], got[1]])
+        if np.abs(ends[0] - ref[0]).max() > 1e-9:  # an eigenvector of the other sign: ends swapped
+            ends = ends[::-1]
+        np.testing.assert_allclose(ends, [ref[0], ref[1]], atol=1e-9)
+        assert got[2] == pytest.approx(ref[2], rel=1e-12)
+    # the swept volumes the builder makes with the kernel are those of the numpy form
+    body = BodyModel()
+    builder = reactive.SweptVolumeBuilder(body)
+    boxes = []
+    for q in _random_poses(body, rng, 4):
+        delta_plus, delta_minus = rng.uniform(0.0, 0.4, 12), rng.uniform(0.0, 0.4, 12)
+        boxes.append((q, delta_plus, delta_minus, builder.build(q, delta_plus, delta_minus)))
+    monkeypatch.setattr(kernels, "bounding_capsule", reactive._bounding_capsule)
+    for q, delta_plus, delta_minus, (start, end, radius) in boxes:
+        ref_start, ref_end, ref_radius = builder.build(q, delta_plus, delta_minus)
+        np.testing.assert_allclose(radius, ref_radius, rtol=1e-12)
+        same = np.abs(start - ref_start).max(axis=1) < 1e-9
+        np.testing.assert_allclose(np.where(same[:, None], start, end), ref_start, atol=1e-9)
+
+
+@pytest.mark.parametrize("groups", ["gp_a", "gp_b", "gp_c"])
+def test_gp_rollouts_equal_the_numpy_rollouts_with_the_same_draws(groups):
+    from hrc_drake.motion.gp import GPMotionModel
+
+    t = np.arange(160) * 0.05
+    q = np.stack([np.sin(t * (1.0 + 0.1 * j)) + 0.01 * j for j in range(12)], -1)
+    phi = np.stack([q, np.gradient(q, axis=0), np.gradient(np.gradient(q, axis=0), axis=0)], -1)
+    windows = np.stack([phi[k - 3:k + 1] for k in range(3, 160)])
+    model = GPMotionModel(groups, order=3, max_samples=60, random_state=1).fit(windows)
+    got = model.sample_rollouts(phi[-3:], 5, 20, np.random.default_rng(7))
+    reference = model._rollouts_numpy(phi[-3:], 5, 20, np.random.default_rng(7))
+    assert got.shape == (20, 5, 12)
+    np.testing.assert_allclose(got, reference, atol=1e-8)
+    assert np.ptp(got[:, -1], axis=0).max() > 1e-3  # the trials differ: the noise is used

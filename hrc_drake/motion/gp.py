@@ -23,6 +23,7 @@ import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 from threadpoolctl import ThreadpoolController
 
+from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
 from hrc_drake.rng import clone_generator
 
@@ -410,16 +411,35 @@ class GPMotionModel:
             return self._rollouts(history, int(steps), int(n_trials), rng)
 
     def _rollouts(self, history, steps, n_trials, rng):
+        """The trials of `sample_rollouts`, compiled (`kernels.gp_rollouts`): the same normal
+        draws in the same order as `_rollouts_numpy`, the reference."""
+        positions = np.empty((n_trials, steps, self.n_dof))
+        for bucket in self.buckets_:
+            joints = bucket["joints"]  # (G, s)
+            n_groups, size = joints.shape
+            past = history[:, joints, :].transpose(1, 0, 2, 3).reshape(n_groups, self.order, 3 * size)
+            noise = rng.standard_normal((steps, n_groups, n_trials, 3 * size))
+            states = kernels.gp_rollouts(past, noise, bucket)  # (M, G, T, 3 s)
+            q = states.reshape(steps, n_groups, n_trials, size, 3)[..., 0]  # (M, G, T, s)
+            positions[:, :, joints.reshape(-1)] = q.transpose(2, 0, 1, 3).reshape(n_trials, steps, -1)
+        return positions
+
+    def _rollouts_numpy(self, history, steps, n_trials, rng):
         positions = np.empty((n_trials, steps, self.n_dof))
         for bucket in self.buckets_:
             joints = bucket["joints"]  # (G, s)
             n_groups, size = joints.shape
             # past: (G, T, P, 3 s), newest last
             past = history[:, joints, :].transpose(1, 0, 2, 3).reshape(n_groups, 1, self.order, 3 * size)
+            first_mean, first_var = self._predict_bucket(bucket, past[:, :, ::-1].reshape(n_groups, 1, -1))
             past = np.repeat(past, n_trials, axis=1)
             for step in range(steps):
-                inputs = past[:, :, ::-1].reshape(n_groups, n_trials, -1)
-                mean, var = self._predict_bucket(bucket, inputs)
+                if step == 0:  # every trial starts from the same history: one prediction serves all
+                    mean = np.broadcast_to(first_mean, (n_groups, n_trials, first_mean.shape[-1]))
+                    var = np.broadcast_to(first_var, (n_groups, n_trials))
+                else:
+                    inputs = past[:, :, ::-1].reshape(n_groups, n_trials, -1)
+                    mean, var = self._predict_bucket(bucket, inputs)
                 noise = rng.standard_normal(mean.shape)
                 standardised = mean + np.sqrt(var)[..., None] * noise
                 nxt = standardised * bucket["y_std"][:, None] + bucket["y_mean"][:, None]

@@ -21,6 +21,8 @@ import time as _time
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from hrc_drake import kernels
+from hrc_drake.human.body import BodyModel
 from hrc_drake.messages import SweptVolumes, shallow_copy
 from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth
@@ -199,10 +201,11 @@ class SweptVolumeBuilder:
     the cell, exactly, where a grid alone needs an arc-to-chord inflation. The samples multiply
     through the chain (only the joints a capsule depends on), the forearm's down to the vertices
     of their hull, before yaw and flexion turn them; the base translation box is the hull of its
-    four corners. One capsule bounds each body capsule's points (`_bounding_capsule`), plus its
-    body radius and `margin`: the union holds every instance of every body capsule on the joint
-    box. (Bounding a forearm's points in 2-4 groups split by yaw cells, one capsule each, moved
-    the worst-case frontier from rest by under 3 cm and grew the union's volume by 8-15%.)
+    four corners. One capsule bounds each body capsule's points (`_bounding_capsule`, compiled as
+    `kernels.bounding_capsule`), plus its body radius and `margin`: the union holds every
+    instance of every body capsule on the joint box. (Bounding a forearm's points in 2-4 groups
+    split by yaw cells, one capsule each, moved the worst-case frontier from rest by under 3 cm
+    and grew the union's volume by 8-15%.)
     """
 
     #: largest distance (m) of a tangent sample beyond the arc it stands for that needs no finer
@@ -298,7 +301,8 @@ class SweptVolumeBuilder:
         for k, local in enumerate(parts):
             # (3, T * n): every torso-frame point under every turn
             points = (local @ columns).reshape(len(local), -1, 3).transpose(2, 1, 0).reshape(3, -1)
-            start[k], end[k], radius[k] = _bounding_capsule(points, offsets, 1 + points.shape[1] // 1000)
+            stride = 1 + points.shape[1] // 1000
+            start[k], end[k], radius[k] = kernels.bounding_capsule(points, offsets, stride)
         centre = np.array([low[0] + hx, low[1] + hy, self._hip_height])
         return start + centre, end + centre, radius + self._radius + self.margin
 
@@ -412,11 +416,34 @@ class JointStateEstimator:
         return means * self._scale
 
 
+#: forward-difference step of the IK Jacobian (rad or m)
+_JACOBIAN_STEP = 1e-5
+
+
+def _kernel_dims(body) -> np.ndarray | None:
+    """The segment dimensions the compiled skeleton kernels take, for a `BodyModel` whose forward
+    kinematics is the stock one; None for any other body (it keeps the numpy path)."""
+    kind = type(body)
+    stock = all(getattr(kind, name) is getattr(BodyModel, name)
+                for name in ("points", "_points", "_points_single"))
+    if not (isinstance(body, BodyModel) and stock):
+        return None
+    return np.array([body.hip_height, body.torso, body.neck, 0.5 * body.shoulder_width, body.upper_arm,
+                     body.forearm])
+
+
 def _points_and_jacobian(body, q, visible) -> tuple[np.ndarray, np.ndarray]:
     """Visible skeletal points (3V,) at q and their Jacobian (3V, 12), one batched forward kinematics."""
-    step = 1e-5
-    points = body.points(q + np.vstack([np.zeros(12), step * np.eye(12)]))[:, visible]  # (13, V, 3)
-    return points[0].ravel(), ((points[1:] - points[0]) / step).reshape(12, -1).T
+    points = body.points(q + np.vstack([np.zeros(12), _JACOBIAN_STEP * np.eye(12)]))[:, visible]  # (13, V, 3)
+    return points[0].ravel(), ((points[1:] - points[0]) / _JACOBIAN_STEP).reshape(12, -1).T
+
+
+def _jacobian(body, q, visible) -> np.ndarray:
+    """The Jacobian of `_points_and_jacobian`, compiled for a stock `BodyModel`."""
+    dims = _kernel_dims(body)
+    if dims is None:
+        return _points_and_jacobian(body, q, visible)[1]
+    return kernels.skeleton_jacobian(dims, q, visible, _JACOBIAN_STEP)[1]
 
 
 def _visible(points) -> np.ndarray:
@@ -438,7 +465,7 @@ def ik_joint_std(body, q, point_std: float, visible=None, cap: float = 1.0) -> n
     if not point_std > 0 or not cap > 0:
         raise ValueError(f"ik_joint_std: point_std and cap must be positive, got {point_std!r}, {cap!r}")
     visible = np.ones(8, dtype=bool) if visible is None else np.asarray(visible, dtype=bool)
-    _, jacobian = _points_and_jacobian(body, q, visible)
+    jacobian = _jacobian(body, q, visible)
     information = jacobian.T @ jacobian + (point_std / cap) ** 2 * np.eye(12)
     return point_std * np.sqrt(np.diag(np.linalg.inv(information)))
 
@@ -460,17 +487,29 @@ def tracking_inverse(body, points, q0, iterations: int = 4, regularization: floa
         return body.inverse(points, q0=q0)
     q0 = np.asarray(q0, dtype=float)
     target = points[visible].ravel()
+    dims = _kernel_dims(body)
+    if dims is None:
+        q, rms = _tracking_gauss_newton(body, target, visible, q0, int(iterations), regularization)
+    else:
+        q, rms = kernels.tracking_gauss_newton(dims, body.q_lower, body.q_upper, target, visible, q0,
+                                               int(iterations), regularization, _JACOBIAN_STEP)
+    if rms > tolerance:
+        return body.inverse(points, q0=q0)
+    return q
+
+
+def _tracking_gauss_newton(body, target, visible, q0, iterations: int, regularization: float):
+    """The damped Gauss-Newton steps of `tracking_inverse` in numpy, for any body model (the
+    reference of `kernels.tracking_gauss_newton`): q and the rms point residual at it."""
     q = q0.copy()
     damping = regularization**2 * np.eye(12)
-    for _ in range(int(iterations)):
+    for _ in range(iterations):
         model, jacobian = _points_and_jacobian(body, q, visible)
         gradient = jacobian.T @ (target - model) - regularization**2 * (q - q0)
         q = q + np.linalg.solve(jacobian.T @ jacobian + damping, gradient)
         q = np.clip(q, body.q_lower, body.q_upper)
     residual = body.points(q)[visible].ravel() - target
-    if np.sqrt(np.mean(residual**2) * 3.0) > tolerance:
-        return body.inverse(points, q0=q0)
-    return q
+    return q, float(np.sqrt(np.mean(residual**2) * 3.0))
 
 
 def _limits(value, default: dict, name: str) -> np.ndarray:
