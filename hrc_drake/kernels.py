@@ -436,6 +436,67 @@ def _gp_rollouts(history, noise, x_train, x_train_sq, alpha, k_inv, theta, x_mea
     return out
 
 
+@njit(cache=True)
+def _trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
+                alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column):
+    """One lockstep step of `scheduling.montecarlo.simulate_trials` (the trials of Algorithm 4)
+    for every trial n, in place: fire fired[n] (when >= 0) chosen by the previous step, enable
+    (eq. 6.1), clock the newly enabled uncontrollable transitions from the delay pools (a robot's
+    wait ends on the next t_w tick), then choose the next firing (the enabled controllable one
+    with the largest key, unless an uncontrollable clock is due now; else the earliest clock) and
+    advance the time to it, at most to the horizon. Writes dt, chosen and column (chosen, or -1
+    once the trial has reached the horizon); returns whether any trial is still running."""
+    n_trials, n_places = m.shape
+    n_tr = pre.shape[1]
+    depth = pools.shape[2]
+    any_alive = False
+    for n in range(n_trials):
+        j = fired[n]
+        if j >= 0:  # finished trials fire too: what happens to them is never read
+            for i in range(n_places):
+                m[n, i] += inc_t[j, i]
+            fire_at[n, j] = np.inf
+            en_prev[n, j] = False
+        j_unc, t_unc = 0, np.inf
+        j_ctrl, best_key, any_ctrl = 0, -np.inf, False
+        for j in range(n_tr):
+            enabled = True
+            for i in range(n_places):
+                if pre[i, j] > m[n, i]:
+                    enabled = False
+                    break
+            if enabled and unc[j] and not en_prev[n, j]:
+                delay = pools[n, j, count[n, j] % depth]
+                if quantum > 0 and is_wait_end[j]:
+                    delay = quantum - (now + t[n]) % quantum
+                    if delay < 1e-9 * quantum:
+                        delay = quantum
+                fire_at[n, j] = t[n] + delay
+                count[n, j] += 1
+            if not enabled:
+                fire_at[n, j] = np.inf
+            en_prev[n, j] = enabled and unc[j]
+            if fire_at[n, j] < t_unc:  # the first earliest clock, as np.argmin
+                j_unc, t_unc = j, fire_at[n, j]
+            key = -1.0
+            if enabled and controllable[j]:
+                any_ctrl = True
+                key = keys[group[n], j] + key_bonus[j]
+            if key > best_key:  # the first largest key, as np.argmax
+                j_ctrl, best_key = j, key
+        # events due now fire first, so robots freed at the same instant decide together
+        has_ctrl = any_ctrl and alive[n] and t_unc > t[n]
+        advance = alive[n] and not has_ctrl
+        t_next = min(t_unc, horizon) if advance else t[n]
+        dt[n] = t_next - t[n]
+        t[n] = t_next
+        alive[n] = alive[n] and not (advance and t_unc > horizon)
+        any_alive = any_alive or alive[n]
+        chosen[n] = j_ctrl if has_ctrl else j_unc
+        column[n] = chosen[n] if alive[n] else -1
+    return any_alive
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -475,6 +536,16 @@ def gp_rollouts(history, noise, bucket) -> np.ndarray:
 _BUCKET_KEYS = ("x_train", "x_train_sq", "alpha", "k_inv", "theta", "x_mean", "x_std", "y_mean", "y_std")
 
 
+def trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
+               alive, keys, group, key_bonus, horizon: float, now: float, quantum: float, dt, chosen,
+               column) -> bool:
+    """`_trial_step` on the caller's arrays, changed in place (no copies: the caller passes C-ordered
+    int64 m (N, P), pre (P, T), inc_t (T, P), fired, count, group, chosen, column; bool unc,
+    controllable, is_wait_end, en_prev, alive; float64 pools, fire_at, t, keys, key_bonus, dt)."""
+    return _trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev,
+                       t, alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column)
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -512,6 +583,12 @@ def warm_up() -> float:
               "k_inv": np.eye(2)[None], "theta": np.ones((1, 4)), "x_mean": np.zeros((1, 3)),
               "x_std": np.ones((1, 3)), "y_mean": np.zeros((1, 3)), "y_std": np.ones((1, 3))}
     gp_rollouts(np.zeros((1, 1, 3)), np.zeros((2, 1, 2, 3)), bucket)
+    ints, flags, reals = np.zeros(1, dtype=np.int64), np.ones(1, dtype=bool), np.zeros(1)
+    square_ints = np.ones((1, 1), dtype=np.int64)
+    trial_step(square_ints.copy(), square_ints.copy(), square_ints - 1, ints - 1, flags, ~flags, ~flags,
+               np.ones((1, 1, 1)), square_ints - 1, np.full((1, 1), np.inf), np.zeros((1, 1), dtype=bool),
+               reals.copy(), flags.copy(), np.zeros((1, 1)), ints, reals, 1.0, 0.0, 0.0, reals.copy(),
+               ints.copy(), ints.copy())
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
     skeleton_jacobian(dims, q, visible, 1e-5)
     tracking_gauss_newton(dims, q - 1.0, q + 1.0, skeleton_points(dims, q).ravel(), visible, q, 1, 1e-3, 1e-5)

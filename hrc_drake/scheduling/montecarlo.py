@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.learning import DurationModel, UniformSupportDurationModel
 from hrc_drake.scheduling.petri import PcTPN
@@ -93,6 +94,7 @@ def simulate_trials(
     max_steps: int = 5000,
     now: float = 0.0,
     rollout: str = "uniform",
+    compiled: bool = True,
 ) -> TrialBatch:
     """Run `n_trials` Monte Carlo trajectories of the net from `marking` up to `horizon` s.
 
@@ -105,6 +107,8 @@ def simulate_trials(
     rollout: how controllable conflicts after the root are resolved. "uniform" (7.3.1): any
     enabled controllable transition with equal probability. "work_first": uniformly among the
     robots' actions and commitments, an explicit wait only when none is enabled.
+    compiled: step the trials with `kernels.trial_step` (default) or with numpy operations on
+    all trials at once (the reference; same draws, paths and costs).
     """
     if rollout not in ROLLOUTS:
         raise ValueError(f"simulate_trials: rollout must be one of {ROLLOUTS}, got {rollout!r}")
@@ -157,12 +161,87 @@ def simulate_trials(
     en_prev = np.broadcast_to(en0 & unc, (n_trials, n_tr)).copy()
 
     m = np.repeat(marking[None, :], n_trials, axis=0)
+    first_j = roots[rows % roots.size]
+    m += inc_t[first_j]
+    lockstep = _lockstep_compiled if compiled else _lockstep_numpy
+    cols, cost_r, cost_h = lockstep(
+        _Trials(net, m, pools, count, fire_at, en_prev, group, n_groups, key_bonus, is_wait_end, robot_w,
+                human_w, inc_t),
+        rng, horizon, now, quantum, max_steps,
+    )
+    return TrialBatch(np.stack([first_j] + cols, axis=1), cost_r + cost_h, cost_r, cost_h)
+
+
+@dataclass
+class _Trials:
+    """The lockstep state of `simulate_trials` after the root firing (arrays changed in place)."""
+
+    net: PcTPN
+    m: np.ndarray  # (N, P) markings
+    pools: np.ndarray  # (N, T, depth) delays
+    count: np.ndarray  # (N, T) firings drawn so far per transition
+    fire_at: np.ndarray  # (N, T) clocks of the enabled uncontrollable transitions, else inf
+    en_prev: np.ndarray  # (N, T) enabled uncontrollable transitions of the previous step
+    group: np.ndarray  # (N,) common-random-number group of each trial
+    n_groups: int
+    key_bonus: np.ndarray  # (T,) added to the random keys of controllable choices
+    is_wait_end: np.ndarray  # (T,) the ends of robot waits (on the t_w ticks)
+    robot_w: np.ndarray  # (P,) cost weights of the robots' idle places
+    human_w: np.ndarray  # (P,) and of the human's
+    inc_t: np.ndarray  # (T, P) incidence, transposed
+
+
+def _no_horizon(max_steps: int) -> RuntimeError:
+    return RuntimeError(
+        f"simulate_trials: {max_steps} firings without reaching the horizon; the net has a loop of "
+        "zero-delay transitions"
+    )
+
+
+def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
+    """The trials' steps by `kernels.trial_step`, one call per step; the same draws, choices and
+    costs as `_lockstep_numpy` (the costs are summed by the same numpy products)."""
+    net = trials.net
+    n_trials = trials.m.shape[0]
+    pre = np.ascontiguousarray(net.pre, dtype=np.int64)
+    inc_t = np.ascontiguousarray(trials.inc_t, dtype=np.int64)
+    unc = np.ascontiguousarray(~net.controllable)
+    controllable = np.ascontiguousarray(net.controllable, dtype=bool)
+    t, cost_r, cost_h = np.zeros(n_trials), np.zeros(n_trials), np.zeros(n_trials)
+    alive = np.ones(n_trials, dtype=bool)
+    dt, fired = np.empty(n_trials), np.full(n_trials, -1, dtype=np.int64)
+    cols = []
+    for _ in range(max_steps):
+        keys = rng.random((trials.n_groups, net.n_transitions))
+        chosen, column = np.empty(n_trials, dtype=np.int64), np.empty(n_trials, dtype=np.int64)
+        running = kernels.trial_step(
+            trials.m, pre, inc_t, fired, unc, controllable, trials.is_wait_end, trials.pools, trials.count,
+            trials.fire_at, trials.en_prev, t, alive, keys, trials.group, trials.key_bonus, float(horizon),
+            float(now), float(quantum), dt, chosen, column,
+        )
+        cost_r += (trials.m @ trials.robot_w) * dt
+        cost_h += (trials.m @ trials.human_w) * dt
+        if not running:
+            return cols, cost_r, cost_h
+        fired = chosen
+        cols.append(column)
+    raise _no_horizon(max_steps)
+
+
+def _lockstep_numpy(trials: _Trials, rng, horizon, now, quantum, max_steps):
+    """The trials' steps as numpy operations on all trials at once (the reference of the
+    compiled form): returns the path columns after the root and the robot and human costs."""
+    net, m, pools, count = trials.net, trials.m, trials.pools, trials.count
+    fire_at, en_prev = trials.fire_at, trials.en_prev
+    group, key_bonus, is_wait_end = trials.group, trials.key_bonus, trials.is_wait_end
+    unc = ~net.controllable
+    n_trials, n_tr = m.shape[0], net.n_transitions
+    depth = pools.shape[2]
+    rows = np.arange(n_trials)
     t = np.zeros(n_trials)
     cost_r = np.zeros(n_trials)
     cost_h = np.zeros(n_trials)
-    first_j = roots[rows % roots.size]
-    m += inc_t[first_j]
-    cols = [first_j]
+    cols = []
     alive = np.ones(n_trials, dtype=bool)
     for _ in range(max_steps):
         en = net.enabled_batch(m)
@@ -182,30 +261,25 @@ def simulate_trials(
         t_unc = fire_at[rows, j_unc]
         # events due now fire first, so robots freed at the same instant decide together
         has_ctrl = ctrl_en.any(axis=1) & alive & (t_unc > t)
-        keys = np.where(ctrl_en, rng.random((n_groups, n_tr))[group] + key_bonus, -1.0)
+        keys = np.where(ctrl_en, rng.random((trials.n_groups, n_tr))[group] + key_bonus, -1.0)
         j_ctrl = np.argmax(keys, axis=1)
         advance = alive & ~has_ctrl
         t_next = np.where(advance, np.minimum(t_unc, horizon), t)
         dt = t_next - t
-        cost_r += (m @ robot_w) * dt
-        cost_h += (m @ human_w) * dt
+        cost_r += (m @ trials.robot_w) * dt
+        cost_h += (m @ trials.human_w) * dt
         t = t_next
         alive &= ~(advance & (t_unc > horizon))
         j = np.where(has_ctrl, j_ctrl, j_unc)
         if not alive.any():
-            break
+            return cols, cost_r, cost_h
         # finished trials fire too (cheaper than masking): their time and costs are frozen and
         # their path entries are -1, so what happens to their marking is never read
-        m += inc_t[j]
+        m += trials.inc_t[j]
         fire_at[rows, j] = np.inf
         en_prev[rows, j] = False
         cols.append(np.where(alive, j, -1))
-    else:
-        raise RuntimeError(
-            f"simulate_trials: {max_steps} firings without reaching the horizon; the net has a loop of "
-            "zero-delay transitions"
-        )
-    return TrialBatch(np.stack(cols, axis=1), cost_r + cost_h, cost_r, cost_h)
+    raise _no_horizon(max_steps)
 
 
 def percentile_linear(values: np.ndarray, quantile: float) -> float:

@@ -83,3 +83,27 @@ def test_monte_carlo_runs_in_the_cell_and_is_seeded():
     random_enabled = simulate_cell(net, RandomEnabledPolicy(net, random_state=0), np.random.default_rng(7),
                                    n_cycles=1)
     assert len(random_enabled.cycle_ends) == 1
+
+
+def test_compiled_trials_equal_the_numpy_trials_draw_for_draw():
+    nets = [_net_7_6()] + [compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+                           for flow, buffers, pattern, robots in (tc.use_case_a(), tc.use_case_b())]
+    checked = 0
+    for net in nets:
+        for k, who in enumerate(net.robot_agents):
+            roots = net.agent_transitions(who)
+            roots = [j for j in roots if net.controllable[j] and net.enabled(net.m0)[j]]
+            if not roots:
+                continue
+            durations = DurationModel(net)
+            elapsed = np.where(~net.controllable, 0.4 * k, 0.0)  # clocks conditioned on elapsed time
+            for rollout in ("uniform", "work_first"):
+                runs = [simulate_trials(net, net.m0, durations, np.random.default_rng(5 + k), 40, 25.0, roots,
+                                        elapsed, now=0.7, rollout=rollout, compiled=compiled)
+                        for compiled in (True, False)]
+                np.testing.assert_array_equal(runs[0].paths, runs[1].paths)
+                np.testing.assert_array_equal(runs[0].costs, runs[1].costs)
+                np.testing.assert_array_equal(runs[0].human_wait, runs[1].human_wait)
+                assert runs[0].paths.shape[1] > 3 and max(np.unique(c).size for c in runs[0].paths.T) > 2
+                checked += 1
+    assert checked >= 6
