@@ -437,7 +437,7 @@ def _gp_rollouts(history, noise, x_train, x_train_sq, alpha, k_inv, theta, x_mea
 
 
 @njit(cache=True)
-def _trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
+def _trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
                 alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column):
     """One lockstep step of `scheduling.montecarlo.simulate_trials` (the trials of Algorithm 4)
     for every trial n, in place: fire fired[n] (when >= 0) chosen by the previous step, enable
@@ -445,24 +445,26 @@ def _trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, cou
     wait ends on the next t_w tick), then choose the next firing (the enabled controllable one
     with the largest key, unless an uncontrollable clock is due now; else the earliest clock) and
     advance the time to it, at most to the horizon. Writes dt, chosen and column (chosen, or -1
-    once the trial has reached the horizon); returns whether any trial is still running."""
-    n_trials, n_places = m.shape
-    n_tr = pre.shape[1]
+    once the trial has reached the horizon); returns whether any trial is still running.
+    arcs: the net's arcs by transition (`petri_arcs`): only the places a transition touches are read."""
+    pre_start, pre_place, pre_weight, inc_start, inc_place, inc_delta = arcs
+    n_trials = m.shape[0]
+    n_tr = pre_start.shape[0] - 1
     depth = pools.shape[2]
     any_alive = False
     for n in range(n_trials):
         j = fired[n]
         if j >= 0:  # finished trials fire too: what happens to them is never read
-            for i in range(n_places):
-                m[n, i] += inc_t[j, i]
+            for a in range(inc_start[j], inc_start[j + 1]):
+                m[n, inc_place[a]] += inc_delta[a]
             fire_at[n, j] = np.inf
             en_prev[n, j] = False
         j_unc, t_unc = 0, np.inf
         j_ctrl, best_key, any_ctrl = 0, -np.inf, False
         for j in range(n_tr):
             enabled = True
-            for i in range(n_places):
-                if pre[i, j] > m[n, i]:
+            for a in range(pre_start[j], pre_start[j + 1]):
+                if pre_weight[a] > m[n, pre_place[a]]:
                     enabled = False
                     break
             if enabled and unc[j] and not en_prev[n, j]:
@@ -536,14 +538,26 @@ def gp_rollouts(history, noise, bucket) -> np.ndarray:
 _BUCKET_KEYS = ("x_train", "x_train_sq", "alpha", "k_inv", "theta", "x_mean", "x_std", "y_mean", "y_std")
 
 
-def trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
-               alive, keys, group, key_bonus, horizon: float, now: float, quantum: float, dt, chosen,
+def petri_arcs(pre, incidence) -> tuple[np.ndarray, ...]:
+    """The arcs of a net with pre (P, T) and incidence (P, T), by transition, for `trial_step`:
+    (pre_start (T+1,), pre_place, pre_weight) of the input arcs Pre^ij > 0 and (inc_start,
+    inc_place, inc_delta) of the nonzero incidence entries, as int64 arrays in CSR form."""
+    out = []
+    for matrix in (np.asarray(pre), np.asarray(incidence)):
+        transition, place = np.nonzero(matrix.T)
+        start = np.searchsorted(transition, np.arange(matrix.shape[1] + 1)).astype(np.int64)
+        out += [start, place.astype(np.int64), matrix.T[transition, place].astype(np.int64)]
+    return tuple(out)
+
+
+def trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t, alive,
+               keys, group, key_bonus, horizon: float, now: float, quantum: float, dt, chosen,
                column) -> bool:
     """`_trial_step` on the caller's arrays, changed in place (no copies: the caller passes C-ordered
-    int64 m (N, P), pre (P, T), inc_t (T, P), fired, count, group, chosen, column; bool unc,
-    controllable, is_wait_end, en_prev, alive; float64 pools, fire_at, t, keys, key_bonus, dt)."""
-    return _trial_step(m, pre, inc_t, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev,
-                       t, alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column)
+    int64 m (N, P), fired, count, group, chosen, column; bool unc, controllable, is_wait_end,
+    en_prev, alive; float64 pools, fire_at, t, keys, key_bonus, dt; arcs from `petri_arcs`)."""
+    return _trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fire_at, en_prev, t,
+                       alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column)
 
 
 def _rows(visible) -> np.ndarray:
@@ -584,11 +598,10 @@ def warm_up() -> float:
               "x_std": np.ones((1, 3)), "y_mean": np.zeros((1, 3)), "y_std": np.ones((1, 3))}
     gp_rollouts(np.zeros((1, 1, 3)), np.zeros((2, 1, 2, 3)), bucket)
     ints, flags, reals = np.zeros(1, dtype=np.int64), np.ones(1, dtype=bool), np.zeros(1)
-    square_ints = np.ones((1, 1), dtype=np.int64)
-    trial_step(square_ints.copy(), square_ints.copy(), square_ints - 1, ints - 1, flags, ~flags, ~flags,
-               np.ones((1, 1, 1)), square_ints - 1, np.full((1, 1), np.inf), np.zeros((1, 1), dtype=bool),
-               reals.copy(), flags.copy(), np.zeros((1, 1)), ints, reals, 1.0, 0.0, 0.0, reals.copy(),
-               ints.copy(), ints.copy())
+    marking, arcs = np.ones((1, 1), dtype=np.int64), petri_arcs(np.ones((1, 1)), np.zeros((1, 1)))
+    trial_step(marking, arcs, ints - 1, flags, ~flags, ~flags, np.ones((1, 1, 1)), marking - 1,
+               np.full((1, 1), np.inf), np.zeros((1, 1), dtype=bool), reals.copy(), flags.copy(),
+               np.zeros((1, 1)), ints, reals, 1.0, 0.0, 0.0, reals.copy(), ints.copy(), ints.copy())
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
     skeleton_jacobian(dims, q, visible, 1e-5)
     tracking_gauss_newton(dims, q - 1.0, q + 1.0, skeleton_points(dims, q).ravel(), visible, q, 1, 1e-3, 1e-5)
