@@ -213,30 +213,35 @@ def _skeleton_jacobian(dims, q, rows, step, model, jacobian):
 
 
 @njit(cache=True)
-def _solve_positive_definite(matrix, rhs):
-    """matrix^-1 rhs for a small symmetric positive definite matrix, by Cholesky (written out:
-    numba's np.linalg.solve takes seconds to compile)."""
-    size = rhs.shape[0]
-    lower = np.zeros((size, size))
-    for i in range(size):
-        for j in range(i + 1):
-            total = matrix[i, j]
-            for k in range(j):
-                total -= lower[i, k] * lower[j, k]
-            lower[i, j] = math.sqrt(total) if i == j else total / lower[j, j]
-    y = np.empty(size)
-    for i in range(size):
-        total = rhs[i]
-        for k in range(i):
-            total -= lower[i, k] * y[k]
-        y[i] = total / lower[i, i]
-    x = np.empty(size)
-    for i in range(size - 1, -1, -1):
-        total = y[i]
-        for k in range(i + 1, size):
-            total -= lower[k, i] * x[k]
-        x[i] = total / lower[i, i]
-    return x
+def _solve_pivoting(matrix, rhs):
+    """matrix^-1 rhs (S x S by S x R) by Gaussian elimination with partial pivoting, as LAPACK's
+    getrf/getrs order it (written out: numba's np.linalg.solve takes seconds to compile)."""
+    size = matrix.shape[0]
+    a = matrix.copy()
+    b = rhs.copy()
+    for col in range(size):
+        pivot = col
+        for row in range(col + 1, size):
+            if abs(a[row, col]) > abs(a[pivot, col]):
+                pivot = row
+        if pivot != col:
+            for c in range(size):
+                a[col, c], a[pivot, c] = a[pivot, c], a[col, c]
+            for c in range(b.shape[1]):
+                b[col, c], b[pivot, c] = b[pivot, c], b[col, c]
+        for row in range(col + 1, size):
+            factor = a[row, col] / a[col, col]
+            for c in range(col + 1, size):
+                a[row, c] -= factor * a[col, c]
+            for c in range(b.shape[1]):
+                b[row, c] -= factor * b[col, c]
+    for row in range(size - 1, -1, -1):
+        for c in range(b.shape[1]):
+            total = b[row, c]
+            for k in range(row + 1, size):
+                total -= a[row, k] * b[k, c]
+            b[row, c] = total / a[row, row]
+    return b
 
 
 @njit(cache=True)
@@ -264,7 +269,7 @@ def _tracking_gauss_newton(dims, q_lower, q_upper, target, rows, q0, iterations,
                 normal[a, b] = total
                 normal[b, a] = total
             normal[a, a] += damping
-        step_q = _solve_positive_definite(normal, gradient)
+        step_q = _solve_pivoting(normal, gradient.reshape((12, 1)))[:, 0]
         for a in range(12):
             q[a] = min(max(q[a] + step_q[a], q_lower[a]), q_upper[a])
     final = np.empty((8, 3))
@@ -499,6 +504,39 @@ def _trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fi
     return any_alive
 
 
+@njit(cache=True)
+def _rts_means(a, w, means, covs):
+    """Smoothed means phi_{k|K} (K, T, S) of the Rauch-Tung-Striebel smoother, eq. (8.6), from the
+    filtered means (K, T, S) and covariances (K, T, S, S) of T tracks sharing the chain (A, W):
+    J_k = V_{k|k} A^T V_{k+1|k}^-1, phi_{k|K} = phi_{k|k} + J_k (phi_{k+1|K} - A phi_{k|k}). The
+    gains need only the filtered covariances, so the smoothed ones are not formed."""
+    steps, tracks, size = means.shape
+    smoothed = means.copy()
+    for k in range(steps - 2, -1, -1):
+        for t in range(tracks):
+            p_k = covs[k, t]
+            a_p = np.zeros((size, size))  # A V_k|k
+            for i in range(size):
+                for j in range(size):
+                    for m in range(size):
+                        a_p[i, j] += a[i, m] * p_k[m, j]
+            p_pred = w.copy()  # A V_k|k A^T + W
+            for i in range(size):
+                for j in range(size):
+                    for m in range(size):
+                        p_pred[i, j] += a_p[i, m] * a[j, m]
+            gain_t = _solve_pivoting(p_pred, a_p)  # J^T = V_{k+1|k}^-1 A V_k|k (both symmetric)
+            for i in range(size):
+                innovation = 0.0
+                for j in range(size):
+                    x_pred = 0.0
+                    for m in range(size):
+                        x_pred += a[j, m] * means[k, t, m]
+                    innovation += gain_t[j, i] * (smoothed[k + 1, t, j] - x_pred)
+                smoothed[k, t, i] = means[k, t, i] + innovation
+    return smoothed
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -560,6 +598,12 @@ def trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fir
                        alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column)
 
 
+def rts_means(a, w, means, covs) -> np.ndarray:
+    """`_rts_means`: smoothed means (K, T, S) from filtered means (K, T, S) and covariances
+    (K, T, S, S) of tracks sharing the chain matrices a, w (S, S)."""
+    return _rts_means(*_arrays(a, w, means, covs))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -593,6 +637,7 @@ def warm_up() -> float:
     capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1))
     hidden_points(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.5, one + 1.0, one, one, one, one, np.ones(1))
     bounding_capsule(np.eye(3), np.zeros((1, 3)))
+    rts_means(np.eye(3), np.eye(3), np.zeros((2, 1, 3)), np.tile(np.eye(3), (2, 1, 1, 1)))
     bucket = {"x_train": np.ones((1, 2, 3)), "x_train_sq": np.ones((1, 2)), "alpha": np.ones((1, 2, 3)),
               "k_inv": np.eye(2)[None], "theta": np.ones((1, 4)), "x_mean": np.zeros((1, 3)),
               "x_std": np.ones((1, 3)), "y_mean": np.zeros((1, 3)), "y_std": np.ones((1, 3))}

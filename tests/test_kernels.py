@@ -154,3 +154,20 @@ def test_gp_rollouts_equal_the_numpy_rollouts_with_the_same_draws(groups):
     assert got.shape == (20, 5, 12)
     np.testing.assert_allclose(got, reference, atol=1e-8)
     assert np.ptp(got[:, -1], axis=0).max() > 1e-3  # the trials differ: the noise is used
+
+
+@pytest.mark.parametrize("dim", [1, 3])
+def test_rts_smoothed_means_equal_the_numpy_smoother(dim):
+    from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth, rts_smoothed_means
+
+    model = ChainOfIntegrators(order=3, dt=0.05, sigma=2.0, dim=dim)
+    rng = np.random.default_rng(6)
+    track = np.cumsum(rng.normal(scale=0.05, size=(30, 4, dim)), axis=0)
+    filt = KalmanFilter(model, n_tracks=4, measurement_std=0.05)
+    means, covs = filt.filter_sequence(track + rng.normal(scale=0.05, size=track.shape))
+    reference, _ = rts_smooth(model, means, covs)
+    got = rts_smoothed_means(model, means, covs)
+    np.testing.assert_allclose(got, reference, atol=1e-12)
+    assert np.abs(got - means).max() > 1e-3  # smoothing moved the filtered means
+    with pytest.raises(ValueError, match="rts_smooth: means must be"):
+        rts_smoothed_means(model, means[..., :2], covs)

@@ -25,7 +25,7 @@ from hrc_drake import kernels
 from hrc_drake.human.body import BodyModel
 from hrc_drake.messages import SweptVolumes, shallow_copy
 from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
-from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smooth
+from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smoothed_means
 from hrc_drake.rng import clone_generator
 
 MOTION_KINDS = ("gp_a", "gp_b", "gp_c", "worst_case")
@@ -412,7 +412,7 @@ class JointStateEstimator:
     def smoothed_window(self, length: int | None = None) -> np.ndarray:
         """phi_k|K (W, n_dof, 3) over the last `length` stored steps (all by default), eq. (8.6)."""
         start = 0 if length is None else max(0, len(self.means_) - int(length))
-        means, _ = rts_smooth(self.model, np.array(self.means_[start:]), np.array(self.covs_[start:]))
+        means = rts_smoothed_means(self.model, np.array(self.means_[start:]), np.array(self.covs_[start:]))
         return means * self._scale
 
 

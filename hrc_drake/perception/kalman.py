@@ -25,6 +25,7 @@ from math import factorial
 
 import numpy as np
 
+from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
 
 
@@ -339,16 +340,17 @@ class KalmanFilter:
         return means, covs
 
 
-def rts_smooth(model: ChainOfIntegrators, means, covs):
-    """Rauch-Tung-Striebel smoother, eq. (8.6), applied backwards over a window.
+def rts_smoothed_means(model: ChainOfIntegrators, means, covs) -> np.ndarray:
+    """The smoothed means phi_{k|K} of `rts_smooth` (eq. 8.6) without its covariances, by the
+    compiled `kernels.rts_means`: means (K, ..., S), covs (K, ..., S, S)."""
+    means, covs = _check_window(model, means, covs)
+    s = model.state_size
+    flat = kernels.rts_means(model.A, model.W, means.reshape(len(means), -1, s),
+                             covs.reshape(len(covs), -1, s, s))
+    return flat.reshape(means.shape)
 
-    means: (K, ..., S) filtered means phi_{k|k}; covs: (K, ..., S, S) filtered V_{k|k}
-    (any leading track axes after K). Returns smoothed means phi_{k|K} and covariances V_{k|K}
-    with the same shapes:
-        J_k = V_{k|k} A^T V_{k+1|k}^-1
-        phi_{k|K} = phi_{k|k} + J_k (phi_{k+1|K} - A phi_{k|k})
-        V_{k|K} = V_{k|k} + J_k (V_{k+1|K} - V_{k+1|k}) J_k^T
-    """
+
+def _check_window(model: ChainOfIntegrators, means, covs) -> tuple[np.ndarray, np.ndarray]:
     means = np.asarray(means, dtype=float)
     covs = np.asarray(covs, dtype=float)
     s = model.state_size
@@ -359,6 +361,20 @@ def rts_smooth(model: ChainOfIntegrators, means, covs):
         )
     if not (np.all(np.isfinite(means)) and np.all(np.isfinite(covs))):
         raise ValueError("rts_smooth: means and covariances must be finite")
+    return means, covs
+
+
+def rts_smooth(model: ChainOfIntegrators, means, covs):
+    """Rauch-Tung-Striebel smoother, eq. (8.6), applied backwards over a window.
+
+    means: (K, ..., S) filtered means phi_{k|k}; covs: (K, ..., S, S) filtered V_{k|k}
+    (any leading track axes after K). Returns smoothed means phi_{k|K} and covariances V_{k|K}
+    with the same shapes:
+        J_k = V_{k|k} A^T V_{k+1|k}^-1
+        phi_{k|K} = phi_{k|k} + J_k (phi_{k+1|K} - A phi_{k|k})
+        V_{k|K} = V_{k|k} + J_k (V_{k+1|K} - V_{k+1|k}) J_k^T
+    """
+    means, covs = _check_window(model, means, covs)
     a, w = model.A, model.W
     smoothed_x = means.copy()
     smoothed_p = covs.copy()
