@@ -14,12 +14,18 @@ The cycle-time comparison runs the Drake cell of diagrams/box_pcb_coexistence.ya
 and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
 between consecutive ends of L_store, reported with the true minimum human-robot distance.
 
-Usage: python tools/bench_motion.py [--quick] [--no-cell | --cell-only]. Last line: one JSON object.
+With --sweep-hyperparameters, only model C with its kernel's hyperparameters re-optimised at
+every k-th model refresh (`hyperparameter_every` k = 1, 2, 4, 8; 1 is the thesis): eps+/- and
+violation rates pooled over all joints and sequences, and the mean model update time.
+
+Usage: python tools/bench_motion.py [--quick] [--no-cell | --cell-only | --sweep-hyperparameters].
+Last line: one JSON object.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import sys
@@ -127,10 +133,12 @@ def joint_sequence(body, points, point_std: float):
 
 
 # ------------------------------------------------------------------ evaluation
-def run_model(body, qs, stds, kind, order, dt, n_trials, horizon, warmup):
+def run_model(body, qs, stds, kind, order, dt, n_trials, horizon, warmup, **extra):
     """Predicted excursions per step, filtered q, timings. kind "gp_c_filtered": model C trained
-    on the Kalman-filtered states (the `training_states` variant), uncapped like the others."""
+    on the Kalman-filtered states (the `training_states` variant), uncapped like the others;
+    extra: further `ReactiveMotionPredictor` options."""
     options = {"training_states": "filtered"} if kind == "gp_c_filtered" else {}
+    options.update(extra)
     predictor = ReactiveMotionPredictor(body, kind.replace("_filtered", ""), order=order, dt=dt,
                                         horizon=horizon, n_trials=n_trials, rng=0, **options)
     deltas, filtered, step_seconds = [], [], []
@@ -422,6 +430,39 @@ def proactive_timings(repeats: int = 3) -> dict:
 
 
 # ------------------------------------------------------------------ main
+#: hyperparameter_every values of the sweep (1: the thesis, a refit of the kernel at every refresh)
+HYPERPARAMETER_EVERY = (1, 2, 4, 8)
+
+
+def hyperparameter_sweep(sequences, orders, n_trials, horizon) -> dict:
+    """Model C (as eq. 8.13 and on filtered states) with the kernel's hyperparameters
+    re-optimised at every k-th model refresh only (`hyperparameter_every`): eps+/- over all
+    joints and sequences, and the model update time."""
+    out = {}
+    print(f"\n{'model':<14} {'P':>2} {'every':>5} {'viol %':>7} {'>0.01 %':>8} {'eps+ med':>9} "
+          f"{'eps- med':>9} {'update ms':>10}   (all joints and sequences pooled)")
+    for kind, order, every in itertools.product(("gp_c", "gp_c_filtered"), orders, HYPERPARAMETER_EVERY):
+        plus_all, minus_all, fits = [], [], []
+        for _, seq_body, qs, stds, dt in sequences:
+            warmup = int(round(3.0 / dt))
+            predictor, deltas, filtered, _ = run_model(seq_body, qs, stds, kind, order, dt, n_trials,
+                                                       horizon, warmup, hyperparameter_every=every)
+            eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
+            plus_all.append(eps_plus.ravel())
+            minus_all.append(eps_minus.ravel())
+            fits += predictor.fit_seconds_
+        p, m = np.concatenate(plus_all), np.concatenate(minus_all)
+        row = {"violation_rate": float(np.mean((p < 0) | (m < 0))),
+               "violation_rate_over_0.01": float(np.mean((p < -0.01) | (m < -0.01))),
+               "eps_plus_median": float(np.median(p)), "eps_minus_median": float(np.median(m)),
+               "model_update_ms_mean": 1000 * float(np.mean(fits))}
+        out[f"{kind}_P{order}_every{every}"] = row
+        print(f"{kind:<14} {order:>2} {every:>5} {100 * row['violation_rate']:>7.2f} "
+              f"{100 * row['violation_rate_over_0.01']:>8.2f} {row['eps_plus_median']:>9.4f} "
+              f"{row['eps_minus_median']:>9.4f} {row['model_update_ms_mean']:>10.1f}", flush=True)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small run, under a minute")
@@ -429,6 +470,8 @@ def main() -> None:
     parser.add_argument("--cell-only", action="store_true", help="only the cycle-time comparison")
     parser.add_argument("--no-proactive", action="store_true",
                         help="skip the proactive-path comparison (8.2.4)")
+    parser.add_argument("--sweep-hyperparameters", action="store_true",
+                        help="only the sweep of hyperparameter_every (model C, P = 2 and 4)")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
     if args.quick:
@@ -455,6 +498,10 @@ def main() -> None:
             sequences.append((f"lego:{name}", lego_body, *joint_sequence(lego_body, lego_points, 0.02),
                               1.0 / 15.0))
 
+        if args.sweep_hyperparameters:
+            figures["hyperparameter_sweep"] = hyperparameter_sweep(sequences, (2, 4), n_trials, horizon)
+            print(json.dumps(figures))
+            return
         step_times, fit_times, scaler_times, violations = [], [], [], []
         pooled = {kind: [] for kind in POOLED_KINDS}
         print(f"\n{'sequence':<34} {'model':<11} {'P':>2} {'group':<10} {'eps+ med':>9} {'eps- med':>9} "

@@ -144,6 +144,10 @@ class GPMotionModel(WorstCaseMotionModel):
     min_samples: int = 30
     #: L-BFGS iterations per hyperparameter refit of the kernel (8.7).
     max_iter: int = 15
+    #: Re-optimise the kernel's hyperparameters at every k-th model refresh only, reusing them
+    #: with the new training set in between: a variant (8.1.3 recomputes them at every refresh,
+    #: k = 1); the sweep of `tools/bench_motion.py --sweep-hyperparameters` is in the README.
+    hyperparameter_every: int = 1
     #: Clip the GP excursions to the worst-case ones of [107]: a safety option the thesis does
     #: not use (with it the GP can never be less conservative than [107] where [107] is tight).
     cap_by_worst_case: bool = False
@@ -164,6 +168,7 @@ class GPMotionModel(WorstCaseMotionModel):
         _integer(self.smoothing_window, 2, 10000, path, "smoothing_window")
         _integer(self.min_samples, 2, self.max_samples, path, "min_samples")
         _integer(self.max_iter, 0, 1000, path, "max_iter")
+        _integer(self.hyperparameter_every, 1, 1000, path, "hyperparameter_every")
         check(self.training_states in ("smoothed", "filtered"), f"{path}.training_states",
               f"must be 'smoothed' or 'filtered', got {self.training_states!r}")
         check(isinstance(self.cap_by_worst_case, bool), f"{path}.cap_by_worst_case",

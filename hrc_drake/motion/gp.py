@@ -197,6 +197,10 @@ class GPMotionModel:
     max_samples: fixed size of the training set (100 in 8.1.3).
     max_iter: L-BFGS iterations per refit; the previous hyperparameters are the start point,
         so a few iterations track a slowly changing optimum.
+    hyperparameter_every: re-optimise the hyperparameters at every k-th refit only, reusing them
+        (with the new training set) in between. A variant: 8.1.3 recomputes them at every
+        refresh (k = 1, the default); larger k trades the refits' L-BFGS time for kernels that
+        lag the training set (see tools/bench_motion.py --sweep-hyperparameters).
     random_state: seed or Generator for choosing which samples to replace.
 
     Learned attributes (after `fit`/`partial_fit`): X_ (N, P, n_dof, 3) inputs, Y_ (N, n_dof, 3)
@@ -204,7 +208,8 @@ class GPMotionModel:
     """
 
     def __init__(self, groups="gp_c", order: int = 4, n_dof: int = N_DOF, max_samples: int = 100,
-                 max_iter: int = 15, initial_theta=(0.1, 0.1, 1.0, 0.01), random_state=None):
+                 max_iter: int = 15, initial_theta=(0.1, 0.1, 1.0, 0.01), random_state=None,
+                 hyperparameter_every: int = 1):
         if isinstance(groups, str):
             if groups not in MODEL_GROUPS:
                 raise ValueError(f"GPMotionModel: unknown model {groups!r}; "
@@ -225,6 +230,10 @@ class GPMotionModel:
         self.n_dof = int(n_dof)
         self.max_samples = int(max_samples)
         self.max_iter = int(max_iter)
+        if int(hyperparameter_every) != hyperparameter_every or hyperparameter_every < 1:
+            raise ValueError(f"GPMotionModel: hyperparameter_every must be an integer >= 1, "
+                             f"got {hyperparameter_every!r}")
+        self.hyperparameter_every = int(hyperparameter_every)
         self.initial_theta = tuple(float(v) for v in initial_theta)
         for name, value in zip(("theta1", "theta2", "theta3", "theta4"), self.initial_theta, strict=True):
             if not np.isfinite(value) or value <= 0:
@@ -269,6 +278,7 @@ class GPMotionModel:
         self.X_ = windows[:, :-1].copy()
         self.Y_ = windows[:, -1].copy()
         self.theta_ = np.tile(np.array(self.initial_theta), (len(self.groups), 1))
+        self.n_refits_ = 0
         self._refit()
         return self
 
@@ -313,6 +323,8 @@ class GPMotionModel:
     def _refit_groups(self) -> None:
         n = len(self.X_)
         self.theta_ = self.theta_.copy()  # written below; a clone may share the old one
+        optimise = self.n_refits_ % self.hyperparameter_every == 0
+        self.n_refits_ += 1
         buckets: dict[int, list[int]] = {}
         for g, joints in enumerate(self.groups):
             buckets.setdefault(len(joints), []).append(g)
@@ -333,8 +345,9 @@ class GPMotionModel:
                 y_std[i] = _derivative_scale(y)
                 xs = (x - x_mean[i]) / x_std[i]
                 ys = (y - y_mean[i]) / y_std[i]
-                theta = fit_hyperparameters(xs, ys, self.theta_[g], self.max_iter)
-                self.theta_[g] = theta
+                if optimise:
+                    self.theta_[g] = fit_hyperparameters(xs, ys, self.theta_[g], self.max_iter)
+                theta = self.theta_[g]
                 k = kernel_8_7(xs, xs, theta)
                 k[np.diag_indices(n)] += theta[3] + 1e-8
                 chol = _cholesky_lower(k)

@@ -532,6 +532,8 @@ class ReactiveMotionPredictor:
         the RTS-smoothed window that arrived since the last one (10 at 20 Hz).
     max_samples: training-set size (100). smoothing_window: RTS window length (steps).
     min_samples: training samples the GP needs before it replaces the worst-case bounds.
+    max_iter, hyperparameter_every: L-BFGS iterations of a hyperparameter refit, and every how
+        many model updates one is made (1, as 8.1.3; see `GPMotionModel`).
     process_std, torso_process_std (rad/s^3), base_process_std (m/s^3): jerk densities of the
         KF (8.3) for the arm joints, base yaw + torso flexion, and the base translation (the
         trunk moves slower than the arms: a lower density filters its IK noise harder).
@@ -555,7 +557,8 @@ class ReactiveMotionPredictor:
                  max_samples: int = 100, smoothing_window: int = 20, min_samples: int = 30,
                  process_std: float = 3.0, torso_process_std: float = 1.0, base_process_std: float = 0.5,
                  point_std: float = 0.01,
-                 measurement_std: float = 0.05, max_iter: int = 15, speed_limits=None, accel_limits=None,
+                 measurement_std: float = 0.05, max_iter: int = 15, hyperparameter_every: int = 1,
+                 speed_limits=None, accel_limits=None,
                  cap_by_worst_case: bool = False, training_states: str = "smoothed", levels: int = 3,
                  margin: float = 0.0, rng=None):
         if kind not in MOTION_KINDS:
@@ -589,6 +592,7 @@ class ReactiveMotionPredictor:
         self.max_samples = int(max_samples)
         self.min_samples = int(min_samples)
         self.max_iter = int(max_iter)
+        self.hyperparameter_every = int(hyperparameter_every)
         self.v_max = _limits(speed_limits, DEFAULT_SPEEDS, "speed_limits")
         self.a_max = _limits(accel_limits, DEFAULT_ACCELS, "accel_limits")
         self.cap_by_worst_case = bool(cap_by_worst_case)
@@ -607,7 +611,8 @@ class ReactiveMotionPredictor:
         self.model_ = None
         if self.kind != "worst_case":
             self.model_ = GPMotionModel(MODEL_GROUPS[self.kind], self.order, max_samples=self.max_samples,
-                                        max_iter=self.max_iter, random_state=self.rng)
+                                        max_iter=self.max_iter, random_state=self.rng,
+                                        hyperparameter_every=self.hyperparameter_every)
         self.q_ = None
         self.phi_ = None
         self._steps_seen = 0

@@ -38,7 +38,7 @@ _WORST_CASE_FIELDS = ("horizon", "process_std", "torso_process_std", "base_proce
                       "measurement_std", "levels", "margin")
 #: Fields only `GPMotionModel` has, passed on to `ReactiveMotionPredictor`.
 _GP_FIELDS = ("order", "n_trials", "percentile", "refresh_period", "max_samples", "smoothing_window",
-              "min_samples", "max_iter", "cap_by_worst_case", "training_states")
+              "min_samples", "max_iter", "hyperparameter_every", "cap_by_worst_case", "training_states")
 
 
 def predictor_kwargs(config: GPMotionModel | WorstCaseMotionModel) -> dict:

@@ -98,3 +98,27 @@ def test_rollouts_follow_constant_velocity():
     np.testing.assert_allclose(rollouts.mean(axis=0), expected, atol=0.05)
     again = model.sample_rollouts(history, steps=8, n_trials=30, rng=1)
     np.testing.assert_array_equal(rollouts, again)
+
+
+def test_hyperparameters_reoptimised_only_every_kth_refit():
+    rng = np.random.default_rng(4)
+    t = np.arange(120) * 0.05
+    q = np.stack([np.sin(t * (1.0 + 0.2 * j)) for j in range(12)], -1)
+    q = q + rng.normal(scale=0.01, size=q.shape)
+    phi = np.stack([q, np.gradient(q, axis=0), np.gradient(np.gradient(q, axis=0), axis=0)], -1)
+    windows = np.stack([phi[k - 2:k + 1] for k in range(2, 120)])
+    every = GPMotionModel("gp_c", order=2, max_samples=40, random_state=1)
+    third = GPMotionModel("gp_c", order=2, max_samples=40, random_state=1, hyperparameter_every=3)
+    thetas = {1: [], 3: []}
+    for start in range(0, 100, 10):
+        for model, key in ((every, 1), (third, 3)):
+            model.partial_fit(windows[start:start + 10])
+            thetas[key].append(model.theta_.copy())
+    changed = [not np.array_equal(a, b) for a, b in zip(thetas[3][:-1], thetas[3][1:], strict=True)]
+    assert changed == [k % 3 == 2 for k in range(9)]  # refits 3, 6, 9 (0-based) optimise
+    assert all(not np.array_equal(a, b) for a, b in zip(thetas[1][:-1], thetas[1][1:], strict=True))
+    # between optimisations the training set and its factorisation are still refreshed
+    np.testing.assert_array_equal(third.X_, every.X_)
+    assert not np.array_equal(third.buckets_[0]["alpha"], every.buckets_[0]["alpha"])
+    with pytest.raises(ValueError, match="hyperparameter_every"):
+        GPMotionModel("gp_c", hyperparameter_every=0)

@@ -320,14 +320,17 @@ def test_motion_config_sets_per_joint_limits_and_options(body):
     from hrc_drake.motion.systems import predictor_kwargs
 
     config = GPMotionModel(elbow_speed=7.0, torso_accel=9.0, training_states="filtered",
-                           cap_by_worst_case=True)
+                           cap_by_worst_case=True, hyperparameter_every=4)
     predictor = ReactiveMotionPredictor(body, rng=0, **predictor_kwargs(config))
     assert predictor.v_max[7] == predictor.v_max[11] == 7.0
     assert predictor.a_max[3] == 9.0 and predictor.v_max[4] == config.shoulder_speed
     assert predictor.training_states == "filtered" and predictor.cap_by_worst_case
+    assert predictor.model_.hyperparameter_every == 4
     from hrc_drake.errors import ConfigError
     with pytest.raises(ConfigError, match="training_states"):
         GPMotionModel(training_states="raw").validate("motion_model")
+    with pytest.raises(ConfigError, match="hyperparameter_every"):
+        GPMotionModel(hyperparameter_every=0).validate("motion_model")
     with pytest.raises(ConfigError, match="elbow_speed"):
         GPMotionModel(elbow_speed=0.0).validate("motion_model")
 
