@@ -59,7 +59,7 @@ Usage:
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
-A full run (120 s, 3 repeats, 12 cells, two trees, --profile) took 22 minutes on 2 cores (2026-12-03).
+A full run (120 s, 3 repeats, 12 cells, two trees, --profile) took 18 minutes on 2 cores (2026-12-04).
 """
 
 from __future__ import annotations
