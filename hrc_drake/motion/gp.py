@@ -438,6 +438,8 @@ class GPMotionModel:
         return positions
 
     def _rollouts_numpy(self, history, steps, n_trials, rng):
+        """The trials of `sample_rollouts` as numpy operations on all trials at once (the
+        reference of the compiled `_rollouts`)."""
         positions = np.empty((n_trials, steps, self.n_dof))
         for bucket in self.buckets_:
             joints = bucket["joints"]  # (G, s)

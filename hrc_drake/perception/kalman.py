@@ -351,6 +351,7 @@ def rts_smoothed_means(model: ChainOfIntegrators, means, covs) -> np.ndarray:
 
 
 def _check_window(model: ChainOfIntegrators, means, covs) -> tuple[np.ndarray, np.ndarray]:
+    """A smoother's window as float arrays, or a ValueError naming what is wrong with it."""
     means = np.asarray(means, dtype=float)
     covs = np.asarray(covs, dtype=float)
     s = model.state_size
