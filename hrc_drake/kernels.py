@@ -255,11 +255,11 @@ def _tracking_gauss_newton(dims, q_lower, q_upper, target, rows, q0, iterations,
     model = np.empty(n)
     jacobian = np.empty((n, 12))
     damping = regularization * regularization
+    gradient = np.empty(12)
+    normal = np.empty((12, 12))
     q = q0.copy()
     for _ in range(iterations):
         _skeleton_jacobian(dims, q, rows, step, model, jacobian)
-        gradient = np.empty(12)
-        normal = np.empty((12, 12))
         for a in range(12):
             gradient[a] = -damping * (q[a] - q0[a])
             for r in range(n):
@@ -418,26 +418,18 @@ def _gp_rollouts(history, noise, x_train, x_train_sq, alpha, k_inv, theta, x_mea
             for p in range(order):
                 for c in range(width):
                     state[t, p, c] = history[g, p, c]
-        first_mean, first_var = _gp_step(state[:1], x_train[g], x_train_sq[g], alpha[g], k_inv[g], theta[g],
-                                         x_mean[g], x_std[g])
         for step in range(steps):
-            if step == 0:
-                mean = np.empty((trials, width))
-                var = np.empty(trials)
-                for t in range(trials):
-                    var[t] = first_var[0]
-                    for c in range(width):
-                        mean[t, c] = first_mean[0, c]
-            else:
-                mean, var = _gp_step(state, x_train[g], x_train_sq[g], alpha[g], k_inv[g], theta[g],
-                                     x_mean[g], x_std[g])
+            rows = 1 if step == 0 else trials  # every trial starts from the same past: one prediction
+            mean, var = _gp_step(state[:rows], x_train[g], x_train_sq[g], alpha[g], k_inv[g], theta[g],
+                                 x_mean[g], x_std[g])
             for t in range(trials):
-                spread = math.sqrt(var[t])
+                row = t if rows > 1 else 0
+                spread = math.sqrt(var[row])
                 for p in range(order - 1):
                     for c in range(width):
                         state[t, p, c] = state[t, p + 1, c]
                 for c in range(width):
-                    value = (mean[t, c] + spread * noise[step, g, t, c]) * y_std[g, c] + y_mean[g, c]
+                    value = (mean[row, c] + spread * noise[step, g, t, c]) * y_std[g, c] + y_mean[g, c]
                     state[t, order - 1, c] = value
                     out[step, g, t, c] = value
     return out
@@ -569,13 +561,13 @@ def bounding_capsule(points, offsets, stride: int = 1) -> tuple[np.ndarray, np.n
     return start, end, float(radius)
 
 
-def gp_rollouts(history, noise, bucket) -> np.ndarray:
-    """`_gp_rollouts` with the arrays of a fitted `GPMotionModel` bucket (x_train, x_train_sq,
-    alpha, k_inv, theta, x_mean, x_std, y_mean, y_std)."""
-    return _gp_rollouts(*_arrays(history, noise, *(bucket[key] for key in _BUCKET_KEYS)))
-
-
+#: the arrays of a fitted `GPMotionModel` bucket that `_gp_rollouts` takes, in its order
 _BUCKET_KEYS = ("x_train", "x_train_sq", "alpha", "k_inv", "theta", "x_mean", "x_std", "y_mean", "y_std")
+
+
+def gp_rollouts(history, noise, bucket) -> np.ndarray:
+    """`_gp_rollouts` with the arrays `_BUCKET_KEYS` of a fitted `GPMotionModel` bucket."""
+    return _gp_rollouts(*_arrays(history, noise, *(bucket[key] for key in _BUCKET_KEYS)))
 
 
 def petri_arcs(pre, incidence) -> tuple[np.ndarray, ...]:

@@ -203,8 +203,6 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
     costs as `_lockstep_numpy` (the costs are summed by the same numpy products)."""
     net = trials.net
     n_trials = trials.m.shape[0]
-    if getattr(net, "_arcs", None) is None:  # the net's arcs never change: computed once
-        net._arcs = kernels.petri_arcs(net.pre, net.incidence)
     unc = np.ascontiguousarray(~net.controllable)
     controllable = np.ascontiguousarray(net.controllable, dtype=bool)
     t, cost_r, cost_h = np.zeros(n_trials), np.zeros(n_trials), np.zeros(n_trials)
@@ -215,7 +213,7 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
         keys = rng.random((trials.n_groups, net.n_transitions))
         chosen, column = np.empty(n_trials, dtype=np.int64), np.empty(n_trials, dtype=np.int64)
         running = kernels.trial_step(
-            trials.m, net._arcs, fired, unc, controllable, trials.is_wait_end, trials.pools, trials.count,
+            trials.m, net.arcs(), fired, unc, controllable, trials.is_wait_end, trials.pools, trials.count,
             trials.fire_at, trials.en_prev, t, alive, keys, trials.group, trials.key_bonus, float(horizon),
             float(now), float(quantum), dt, chosen, column,
         )

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hrc_drake import kernels
 from hrc_drake.distributions import Distribution, validate_distribution
 
 #: transition roles produced by the flow compiler
@@ -110,6 +111,13 @@ class PcTPN:
         for v, mask in self._pre_levels:
             missing += (markings < v).astype(float) @ mask
         return missing == 0
+
+    def arcs(self) -> tuple[np.ndarray, ...]:
+        """The arcs by transition in CSR form (`kernels.petri_arcs`), computed once: the net's
+        Pre and incidence never change."""
+        if not hasattr(self, "_arcs"):
+            self._arcs = kernels.petri_arcs(self.pre, self.incidence)
+        return self._arcs
 
     def fire(self, marking, transition) -> np.ndarray:
         """The marking reached by firing `transition` (name or index): m + Post^j - Pre^j (eq. 6.2)."""
