@@ -171,3 +171,49 @@ def test_rts_smoothed_means_equal_the_numpy_smoother(dim):
     assert np.abs(got - means).max() > 1e-3  # smoothing moved the filtered means
     with pytest.raises(ValueError, match="rts_smooth: means must be"):
         rts_smoothed_means(model, means[..., :2], covs)
+
+
+def test_window_velocity_equals_the_numpy_least_squares_line():
+    from hrc_drake.intention.features import least_squares_velocity
+
+    rng = np.random.default_rng(11)
+    times = np.arange(8) / 30.0
+    cases = 0
+    for trial in range(200):
+        speed = rng.choice([0.0, 0.05, 0.3, 1.0])
+        wrists = rng.normal(size=(1, 2, 3)) + speed * times[:, None, None] * rng.normal(size=(1, 2, 3))
+        wrists = wrists + rng.normal(scale=0.005, size=wrists.shape)
+        wrists[rng.random((8, 2)) < 0.25 * (trial % 3)] = np.nan  # none, some or many samples missing
+        expected_v, expected_moving = least_squares_velocity(times, wrists, 0.15, significance=3.5)
+        got_v, got_moving = kernels.window_velocity(times, wrists, 0.15, 5, 3.5)
+        np.testing.assert_allclose(got_v, expected_v, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(got_moving, expected_moving)
+        cases += int(expected_moving.sum())
+    assert 50 < cases < 350  # both moving and still wrists were tested
+
+
+def test_goal_log_likelihoods_equal_the_numpy_features_and_mixture_density():
+    from hrc_drake.intention.bayes import _PHI, _PSI, goal_log_likelihoods_numpy
+    from hrc_drake.intention.features import AT_GOAL, NEUTRAL_ANGLE
+    from hrc_drake.intention.likelihood import default_model
+    from hrc_drake.messages import HEAD, L_WRIST, R_WRIST
+
+    model = default_model()
+    rng = np.random.default_rng(12)
+    for trial in range(40):
+        points = rng.normal(scale=0.3, size=(8, 3)) + [0.5, 0.0, 1.0]
+        velocity = rng.normal(size=(2, 3))
+        moving = rng.random(2) > 0.3
+        gaze = rng.normal(size=3)
+        samples = rng.normal(scale=0.05, size=(4, 1 + trial % 5, 3)) + [0.8, 0.0, 0.9]
+        if trial % 7 == 0:
+            samples[1, 0] = points[L_WRIST]  # a wrist at a goal's centre: its angle is 0 there
+        if trial % 9 == 0:
+            points[HEAD] = np.nan  # no head: the neutral gaze angle
+        for density, columns, use_gaze in ((model.gmm4d, _PHI, True), (model.gmm2d, _PSI, False)):
+            expected = goal_log_likelihoods_numpy(points, velocity, moving, gaze, samples, density, use_gaze)
+            wrists = points[[L_WRIST, R_WRIST]]
+            got = kernels.goal_log_likelihoods(wrists, velocity, moving, points[HEAD], gaze, samples, columns,
+                                               *density.kernel_arrays(), NEUTRAL_ANGLE, AT_GOAL)
+            assert got.shape == (2, 4)
+            np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from hrc_drake import kernels
 from hrc_drake.messages import HEAD, L_WRIST, R_WRIST
 
 #: Columns of Phi (GMM4d) and the columns of Phi that form Psi (GMM2d).
@@ -28,7 +29,7 @@ PSI_COLUMNS: tuple[int, ...] = (0, 3)
 #: Angle given to a still wrist or an invalid gaze: no preferred goal.
 NEUTRAL_ANGLE = 0.5 * np.pi
 #: Below this distance (m) the direction wrist -> goal is undefined: the wrist is at the goal.
-_AT_GOAL = 1e-6
+AT_GOAL = 1e-6
 
 DEFAULT_WINDOW = 8
 DEFAULT_MIN_SPEED = 0.15
@@ -168,9 +169,9 @@ class WristVelocityEstimator:
         # new arrays (the window shifted by one), never written in place: clones share the old
         self._times = np.concatenate([self._times[1:], [float(time)]])
         self._wrists = np.concatenate([self._wrists[1:], wrists[None]])
-        return least_squares_velocity(
-            self._times, self._wrists, self.min_speed, significance=self.significance
-        )
+        # `least_squares_velocity` of this one window, compiled (its numpy form is the reference)
+        return kernels.window_velocity(self._times, self._wrists, self.min_speed, self.window // 2 + 1,
+                                       self.significance)
 
 
 def as_goal_samples(goal_centers: np.ndarray) -> np.ndarray:
@@ -210,7 +211,7 @@ def goal_features(
     to_goal = centers - wrists[..., :, None, None, :]  # (..., 2, G, Np, 3)
     distance = np.linalg.norm(to_goal, axis=-1)  # (..., 2, G, Np)
     wrist_angle = angle_between(velocities[..., :, None, None, :], to_goal)
-    wrist_angle = np.where(distance < _AT_GOAL, 0.0, wrist_angle)
+    wrist_angle = np.where(distance < AT_GOAL, 0.0, wrist_angle)
     wrist_angle = np.where(moving[..., :, None, None], wrist_angle, NEUTRAL_ANGLE)
     head_angle = angle_between(gaze[..., None, None, :], centers - head[..., None, None, :])  # (..., G, Np)
     head_angle = np.where(np.isfinite(head_angle), head_angle, NEUTRAL_ANGLE)

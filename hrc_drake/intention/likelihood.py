@@ -70,6 +70,11 @@ class GaussianMixtureDensity:
             log_weights - 0.5 * d * _LOG_2PI - np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
         )  # (K,)
 
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(precision Cholesky factors (K, D, D), projected means (K, D), log normalisers (K,)):
+        what `log_density` evaluates, for `kernels.goal_log_likelihoods`."""
+        return self._precision_chol, self._mean_proj, self._log_norm
+
     @property
     def n_components(self) -> int:
         return self.weights.shape[0]
