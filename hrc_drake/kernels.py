@@ -653,6 +653,111 @@ def _goal_log_likelihoods(wrists, velocity, moving, head, gaze, centers, columns
     return out
 
 
+@njit(cache=True)
+def _kalman_predict(x, p, a, w, steps):
+    """`perception.kalman.KalmanFilter.predict`: x <- A x, P <- (A P) A^T + W of every track,
+    `steps` times; returns new arrays (x (T, S), P (T, S, S))."""
+    n_tracks, size = x.shape
+    x = x.copy()
+    p = p.copy()
+    state = np.empty(size)
+    ap = np.empty((size, size))
+    for _ in range(steps):
+        for t in range(n_tracks):
+            for i in range(size):
+                total = 0.0
+                for j in range(size):
+                    total += x[t, j] * a[i, j]
+                state[i] = total
+            for i in range(size):
+                x[t, i] = state[i]
+                for j in range(size):
+                    total = 0.0
+                    for m in range(size):
+                        total += a[i, m] * p[t, m, j]
+                    ap[i, j] = total
+            for i in range(size):
+                for j in range(size):
+                    total = 0.0
+                    for m in range(size):
+                        total += ap[i, m] * a[j, m]
+                    p[t, i, j] = total + w[i, j]
+    return x, p
+
+
+@njit(cache=True)
+def _kalman_update(x, p, initialized, y, mask, initial_cov, r2, max_measurement):
+    """`perception.kalman.KalmanFilter.update` in place: a track's first valid measurement y
+    (T, d) sets its position (derivatives 0, covariance initial_cov); later ones the update with
+    C = [I 0], R = r2 I: K = P C^T S^-1, S = C P C^T + R, x += K (y - C x), P <- sym(P - K C P).
+    A row is valid with mask True, finite and every |component| <= max_measurement."""
+    n_tracks, size = x.shape
+    d = y.shape[1]
+    s = np.empty((d, d))
+    pct_t = np.empty((d, size))
+    innovation = np.empty(d)
+    for t in range(n_tracks):
+        valid = mask[t]
+        for c in range(d):
+            valid = valid and abs(y[t, c]) <= max_measurement  # False for NaN too
+        if not valid:
+            continue
+        if not initialized[t]:
+            for i in range(size):
+                x[t, i] = y[t, i] if i < d else 0.0
+                for j in range(size):
+                    p[t, i, j] = initial_cov[i, j]
+            initialized[t] = True
+            continue
+        for i in range(d):
+            for j in range(d):
+                s[i, j] = p[t, i, j] + (r2 if i == j else 0.0)
+            for j in range(size):
+                pct_t[i, j] = p[t, j, i]
+        gain_t = _solve_pivoting(s, pct_t)  # (d, S) = S^-1 C P
+        for c in range(d):
+            innovation[c] = y[t, c] - x[t, c]
+        for i in range(size):
+            total = 0.0
+            for c in range(d):
+                total += gain_t[c, i] * innovation[c]
+            x[t, i] += total
+        for i in range(size):
+            for j in range(size):
+                total = 0.0
+                for c in range(d):
+                    total += gain_t[c, i] * pct_t[c, j]
+                ap = p[t, i, j] - total
+                if j < i:  # the symmetric part: 0.5 (P + P^T) of the updated P
+                    p[t, i, j] = 0.5 * (ap + p[t, j, i])
+                    p[t, j, i] = p[t, i, j]
+                else:
+                    p[t, i, j] = ap
+    return initialized
+
+
+@njit(cache=True)
+def _kalman_gate(x, p, y, rows, r2):
+    """(R,) squared Mahalanobis distances nu^T S^-1 nu of the innovations nu = y - C x of tracks
+    `rows`, S = C P C^T + r2 I (the particle filter's re-acquisition gate)."""
+    d = y.shape[1]
+    out = np.empty(rows.shape[0])
+    s = np.empty((d, d))
+    nu = np.empty((d, 1))
+    for r in range(rows.shape[0]):
+        t = rows[r]
+        for i in range(d):
+            nu[i, 0] = y[t, i] - x[t, i]
+            for j in range(d):
+                s[i, j] = p[t, i, j] + (r2 if i == j else 0.0)
+        solved = _solve_pivoting(s, nu)
+        total = 0.0
+        for i in range(d):
+            total += nu[i, 0] * solved[i, 0]
+        out[r] = total
+    return out
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -744,6 +849,23 @@ def goal_log_likelihoods(wrists, velocity, moving, head, gaze, centers, columns,
         float(neutral), float(at_goal))
 
 
+def kalman_predict(x, p, a, w, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """`_kalman_predict`: new (x (T, S), P (T, S, S)) after `steps` time updates with A, W (S, S)."""
+    return _kalman_predict(*_arrays(x, p, a, w), int(steps))
+
+
+def kalman_update(x, p, initialized, y, mask, initial_cov, r2: float, max_measurement: float) -> None:
+    """`_kalman_update` on the caller's x (T, S), P (T, S, S) and initialized (T,) bool, in place
+    (C-ordered float64 and bool arrays, as `KalmanFilter` keeps them); y (T, d), mask (T,) bool."""
+    _kalman_update(x, p, initialized, *_arrays(y), np.ascontiguousarray(mask, dtype=np.bool_),
+                   *_arrays(initial_cov), float(r2), float(max_measurement))
+
+
+def kalman_gate(x, p, y, rows, r2: float) -> np.ndarray:
+    """`_kalman_gate`: (R,) nu^T S^-1 nu of tracks `rows` (int array) for measurements y (T, d)."""
+    return _kalman_gate(*_arrays(x, p, y), np.ascontiguousarray(rows, dtype=np.int64), float(r2))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -790,6 +912,10 @@ def warm_up() -> float:
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
     skeleton_jacobian(dims, q, visible, 1e-5)
     window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
+    x, p, flags = np.zeros((1, 6)), np.eye(6)[None].copy(), np.zeros(1, dtype=bool)
+    x, p = kalman_predict(x, p, np.eye(6), np.eye(6), 1)
+    kalman_update(x, p, flags, np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6)
+    kalman_gate(x, p, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1e-4)
     goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3), np.ones(3),
                          np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
                          1.0, 1e-6)

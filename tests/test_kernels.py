@@ -217,3 +217,47 @@ def test_goal_log_likelihoods_equal_the_numpy_features_and_mixture_density():
                                                *density.kernel_arrays(), NEUTRAL_ANGLE, AT_GOAL)
             assert got.shape == (2, 4)
             np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10)
+
+
+def _kalman_pair(rng, order=4):
+    from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
+
+    kf = KalmanFilter(ChainOfIntegrators(order=order, sigma=rng.uniform(0.5, 2.0, order)), n_tracks=8,
+                      measurement_std=0.02)
+    return kf, kf.clone()
+
+
+def test_kalman_predict_and_update_equal_their_numpy_forms():
+    rng = np.random.default_rng(13)
+    for order in (2, 4):
+        compiled, reference = _kalman_pair(rng, order)
+        truth = rng.normal(size=(8, 3))
+        for frame in range(60):
+            truth = truth + 0.01 * rng.normal(size=(8, 3))
+            y = truth + 0.02 * rng.normal(size=(8, 3))
+            y[rng.random(8) < 0.3] = np.nan  # occluded rows
+            y[frame % 8, frame % 3] = 2e6 if frame % 11 == 0 else y[frame % 8, frame % 3]  # absurd value
+            mask = rng.random(8) > 0.1
+            steps = 1 + frame % 3
+            compiled.predict(steps)
+            reference._predict_numpy(steps)
+            compiled.update(y, mask)
+            reference._update_numpy(y, mask)
+            np.testing.assert_array_equal(compiled.initialized_, reference.initialized_)
+            np.testing.assert_allclose(compiled.x_, reference.x_, rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(compiled.P_, reference.P_, rtol=1e-9, atol=1e-15)
+        assert compiled.initialized_.all()
+
+
+def test_kalman_gate_equals_the_numpy_mahalanobis_distance():
+    rng = np.random.default_rng(14)
+    kf, _ = _kalman_pair(rng)
+    for _ in range(5):
+        kf.predict()
+        kf.update(rng.normal(size=(8, 3)))
+    y = rng.normal(size=(8, 3))
+    rows = np.array([0, 3, 5, 7])
+    nu = y[rows] - kf.x_[rows, :3]
+    s = kf.P_[rows, :3, :3] + 0.02**2 * np.eye(3)
+    expected = np.einsum("pi,pi->p", nu, np.linalg.solve(s, nu[:, :, None])[:, :, 0])
+    np.testing.assert_allclose(kernels.kalman_gate(kf.x_, kf.P_, y, rows, 0.02**2), expected, rtol=1e-12)

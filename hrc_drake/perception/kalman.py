@@ -198,7 +198,11 @@ class KalmanFilter:
         return y, valid
 
     def predict(self, steps: int = 1) -> None:
-        """Time update (open loop): x <- A x, P <- A P A^T + W, `steps` times."""
+        """Time update (open loop): x <- A x, P <- A P A^T + W, `steps` times (compiled:
+        `kernels.kalman_predict`; `_predict_numpy` is its reference)."""
+        self.x_, self.P_ = kernels.kalman_predict(self.x_, self.P_, self.model.A, self.model.W, int(steps))
+
+    def _predict_numpy(self, steps: int = 1) -> None:
         a, w = self.model.A, self.model.W
         for _ in range(int(steps)):
             self.x_ = self.x_ @ a.T
@@ -210,7 +214,16 @@ class KalmanFilter:
         y: (T, dim) measurements; rows with NaN, inf or a component beyond MAX_MEASUREMENT, or
         with mask False, are missing.
         A track's first valid measurement initializes it (position = y, derivatives 0).
+        Compiled (`kernels.kalman_update`); `_update_numpy` is its reference.
         """
+        y, valid = self._measurements(y, mask)
+        # the kernel writes the tracks in place: they must be C-ordered float64 / bool arrays
+        self.x_, self.P_ = (np.ascontiguousarray(a, dtype=float) for a in (self.x_, self.P_))
+        self.initialized_ = np.ascontiguousarray(self.initialized_, dtype=bool)
+        kernels.kalman_update(self.x_, self.P_, self.initialized_, y, valid, self._initial_cov,
+                              self.measurement_std**2, MAX_MEASUREMENT)
+
+    def _update_numpy(self, y, mask=None) -> None:
         y, valid = self._measurements(y, mask)
         first = valid & ~self.initialized_
         if np.any(first):
