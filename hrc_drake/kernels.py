@@ -758,6 +758,35 @@ def _kalman_gate(x, p, y, rows, r2):
     return out
 
 
+@njit(cache=True)
+def _merged_end_mass(starts, parent_idx, child_action, probs, parents_mass, duration_pmfs, supports):
+    """One level of Algorithm 1's tree (`prediction.waiting`): the children, sorted by group and
+    starting at `starts`, merged (sum of p_arc * parent's end-time pmf per group), then each
+    group's start-time pmf convolved with its action's duration pmf (direct sum over the pmf's
+    support, truncated at the grid's end). Returns (groups, G)."""
+    n_groups, n_rows = starts.shape[0], parent_idx.shape[0]
+    n_bins = parents_mass.shape[1]
+    out = np.zeros((n_groups, n_bins))
+    weighted = np.empty(n_bins)
+    for g in range(n_groups):
+        stop = starts[g + 1] if g + 1 < n_groups else n_rows
+        for t in range(n_bins):
+            weighted[t] = 0.0
+        for r in range(starts[g], stop):
+            parent = parent_idx[r]
+            arc = probs[parent, child_action[r]]
+            for t in range(n_bins):
+                weighted[t] += arc * parents_mass[parent, t]
+        action = child_action[starts[g]]
+        support = supports[action]
+        for t in range(n_bins):
+            total = 0.0
+            for k in range(min(support, t + 1)):
+                total += weighted[t - k] * duration_pmfs[action, k]
+            out[g, t] = total
+    return out
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -866,6 +895,15 @@ def kalman_gate(x, p, y, rows, r2: float) -> np.ndarray:
     return _kalman_gate(*_arrays(x, p, y), np.ascontiguousarray(rows, dtype=np.int64), float(r2))
 
 
+def merged_end_mass(starts, parent_idx, child_action, probs, parents_mass, duration_pmfs,
+                    supports) -> np.ndarray:
+    """`_merged_end_mass`: int arrays starts, parent_idx, child_action, supports; float probs (P, m),
+    parents_mass (P, G), duration_pmfs (m, G)."""
+    ints = (np.ascontiguousarray(a, dtype=np.int64) for a in (starts, parent_idx, child_action))
+    return _merged_end_mass(*ints, *_arrays(probs, parents_mass, duration_pmfs),
+                            np.ascontiguousarray(supports, dtype=np.int64))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -912,6 +950,8 @@ def warm_up() -> float:
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
     skeleton_jacobian(dims, q, visible, 1e-5)
     window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
+    merged_end_mass(np.zeros(1), np.zeros(1), np.zeros(1), np.ones((1, 1)), np.ones((1, 2)), np.ones((1, 2)),
+                    np.ones(1))
     x, p, flags = np.zeros((1, 6)), np.eye(6)[None].copy(), np.zeros(1, dtype=bool)
     x, p = kalman_predict(x, p, np.eye(6), np.eye(6), 1)
     kalman_update(x, p, flags, np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6)

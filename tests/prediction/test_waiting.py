@@ -112,3 +112,24 @@ def test_deep_history_model_and_durations_longer_than_the_horizon():
     np.testing.assert_allclose(cdf[1], (times >= 1.0) * 1.0, atol=1e-9)
     np.testing.assert_allclose(cdf[2], (times >= 2.0) * 1.0, atol=1e-9)
     np.testing.assert_allclose(cdf[0], (times >= 3.0) * 0.5, atol=1e-9)  # needs a2 to end in time
+
+
+def test_compiled_levels_equal_the_fft_reference_on_a_random_higher_order_model():
+    from hrc_drake.prediction import HigherOrderMarkovModel
+
+    rng = np.random.default_rng(5)
+    sequence = rng.integers(0, 5, size=300).tolist()
+    model = HigherOrderMarkovModel(order=2, buffer_size=None).fit(sequence)
+    waiting = WaitingTimePredictor(model, resolution=0.2, epsilon=1e-4)
+    for action in range(5):
+        for duration in rng.gamma(4.0, 0.6 + 0.3 * action, size=12):
+            waiting.observe_duration(action, duration)
+    for history, elapsed in (([0, 3], 0.4), ([4, 4, 1], None), ([2], 1.5), ([], None)):
+        times, compiled = waiting.distributions(history, elapsed, horizon=30.0)
+        times_ref, reference = waiting.distributions(history, elapsed, horizon=30.0, compiled=False)
+        np.testing.assert_array_equal(times, times_ref)
+        np.testing.assert_allclose(compiled, reference, atol=1e-12)
+        assert reference[:, -1].min() > 0.5  # the tree reached every action: the levels were tested
+        _, targeted = waiting.distributions(history, elapsed, horizon=30.0, targets=[1])
+        _, targeted_ref = waiting.distributions(history, elapsed, horizon=30.0, targets=[1], compiled=False)
+        np.testing.assert_allclose(targeted, targeted_ref, atol=1e-12)
