@@ -787,6 +787,35 @@ def _merged_end_mass(starts, parent_idx, child_action, probs, parents_mass, dura
     return out
 
 
+@njit(cache=True)
+def _position_samples(x, p, rows, z):
+    """Samples m + L z (R, K, d) of the position marginals N(m, P_pp) of tracks `rows`, from
+    standard normal draws z (R, K, d); L the lower Cholesky factor of P_pp (d x d)."""
+    n_rows, n_samples, d = z.shape
+    out = np.empty((n_rows, n_samples, d))
+    chol = np.zeros((d, d))
+    for r in range(n_rows):
+        t = rows[r]
+        for i in range(d):  # Cholesky-Banachiewicz, row by row
+            for j in range(i + 1):
+                total = p[t, i, j]
+                for k in range(j):
+                    total -= chol[i, k] * chol[j, k]
+                if i == j:
+                    if not total > 0.0:
+                        raise ValueError("a position covariance is not positive definite")
+                    chol[i, j] = math.sqrt(total)
+                else:
+                    chol[i, j] = total / chol[j, j]
+        for n in range(n_samples):
+            for i in range(d):
+                total = x[t, i]
+                for k in range(i + 1):
+                    total += chol[i, k] * z[r, n, k]
+                out[r, n, i] = total
+    return out
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -904,6 +933,11 @@ def merged_end_mass(starts, parent_idx, child_action, probs, parents_mass, durat
                             np.ascontiguousarray(supports, dtype=np.int64))
 
 
+def position_samples(x, p, rows, z) -> np.ndarray:
+    """`_position_samples`: x (T, S), P (T, S, S), rows (R,) int, z (R, K, d) -> (R, K, d)."""
+    return _position_samples(*_arrays(x, p), np.ascontiguousarray(rows, dtype=np.int64), *_arrays(z))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -956,6 +990,7 @@ def warm_up() -> float:
     x, p = kalman_predict(x, p, np.eye(6), np.eye(6), 1)
     kalman_update(x, p, flags, np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6)
     kalman_gate(x, p, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1e-4)
+    position_samples(x, p, np.zeros(1, dtype=np.int64), np.zeros((1, 2, 3)))
     goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3), np.ones(3),
                          np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
                          1.0, 1e-6)

@@ -261,3 +261,21 @@ def test_kalman_gate_equals_the_numpy_mahalanobis_distance():
     s = kf.P_[rows, :3, :3] + 0.02**2 * np.eye(3)
     expected = np.einsum("pi,pi->p", nu, np.linalg.solve(s, nu[:, :, None])[:, :, 0])
     np.testing.assert_allclose(kernels.kalman_gate(kf.x_, kf.P_, y, rows, 0.02**2), expected, rtol=1e-12)
+
+
+def test_position_samples_equal_mean_plus_the_cholesky_factor_times_the_draws():
+    rng = np.random.default_rng(15)
+    kf, _ = _kalman_pair(rng)
+    for _ in range(4):
+        kf.predict()
+        kf.update(rng.normal(size=(8, 3)))
+    rows = np.array([1, 2, 6])
+    z = rng.standard_normal((3, 40, 3))
+    chol = np.linalg.cholesky(kf.P_[rows, :3, :3])
+    expected = kf.x_[rows, None, :3] + z @ np.swapaxes(chol, 1, 2)
+    got = kernels.position_samples(kf.x_, kf.P_, rows, z)
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
+    singular = kf.P_.copy()
+    singular[1, :3, :3] = 0.0
+    with pytest.raises(ValueError, match="positive definite"):
+        kernels.position_samples(kf.x_, singular, rows, z)

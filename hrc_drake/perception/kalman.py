@@ -91,8 +91,8 @@ MAX_MEASUREMENT = 1e6
 
 def valid_measurements(y: np.ndarray) -> np.ndarray:
     """(...,) bool over the rows (..., dim) of y: finite, every |component| <= MAX_MEASUREMENT."""
-    with np.errstate(invalid="ignore"):
-        return np.all(np.abs(y) <= MAX_MEASUREMENT, axis=-1)  # False for NaN too
+    # a comparison with NaN is False (and warns for nothing)
+    return (np.abs(y) <= MAX_MEASUREMENT).all(axis=-1)
 
 
 @lru_cache(maxsize=64)
@@ -182,20 +182,24 @@ class KalmanFilter:
         self.P_ = np.broadcast_to(self._initial_cov, (self.n_tracks, s, s)).copy()
         self.initialized_ = np.zeros(self.n_tracks, dtype=bool)
 
-    def _measurements(self, y, mask):
+    def _checked(self, y, mask):
+        """(y (T, dim) float, mask (T,) bool, all True for None), or ValueError on a wrong shape."""
         y = np.asarray(y, dtype=float)
         if y.shape != (self.n_tracks, self.model.dim):
             raise ValueError(
                 "KalmanFilter: measurements must have shape "
                 f"({self.n_tracks}, {self.model.dim}), got {y.shape}"
             )
-        valid = valid_measurements(y)
-        if mask is not None:
-            mask = np.asarray(mask, dtype=bool)
-            if mask.shape != (self.n_tracks,):
-                raise ValueError(f"KalmanFilter: mask must have shape ({self.n_tracks},), got {mask.shape}")
-            valid &= mask
-        return y, valid
+        if mask is None:
+            return y, np.ones(self.n_tracks, dtype=bool)
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != (self.n_tracks,):
+            raise ValueError(f"KalmanFilter: mask must have shape ({self.n_tracks},), got {mask.shape}")
+        return y, mask
+
+    def _measurements(self, y, mask):
+        y, mask = self._checked(y, mask)
+        return y, valid_measurements(y) & mask
 
     def predict(self, steps: int = 1) -> None:
         """Time update (open loop): x <- A x, P <- A P A^T + W, `steps` times (compiled:
@@ -216,11 +220,11 @@ class KalmanFilter:
         A track's first valid measurement initializes it (position = y, derivatives 0).
         Compiled (`kernels.kalman_update`); `_update_numpy` is its reference.
         """
-        y, valid = self._measurements(y, mask)
+        y, mask = self._checked(y, mask)
         # the kernel writes the tracks in place: they must be C-ordered float64 / bool arrays
         self.x_, self.P_ = (np.ascontiguousarray(a, dtype=float) for a in (self.x_, self.P_))
         self.initialized_ = np.ascontiguousarray(self.initialized_, dtype=bool)
-        kernels.kalman_update(self.x_, self.P_, self.initialized_, y, valid, self._initial_cov,
+        kernels.kalman_update(self.x_, self.P_, self.initialized_, y, mask, self._initial_cov,
                               self.measurement_std**2, MAX_MEASUREMENT)
 
     def _update_numpy(self, y, mask=None) -> None:
