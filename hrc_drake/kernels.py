@@ -816,6 +816,35 @@ def _position_samples(x, p, rows, z):
     return out
 
 
+@njit(cache=True)
+def _bayes_rows(prior, log_likelihood, switch, active, floor):
+    """`intention.bayes.bayes_update` of rows (R, G): the prior mixed with the uniform one by each
+    row's switch probability, times exp(log L - best) floored at `floor`, normalised; a row that
+    is not active or has no finite likelihood keeps its prior."""
+    n_rows, n_goals = prior.shape
+    out = np.empty((n_rows, n_goals))
+    for r in range(n_rows):
+        best = -np.inf
+        for g in range(n_goals):
+            value = log_likelihood[r, g]
+            if math.isfinite(value) and value > best:
+                best = value
+        if not (active[r] and math.isfinite(best)):
+            for g in range(n_goals):
+                out[r, g] = prior[r, g]
+            continue
+        total = 0.0
+        for g in range(n_goals):
+            value = log_likelihood[r, g]
+            relative = max(value - best, floor) if math.isfinite(value) else floor
+            out[r, g] = ((1.0 - switch[r]) * prior[r, g] + switch[r] / n_goals) * math.exp(relative)
+            total += out[r, g]
+        total = max(total, 1e-300)
+        for g in range(n_goals):
+            out[r, g] /= total
+    return out
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -938,6 +967,12 @@ def position_samples(x, p, rows, z) -> np.ndarray:
     return _position_samples(*_arrays(x, p), np.ascontiguousarray(rows, dtype=np.int64), *_arrays(z))
 
 
+def bayes_rows(prior, log_likelihood, switch, active, floor: float) -> np.ndarray:
+    """`_bayes_rows`: prior, log_likelihood (R, G), switch (R,) in [0, 1], active (R,) bool."""
+    return _bayes_rows(*_arrays(prior, log_likelihood, switch), np.ascontiguousarray(active, dtype=np.bool_),
+                       float(floor))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -984,6 +1019,7 @@ def warm_up() -> float:
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
     skeleton_jacobian(dims, q, visible, 1e-5)
     window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
+    bayes_rows(np.full((2, 2), 0.5), np.zeros((2, 2)), np.zeros(2), np.ones(2, dtype=bool), -30.0)
     merged_end_mass(np.zeros(1), np.zeros(1), np.zeros(1), np.ones((1, 1)), np.ones((1, 2)), np.ones((1, 2)),
                     np.ones(1))
     x, p, flags = np.zeros((1, 6)), np.eye(6)[None].copy(), np.zeros(1, dtype=bool)

@@ -279,3 +279,20 @@ def test_position_samples_equal_mean_plus_the_cholesky_factor_times_the_draws():
     singular[1, :3, :3] = 0.0
     with pytest.raises(ValueError, match="positive definite"):
         kernels.position_samples(kf.x_, singular, rows, z)
+
+
+def test_bayes_rows_equal_the_numpy_bayes_update():
+    from hrc_drake.intention.bayes import _LOG_LIKELIHOOD_FLOOR, bayes_update
+
+    rng = np.random.default_rng(16)
+    for trial in range(50):
+        prior = rng.dirichlet(np.ones(5), size=3)
+        log_lik = rng.normal(scale=20.0, size=(3, 5))
+        log_lik[rng.random((3, 5)) < 0.2] = np.nan
+        if trial % 5 == 0:
+            log_lik[1] = -np.inf  # no finite likelihood: the prior stays
+        switch = rng.uniform(0.0, 0.5, size=3)
+        active = rng.random(3) > 0.2
+        expected = bayes_update(prior, log_lik, switch, active)
+        got = kernels.bayes_rows(prior, log_lik, switch, active, _LOG_LIKELIHOOD_FLOOR)
+        np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-300)

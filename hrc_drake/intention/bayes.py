@@ -326,9 +326,15 @@ class GoalIntentionEstimator:
         (`evaluation.replay_posteriors`); the likelihood half advances the velocity window."""
         log_lik = np.asarray(log_likelihood, dtype=float)
         active = np.asarray(active, dtype=bool)
+        if log_lik.shape != self.probabilities_.shape or active.shape != (2,):
+            raise ValueError(f"GoalIntentionEstimator.posterior_step: log_likelihood must be "
+                             f"{self.probabilities_.shape} and active (2,), got {log_lik.shape}, "
+                             f"{active.shape}")
         restart = active & (time - self._last_motion >= self.restart_after)
         switch = np.where(restart, max(self.restart_switch, self.switch_probability), self.switch_probability)
-        self.probabilities_ = bayes_update(self.probabilities_, log_lik, switch, active)
+        # `bayes_update` of the two rows, compiled (its numpy form is the reference)
+        self.probabilities_ = kernels.bayes_rows(self.probabilities_, log_lik, switch, active,
+                                                 _LOG_LIKELIHOOD_FLOOR)
         self._last_motion = np.where(active, time, self._last_motion)
         self.last_active_ = active
         return self.probabilities_
