@@ -161,7 +161,7 @@ def _to_world(cy, sy, cl, sl, x, y, hz, px, py, pz, out, row):
     lx = cl * px + sl * pz
     out[row, 0] = x + cy * lx - sy * py
     out[row, 1] = y + sy * lx + cy * py
-    out[row, 2] = hz - sl * px + cl * pz
+    out[row, 2] = hz + (-sl * px + cl * pz)  # in `_points_single`'s order: the same rounding
 
 
 @njit(cache=True)

@@ -296,3 +296,9 @@ def test_bayes_rows_equal_the_numpy_bayes_update():
         expected = bayes_update(prior, log_lik, switch, active)
         got = kernels.bayes_rows(prior, log_lik, switch, active, _LOG_LIKELIHOOD_FLOOR)
         np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-300)
+
+
+def test_body_points_of_one_pose_are_the_float_forward_kinematics_bit_for_bit():
+    body = BodyModel()
+    for q in _random_poses(body, np.random.default_rng(17), 200):
+        np.testing.assert_array_equal(body._points(q), body._points_single(q))
