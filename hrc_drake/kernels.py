@@ -845,6 +845,58 @@ def _bayes_rows(prior, log_likelihood, switch, active, floor):
     return out
 
 
+@njit(cache=True, inline="always")
+def _normal_cdf(x):
+    """Phi(x), the standard normal CDF (scipy.special.ndtr), from erfc."""
+    return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
+@njit(cache=True)
+def _cloud_summaries(particles, posterior_only, kf_x, kf_p, center, half):
+    """Per point of the skeleton particle filter: (spread (P,), fraction in the box (P,)), see
+    `perception.particle_filter.SkeletonParticleFilter.spread` and `.fraction_in_box`: from
+    the positions particles[:, :, :3] of a cloud, or from the Kalman posterior (kf_x, kf_p)
+    of a point flagged posterior_only (the product of the per-axis marginal probabilities)."""
+    n_points, n_particles = particles.shape[0], particles.shape[1]
+    spread = np.empty(n_points)
+    fraction = np.empty(n_points)
+    for i in range(n_points):
+        if posterior_only[i]:
+            trace, inside = 0.0, 1.0
+            for a in range(3):
+                trace += kf_p[i, a, a]
+                std = math.sqrt(kf_p[i, a, a])
+                low = (center[a] - half[a] - kf_x[i, a]) / std
+                high = (center[a] + half[a] - kf_x[i, a]) / std
+                # the tail on the far side of the mean: no cancellation of two values near 1
+                if low > 0:
+                    axis = _normal_cdf(-low) - _normal_cdf(-high)
+                else:
+                    axis = _normal_cdf(high) - _normal_cdf(low)
+                inside *= min(max(axis, 0.0), 1.0)
+            spread[i] = math.sqrt(trace / 3.0)
+            fraction[i] = inside
+            continue
+        variance, count = 0.0, 0
+        for a in range(3):
+            total = 0.0
+            for n in range(n_particles):
+                total += particles[i, n, a]
+            mean = total / n_particles
+            squares = 0.0
+            for n in range(n_particles):
+                deviation = particles[i, n, a] - mean
+                squares += deviation * deviation
+            variance += squares / n_particles
+        for n in range(n_particles):
+            if (abs(particles[i, n, 0] - center[0]) <= half[0] and abs(particles[i, n, 1] - center[1])
+                    <= half[1] and abs(particles[i, n, 2] - center[2]) <= half[2]):
+                count += 1
+        spread[i] = math.sqrt(variance / 3.0)
+        fraction[i] = count / n_particles
+    return spread, fraction
+
+
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
@@ -973,6 +1025,13 @@ def bayes_rows(prior, log_likelihood, switch, active, floor: float) -> np.ndarra
                        float(floor))
 
 
+def cloud_summaries(particles, posterior_only, kf_x, kf_p, center, half) -> tuple[np.ndarray, np.ndarray]:
+    """`_cloud_summaries`: particles (P, n, S), posterior_only (P,) bool, Kalman x (P, S) and P
+    (P, S, S), the box's center and half size (3,)."""
+    return _cloud_summaries(*_arrays(particles), np.ascontiguousarray(posterior_only, dtype=np.bool_),
+                            *_arrays(kf_x, kf_p, center, half))
+
+
 def _rows(visible) -> np.ndarray:
     return np.flatnonzero(np.asarray(visible, dtype=bool)).astype(np.int64)
 
@@ -1027,6 +1086,8 @@ def warm_up() -> float:
     kalman_update(x, p, flags, np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6)
     kalman_gate(x, p, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1e-4)
     position_samples(x, p, np.zeros(1, dtype=np.int64), np.zeros((1, 2, 3)))
+    cloud_summaries(np.zeros((2, 3, 6)), np.array([True, False]), np.zeros((2, 6)),
+                    np.tile(np.eye(6), (2, 1, 1)), np.zeros(3), np.ones(3))
     goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3), np.ones(3),
                          np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
                          1.0, 1e-6)

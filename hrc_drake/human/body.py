@@ -230,8 +230,8 @@ class BodyModel:
             if with_fore_dir or type(self)._points_single is not BodyModel._points_single:
                 return self._points_single(q, with_fore_dir)
             # `_points_single` compiled (~3 us instead of ~50 us; tested equal)
-            dims = np.array([self.hip_height, self.torso, self.neck, 0.5 * self.shoulder_width, self.upper_arm,
-                             self.forearm])
+            dims = np.array([self.hip_height, self.torso, self.neck, 0.5 * self.shoulder_width,
+                             self.upper_arm, self.forearm])
             return kernels.skeleton_points(dims, q)
         # closed-form products of the elementary rotations of the module docstring: a handful
         # of elementwise numpy calls on both arms at once instead of 3x3 matrix products

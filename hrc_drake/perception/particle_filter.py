@@ -233,6 +233,17 @@ class SkeletonParticleFilter:
         """(P, N, 3) particle positions (a view)."""
         return self.particles_[:, :, :3]
 
+    def summaries(self, center, size) -> tuple[np.ndarray, np.ndarray]:
+        """(`spread()`, `fraction_in_box(center, size)`) in one compiled pass
+        (`kernels.cloud_summaries`; those two numpy methods are its reference)."""
+        center = np.asarray(center, dtype=float)
+        half = 0.5 * np.asarray(size, dtype=float)
+        if center.shape != (3,) or half.shape != (3,):
+            raise ValueError(f"SkeletonParticleFilter.summaries: center and size must be (3,), got "
+                             f"{center.shape}, {half.shape}")
+        kf = self._kf
+        return kernels.cloud_summaries(self.particles_, self._posterior_only, kf.x_, kf.P_, center, half)
+
     def spread(self) -> np.ndarray:
         """(P,) isotropic standard deviation sqrt(trace(cov) / 3) of each point's particles (of
         its Kalman posterior for a seen point drawn with `seen_samples`)."""

@@ -284,8 +284,7 @@ class SkeletonTracker:
         pf = self._pf
         pf.step(points, seen, self.is_hidden, steps=steps)
         positions = pf.means_.copy()
-        spread = pf.spread()
-        fraction = pf.fraction_in_box(self.workspace_center, self.workspace_size)
+        spread, fraction = pf.summaries(self.workspace_center, self.workspace_size)
         positions, spread, fraction = self._fill_unknown(positions, spread, fraction, pf.initialized_)
         k = min(self.params["display_particles"], pf.n_particles)
         particles = pf.positions[:, :k].copy()

@@ -283,3 +283,19 @@ def test_seen_samples_draws_only_the_displayed_particles_and_takes_moments_from_
     assert 0.3 < few.fraction_in_box(center, size)[L_SHOULDER] < 0.7
     with pytest.raises(ValueError, match="seen_samples"):
         SkeletonParticleFilter(seen_samples=0)
+
+
+@pytest.mark.parametrize("seen_samples", [None, 40])
+def test_summaries_equal_the_numpy_spread_and_fraction_in_box(seen_samples):
+    pf = settled_filter(seed=3, seen_samples=seen_samples)
+    for _ in range(3):  # a hidden wrist and elbow: clouds next to Kalman posteriors
+        pf.step(occluded(POSE, L_WRIST, L_ELBOW))
+    for center, size in (([0.1, 0.1, 1.2], [0.5, 0.5, 0.5]), ([0.27, 0.2, 1.1], [0.03, 0.03, 0.03]),
+                         ([2.0, 0.0, 0.0], [0.1, 0.1, 0.1])):
+        spread, fraction = pf.summaries(center, size)
+        np.testing.assert_allclose(spread, pf.spread(), rtol=1e-12)
+        np.testing.assert_allclose(fraction, pf.fraction_in_box(center, size), rtol=1e-12, atol=1e-15)
+    partly = pf.summaries([0.27, 0.2, 1.1], [0.03, 0.03, 0.03])[1]
+    assert np.any((partly > 0.0) & (partly < 1.0))  # the fractions are not trivially 0 or 1
+    with pytest.raises(ValueError, match="center and size"):
+        pf.summaries([0.0, 0.0], [1.0, 1.0, 1.0])
