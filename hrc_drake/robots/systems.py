@@ -7,6 +7,7 @@ core works on a copy, so one built diagram can be simulated again and two contex
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -88,7 +89,8 @@ class PathFollower(LeafSystem):
         itself (held by the entry, so its id is not reused while cached) and checked against
         the start: two contexts asking different paths never share one."""
         entry = self._paths.get(id(request))
-        if entry is not None and entry[0] is request and np.array_equal(entry[1], start):
+        # the start has the cached one's shape (the arm's joints): an element test suffices
+        if entry is not None and entry[0] is request and bool((entry[1] == start).all()):
             return entry[2]
         if len(self._paths) > 256:
             self._paths.clear()
@@ -128,7 +130,8 @@ class PathFollower(LeafSystem):
                 x[self._start] = start
                 x[k], x[k + 2], x[k + 3] = request.seq, 0.0, 0.0
         override = self._override.Eval(context)[0] if self._override.HasValue(context) else 1.0
-        applied = float(np.clip(override, 0.0, 1.0)) if np.isfinite(override) else 0.0
+        override = float(override)
+        applied = min(max(override, 0.0), 1.0) if math.isfinite(override) else 0.0
         for arm, path, segment, phase in self._active(x, requests):
             k = self._arm0 + 4 * arm
             segment, phase, finished = path.progress_after(segment, phase, self.period * applied)

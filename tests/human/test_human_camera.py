@@ -157,3 +157,19 @@ def test_the_all_pairs_capsule_test_agrees_with_the_bounding_sphere_one():
         np.testing.assert_array_equal(np.repeat(few, 40), many)  # 4480 pairs: the sphere test
         blocked += few.sum()
     assert 0 < blocked < 400
+
+
+def test_gaze_visible_is_the_angle_to_the_camera_below_the_limit():
+    camera = DepthCameraModel([2.0, 0.0, 1.5], [0.0, 0.0, 1.0], [], gaze_valid_angle=0.8)
+    rng = np.random.default_rng(4)
+    answers = []
+    for _ in range(300):
+        head, gaze = rng.normal(scale=0.5, size=3) + [0.0, 0.0, 1.6], rng.normal(size=3)
+        to_camera = camera.position - head
+        angle = np.arccos(np.clip(to_camera @ gaze / np.linalg.norm(to_camera) / np.linalg.norm(gaze), -1, 1))
+        if abs(angle - 0.8) > 1e-9:
+            answers.append(camera.gaze_visible(head, gaze))
+            assert answers[-1] == (angle <= 0.8)
+    assert 0 < sum(answers) < len(answers)
+    assert not camera.gaze_visible([0.0, 0.0, 1.6], [0.0, 0.0, 0.0])  # no gaze direction
+    assert not camera.gaze_visible([np.nan, 0.0, 1.6], [1.0, 0.0, 0.0])
