@@ -104,6 +104,16 @@ def worst_case_excursions(qdot, horizon: float, v_max, a_max) -> tuple[np.ndarra
     return reach(qdot), reach(-qdot)
 
 
+def _linspace(low: float, high: float, num: int) -> np.ndarray:
+    """np.linspace(low, high, num) of scalars, num >= 2, as numpy computes it (arange * step +
+    low, the last value set to high) without its ~25 us of argument handling."""
+    step = (high - low) / (num - 1)
+    values = np.arange(num, dtype=float) / (num - 1) * (high - low) if step == 0 else np.arange(num) * step
+    values += low
+    values[-1] = high
+    return values
+
+
 def _joint_samples(low: float, high: float, cells: int) -> tuple[np.ndarray, np.ndarray]:
     """Values and perpendicular scales of one rotation's samples on [low, high] split in `cells`
     (0: the single value low).
@@ -115,7 +125,7 @@ def _joint_samples(low: float, high: float, cells: int) -> tuple[np.ndarray, np.
     """
     if cells == 0:
         return np.array([low]), np.ones(1)
-    values = np.linspace(low, high, 2 * cells + 1)
+    values = _linspace(low, high, 2 * cells + 1)
     scale = np.ones(2 * cells + 1)
     scale[1::2] = 1.0 / np.cos((high - low) / (2 * cells))
     return values, scale

@@ -347,3 +347,14 @@ def test_filtered_training_states_are_the_kalman_filtered_ones(body):
         smoothed.update_q(q + rng.normal(0.0, 0.05, 12))
     # the smoother changes every state but the newest
     assert not np.allclose(smoothed._states(3)[0], smoothed.estimator.filtered_window(3)[0])
+
+
+def test_scalar_linspace_is_numpys_bit_for_bit():
+    from hrc_drake.motion.reactive import _linspace
+
+    rng = np.random.default_rng(8)
+    for _ in range(500):
+        low = rng.normal()
+        high = low + abs(rng.normal()) * rng.choice([0.0, 1e-9, 1.0, 3.0])
+        num = int(rng.integers(2, 12))
+        np.testing.assert_array_equal(_linspace(low, high, num), np.linspace(low, high, num))
