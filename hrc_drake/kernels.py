@@ -10,10 +10,14 @@ the slab test and Ericson's clamped closest points of two segments (Real-Time Co
 Detection, 5.1.9) as `human.camera` and `motion.geometry` state them; the skeleton forward
 kinematics of `human.body`, its forward-difference Jacobian and the damped Gauss-Newton steps of
 `motion.reactive.tracking_inverse`; the Monte Carlo rollouts of eq. (8.8) on the GP of (8.7);
-the RTS smoothed means of (8.6); `motion.reactive._bounding_capsule`; and one lockstep step of
-the Monte Carlo scheduler's trials (Algorithm 4, `scheduling.montecarlo`). Their numpy forms
-stay the reference the tests compare against (tests/test_kernels.py,
-tests/scheduling/test_scheduler.py).
+the RTS smoothed means of (8.6); `motion.reactive._bounding_capsule`; one lockstep step of
+the Monte Carlo scheduler's trials (Algorithm 4, `scheduling.montecarlo`); the intention
+estimator's wrist velocity window, the features and GMM densities of eq. (3.12) and its Bayes
+step (3.2); the Kalman time and measurement updates of the trackers, the particle filter's
+gate, posterior samples and cloud summaries (Ch. 9); and one level of the waiting-time tree
+(Algorithm 1, a direct convolution). Their numpy forms stay the reference the tests compare
+against (tests/test_kernels.py, tests/scheduling/test_scheduler.py,
+tests/prediction/test_waiting.py, tests/perception/test_particle_filter.py).
 
 Compiled on first use and cached on disk (`cache=True`: next to this file, or numba's user
 cache when that is not writable); `warm_up()` compiles or loads every kernel, and

@@ -12,8 +12,10 @@ p_branch P(tau_branch <= t)   (5.37).
 The tree grows one level at a time: the next-action probabilities of all nodes of a level
 come from one batched model call (`_predict_many`), cached per context while the model is
 unchanged; nodes with the same recent context and the same set of actions already seen are
-merged (their futures are equal and (5.37) is linear); the start-time pmfs of a level are
-convolved with the duration pmfs in one FFT call.
+merged (their futures are equal and (5.37) is linear); the merging and the convolution of
+the start-time pmfs of a level with the duration pmfs are one compiled direct convolution over
+each pmf's support (`kernels.merged_end_mass`; `distributions(compiled=False)` is the numpy
+reference, by FFT).
 """
 
 from __future__ import annotations
@@ -170,11 +172,10 @@ class WaitingTimePredictor:
         """Spectra (m, n_fft) of the duration pmfs on the grid, cached until a new sample."""
         key = (n_bins, self._samples_version)
         if self._spectra_cache[0] != key:
-            m = self.model.n_actions_
-            pmfs = np.stack([self._pmf(self._duration_samples(c), n_bins, True) for c in range(m)])
+            pmfs, supports = self._duration_pmfs(n_bins)
             # long enough for a linear (not circular) convolution of a start pmf with the
             # durations, and smooth: n_bins + support is often a prime (slow)
-            support = int(np.flatnonzero(pmfs.any(axis=0)).max(initial=0)) + 1
+            support = max(int(supports.max()), 1)
             n_fft = sp_fft.next_fast_len(n_bins + support - 1, real=True)
             self._spectra_cache = (key, (sp_fft.rfft(pmfs, n=n_fft, axis=1), n_fft))
         return self._spectra_cache[1]
