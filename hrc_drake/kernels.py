@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 _EPS = 1e-12
+_FLOAT64 = np.dtype(np.float64)
 
 
 @njit(cache=True, inline="always")
@@ -904,11 +905,9 @@ def _cloud_summaries(particles, posterior_only, kf_x, kf_p, center, half):
 def _arrays(*arrays):
     """The arrays as writeable C-ordered float64 (copies only where needed): one compiled
     specialisation per kernel (numba compiles another for read-only or strided arrays)."""
-    return tuple(
-        a if type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable
-        else np.array(a, dtype=np.float64, order="C")
-        for a in arrays
-    )
+    # flags.carray: C-contiguous, aligned and writeable in one test (this runs ~1e5 times a minute)
+    return tuple([a if type(a) is np.ndarray and a.dtype is _FLOAT64 and a.flags.carray
+                  else np.array(a, dtype=np.float64, order="C") for a in arrays])
 
 
 def capsule_clearances(start_a, end_a, radius_a, start_b, end_b, radius_b) -> np.ndarray:
