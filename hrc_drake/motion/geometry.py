@@ -17,7 +17,7 @@ def _check_points(name: str, array) -> np.ndarray:
     array = np.asarray(array, dtype=float)
     if array.ndim < 1 or array.shape[-1] != 3:
         raise ValueError(f"{name}: expected an array of 3-d points (..., 3), got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():  # the method, not np.all: this check runs ~100 times a frame
         raise ValueError(f"{name}: contains NaN or inf")
     return array
 
@@ -101,7 +101,7 @@ def capsule_capsule_distance(start_a, end_a, radius_a, start_b, end_b, radius_b)
         raise ValueError(
             f"capsule set B: start {start_b.shape}, end {end_b.shape}, radius {radius_b.shape} disagree"
         )
-    if np.any(radius_a < 0) or np.any(radius_b < 0):
+    if (radius_a < 0).any() or (radius_b < 0).any():
         raise ValueError("capsule radii must be >= 0")
     # `segment_segment_closest` over all pairs as one compiled loop (equal to ~1e-15 m)
     return capsule_clearances(start_a, end_a, radius_a, start_b, end_b, radius_b)
