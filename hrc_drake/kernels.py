@@ -589,12 +589,27 @@ def _angle(u0, u1, u2, v0, v1, v2):
     return math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), u0 * v0 + u1 * v1 + u2 * v2)
 
 
+@njit(cache=True, inline="always")
+def _shifted_exp_sum(values):
+    """(top, sum of exp(v - top)) over values, top the largest one (0 when that is not finite):
+    the two parts of a stable log-sum-exp."""
+    top = -np.inf
+    for v in values:
+        if v > top:
+            top = v
+    if not math.isfinite(top):
+        top = 0.0
+    total = 0.0
+    for v in values:
+        total += math.exp(v - top)
+    return top, total
+
+
 @njit(cache=True)
 def _gmm_log_density(x, precision_chol, mean_proj, log_norm):
     """`intention.likelihood.GaussianMixtureDensity.log_density` of one sample x (D,)."""
     n_components, d = mean_proj.shape
     log_comp = np.empty(n_components)
-    top = -np.inf
     for k in range(n_components):
         quadratic = 0.0
         for e in range(d):
@@ -603,13 +618,7 @@ def _gmm_log_density(x, precision_chol, mean_proj, log_norm):
                 y += x[i] * precision_chol[k, i, e]
             quadratic += y * y
         log_comp[k] = log_norm[k] - 0.5 * quadratic
-        if log_comp[k] > top:
-            top = log_comp[k]
-    if not math.isfinite(top):
-        top = 0.0
-    total = 0.0
-    for k in range(n_components):
-        total += math.exp(log_comp[k] - top)
+    top, total = _shifted_exp_sum(log_comp)
     return top + math.log(total)
 
 
@@ -628,7 +637,6 @@ def _goal_log_likelihoods(wrists, velocity, moving, head, gaze, centers, columns
     per_sample = np.empty(n_samples)
     for g in range(n_goals):
         for h in range(2):
-            top = -np.inf
             for n in range(n_samples):
                 for w in range(2):
                     t0 = centers[g, n, 0] - wrists[w, 0]
@@ -647,13 +655,7 @@ def _goal_log_likelihoods(wrists, velocity, moving, head, gaze, centers, columns
                 for c in range(columns.shape[0]):
                     x[c] = phi[columns[c]]
                 per_sample[n] = _gmm_log_density(x, precision_chol, mean_proj, log_norm)
-                if per_sample[n] > top:
-                    top = per_sample[n]
-            if not math.isfinite(top):
-                top = 0.0
-            total = 0.0
-            for n in range(n_samples):
-                total += math.exp(per_sample[n] - top)
+            top, total = _shifted_exp_sum(per_sample)
             out[h, g] = top + math.log(total / n_samples)
     return out
 

@@ -219,6 +219,14 @@ def test_goal_log_likelihoods_equal_the_numpy_features_and_mixture_density():
             np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10)
 
 
+def _settled_kalman(rng):
+    kf, _ = _kalman_pair(rng)
+    for _ in range(5):
+        kf.predict()
+        kf.update(rng.normal(size=(8, 3)))
+    return kf
+
+
 def _kalman_pair(rng, order=4):
     from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter
 
@@ -251,10 +259,7 @@ def test_kalman_predict_and_update_equal_their_numpy_forms():
 
 def test_kalman_gate_equals_the_numpy_mahalanobis_distance():
     rng = np.random.default_rng(14)
-    kf, _ = _kalman_pair(rng)
-    for _ in range(5):
-        kf.predict()
-        kf.update(rng.normal(size=(8, 3)))
+    kf = _settled_kalman(rng)
     y = rng.normal(size=(8, 3))
     rows = np.array([0, 3, 5, 7])
     nu = y[rows] - kf.x_[rows, :3]
@@ -265,10 +270,7 @@ def test_kalman_gate_equals_the_numpy_mahalanobis_distance():
 
 def test_position_samples_equal_mean_plus_the_cholesky_factor_times_the_draws():
     rng = np.random.default_rng(15)
-    kf, _ = _kalman_pair(rng)
-    for _ in range(4):
-        kf.predict()
-        kf.update(rng.normal(size=(8, 3)))
+    kf = _settled_kalman(rng)
     rows = np.array([1, 2, 6])
     z = rng.standard_normal((3, 40, 3))
     chol = np.linalg.cholesky(kf.P_[rows, :3, :3])
