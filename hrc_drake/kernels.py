@@ -503,6 +503,25 @@ def _trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fi
     return any_alive
 
 
+@njit(cache=True, inline="always")
+def _propagate_covariance(a, w, p, a_p, out):
+    """The Kalman time update of a covariance: a_p = A P, out = a_p A^T + W (out may be p itself:
+    a_p is complete before out is written)."""
+    size = a.shape[0]
+    for i in range(size):
+        for j in range(size):
+            total = 0.0
+            for m in range(size):
+                total += a[i, m] * p[m, j]
+            a_p[i, j] = total
+    for i in range(size):
+        for j in range(size):
+            total = 0.0
+            for m in range(size):
+                total += a_p[i, m] * a[j, m]
+            out[i, j] = total + w[i, j]
+
+
 @njit(cache=True)
 def _rts_means(a, w, means, covs):
     """Smoothed means phi_{k|K} (K, T, S) of the Rauch-Tung-Striebel smoother, eq. (8.6), from the
@@ -511,19 +530,11 @@ def _rts_means(a, w, means, covs):
     gains need only the filtered covariances, so the smoothed ones are not formed."""
     steps, tracks, size = means.shape
     smoothed = means.copy()
+    a_p = np.empty((size, size))  # A V_k|k
+    p_pred = np.empty((size, size))  # V_k+1|k = A V_k|k A^T + W
     for k in range(steps - 2, -1, -1):
         for t in range(tracks):
-            p_k = covs[k, t]
-            a_p = np.zeros((size, size))  # A V_k|k
-            for i in range(size):
-                for j in range(size):
-                    for m in range(size):
-                        a_p[i, j] += a[i, m] * p_k[m, j]
-            p_pred = w.copy()  # A V_k|k A^T + W
-            for i in range(size):
-                for j in range(size):
-                    for m in range(size):
-                        p_pred[i, j] += a_p[i, m] * a[j, m]
+            _propagate_covariance(a, w, covs[k, t], a_p, p_pred)
             gain_t = _solve_pivoting(p_pred, a_p)  # J^T = V_{k+1|k}^-1 A V_k|k (both symmetric)
             for i in range(size):
                 innovation = 0.0
@@ -678,17 +689,7 @@ def _kalman_predict(x, p, a, w, steps):
                 state[i] = total
             for i in range(size):
                 x[t, i] = state[i]
-                for j in range(size):
-                    total = 0.0
-                    for m in range(size):
-                        total += a[i, m] * p[t, m, j]
-                    ap[i, j] = total
-            for i in range(size):
-                for j in range(size):
-                    total = 0.0
-                    for m in range(size):
-                        total += ap[i, m] * a[j, m]
-                    p[t, i, j] = total + w[i, j]
+            _propagate_covariance(a, w, p[t], ap, p[t])
     return x, p
 
 
