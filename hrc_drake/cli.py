@@ -155,6 +155,9 @@ def _simulate(args) -> int:
         elif safety:
             line += f"  (never below the safety distance {safety['safety_distance']:g} m)"
         print(line)
+    iso = m.get("safety") or {}
+    if "verdict" in iso:
+        print(f"safety            {iso['verdict']}")
     if args.replay:
         size = write_replay(cell, Path(args.replay))
         print(f"replay            {args.replay} ({size / 1e6:.1f} MB)")

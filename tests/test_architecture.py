@@ -5,9 +5,9 @@ Every import statement counts, at module level or inside a function:
     `hrc_drake/systems.py` and `hrc_drake/cli.py`;
 (b) nothing imports from a higher layer. Layers from the bottom:
     0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
-      `allocator`, `kernels` (the numba kernels);
-    1 the cores: every module of human, perception, intention, prediction, scheduling, motion and
-      robots except each `systems.py` (and the robots' Drake modules); cores of one area may
+      `allocator`, `kernels` (the numba kernels), `traces`;
+    1 the cores: every module of human, perception, intention, prediction, scheduling, motion,
+      safety and robots except each `systems.py` (and the robots' Drake modules); cores of one area may
       import cores of another area when no cycle results;
     2 each area's `systems.py` and the robots' Drake modules (`ROBOTS_DRAKE_MODULES`);
     3 `cell/`;
@@ -30,8 +30,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
-LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels"}
-AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots"}
+LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels", "traces"}
+AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots", "safety"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}
 PYDRAKE_ALLOWED = ("hrc_drake/systems.py", "hrc_drake/cli.py", "hrc_drake/robots/", "hrc_drake/cell/")

@@ -1,27 +1,25 @@
-"""Safety figures of every shipped cell: as shipped, and with speed-and-separation monitoring.
+"""The cost of safety: every shipped cell under no safety system and the ISO/TS 15066 modes.
 
-Issue 14, item 5. For every scenario in `diagrams/` (or those named), runs the cell
-- `shipped`: its own configuration;
-- `worst_case`: speed scaling (ISO/TS 15066 rule, clearance = the scenario's safety distance)
-  on the worst-case swept volumes of [107] (0.3 s, the default human limits);
-- `gp_c_filtered`: the same rule on model C's swept volumes (P = 2, 0.3 s, 90th percentile of
-  the rollouts, trained on the filtered states: the variant that contains most of the motion,
-  see the README's 8.1 section);
-and reports per (scenario, arm): products finished, the true minimum human-robot distance, the
-time and fraction of samples below the scenario's safety distance (and the time of those with
-the robot not stopped by the safety system, override > 1 %), and the mean speed override.
-A cell whose header says why it runs without speed scaling cites these figures.
+Issue 36, item 5. For every scenario in `diagrams/` (or those named) and every mode of
+`MODES` (`declared`: the cell as shipped; `none`, `ssm`, `pfl`, `hybrid`: its `safety` field
+replaced by that mode with default parameters, Z_d from the cell's tracker or, without one, its
+camera's noise; `hybrid` takes the layout's collaborative zones, or one sphere over the table
+where the layout declares none), runs the cell over seeds and reports products, mean cycle time,
+violations of the mode by rule, the worst ratio to the ISO limits per body region, protective
+stops, time below S_p while moving, contacts, and the CPU share of the PFL part of the safety
+controller (effective masses and permissible speeds).
 
-    python tools/bench_safety.py                    # every cell, 120 s, the scenario's seed
-    python tools/bench_safety.py --duration 300 --seeds 3 diagrams/torch_clock.yaml
+    python tools/bench_safety.py --quick            # 30 s runs, one seed: under 5 minutes
+    python tools/bench_safety.py --duration 300 --seeds 3
+    python tools/bench_safety.py diagrams/torch_clock.yaml --modes declared,none
 
-It first prints, per cell, how far the worst-case volume reaches ahead of the resting operator
-and how near the robots' targets are (`separation_at_rest`): where the targets are nearer, speed
-and separation monitoring stops the robot whenever the operator rests.
-
-Last line: one JSON object, `<scenario>.<arm>.{products, min_distance_m, time_below_s,
-fraction_below, time_below_not_stopped_s, mean_override}` (each a list over the seeds) and
-`<scenario>.layout.{rest_reach_m, nearest_robot_target_m}`.
+Last line: one JSON object with `cells_with_violations` (cells with violations of their declared
+mode), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
+null: no contact), `products.<cell>.<mode>` and `cycle_s.<cell>.<mode>` (means over the seeds),
+`stops.<cell>.<mode>`, `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
+declared mode), `pfl_speed_mps.<region>` and `pfl_speed_quasi_static_mps.<region>` (eq. A.6 for
+m_R = 3 kg), `effective_mass_us` (one evaluation on a fresh YuMi state: Jacobian, mass matrix,
+factorisation) and `effective_mass_cached_us` (another point of the same body and state).
 """
 
 from __future__ import annotations
@@ -37,51 +35,121 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-ARMS = ("shipped", "worst_case", "gp_c_filtered")
+MODES = ("declared", "none", "ssm", "pfl", "hybrid")
+#: the tag of each mode override
+MODE_TAGS = {"ssm": "SpeedSeparationMonitoring", "pfl": "PowerForceLimiting", "hybrid": "Hybrid"}
 
 
-def safety_system(arm: str, safety_distance: float):
-    """(motion_model, speed_scaling) of an arm; None for the scenario's own."""
-    from hrc_drake.motion.config import GPMotionModel, SeparationSpeedScaling, WorstCaseMotionModel
+def mode_overrides(path: str, mode: str) -> dict:
+    """The raw overrides that put the cell of `path` under `mode` ({} for `declared`)."""
+    from hrc_drake.cell.scenario import Tagged, load_scenario
+    from hrc_drake.perception.config import NoTracker
 
-    scaling = SeparationSpeedScaling(clearance=safety_distance, reaction_time=0.1, stopping_time=0.15)
-    if arm == "worst_case":
-        return WorstCaseMotionModel(horizon=0.3), scaling
-    if arm == "gp_c_filtered":
-        return GPMotionModel(variant="C", order=2, horizon=0.3, percentile=90.0,
-                             training_states="filtered"), scaling
-    return None
+    if mode == "declared":
+        return {}
+    if mode == "none":
+        return {"safety": Tagged("NoSafety", {})}
+    scenario = load_scenario(path)
+    uncertainty = "camera" if isinstance(scenario.tracker, NoTracker) else "tracker"
+    out = {"safety": Tagged(MODE_TAGS[mode], {"position_uncertainty": uncertainty})}
+    if mode == "hybrid" and not scenario.layout.collaborative_zones:
+        table = scenario.layout.table
+        center = [table.center[0], table.center[1], table.height + 0.25]
+        radius = 0.5 * (table.size[0] ** 2 + table.size[1] ** 2) ** 0.5
+        out["layout"] = {"collaborative_zones": [{"name": "table", "center": center, "radius": radius}]}
+    return out
 
 
-def run(path: str, arm: str, seed: int | None, duration: float) -> dict:
-    """One seeded run of a cell under one arm: its safety figures."""
+def run(path: str, mode: str, seed: int, duration: float) -> dict:
+    """One seeded run of a cell under one mode: its figures."""
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
-    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.cell.scenario import load_scenario_with
+    from hrc_drake.safety import rules
 
     warnings.filterwarnings("ignore")
-    scenario = load_scenario(path)
-    system = safety_system(arm, scenario.safety_distance)
-    if system is not None:
-        scenario.motion_model, scenario.speed_scaling = system
-    if seed is not None:
-        scenario.seed = int(seed)
+    scenario = load_scenario_with(path, mode_overrides(path, mode))
+    scenario.seed = int(seed)
     cell = build_cell(scenario, path)
-    start = time.perf_counter()
-    result = simulate(cell, duration, progress=None)
+    pfl_time = [0.0]
+
+    def timed(function):
+        def wrapper(*args, **kwargs):
+            start = time.thread_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                pfl_time[0] += time.thread_time() - start
+        return wrapper
+
+    original = rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds
+    rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds = timed(original[0]), timed(original[1])
+    start = time.thread_time()
+    try:
+        result = simulate(cell, duration, progress=None)
+    finally:
+        rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds = original
+    cpu = time.thread_time() - start
     metrics = result.metrics
-    safety = metrics.get("safety") or {}
-    return {"scenario": Path(path).stem, "arm": arm, "seed": scenario.seed,
-            "wall_s": round(time.perf_counter() - start, 1),
-            "products": int(metrics.get("products_finished") or 0),
-            "min_distance_m": metrics.get("min_human_robot_distance"),
-            "time_below_s": safety.get("time_below_s"), "fraction_below": safety.get("fraction_below"),
-            "time_below_not_stopped_s": safety.get("time_below_not_stopped_s"),
-            "mean_override": metrics.get("mean_speed_override")}
+    safety = metrics["safety"]
+    ratios = [v for v in safety["worst_ratio"].values()]
+    return {"scenario": Path(path).stem, "mode": mode, "declared": safety["mode"], "seed": scenario.seed,
+            "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
+            "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
+            "violations": safety["violations_total"], "by_rule": safety["violations"],
+            "worst_ratio": (None if not ratios else (max(r for r in ratios if r is not None)
+                                                     if all(r is not None for r in ratios) else "inf")),
+            "worst_by_region": safety["worst_ratio"], "stops": safety["protective_stops"],
+            "below_sp_s": safety["time_below_sp_moving_s"], "contacts": safety["contact_count"],
+            "min_distance_m": metrics.get("min_human_robot_distance")}
 
 
 def _run(job):
     return run(*job)
+
+
+def pfl_speeds(robot_mass: float = 3.0) -> tuple[dict, dict]:
+    """Eq. (A.6) for `robot_mass` per body region of the packaged table: transient, quasi-static."""
+    from hrc_drake.safety.limits import BODY_REGIONS, load_limits, permissible_speed
+
+    limits = load_limits()
+    transient = {r: round(permissible_speed(limits[r], robot_mass), 4) for r in BODY_REGIONS}
+    quasi = {r: round(permissible_speed(limits[r], robot_mass, clamped=True), 4) for r in BODY_REGIONS}
+    return transient, quasi
+
+
+def time_effective_mass(repeats: int = 400) -> tuple[float, float]:
+    """Median microseconds of one effective-mass evaluation on the YuMi of torch_clock: on a fresh
+    state (the body's Jacobian, the mass matrix and its factorisation) and again on the same one."""
+    import numpy as np
+
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.robots.models import RobotCapsuleKinematics
+    from hrc_drake.safety.systems import RobotPointDynamics
+
+    path = REPO / "diagrams" / "torch_clock.yaml"
+    scenario = load_scenario(path)
+    plant = build_cell(scenario, path).plant
+    kinematics = RobotCapsuleKinematics(plant, [(plant.GetModelInstanceByName(r.name), r.model)
+                                                for r in scenario.robots])
+    dynamics = RobotPointDynamics(plant, kinematics)
+    rng = np.random.default_rng(0)
+    k = next(i for i, name in enumerate(dynamics.names) if "gripper_r" in name)
+    fresh, cached = [], []
+    for _ in range(repeats):
+        dynamics.set_state(rng.uniform(-0.5, 0.5, plant.num_positions()), np.zeros(plant.num_velocities()))
+        (start, end, _), _ = dynamics.capsules()
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        t0 = time.perf_counter()
+        dynamics.effective_mass(k, start[k], u)
+        t1 = time.perf_counter()
+        dynamics.effective_mass(k, end[k], u)
+        t2 = time.perf_counter()
+        fresh.append(t1 - t0)
+        cached.append(t2 - t1)
+    return round(1e6 * float(np.median(fresh)), 1), round(1e6 * float(np.median(cached)), 1)
 
 
 def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
@@ -131,53 +199,71 @@ def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenarios", nargs="*", help="scenario files (default: every diagrams/*.yaml)")
-    parser.add_argument("--duration", type=float, default=120.0,
-                        help="simulated seconds per run (default 120)")
-    parser.add_argument("--seeds", type=int, default=1,
-                        help="runs per (cell, arm): the scenario's seed, then seed + 1, ... (default 1)")
-    parser.add_argument("--arms", default=",".join(ARMS), help=f"comma-separated subset of {ARMS}")
+    parser.add_argument("--duration", type=float, default=120.0, help="simulated s per run (default 120)")
+    parser.add_argument("--seeds", type=int, default=2,
+                        help="runs per (cell, mode): the scenario's seed, then seed + 1, ... (default 2)")
+    parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {MODES}")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--quick", action="store_true", help="30 s runs, one seed (under 5 minutes)")
     args = parser.parse_args()
-    arms = [a for a in args.arms.split(",") if a]
-    unknown = sorted(set(arms) - set(ARMS))
+    if args.quick:
+        args.duration, args.seeds = 30.0, 1
+    modes = [m for m in args.modes.split(",") if m]
+    unknown = sorted(set(modes) - set(MODES))
     if unknown:
-        parser.error(f"unknown arms {unknown}; choose among {ARMS}")
+        parser.error(f"unknown modes {unknown}; choose among {MODES}")
     paths = [Path(p) for p in args.scenarios] or sorted((REPO / "diagrams").glob("*.yaml"))
     from hrc_drake.cell.scenario import load_scenario
 
     jobs = []
     for path in paths:
         base_seed = load_scenario(path).seed
-        jobs += [(str(path), arm, base_seed + k, args.duration) for arm in arms for k in range(args.seeds)]
-    print(f"{'scenario':<22} {'worst-case reach from rest':>27} {'nearest robot target':>21}")
-    layouts = {}
-    for path in paths:
-        layouts[path.stem] = separation_at_rest(str(path))
-        shown = {k: float("nan") if v is None else v for k, v in layouts[path.stem].items()}
-        print(f"{path.stem:<22} {shown['rest_reach_m']:>25.3f} m {shown['nearest_robot_target_m']:>19.3f} m",
-              flush=True)
+        jobs += [(str(path), mode, base_seed + k, args.duration) for mode in modes for k in range(args.seeds)]
     print(f"{len(jobs)} runs of {args.duration:.0f} s on {args.workers} workers ...", flush=True)
-    print(f"{'scenario':<22} {'arm':<14} {'seed':>4} {'products':>8} {'min dist':>9} {'below s':>8} "
-          f"{'below %':>8} {'moving s':>8} {'override':>8} {'wall s':>7}", flush=True)
-    figures: dict = {}
+    print(f"{'scenario':<24} {'mode':<9} {'seed':>4} {'products':>8} {'cycle s':>8} {'violations':>10} "
+          f"{'worst':>6} {'stops':>6} {'<S_p s':>7} {'contacts':>8} {'PFL cpu':>7} {'cpu s':>6}", flush=True)
+    rows = []
     with ProcessPoolExecutor(max(1, args.workers)) as pool:
         for row in pool.map(_run, jobs):
-            shown = {k: float("nan") if row[k] is None else row[k]
-                     for k in ("min_distance_m", "time_below_s", "fraction_below", "time_below_not_stopped_s",
-                               "mean_override")}
-            print(f"{row['scenario']:<22} {row['arm']:<14} {row['seed']:>4} {row['products']:>8} "
-                  f"{shown['min_distance_m']:>9.3f} {shown['time_below_s']:>8.1f} "
-                  f"{100 * shown['fraction_below']:>8.1f} {shown['time_below_not_stopped_s']:>8.1f} "
-                  f"{shown['mean_override']:>8.3f} {row['wall_s']:>7.1f}",
-                  flush=True)
-            cell = figures.setdefault(row["scenario"], {}).setdefault(row["arm"], {})
-            for key in ("products", "min_distance_m", "time_below_s", "fraction_below",
-                        "time_below_not_stopped_s", "mean_override"):
-                cell.setdefault(key, []).append(row[key])
-    for name, layout in layouts.items():
-        figures.setdefault(name, {})["layout"] = layout
-    figures["duration_s"] = args.duration
-    print(json.dumps(figures))
+            rows.append(row)
+            worst = row["worst_ratio"]
+            worst = "-" if worst is None else (worst if isinstance(worst, str) else f"{worst:.2f}")
+            cycle = "-" if row["cycle_s"] is None else f"{row['cycle_s']:.1f}"
+            mode = row["mode"] if row["mode"] != "declared" else f"={row['declared']}"
+            print(f"{row['scenario']:<24} {mode:<9} {row['seed']:>4} {row['products']:>8} {cycle:>8} "
+                  f"{row['violations']:>10} {worst:>6} {row['stops']:>6} {row['below_sp_s']:>7.1f} "
+                  f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}", flush=True)
+    print(json.dumps(figures(rows, args)))
+
+
+def figures(rows: list[dict], args) -> dict:
+    """The bench's JSON: the keys of the module docstring."""
+    import numpy as np
+
+    def mean(values):
+        values = [v for v in values if v is not None]
+        return round(float(np.mean(values)), 3) if values else None
+
+    out: dict = {"duration_s": args.duration, "seeds": args.seeds}
+    cells = sorted({r["scenario"] for r in rows})
+    declared = {c: [r for r in rows if r["scenario"] == c and r["mode"] == "declared"] for c in cells}
+    out["declared_mode"] = {c: rs[0]["declared"] for c, rs in declared.items() if rs}
+    out["violations"] = {c: sum(r["violations"] for r in rs) for c, rs in declared.items() if rs}
+    out["cells_with_violations"] = sum(1 for v in out["violations"].values() if v)
+    worst = {}
+    for c, rs in declared.items():
+        ratios = [r["worst_ratio"] for r in rs if r["worst_ratio"] is not None]
+        worst[c] = None if not ratios else ("inf" if "inf" in ratios else round(max(ratios), 4))
+    out["worst_ratio"] = worst
+    for key, field in (("products", "products"), ("cycle_s", "cycle_s"), ("stops", "stops")):
+        out[key] = {c: {m: mean(r[field] for r in rows if r["scenario"] == c and r["mode"] == m)
+                        for m in sorted({r["mode"] for r in rows if r["scenario"] == c})} for c in cells}
+    out["pfl_share"] = {c: mean(r["pfl_share"] for r in rs) for c, rs in declared.items() if rs}
+    transient, quasi = pfl_speeds(3.0)
+    out["pfl_speed_mps"] = transient
+    out["pfl_speed_quasi_static_mps"] = quasi
+    out["effective_mass_us"], out["effective_mass_cached_us"] = time_effective_mass()
+    return out
 
 
 if __name__ == "__main__":

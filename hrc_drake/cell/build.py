@@ -103,6 +103,22 @@ class Cell:
         world_system = self.world_system
         return world_system.world(world_system.GetMyContextFromRoot(root_context))
 
+    def safety(self, root_context) -> dict:
+        """The ISO/TS 15066 figures of a run (`safety.contacts.summarize_safety`): mode, violations
+        by rule, worst ratio per region, time below S_p while moving, protective stops, contacts."""
+        monitor = self.system("safety_monitor")
+        stops = 0
+        if self.has_system("safety_controller"):
+            controller = self.system("safety_controller")
+            stops = controller.protective_stops(controller.GetMyContextFromRoot(root_context))
+        return monitor.summary(monitor.GetMyContextFromRoot(root_context), stops)
+
+    def safety_trace(self, root_context):
+        """The monitor's samples (time, min clearance, S_p of that pair, its rule) and contacts."""
+        monitor = self.system("safety_monitor")
+        run = monitor.run(monitor.GetMyContextFromRoot(root_context))
+        return list(run.trace), sorted([*run.contacts, *(c for _, c in run.open)], key=lambda c: c.time)
+
     def log(self, root_context):
         """The `MetricsLog` of a run, from the diagram's root context."""
         recorder = self.recorder
@@ -322,8 +338,11 @@ def _has_tracker(scenario: Scenario) -> bool:
 def _perceives(scenario: Scenario) -> bool:
     """Whether the cell estimates the skeleton: a tracker, or a system that reads the estimate
     (without them a "no tracker" estimate would measure the camera for nobody)."""
+    from hrc_drake.safety.config import NoSafety
+
     return (
         _has_tracker(scenario)
+        or not isinstance(scenario.safety, NoSafety)
         or not isinstance(scenario.intention, NoIntention)
         or not isinstance(scenario.action_detector, NoActionDetector)
         or not isinstance(scenario.motion_model, NoMotionModel)
@@ -350,7 +369,8 @@ def _add_world(builder, scenario: Scenario, operator_source, executor):
 
 
 def _add_speed_override(builder, overrides, follower, systems) -> None:
-    """The smallest of the safety systems' overrides drives the path follower (1 when there is none)."""
+    """The smallest of the speed rules' overrides (1 when there is none) drives the path follower,
+    through the ISO/TS 15066 safety controller where the cell has one (`_add_safety`)."""
     min_override = builder.AddSystem(MinOverride(max(len(overrides), 1)))
     min_override.set_name("speed_override")
     for k, port in enumerate(overrides):
@@ -358,8 +378,42 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     if not overrides:
         one = builder.AddSystem(ConstantVectorSource([1.0]))
         builder.Connect(one.get_output_port(), min_override.get_input_port(0))
-    builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
+    systems["requested_override"] = min_override.get_output_port()
+    controller = systems.get("safety_controller")
+    if controller is None:
+        builder.Connect(min_override.get_output_port(), follower.GetInputPort("speed_override"))
+    else:
+        builder.Connect(min_override.get_output_port(), controller.GetInputPort("requested_override"))
+        builder.Connect(controller.GetOutputPort("speed_override"), follower.GetInputPort("speed_override"))
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
+
+
+def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower, positions_port,
+                estimate_port, human_capsules, systems) -> None:
+    """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
+    a cell without a safety system still has its contacts counted in its verdict)."""
+    from hrc_drake.cell.scenario import safety_limits
+    from hrc_drake.safety.regions import FixedBox
+    from hrc_drake.safety.systems import apply_safety_config
+
+    lay = scenario.layout
+    table = lay.table
+    fixed = [FixedBox((table.center[0], table.center[1], table.height - 0.5 * table.size[2]), tuple(table.size))]
+    fixed += [FixedBox(tuple(o.center), tuple(o.size)) for o in lay.occluders]
+    zones = (np.array([z.center for z in lay.collaborative_zones], float).reshape(-1, 3),
+             np.array([z.radius for z in lay.collaborative_zones], float))
+    swept = systems.get("motion_predictor")
+    controller, monitor = apply_safety_config(
+        scenario.safety, builder, plant=plant, kinematics=capsule_kin, body_model=body,
+        limits=safety_limits(scenario, scenario_path), zones=zones, fixed_boxes=tuple(fixed),
+        positions=positions_port, velocities=follower.GetOutputPort("velocities"),
+        velocities_full=follower.GetOutputPort("velocities_full"), skeleton_estimate=estimate_port,
+        human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
+        swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
+        camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)
+    if controller is not None:
+        systems["safety_controller"] = controller
+    systems["safety_monitor"] = monitor
 
 
 def _add_recorder(
@@ -465,6 +519,8 @@ def build_cell(
     )
     plugins.add_proactive_planner(builder, scenario, named_poses, estimate_port, decision_events, executor,
                                   systems, seed(6))
+    _add_safety(builder, scenario, scenario_path, plant, capsule_kin, body, follower, positions_port,
+                estimate_port, human_capsules, systems)
     _add_speed_override(builder, overrides, follower, systems)
     _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
                   record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS),

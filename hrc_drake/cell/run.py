@@ -82,6 +82,7 @@ def simulate(
     metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall,
                         warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time,
                         shared_actions=cell.shared_actions)
+    metrics["safety"] = {**(metrics.get("safety") or {}), **cell.safety(context)}
     if interrupted:
         metrics["interrupted"] = True
     return RunResult(metrics=metrics, wall_time=wall, simulated_time=end_time, log=log, context=context,

@@ -721,6 +721,7 @@ def _check_systems(sc: Scenario, file) -> None:
         raise ScenarioError(file, "intention.model", f"no such file: {scenario_relative(file, model)}")
     _check_perceived_events(sc, file)
     _check_proactive_planner(sc, file)
+    _check_safety(sc, file)
     _check_collaboration_scheduler(sc, file)
     _check_best_scenario_scheduler(sc, file)
     robot_agents = {arm.agent for robot in sc.robots for arm in robot.arms}
@@ -729,6 +730,54 @@ def _check_systems(sc: Scenario, file) -> None:
             raise ScenarioError(file, f"scheduler.agent_costs.{agent}",
                                 f"'{agent}' is not a robot agent ({sorted(robot_agents)})")
     _check_scheduler_net(sc, file)  # last: the fields it reads are checked above, by name
+
+
+def safety_limits(sc: Scenario, file):
+    """The limits table of the scenario's safety mode (its `limits` file relative to the
+    scenario, or the packaged ISO/TS 15066 one); `ScenarioError` naming the entry at fault."""
+    from hrc_drake.safety.limits import load_limits
+
+    name = getattr(sc.safety, "limits", "")
+    path = None if not name else (scenario_relative(file, name) if str(file) != "<scenario>" else Path(name))
+    try:
+        return load_limits(path)
+    except ScenarioError as err:
+        field = "safety.limits" if name else "safety"
+        raise ScenarioError(file, field, f"{err.field}: {err.reason}") from None
+
+
+def _check_safety(sc: Scenario, file) -> None:
+    """The safety mode can run in this cell: Z_d from a tracker needs one, swept volumes a motion
+    model, a hybrid mode collaborative zones, the limits table and its regions exist."""
+    from hrc_drake.motion.config import NoMotionModel
+    from hrc_drake.perception.config import NoTracker
+    from hrc_drake.safety.config import Hybrid, NoSafety, PowerForceLimiting
+
+    for k, zone in enumerate(sc.layout.collaborative_zones):
+        field = f"layout.collaborative_zones[{k}]"
+        if not zone.name:
+            raise ScenarioError(file, f"{field}.name", "a name is required")
+        _check_vec(file, f"{field}.center", zone.center)
+        _in_range(file, f"{field}.radius", zone.radius, 0.01, MAX_OBJECT_SIZE, "m")
+    config = sc.safety
+    if isinstance(config, NoSafety):
+        return
+    if config.position_uncertainty == "tracker" and isinstance(sc.tracker, NoTracker):
+        raise ScenarioError(file, "safety.position_uncertainty",
+                            "'tracker' takes Z_d from a tracker's spread, but the cell has no tracker: add "
+                            "one, or say 'camera' (the camera's noise) or 'fixed' (safety.fixed_uncertainty)")
+    if config.human_motion == "swept_volumes" and isinstance(sc.motion_model, NoMotionModel):
+        raise ScenarioError(file, "safety.human_motion",
+                            "'swept_volumes' needs the swept volumes of a motion_model (8.1); the cell has none")
+    if isinstance(config, Hybrid) and not sc.layout.collaborative_zones:
+        raise ScenarioError(file, "safety", "!Hybrid applies PFL inside layout.collaborative_zones, and the "
+                                            "layout declares none")
+    if isinstance(config, PowerForceLimiting):
+        limits = safety_limits(sc, file)
+        for k, name in enumerate(getattr(config, "pfl_regions", [])):
+            if name not in limits.regions:
+                raise ScenarioError(file, f"safety.pfl_regions[{k}]",
+                                    f"unknown body region '{name}' (known: {', '.join(sorted(limits.regions))})")
 
 
 def _check_proactive_planner(sc: Scenario, file) -> None:

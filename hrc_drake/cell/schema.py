@@ -30,6 +30,7 @@ from hrc_drake.motion.config import (
 from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
+from hrc_drake.safety.config import Hybrid, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
 from hrc_drake.scheduling.config import NoScheduler, SchedulerConfig
 from hrc_drake.scheduling.flow import Buffer, Flow
 
@@ -52,6 +53,17 @@ class Goal:
 
 
 @dataclass
+class CollaborativeZone:
+    """A collaborative workspace (ISO/TS 15066 3.2) where a `!Hybrid` safety mode lets the robot
+    touch hands and arms under power and force limiting: a named sphere, e.g. around a hand-over
+    buffer."""
+
+    name: str = ""
+    center: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    radius: float = 0.2
+
+
+@dataclass
 class Layout:
     table: Table = field(default_factory=Table)
     goals: list[Goal] = field(default_factory=list)
@@ -61,6 +73,8 @@ class Layout:
     #: the robot workspace box used by the slow-down rules: center and size
     workspace_center: list[float] = field(default_factory=lambda: [0.45, 0.0, 1.0])
     workspace_size: list[float] = field(default_factory=lambda: [0.5, 0.8, 0.6])
+    #: collaborative zones of a `!Hybrid` safety mode (spheres around the hand-over places)
+    collaborative_zones: list[CollaborativeZone] = field(default_factory=list)
 
 
 @dataclass
@@ -85,6 +99,7 @@ Intention = Union[NoIntention, GmmBayesIntention]  # noqa: UP007
 ActionDetector = Union[NoActionDetector, GoalRegionActionDetector, SegmenterActionDetector]  # noqa: UP007
 MotionModel = Union[NoMotionModel, GPMotionModel, WorstCaseMotionModel]  # noqa: UP007
 Proactive = Union[NoProactivePlanner, ProactivePlanner]  # noqa: UP007
+Safety = Union[NoSafety, SpeedSeparationMonitoring, PowerForceLimiting, Hybrid]  # noqa: UP007
 
 
 @dataclass
@@ -128,8 +143,10 @@ class Scenario:
     speed_scaling: SeparationSpeedScaling = field(default_factory=SeparationSpeedScaling)
     #: proactive paths of one robot action around the predicted human motion (thesis 8.2)
     proactive_planner: Proactive = field(default_factory=NoProactivePlanner)
+    #: the ISO/TS 15066 safety mode (`safety.config`); none: the verdict says the cell has none
+    safety: Safety = field(default_factory=NoSafety)
 
 
 #: the scenario fields that choose a system by tag
 SYSTEM_FIELDS = ("tracker", "intention", "action_detector", "predictor", "scheduler", "motion_model",
-                 "proactive_planner")
+                 "proactive_planner", "safety")

@@ -226,6 +226,16 @@ class RobotCapsuleKinematics:
     def num_capsules(self) -> int:
         return len(self.names)
 
+    @property
+    def capsule_bodies(self) -> np.ndarray:
+        """(K,) the plant's body index of each capsule."""
+        return self._unique_bodies[self._capsule_body]
+
+    @property
+    def local_ends(self) -> tuple[np.ndarray, np.ndarray]:
+        """Capsule end points (K, 3) each, in their bodies' frames."""
+        return self._start_B, self._end_B
+
     def capsules(self, plant_context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(start (K,3), end (K,3), radius (K,)) in the world frame for the context's positions."""
         poses = self._poses_port.Eval(plant_context)

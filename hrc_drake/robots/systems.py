@@ -34,7 +34,8 @@ class PathFollower(LeafSystem):
 
     Input "path_requests": abstract tuple of `messages.PathRequest` (the latest per channel).
     Input "speed_override": vector (1,) in [0, 1]; unconnected means 1.
-    Outputs "positions" (nq,), "velocities" (nq,), "path_done" (`messages.PathStatus`),
+    Outputs "positions" (nq,), "velocities" (nq,), "velocities_full" (nq,: at override 1, for a
+    safety controller's approach speeds), "path_done" (`messages.PathStatus`),
     "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
     later at full speed, so that a speed rule can tell motion toward the operator from motion away.
     Positions are evaluated at the context time, extrapolated from the last tick with the
@@ -76,6 +77,7 @@ class PathFollower(LeafSystem):
         ticked = {self.xd_ticket(), self._requests.ticket()}
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
         self.DeclareVectorOutputPort("velocities", nq, self._calc_v, ticked)
+        self.DeclareVectorOutputPort("velocities_full", nq, self._calc_v_full, ticked)
         self.DeclareVectorOutputPort("positions_ahead", nq, self._calc_q_ahead, smooth)
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(PathStatus()), self._calc_done, {self.xd_ticket()}
@@ -163,13 +165,19 @@ class PathFollower(LeafSystem):
         ahead = max(context.get_time() - x[1], 0.0) * x[0] + self.lookahead
         output.SetFromVector(self._positions(context, ahead))
 
-    def _calc_v(self, context, output: BasicVector):
+    def _velocities(self, context, override: float) -> np.ndarray:
         x = context.get_discrete_state(self._state).get_value()
         v = np.zeros(self._nq)
         requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
         for arm, path, segment, phase in self._active(x, requests):
-            v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * x[0]
-        output.SetFromVector(v)
+            v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * override
+        return v
+
+    def _calc_v(self, context, output: BasicVector):
+        output.SetFromVector(self._velocities(context, context.get_discrete_state(self._state).get_value()[0]))
+
+    def _calc_v_full(self, context, output: BasicVector):
+        output.SetFromVector(self._velocities(context, 1.0))
 
     def _calc_done(self, context, output):
         x = context.get_discrete_state(self._state).get_value()

@@ -1,0 +1,157 @@
+"""Typed configs of the safety modes of ISO/TS 15066 (a scenario's `safety:` field, by tag).
+
+`NoSafety`, `SpeedSeparationMonitoring` (clause 5.5.4), `PowerForceLimiting` (5.5.5, Annex A)
+and `Hybrid` (PFL for hands and arms inside the layout's collaborative zones, SSM elsewhere and
+for head and torso). `safety.systems.apply_safety_config` builds the safety controller.
+No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
+"""
+
+import math
+from dataclasses import dataclass, field
+
+from hrc_drake.errors import check
+
+#: Highest update rate of a Python system (DESIGN.md, performance rules).
+MAX_RATE = 50.0
+#: Where Z_d comes from: the tracker's spread, the camera's noise, or a fixed number.
+UNCERTAINTY_SOURCES = ("tracker", "camera", "fixed")
+#: How v_h enters S_h: ISO 13855's approach speeds, or the motion model's swept volumes (8.1).
+HUMAN_MOTIONS = ("iso13855", "swept_volumes")
+#: Effective robot mass m_R: from the plant, (u^T J M^-1 J^T u)^-1, or the standard's M/2 + m_L.
+ROBOT_MASS_MODELS = ("plant", "iso")
+#: Regions that never take contact under PFL: they get SSM (ISO/TS 15066 5.5.5: head, face, neck).
+NO_CONTACT_REGIONS = ("skull_forehead", "face", "neck")
+#: Hand and arm regions: the PFL regions of `Hybrid` by default; the rest is head and torso.
+LIMB_REGIONS = ("upper_arm_elbow", "lower_arm_wrist", "hand_fingers")
+
+
+def _number(value, path, name, low, high, low_open=False):
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (value > low if low_open else value >= low) and value <= high
+    check(ok, f"{path}.{name}", f"must be a finite number in {'(' if low_open else '['}{low:g}, {high:g}], "
+                                f"got {value!r}")
+
+
+@dataclass
+class NoSafety:
+    """No safety system: nothing limits the robot; the verdict says the cell has none."""
+
+    def validate(self, path: str) -> None:
+        """Nothing to check."""
+
+
+@dataclass
+class SpeedSeparationMonitoring:
+    """Speed and separation monitoring, ISO/TS 15066 5.5.4, eq. (1)-(2) per robot capsule and body
+    region (`safety.ssm`): the robot slows so that every separation stays >= S_p and makes a
+    protective stop where no positive speed does."""
+
+    #: Update rate of the safety controller (Hz), at most 50; the camera's and the path follower's
+    #: 30 Hz by default, so that its updates share their simulator steps.
+    rate: float = 30.0
+    #: T_r, the robot system's reaction time: sensing, tracking and one controller period (s).
+    reaction_time: float = 0.1
+    #: a, the deceleration of the robot's stopping model (m/s^2): T_s = v / a, S_s = v^2 / (2a).
+    #: ABB publishes no stopping distances for the YuMi; 5 m/s^2 is an assumption.
+    deceleration: float = 5.0
+    #: C, intrusion distance (m). The tracker measures the body itself (the capsules carry the
+    #: limbs' radii), so ISO 13855's reach-through C = 8 (d - 14) mm of a light curtain does not
+    #: apply; this covers the capsule model's error.
+    intrusion: float = 0.05
+    #: Z_r, the robot's position uncertainty (m).
+    robot_uncertainty: float = 0.01
+    #: v_h of the hand and arm regions (m/s); 0: ISO 13855's rule for a reach by the upper limbs
+    #: (2.0 m/s while S_h <= 0.5 m, else 1.6 m/s with S_h >= 0.5 m).
+    human_speed: float = 0.0
+    #: v_h of the head and torso regions (m/s); 0: as `human_speed`. The default 1.6 m/s is ISO
+    #: 13855's K for the whole body's approach (walking), the speed ISO/TS 15066 5.5.4.2.3 assumes
+    #: for an unmonitored operator; the 2.0 m/s of a reach applies to the upper limbs.
+    body_speed: float = 1.6
+    #: "iso13855": separations to the body regions with S_h from v_h; "swept_volumes": to the
+    #: motion model's swept volumes (8.1), whose horizon covers S_h (the rest at v_h).
+    human_motion: str = "iso13855"
+    #: Z_d from "tracker" (`uncertainty_sigmas` x the estimate's spread of the region's points),
+    #: "camera" (sigmas x the camera's noise_std) or "fixed" (`fixed_uncertainty`).
+    position_uncertainty: str = "tracker"
+    #: Standard deviations of the position noise that Z_d covers.
+    uncertainty_sigmas: float = 3.0
+    #: Z_d (m) with position_uncertainty: fixed.
+    fixed_uncertainty: float = 0.05
+    #: Largest Z_d (m): a lost point's spread grows without bound.
+    max_uncertainty: float = 0.3
+    #: A robot point approaching slower than this (m/s) counts as stopped (contacts, S_p time).
+    moving_speed: float = 0.01
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the controller cannot use."""
+        _number(self.rate, path, "rate", 0.0, MAX_RATE, low_open=True)
+        _number(self.reaction_time, path, "reaction_time", 0.0, 2.0)
+        _number(self.deceleration, path, "deceleration", 0.0, 100.0, low_open=True)
+        for name in ("intrusion", "robot_uncertainty", "fixed_uncertainty"):
+            _number(getattr(self, name), path, name, 0.0, 2.0)
+        _number(self.human_speed, path, "human_speed", 0.0, 10.0)
+        _number(self.body_speed, path, "body_speed", 0.0, 10.0)
+        _number(self.uncertainty_sigmas, path, "uncertainty_sigmas", 0.0, 10.0)
+        _number(self.max_uncertainty, path, "max_uncertainty", 0.0, 2.0)
+        _number(self.moving_speed, path, "moving_speed", 0.0, 1.0)
+        check(self.human_motion in HUMAN_MOTIONS, f"{path}.human_motion",
+              f"must be one of {HUMAN_MOTIONS}, got {self.human_motion!r}")
+        check(self.position_uncertainty in UNCERTAINTY_SOURCES, f"{path}.position_uncertainty",
+              f"must be one of {UNCERTAINTY_SOURCES}, got {self.position_uncertainty!r}")
+
+
+@dataclass
+class PowerForceLimiting(SpeedSeparationMonitoring):
+    """Power and force limiting, ISO/TS 15066 5.5.5 and Annex A: near a body region the robot's
+    speed toward it is held to the permissible speed of eq. (A.6) for the robot's effective mass
+    along the approach, transient limits for a free contact, quasi-static where a fixed surface
+    clamps the part; head, face and neck get SSM (the inherited fields), never contact."""
+
+    #: m_R: "plant" ((u^T J M^-1 J^T u)^-1 at the contact point, direction u) or "iso" (M/2 + m_L,
+    #: M the moving links' mass of the arm).
+    robot_mass: str = "plant"
+    #: m_L, the payload (kg), added to m_R.
+    payload: float = 0.0
+    #: Contact area A (cm^2) of the pressure form of eq. (A.6); 0: the force form only.
+    contact_area: float = 1.0
+    #: A fixed surface within the part's radius plus this (m) behind it along the push clamps it.
+    clamp_margin: float = 0.02
+    #: The limits table (a file relative to the scenario); "": the packaged ISO/TS 15066 one.
+    limits: str = ""
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the controller cannot use."""
+        super().validate(path)
+        check(self.robot_mass in ROBOT_MASS_MODELS, f"{path}.robot_mass",
+              f"must be one of {ROBOT_MASS_MODELS}, got {self.robot_mass!r}")
+        _number(self.payload, path, "payload", 0.0, 100.0)
+        _number(self.contact_area, path, "contact_area", 0.0, 1000.0)
+        _number(self.clamp_margin, path, "clamp_margin", 0.0, 0.5)
+
+
+@dataclass
+class Hybrid(PowerForceLimiting):
+    """PFL for `pfl_regions` (hands and arms) while the robot point is inside one of the layout's
+    `collaborative_zones` (around the hand-over places), SSM everywhere else and for head and
+    torso: the mode of a hand-over cell."""
+
+    #: Body regions (names of the limits table) that may take contact inside a zone.
+    pfl_regions: list[str] = field(default_factory=lambda: list(LIMB_REGIONS))
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the controller cannot use."""
+        super().validate(path)
+        check(len(self.pfl_regions) > 0, f"{path}.pfl_regions", "must name at least one body region")
+        for k, name in enumerate(self.pfl_regions):
+            check(name not in NO_CONTACT_REGIONS, f"{path}.pfl_regions[{k}]",
+                  f"{name!r} never takes contact (ISO/TS 15066: head, face and neck get SSM)")
+
+
+#: Every safety mode a scenario can choose.
+SafetyConfig = NoSafety | SpeedSeparationMonitoring | PowerForceLimiting | Hybrid
+
+
+def mode_name(config) -> str:
+    """The mode's name in verdicts and metrics: none, ssm, pfl or hybrid."""
+    return {NoSafety: "none", SpeedSeparationMonitoring: "ssm", PowerForceLimiting: "pfl",
+            Hybrid: "hybrid"}[type(config)]

@@ -1,0 +1,247 @@
+"""Contact accounting on the truth: every contact between a robot link and a body region, judged
+by the ISO/TS 15066 rule that governs it, and the time spent below the protective separation.
+
+A contact is a pair (robot capsule, region capsule) whose true clearance is < 0. At its onset the
+model of Annex A gives, for the relative speed v_rel along the contact normal (the robot point's
+speed toward the body minus the body point's toward the robot), the robot's effective mass m_R,
+the region's m_H and k (Table A.3): mu (eq. A.4), the transferred energy E = mu v_rel^2 / 2, the
+peak force F = v_rel sqrt(mu k) (eq. A.3) and pressure F / A, and their ratio to the region's
+limits (transient, or quasi-static where a fixed surface clamps the part: then also the spring
+force k x depth while the robot keeps pressing). While the contact lasts its penetration depth
+grows until the robot stops approaching (its protective stop, `stop_delay`).
+
+Violations by rule: `ssm`, the robot moving toward a region that SSM governs touched it; `pfl`, a
+contact over its region's limit; with no safety system (`none`) every contact over the ISO limits
+(head and face: any) counts, so an unprotected cell's verdict says what the standard would.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from hrc_drake.messages import Immutable
+from hrc_drake.safety.limits import contact_peak, limit_ratio
+from hrc_drake.safety.rules import SafetyRules, pair_geometry
+from hrc_drake.traces import AppendOnly, DecimatedTrace
+
+
+@dataclass(frozen=True)
+class Contact(Immutable):
+    """One contact between a robot link and a body region (SI units)."""
+
+    time: float
+    link: str
+    body_part: str
+    region: str
+    #: the rule that governed the pair: ssm, pfl or none (no safety system)
+    rule: str
+    relative_speed: float
+    robot_speed: float
+    robot_mass: float
+    human_mass: float
+    reduced_mass: float
+    energy: float
+    force: float
+    pressure: float
+    clamped: bool
+    #: the force limit it was judged by (N): transient, or quasi-static when clamped
+    force_limit: float
+    ratio: float
+    violation: bool
+    penetration: float = 0.0
+    duration: float = 0.0
+    #: s from the onset until the robot stopped approaching the body (nan: it never did)
+    stop_delay: float = math.nan
+
+    def as_dict(self) -> dict:
+        """JSON-ready fields, rounded."""
+        out = {}
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            if isinstance(value, float):
+                value = round(value, 4) if math.isfinite(value) else (None if math.isnan(value) else "inf")
+            out[name] = value
+        return out
+
+
+@dataclass(frozen=True)
+class MonitorRun(Immutable):
+    """What the monitor has seen so far: closed contacts, open ones by pair, time figures."""
+
+    contacts: AppendOnly = field(default_factory=AppendOnly)
+    open: tuple = ()
+    #: (time, min clearance to any region, S_p of that pair, rule of that pair) at every sample
+    trace: DecimatedTrace = field(default_factory=lambda: DecimatedTrace(8192))
+    samples: int = 0
+    time_below_sp_moving: float = 0.0
+    last_time: float = -math.inf
+    #: region capsules (start, end) at the last sample, for the body's velocities
+    last_regions: tuple | None = None
+
+
+class ContactAccountant:
+    """Steps a `MonitorRun` with each true sample (pure: `step` returns a new run).
+
+    rules: the cell's `SafetyRules` (what governs each pair; `none` rules mark every contact
+    "none"); region_names / link_names: names of the region and robot capsules.
+    """
+
+    def __init__(self, rules: SafetyRules, limits, link_names, region_names, moving_speed: float = 0.01):
+        self.rules = rules
+        self.limits = limits
+        self.link_names = tuple(link_names)
+        self.region_names = tuple(region_names)
+        self.moving_speed = float(moving_speed)
+
+    def step(self, run: MonitorRun, time: float, robot, robot_velocity, regions,
+             effective_mass) -> MonitorRun:
+        """The run after a sample at `time`: robot capsules and their end points' true velocities
+        (v_start, v_end), the true region capsules; effective_mass(k, point, u) gives m_R."""
+        dt = time - run.last_time if math.isfinite(run.last_time) else 0.0
+        body_velocity = _body_velocity(run.last_regions, regions, dt)
+        rules = self.rules
+        distance, k, r = rules.screen(robot, robot_velocity, regions, np.zeros(len(regions[2])))
+        nearest = np.unravel_index(np.argmin(distance), distance.shape) if distance.size else None
+        open_pairs = dict(run.open)
+        below = False
+        sp_nearest = math.nan
+        rule_nearest = ""
+        if len(k) or open_pairs:
+            keys = set(zip(k.tolist(), r.tolist(), strict=True)) | set(open_pairs)
+            k = np.array([a for a, _ in sorted(keys)], dtype=int)
+            r = np.array([b for _, b in sorted(keys)], dtype=int)
+            pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+            pfl = rules.governed_by_pfl(pairs)
+            sp = rules.separations(pairs, pairs.approach)
+            moving = pairs.approach > self.moving_speed
+            below = bool(np.any(~pfl & moving & (pairs.distance < sp))) and rules.mode != "none"
+            for n, (kk, rr) in enumerate(zip(pairs.k.tolist(), pairs.r.tolist(), strict=True)):
+                if nearest is not None and (kk, rr) == tuple(int(x) for x in nearest):
+                    sp_nearest, rule_nearest = float(sp[n]), _rule(rules, bool(pfl[n]))
+            open_pairs = self._contacts(time, pairs, pfl, body_velocity, regions, open_pairs, effective_mass)
+        closed = [c for key, c in run.open if key not in open_pairs]
+        contacts = run.contacts.extend(replace(c, duration=time - c.time) for c in closed)
+        min_distance = float(distance[nearest]) if nearest is not None else math.inf
+        trace = run.trace.offer((time, min_distance, sp_nearest, rule_nearest))
+        return MonitorRun(contacts, tuple(sorted(open_pairs.items())), trace, run.samples + 1,
+                          run.time_below_sp_moving + (dt if below else 0.0), time,
+                          (np.array(regions[0]), np.array(regions[1])))
+
+    def _contacts(self, time, pairs, pfl, body_velocity, regions, open_pairs, effective_mass) -> dict:
+        """The open contacts after this sample: new ones judged at their onset, old ones deepened."""
+        out = {}
+        for n, (k, r) in enumerate(zip(pairs.k.tolist(), pairs.r.tolist(), strict=True)):
+            depth = -float(pairs.distance[n])
+            if depth <= 0.0:
+                continue
+            approach = float(pairs.approach[n])
+            contact = open_pairs.get((k, r))
+            if contact is None:
+                contact = self._onset(time, pairs, n, bool(pfl[n]), body_velocity, regions, effective_mass)
+            region = self.limits[contact.region]
+            ratio = contact.ratio
+            if contact.clamped and region.force > 0:
+                ratio = max(ratio, region.spring_constant * depth / region.force)
+            stop_delay = contact.stop_delay
+            if math.isnan(stop_delay) and approach <= self.moving_speed:
+                stop_delay = time - contact.time
+            violation = contact.violation or (contact.rule != "ssm" and ratio > 1.0)
+            out[(k, r)] = replace(contact, penetration=max(contact.penetration, depth), ratio=ratio,
+                                  stop_delay=stop_delay, violation=violation)
+        return out
+
+    def _onset(self, time, pairs, n, pfl, body_velocity, regions, effective_mass) -> Contact:
+        k, r = int(pairs.k[n]), int(pairs.r[n])
+        rules = self.rules
+        robot_speed = float(pairs.approach[n])
+        human_speed = 0.0
+        if body_velocity is not None:
+            t = float(pairs.t[n])
+            v_body = body_velocity[0][r] + t * (body_velocity[1][r] - body_velocity[0][r])
+            human_speed = -float(v_body @ pairs.direction[n])  # toward the robot
+        relative = max(robot_speed + human_speed, 0.0)
+        rule = _rule(rules, pfl)
+        region_name = rules.regions[r]
+        region = self.limits[region_name]
+        picked = _one(pairs, n)
+        robot_mass = float(rules.robot_masses(picked, effective_mass)[0]) if rules.pfl else \
+            float(effective_mass(k, pairs.robot_point[n], pairs.direction[n]))
+        clamped = bool(rules.clamped(picked, regions[2])[0])
+        mu, energy, force, pressure = contact_peak(region, robot_mass, relative, rules.contact_area or 1e-4)
+        ratio = limit_ratio(region, force, pressure, clamped)
+        if rule == "ssm":
+            violation = robot_speed > self.moving_speed
+        else:
+            violation = ratio > 1.0
+        return Contact(time, self.link_names[k], self.region_names[r], region_name, rule, relative,
+                       robot_speed, robot_mass, region.effective_mass, mu, energy, force, pressure, clamped,
+                       region.force_limit(clamped), ratio, violation)
+
+
+def _rule(rules: SafetyRules, pfl: bool) -> str:
+    if rules.mode == "none":
+        return "none"
+    return "pfl" if pfl else "ssm"
+
+
+def _one(pairs, n):
+    from hrc_drake.safety.rules import _subset
+
+    return _subset(pairs, np.array([n]))
+
+
+def _body_velocity(last, regions, dt: float):
+    """(v_start, v_end) (R, 3) of the region capsules by finite difference, or None."""
+    if last is None or dt <= 0:
+        return None
+    return (np.asarray(regions[0]) - last[0]) / dt, (np.asarray(regions[1]) - last[1]) / dt
+
+
+def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, standard: str) -> dict:
+    """The `safety` figures of metrics.json from a monitor run (open contacts counted as they are)."""
+    contacts = list(run.contacts) + [c for _, c in run.open]
+    contacts.sort(key=lambda c: c.time)
+    violations: dict = {}
+    worst: dict = {}
+    for c in contacts:
+        if c.violation:
+            violations[c.rule] = violations.get(c.rule, 0) + 1
+        if math.isfinite(c.ratio) or c.ratio == math.inf:
+            worst[c.region] = max(worst.get(c.region, 0.0), c.ratio)
+    total = sum(violations.values())
+    return {
+        "mode": mode,
+        "standard": standard,
+        "violations_total": total,
+        "violations": violations,
+        "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else "inf")
+                        for name, v in sorted(worst.items())},
+        "time_below_sp_moving_s": round(run.time_below_sp_moving, 3),
+        "protective_stops": int(protective_stops),
+        "contact_count": len(contacts),
+        "contacts": [c.as_dict() for c in contacts],
+        "verdict": verdict_line(mode, total, violations, worst, len(contacts), contacts),
+    }
+
+
+def verdict_line(mode: str, total: int, violations: dict, worst: dict, n_contacts: int, contacts) -> str:
+    """One line for the CLI: the mode, its violations and the worst contact against its limit."""
+    by_rule = ", ".join(f"{n} {rule}" for rule, n in sorted(violations.items()))
+    if worst:
+        region, ratio = max(worst.items(), key=lambda item: item[1])
+        kind = "quasi-static" if any(c.clamped and c.region == region for c in contacts) else "transient"
+        ratio_text = ("no contact permitted" if not math.isfinite(ratio)
+                      else f"{ratio:.2f} of the {kind} limit")
+        worst_text = f"; worst {region} contact {ratio_text}"
+    else:
+        worst_text = "; no contact"
+    if mode == "none":
+        head = "NO SAFETY SYSTEM: ISO/TS 15066 not applied"
+        status = (f"{n_contacts} contacts, {total} over the standard's limits" if n_contacts
+                  else "no contact")
+        return f"{head}; {status}{worst_text if worst else ''}"
+    status = "0 violations" if not total else f"{total} VIOLATIONS ({by_rule})"
+    return f"ISO/TS 15066 {mode}: {status}; {n_contacts} contacts{worst_text}"

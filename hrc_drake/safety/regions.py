@@ -1,0 +1,120 @@
+"""The simulated operator's body as ISO/TS 15066 body regions, and clamping against the scene.
+
+The body model has six capsules (torso, head, upper arms, forearms with the hand, thesis
+Fig. 8.2). Each is cut along its axis into the body regions of Table A.2 it covers, so every
+region is a capsule of its own:
+
+    torso      hip -> thorax: abdomen (lower `ABDOMEN_FRACTION`), chest (the rest)
+    head       thorax -> beyond the head point: neck (lower `NECK_FRACTION`), face (the rest;
+               the stricter of face and skull/forehead: transient contact is not permitted
+               with either, and the face's 65 N is the lower force)
+    upper arm  upper_arm_elbow
+    forearm    elbow -> wrist: lower_arm_wrist; wrist -> fingertips: hand_fingers
+
+Back and shoulders and the pelvis, whose limits are higher than chest and abdomen, are not
+told apart from them: a contact with the torso is judged by the front's stricter limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: lower fraction of the torso capsule (hip -> thorax) that is abdomen
+ABDOMEN_FRACTION = 0.45
+#: lower fraction of the head capsule (thorax -> head) that is neck
+NECK_FRACTION = 0.35
+#: the body capsules in `human.body.CAPSULE_NAMES` order
+BODY_CAPSULES = ("torso", "head", "left_upper_arm", "right_upper_arm", "left_forearm", "right_forearm")
+#: skeleton points (thesis Fig. 9.1 order) that place each body capsule: its uncertainty is theirs
+CAPSULE_POINTS = {"torso": (0,), "head": (0, 1), "left_upper_arm": (2, 4), "right_upper_arm": (3, 5),
+                  "left_forearm": (4, 6), "right_forearm": (5, 7)}
+
+
+@dataclass(frozen=True)
+class RegionCut:
+    """One region capsule: the body capsule it is cut from and the axis fractions [t0, t1]."""
+
+    name: str
+    region: str
+    capsule: int
+    t0: float
+    t1: float
+
+
+def region_cuts(hand_fraction: float = 0.37) -> tuple[RegionCut, ...]:
+    """The region capsules of the body model; hand_fraction: the hand's length beyond the wrist
+    as a fraction of the forearm (`human.body.HAND_FRACTION`)."""
+    wrist = 1.0 / (1.0 + hand_fraction)
+    cuts = [RegionCut("abdomen", "abdomen", 0, 0.0, ABDOMEN_FRACTION),
+            RegionCut("chest", "chest", 0, ABDOMEN_FRACTION, 1.0),
+            RegionCut("neck", "neck", 1, 0.0, NECK_FRACTION),
+            RegionCut("face", "face", 1, NECK_FRACTION, 1.0)]
+    for side, upper, fore in (("left", 2, 4), ("right", 3, 5)):
+        cuts += [RegionCut(f"{side}_upper_arm", "upper_arm_elbow", upper, 0.0, 1.0),
+                 RegionCut(f"{side}_lower_arm", "lower_arm_wrist", fore, 0.0, wrist),
+                 RegionCut(f"{side}_hand", "hand_fingers", fore, wrist, 1.0)]
+    return tuple(cuts)
+
+
+class RegionCapsules:
+    """Cuts body capsules into region capsules, all at once (one gather, one product)."""
+
+    def __init__(self, hand_fraction: float = 0.37):
+        self.cuts = region_cuts(hand_fraction)
+        self.names = tuple(c.name for c in self.cuts)
+        self.regions = tuple(c.region for c in self.cuts)
+        self._capsule = np.array([c.capsule for c in self.cuts])
+        self._t0 = np.array([c.t0 for c in self.cuts])[:, None]
+        self._t1 = np.array([c.t1 for c in self.cuts])[:, None]
+
+    def __len__(self) -> int:
+        return len(self.cuts)
+
+    def cut(self, start, end, radius) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Region capsules (R, 3), (R, 3), (R,) of body capsules (6, 3), (6, 3), (6,)."""
+        start = np.asarray(start, dtype=float)[self._capsule]
+        axis = np.asarray(end, dtype=float)[self._capsule] - start
+        radius = np.asarray(radius, dtype=float)[self._capsule]
+        return start + self._t0 * axis, start + self._t1 * axis, radius
+
+    def point_uncertainty(self, spread, sigmas: float, cap: float) -> np.ndarray:
+        """Z_d (R,) of every region from the skeleton estimate's spread (8,): `sigmas` standard
+        deviations of the least certain point that places its body capsule, at most `cap` m (a
+        point the tracker lost has an unbounded spread)."""
+        spread = np.asarray(spread, dtype=float)
+        per_capsule = np.array([max(spread[list(CAPSULE_POINTS[name])]) for name in BODY_CAPSULES])
+        z_d = sigmas * per_capsule[self._capsule]
+        return np.minimum(np.where(np.isfinite(z_d), z_d, cap), cap)
+
+
+@dataclass(frozen=True)
+class FixedBox:
+    """An axis-aligned fixed surface of the cell (the table, a fixture, an occluder): centre, size."""
+
+    center: tuple[float, float, float]
+    size: tuple[float, float, float]
+
+
+def clamped(points, directions, radius, boxes, margin: float = 0.02) -> np.ndarray:
+    """(N,) whether a body part at `points` (N, 3), pushed along `directions` (N, 3) (unit, from the
+    robot toward the body), is clamped: a fixed box lies within the part's radius (N,) plus
+    `margin` behind it along the push, so it cannot recoil (ISO/TS 15066 quasi-static contact)."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    if not boxes:
+        return np.zeros(len(points), dtype=bool)
+    probe = points + directions * (np.asarray(radius, dtype=float) + margin)[:, None]
+    lower = np.array([np.subtract(b.center, np.multiply(b.size, 0.5)) for b in boxes])[None]  # (1, B, 3)
+    upper = np.array([np.add(b.center, np.multiply(b.size, 0.5)) for b in boxes])[None]
+    start = points[:, None, :]
+    delta = (probe - points)[:, None, :]
+    # slab test of the segment start -> probe against every box: axes it does not move along
+    # must already lie inside the slab
+    still = np.abs(delta) < 1e-12
+    safe = np.where(still, 1.0, delta)
+    t_a, t_b = (lower - start) / safe, (upper - start) / safe
+    inside = (start >= lower) & (start <= upper)
+    t_near = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(t_a, t_b)).max(axis=2)
+    t_far = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(t_a, t_b)).min(axis=2)
+    return np.any((t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0), axis=1)

@@ -1,0 +1,235 @@
+"""Which ISO/TS 15066 rule governs each (robot capsule, body region) pair, and the speed override
+that keeps every pair within its rule (the safety controller's core).
+
+A pair is governed by
+- SSM (`ssm`): its separation must stay >= S_p (eq. 1-2, `safety.ssm`): the robot point's
+  speed toward the region is held to the permissible speed at that separation;
+- PFL (`pfl`): contact is allowed at a relative speed up to v_rel,max of eq. (A.6) for the
+  robot's effective mass along the approach (`safety.limits`): near the region the robot point's
+  speed toward it is held to that speed (the larger of the SSM and the PFL speed applies).
+Mode `ssm` puts every pair under SSM; `pfl` every pair but head, face and neck under PFL; `hybrid`
+the pairs of its PFL regions under PFL while the robot point is inside a collaborative zone.
+
+Only the robot's motion toward the region is limited: a robot point moving away or sideways keeps
+its speed (ISO/TS 15066 takes v_r toward the operator), so a stopped robot may retreat.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from hrc_drake.kernels import capsule_clearances
+from hrc_drake.motion.geometry import segment_segment_closest
+from hrc_drake.safety.config import (
+    LIMB_REGIONS,
+    NO_CONTACT_REGIONS,
+    Hybrid,
+    NoSafety,
+    PowerForceLimiting,
+    mode_name,
+)
+from hrc_drake.safety.limits import LimitsTable, iso_robot_mass
+from hrc_drake.safety.limits import permissible_speed as pfl_speed
+from hrc_drake.safety.regions import FixedBox, clamped
+from hrc_drake.safety.ssm import SeparationParameters, permissible_speed, protective_separation
+
+#: Override of a pair with no constraint.
+FREE = 1.0
+
+
+@dataclass(frozen=True)
+class PairGeometry:
+    """Closest points of the candidate pairs (N of them): robot capsule k and region r indices,
+    clearance d, robot surface point p and region axis point h (N, 3), u the unit direction from
+    the robot toward the body, the robot point's velocity (N, 3) and its speed toward the body
+    (N,), and t the region point's fraction along its capsule."""
+
+    k: np.ndarray
+    r: np.ndarray
+    distance: np.ndarray
+    robot_point: np.ndarray
+    body_point: np.ndarray
+    direction: np.ndarray
+    robot_velocity: np.ndarray
+    approach: np.ndarray
+    t: np.ndarray
+
+
+def pair_geometry(robot, robot_velocity, regions, k, r, distance) -> PairGeometry:
+    """Closest points, directions and robot approach speeds of the pairs (k, r).
+
+    robot: (start, end, radius) of K capsules; robot_velocity: (v_start, v_end) (K, 3) each, the
+    velocities of the capsules' end points (a rigid link's point velocity is affine along the
+    segment, so the closest point's is the interpolation); regions: (start, end, radius) (R)."""
+    r_start, r_end, r_radius = robot
+    h_start, h_end, _ = regions
+    _, s, t = segment_segment_closest(r_start[k], r_end[k], h_start[r], h_end[r])
+    on_robot = r_start[k] + s[:, None] * (r_end[k] - r_start[k])
+    on_body = h_start[r] + t[:, None] * (h_end[r] - h_start[r])
+    gap = on_body - on_robot
+    norm = np.linalg.norm(gap, axis=1)
+    velocity = robot_velocity[0][k] + s[:, None] * (robot_velocity[1][k] - robot_velocity[0][k])
+    # axes that cross (deep contact): push along the robot point's own motion
+    fallback = velocity / np.maximum(np.linalg.norm(velocity, axis=1, keepdims=True), 1e-12)
+    direction = np.where(norm[:, None] > 1e-9, gap / np.maximum(norm, 1e-12)[:, None], fallback)
+    approach = np.einsum("ij,ij->i", velocity, direction)
+    surface = on_robot + np.asarray(r_radius)[k][:, None] * direction
+    return PairGeometry(k, r, distance, surface, on_body, direction, velocity, approach, t)
+
+
+class SafetyRules:
+    """The rule of every pair and the override that keeps them (thesis-independent, ISO/TS 15066).
+
+    config: a safety config (`safety.config`); limits: the body regions' table (PFL modes);
+    regions: the ISO region name of each region capsule (`RegionCapsules.regions`); zones:
+    (centers (Z, 3), radii (Z,)) of the collaborative zones (hybrid); fixed_boxes: the cell's
+    fixed surfaces (`FixedBox`) for clamping; arm_masses: M of the arm of each robot capsule (K,)
+    for the "iso" robot mass.
+    """
+
+    def __init__(self, config, limits: LimitsTable | None, regions: tuple[str, ...], zones=None,
+                 fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None):
+        self.config = config
+        self.mode = mode_name(config)
+        self.regions = tuple(regions)
+        if isinstance(config, NoSafety):
+            self.separation = self.body_separation = SeparationParameters()
+        else:
+            self.separation = SeparationParameters(
+                reaction_time=config.reaction_time, deceleration=config.deceleration,
+                intrusion=config.intrusion, robot_uncertainty=config.robot_uncertainty,
+                human_speed=config.human_speed)
+            self.body_separation = replace(self.separation,
+                                           human_speed=config.body_speed or config.human_speed)
+        #: head and torso regions (their own v_h, `body_speed`)
+        self.body_region = np.array([name not in LIMB_REGIONS for name in self.regions])
+        self.pfl = isinstance(config, PowerForceLimiting)
+        self.limits = limits
+        if self.pfl and limits is None:
+            raise ValueError("SafetyRules: power and force limiting needs a limits table")
+        if isinstance(config, Hybrid):
+            pfl_regions = set(config.pfl_regions)
+            self.pfl_region = np.array([name in pfl_regions for name in self.regions])
+        elif self.pfl:
+            self.pfl_region = np.array([name not in NO_CONTACT_REGIONS for name in self.regions])
+        else:
+            self.pfl_region = np.zeros(len(self.regions), dtype=bool)
+        self.hybrid = isinstance(config, Hybrid)
+        centers, radii = zones if zones is not None else (np.zeros((0, 3)), np.zeros(0))
+        self.zone_centers = np.asarray(centers, dtype=float).reshape(-1, 3)
+        self.zone_radii = np.asarray(radii, dtype=float).reshape(-1)
+        self.fixed_boxes = tuple(fixed_boxes)
+        self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
+        self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
+            else None
+
+    def in_zone(self, points) -> np.ndarray:
+        """(N,) whether each point lies in a collaborative zone."""
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        if not len(self.zone_radii):
+            return np.zeros(len(points), dtype=bool)
+        gaps = np.linalg.norm(points[:, None, :] - self.zone_centers[None], axis=2)
+        return np.any(gaps <= self.zone_radii[None], axis=1)
+
+    def governed_by_pfl(self, pairs: PairGeometry) -> np.ndarray:
+        """(N,) whether each pair is under PFL (else SSM); in a hybrid mode only where the pair's
+        contact would be, the middle of its closest points, lies in a collaborative zone."""
+        pfl = self.pfl_region[pairs.r]
+        if self.hybrid and np.any(pfl):
+            pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
+        return pfl
+
+    def clamped(self, pairs: PairGeometry, region_radius) -> np.ndarray:
+        """(N,) whether the body part of each pair is clamped against a fixed surface."""
+        margin = self.config.clamp_margin if self.pfl else 0.02
+        radius = np.asarray(region_radius)[pairs.r]
+        return clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, margin)
+
+    def robot_masses(self, pairs: PairGeometry, effective_mass) -> np.ndarray:
+        """m_R (N,) of each pair: the plant's along u (`effective_mass(k, point, u)`), or M/2 + m_L."""
+        payload = self.config.payload
+        if self.config.robot_mass == "iso":
+            if self.arm_masses is None:
+                raise ValueError("SafetyRules: the 'iso' robot mass needs the arms' masses")
+            return iso_robot_mass(self.arm_masses[pairs.k], payload)
+        return np.array([effective_mass(int(k), p, u) for k, p, u in
+                         zip(pairs.k, pairs.robot_point, pairs.direction, strict=True)]) + payload
+
+    def pfl_speeds(self, pairs: PairGeometry, masses, clamps) -> np.ndarray:
+        """v_rel,max (N,) of eq. (A.6) per pair, transient or quasi-static."""
+        out = np.zeros(len(pairs.k))
+        for n, (r, mass, clamp) in enumerate(zip(pairs.r, masses, clamps, strict=True)):
+            out[n] = pfl_speed(self.limits[self.regions[r]], mass, bool(clamp), self.contact_area)
+        return out
+
+    def screen(self, robot, robot_velocity, regions, z_d, covered_time: float = 0.0):
+        """Candidate pairs: clearances (K, R) and the pairs nearer than S_p at the fastest point of
+        the robot capsule (a bound: the end points are a link segment's fastest points)."""
+        distance = capsule_clearances(*robot, *regions)
+        v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
+                           np.linalg.norm(robot_velocity[1], axis=1))
+        reach = np.maximum(protective_separation(v_max, self.separation, 0.0, covered_time),
+                           protective_separation(v_max, self.body_separation, 0.0, covered_time))
+        near = distance < reach[:, None] + np.asarray(z_d)[None, :]
+        k, r = np.nonzero(near)
+        return distance, k, r
+
+    def override(self, robot, robot_velocity, regions, z_d, effective_mass=None, covered_time: float = 0.0):
+        """(override in [0, 1], binding pair or None) that keeps every pair within its rule.
+
+        robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
+        at full speed); z_d (R,): Z_d of each region; effective_mass(k, point, u): m_R of the
+        plant. The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest
+        override."""
+        if self.mode == "none":
+            return FREE, None
+        distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
+        if not len(k):
+            return FREE, None
+        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+        approach = pairs.approach
+        moving = approach > 1e-9
+        z = np.asarray(z_d)[r]
+        v_ssm = self.ssm_speeds(pairs, z, covered_time)
+        scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
+        pfl = self.governed_by_pfl(pairs) & moving & (scale < FREE)
+        rule = np.where(self.governed_by_pfl(pairs), "pfl", "ssm")
+        if np.any(pfl):
+            sub = np.nonzero(pfl)[0]
+            picked = _subset(pairs, sub)
+            masses = self.robot_masses(picked, effective_mass)
+            clamps = self.clamped(picked, regions[2])
+            v_pfl = self.pfl_speeds(picked, masses, clamps)
+            scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
+        n = int(np.argmin(scale))
+        sp = float(self.separations(_subset(pairs, np.array([n])), approach[n:n + 1], z[n], covered_time)[0])
+        return float(scale[n]), (pairs, n, str(rule[n]), sp)
+
+    def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0) -> np.ndarray:
+        """The permissible speeds (N,) of SSM at each pair's separation (head and torso at their v_h)."""
+        limbs = permissible_speed(pairs.distance, self.separation, z_d, covered_time)
+        body = permissible_speed(pairs.distance, self.body_separation, z_d, covered_time)
+        return np.where(self.body_region[pairs.r], body, limbs)
+
+    def separations(self, pairs: PairGeometry, speed, z_d=0.0, covered_time: float = 0.0) -> np.ndarray:
+        """S_p (N,) of each pair for robot points approaching at `speed` (head and torso at their v_h)."""
+        limbs = protective_separation(speed, self.separation, z_d, covered_time)
+        body = protective_separation(speed, self.body_separation, z_d, covered_time)
+        return np.where(self.body_region[pairs.r], body, limbs)
+
+
+def _subset(pairs: PairGeometry, index) -> PairGeometry:
+    return PairGeometry(*(getattr(pairs, f)[index] for f in PairGeometry.__dataclass_fields__))
+
+
+def decelerated_override(previous: float, target: float, dt: float, fastest_speed: float,
+                         deceleration: float) -> float:
+    """The override after one controller period: `target`, but falling no faster than the stopping
+    model allows, so that the robot's fastest point (at `fastest_speed` m/s at override 1) slows
+    by at most a dt (a category-2 protective stop at deceleration a)."""
+    target = min(max(target, 0.0), 1.0)
+    if target >= previous or fastest_speed <= 1e-9:
+        return target
+    return max(target, previous - deceleration * dt / fastest_speed)

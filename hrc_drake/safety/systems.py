@@ -1,0 +1,384 @@
+"""Drake systems of ISO/TS 15066 safety: the `SafetyController` between the speed rules and the
+path follower, the `SafetyMonitor` that accounts contacts on the truth, and `apply_safety_config`.
+
+Both read the robot from the `MultibodyPlant` (`RobotPointDynamics`): the capsules of its links,
+the velocities of their end points from the bodies' spatial velocities (V = J v), and the
+effective mass along a direction u at a point, m_R = (u^T J M^-1 J^T u)^-1, from the point's
+translational Jacobian J and the mass matrix M.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.linalg
+from pydrake.common.value import AbstractValue
+from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
+
+from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
+from hrc_drake.safety.config import NoSafety, mode_name
+from hrc_drake.safety.contacts import ContactAccountant, MonitorRun, summarize_safety
+from hrc_drake.safety.regions import BODY_CAPSULES, CAPSULE_POINTS, RegionCapsules
+from hrc_drake.safety.rules import SafetyRules, decelerated_override
+from hrc_drake.systems import declare_periodic_discrete_update
+
+
+def effective_mass(plant, context, body, point_in_body, direction) -> float:
+    """m_R = (u^T J M^-1 J^T u)^-1 (kg): the robot's effective mass at a point of `body` (its frame's
+    coordinates) along the unit `direction` u (world), J the point's translational Jacobian (3, nv)
+    and M the mass matrix of the plant at `context`."""
+    world = plant.world_frame()
+    jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, body.body_frame(),
+                                                       np.asarray(point_in_body, float), world, world)
+    mass_matrix = plant.CalcMassMatrix(context)
+    ju = jacobian.T @ np.asarray(direction, dtype=float)
+    inverse_mass = float(ju @ np.linalg.solve(mass_matrix, ju))
+    return 1.0 / inverse_mass if inverse_mass > 1e-12 else math.inf
+
+
+def arm_masses(plant, bodies) -> np.ndarray:
+    """M per body (kg): the mass of the moving subtree it belongs to (the bodies outboard of the
+    innermost movable joint above it), for the standard's m_R = M/2 + m_L."""
+    context = plant.CreateDefaultContext()
+    joints = [plant.get_joint(j) for j in plant.GetJointIndices() if plant.get_joint(j).num_velocities() > 0]
+    outboard = [set(int(b) for b in plant.GetBodiesKinematicallyAffectedBy([j.index()])) for j in joints]
+    out = []
+    for body in bodies:
+        subtrees = [s for s in outboard if int(body) in s]
+        largest = max(subtrees, key=len) if subtrees else {int(body)}
+        out.append(sum(plant.get_body(BodyIndex(b)).get_mass(context) for b in largest))
+    return np.array(out)
+
+
+class RobotPointDynamics:
+    """Capsules, end-point velocities and effective masses of the robot links of a plant.
+
+    kinematics: `robots.models.RobotCapsuleKinematics` of the plant. Holds a scratch plant context,
+    fully overwritten by `set_state` before each use (as `cell.systems.RobotCapsules`); what it
+    derives from one state (poses, each body's operational-space inverse inertia) is kept until
+    the next `set_state`.
+    """
+
+    def __init__(self, plant, kinematics):
+        self.plant = plant
+        self.kinematics = kinematics
+        self.names = tuple(kinematics.names)
+        self._context = plant.CreateDefaultContext()
+        self._nq, self._nv = plant.num_positions(), plant.num_velocities()
+        bodies = np.asarray(kinematics.capsule_bodies, dtype=int)
+        self.bodies = bodies
+        self._unique, self._inverse = np.unique(bodies, return_inverse=True)
+        self._start_B, self._end_B = kinematics.local_ends
+        self.radius = np.array(kinematics.radius, dtype=float)
+        self._body = [plant.get_body(BodyIndex(int(b))) for b in bodies]
+        self._poses_port = plant.get_body_poses_output_port()
+        self._velocities_port = plant.get_body_spatial_velocities_output_port()
+        self._origins = None
+        self._inverse_inertia: dict = {}
+        self._mass_factor = None
+
+    @property
+    def num_velocities(self) -> int:
+        return self._nv
+
+    def set_state(self, q, v) -> None:
+        """Positions (the first nq entries of `q`) and velocities (nv) of the plant."""
+        self.plant.SetPositions(self._context, np.asarray(q, dtype=float)[: self._nq])
+        self.plant.SetVelocities(self._context, np.asarray(v, dtype=float)[: self._nv])
+        self._origins = None
+        self._inverse_inertia = {}
+        self._mass_factor = None
+
+    def capsules(self):
+        """((start, end, radius), (v_start, v_end)): world capsules (K) and their end points'
+        velocities (K, 3), v = v_B + w_B x (p - p_B) from each body's spatial velocity."""
+        poses = self._poses_port.Eval(self._context)
+        velocities = self._velocities_port.Eval(self._context)
+        X = np.array([poses[int(i)].GetAsMatrix4() for i in self._unique])[self._inverse]
+        V = np.array([velocities[int(i)].get_coeffs() for i in self._unique])[self._inverse]
+        R, p = X[:, :3, :3], X[:, :3, 3]
+        self._origins = p
+        start = np.einsum("kij,kj->ki", R, self._start_B) + p
+        end = np.einsum("kij,kj->ki", R, self._end_B) + p
+        w, v = V[:, :3], V[:, 3:]
+        return (start, end, self.radius.copy()), (v + _cross(w, start - p), v + _cross(w, end - p))
+
+    def _body_inverse_inertia(self, k: int) -> np.ndarray:
+        """J M^-1 J^T (6, 6) at the origin of capsule k's body, J its spatial Jacobian ([w; v])."""
+        body = int(self.bodies[k])
+        cached = self._inverse_inertia.get(body)
+        if cached is not None:
+            return cached
+        plant, world = self.plant, self.plant.world_frame()
+        jacobian = plant.CalcJacobianSpatialVelocity(self._context, JacobianWrtVariable.kV,
+                                                     self._body[k].body_frame(), np.zeros(3), world, world)
+        if self._mass_factor is None:
+            self._mass_factor = scipy.linalg.cho_factor(plant.CalcMassMatrix(self._context))
+        value = jacobian @ scipy.linalg.cho_solve(self._mass_factor, jacobian.T)
+        self._inverse_inertia[body] = value
+        return value
+
+    def effective_mass(self, k: int, point, direction) -> float:
+        """m_R = (a^T J M^-1 J^T a)^-1 of capsule k's body at the world `point` along the unit
+        `direction` u, a = [r x u; u] with r the point's offset from the body origin: the same
+        as (u^T J_p M^-1 J_p^T u)^-1 with the point's translational Jacobian J_p (the last
+        `set_state`; call `capsules` first)."""
+        if self._origins is None:
+            self.capsules()
+        u = np.asarray(direction, dtype=float)
+        r = np.asarray(point, dtype=float) - self._origins[k]
+        a = np.concatenate([_cross(r, u), u])
+        inverse_mass = float(a @ self._body_inverse_inertia(k) @ a)
+        return 1.0 / inverse_mass if inverse_mass > 1e-12 else math.inf
+
+
+def _cross(a, b):
+    """a x b of (..., 3) arrays (numpy's cross costs ~20 us of argument handling per call)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+class HumanRegions:
+    """Body-region capsules (ISO/TS 15066) from a skeleton estimate, with their Z_d."""
+
+    def __init__(self, body_model, config, camera_noise: float = 0.0):
+        self.body = body_model
+        self.cutter = RegionCapsules()
+        self.config = config
+        self.camera_noise = float(camera_noise)
+        self._region_points = [list(CAPSULE_POINTS[BODY_CAPSULES[c.capsule]]) for c in self.cutter.cuts]
+
+    def __call__(self, estimate: SkeletonEstimate):
+        """(region capsules, z_d (R,)), or None while some region's points were never seen."""
+        points = np.asarray(estimate.points, dtype=float)
+        if points.shape != (8, 3):
+            return None
+        finite = np.isfinite(points).all(axis=1)
+        if not all(finite[idx].all() for idx in self._region_points):
+            return None
+        start, end, radius = self.body.capsules_from_points(points)
+        regions = self.cutter.cut(start, end, radius)
+        config = self.config
+        spread = np.asarray(estimate.spread, dtype=float)
+        if config.position_uncertainty == "tracker":
+            z_d = self.cutter.point_uncertainty(spread, config.uncertainty_sigmas, config.max_uncertainty)
+        elif config.position_uncertainty == "camera":
+            noise = np.where(np.isfinite(spread), self.camera_noise, np.inf)
+            z_d = self.cutter.point_uncertainty(noise, config.uncertainty_sigmas, config.max_uncertainty)
+        else:
+            z_d = np.full(len(self.cutter), config.fixed_uncertainty)
+        return regions, z_d
+
+
+def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
+    """Each region's swept capsule: the swept volume of its body capsule (by name), or None."""
+    names = {name: k for k, name in enumerate(swept.names)}
+    if not len(swept.radius) or any(name not in names for name in BODY_CAPSULES):
+        return None
+    index = np.array([names[BODY_CAPSULES[c.capsule]] for c in cutter.cuts])
+    return (np.asarray(swept.start)[index], np.asarray(swept.end)[index], np.asarray(swept.radius)[index])
+
+
+#: the controller's discrete state: [override applied, safety command, protective stops, stopped
+#: flag, binding clearance, S_p of the binding pair]
+_STATE = ("override", "command", "stops", "stopped", "distance", "separation")
+
+
+class SafetyController(LeafSystem):
+    """The ISO/TS 15066 safety controller: the speed override of the path follower (`safety.rules`).
+
+    Inputs "positions" (the plant's positions first), "velocities_full" (nv: the path's joint
+    velocities at override 1), "skeleton_estimate" (`SkeletonEstimate`), "requested_override"
+    (1: the thesis's own speed rules, layered under; unconnected: 1) and "swept_volumes" (with
+    `human_motion: swept_volumes`). Output "speed_override" (1) and "status" (6: `_STATE`).
+    Each period it takes the smallest of the requested override and the rules' override, and
+    lets it fall no faster than the stopping model's deceleration; a command of 0 is a
+    protective stop (counted once per stop). Until every body region has been seen once the
+    robot is held (0).
+    """
+
+    def __init__(self, rules: SafetyRules, dynamics: RobotPointDynamics, regions: HumanRegions,
+                 input_size: int):
+        super().__init__()
+        config = rules.config
+        self.rules = rules
+        self.dynamics = dynamics
+        self.regions = regions
+        self.period = 1.0 / config.rate
+        self.swept = config.human_motion == "swept_volumes"
+        self._state = self.DeclareDiscreteState(np.array([1.0, 1.0, 0.0, 0.0, np.inf, np.nan]))
+        self._positions = self.DeclareVectorInputPort("positions", input_size)
+        self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
+        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                       AbstractValue.Make(SkeletonEstimate()))
+        self._requested = self.DeclareVectorInputPort("requested_override", 1)
+        self._swept_volumes = self.DeclareAbstractInputPort("swept_volumes",
+                                                            AbstractValue.Make(SweptVolumes()))
+        ticket = {self.discrete_state_ticket(self._state)}
+        self.DeclareVectorOutputPort("speed_override", 1, self._calc_override, ticket)
+        self.DeclareVectorOutputPort("status", len(_STATE), self._calc_status, ticket)
+        declare_periodic_discrete_update(self, self.period, 0.0, self._update)
+
+    def _command(self, context):
+        """(rules' override, binding clearance, its S_p) for the inputs of `context`."""
+        human = self.regions(self._estimate.Eval(context)) if self._estimate.HasValue(context) else None
+        if human is None:
+            return 0.0, math.nan, math.nan
+        regions, z_d = human
+        covered = 0.0
+        if self.swept and self._swept_volumes.HasValue(context):
+            swept = self._swept_volumes.Eval(context)
+            grown = swept_regions(swept, self.regions.cutter)
+            if grown is not None:
+                regions, covered = grown, float(swept.horizon)
+        self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
+        robot, velocity = self.dynamics.capsules()
+        command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
+                                               covered)
+        self._fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
+                                  np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
+        if binding is None:
+            return command, math.inf, math.nan
+        pairs, n, _, separation = binding
+        return command, float(pairs.distance[n]), separation
+
+    def _update(self, context, discrete_state):
+        x = np.array(context.get_discrete_state(self._state).get_value())
+        self._fastest = 0.0
+        command, distance, separation = self._command(context)
+        requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
+        requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
+        target = min(requested, command)
+        applied = decelerated_override(float(x[0]), target, self.period, self._fastest,
+                                       self.rules.config.deceleration)
+        stopped = command <= 0.0
+        stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
+        discrete_state.get_mutable_vector(self._state).SetFromVector(
+            [applied, command, stops, float(stopped), distance, separation])
+        return EventStatus.Succeeded()
+
+    def _calc_override(self, context, output: BasicVector):
+        output.SetAtIndex(0, context.get_discrete_state(self._state).get_value()[0])
+
+    def _calc_status(self, context, output: BasicVector):
+        output.SetFromVector(context.get_discrete_state(self._state).get_value())
+
+    def protective_stops(self, context) -> int:
+        """Protective stops so far in this system's `context`."""
+        return int(context.get_discrete_state(self._state).get_value()[2])
+
+
+class _MonitorRecording:
+    """The monitor's cache value: the `MonitorRun` so far (replaced, never changed in place)."""
+
+    __slots__ = ("run",)
+
+    def __init__(self, run: MonitorRun | None = None):
+        self.run = run if run is not None else MonitorRun()
+
+    def __deepcopy__(self, memo):
+        return _MonitorRecording(self.run)
+
+
+class SafetyMonitor(LeafSystem):
+    """Accounts contacts and the time below S_p on the truth, every `period` s (`safety.contacts`).
+
+    Inputs "human_capsules" (`Capsules`, the true body), "positions" (the plant's first) and
+    "velocities" (nv, the robot's true joint velocities). A recorder like `MetricsRecorder`: its
+    `MonitorRun` is a cache entry its periodic publish replaces, cleared at initialization, so it
+    costs the simulation no state copies. `summary(context, stops)` gives metrics.json's `safety`.
+    """
+
+    def __init__(self, accountant: ContactAccountant, dynamics: RobotPointDynamics, input_size: int,
+                 period: float, mode: str, standard: str):
+        super().__init__()
+        self.accountant = accountant
+        self.dynamics = dynamics
+        self.cutter = RegionCapsules()
+        self.mode = mode
+        self.standard = standard
+        self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
+        self._positions = self.DeclareVectorInputPort("positions", input_size)
+        self._velocities = self.DeclareVectorInputPort("velocities", dynamics.num_velocities)
+        self._entry = self.DeclareCacheEntry(
+            "monitor run", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
+                                         calc=lambda *_: None), {self.nothing_ticket()})
+        self.DeclareInitializationPublishEvent(self._clear)
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
+
+    def _recording(self, context) -> _MonitorRecording:
+        return self._entry.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+
+    def _clear(self, context):
+        self._recording(context).run = MonitorRun()
+        return EventStatus.Succeeded()
+
+    def _record(self, context):
+        recording = self._recording(context)
+        time = context.get_time()
+        if time <= recording.run.last_time:
+            return EventStatus.DidNothing()
+        start, end, radius = self._human.Eval(context)
+        if len(radius) != len(BODY_CAPSULES):
+            return EventStatus.DidNothing()
+        regions = self.cutter.cut(start, end, radius)
+        self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
+        robot, velocity = self.dynamics.capsules()
+        recording.run = self.accountant.step(recording.run, time, robot, velocity, regions,
+                                             self.dynamics.effective_mass)
+        return EventStatus.Succeeded()
+
+    def run(self, context) -> MonitorRun:
+        """The monitor's run in this system's `context`."""
+        return self._recording(context).run
+
+    def summary(self, context, protective_stops: int = 0) -> dict:
+        """metrics.json's ISO/TS 15066 figures (`contacts.summarize_safety`)."""
+        return summarize_safety(self.run(context), self.mode, protective_stops, self.accountant.limits,
+                                self.standard)
+
+
+def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
+                        positions, velocities, velocities_full, skeleton_estimate, human_capsules,
+                        requested_override, swept_volumes=None, camera_noise: float = 0.0,
+                        monitor_period: float = 1.0 / 30.0):
+    """Add the safety controller of `config` ("safety_controller"; none for `NoSafety`) and the
+    contact monitor ("safety_monitor", always) to `builder` and connect them.
+
+    positions: the plant's positions port (kinematic: the follower's; dynamic: the plant state);
+    velocities / velocities_full: the follower's joint velocities as applied and at full speed;
+    requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
+    to connect later.
+    Returns (controller or None, monitor); the follower reads the controller's "speed_override".
+    """
+    config.validate("safety")
+    region_names = RegionCapsules().regions
+    masses = arm_masses(plant, kinematics.capsule_bodies)
+    rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses)
+    input_size = positions.size()
+    controller = None
+    if not isinstance(config, NoSafety):
+        controller = builder.AddSystem(SafetyController(
+            rules, RobotPointDynamics(plant, kinematics), HumanRegions(body_model, config, camera_noise),
+            input_size))
+        controller.set_name("safety_controller")
+        builder.Connect(positions, controller.GetInputPort("positions"))
+        builder.Connect(velocities_full, controller.GetInputPort("velocities_full"))
+        builder.Connect(skeleton_estimate, controller.GetInputPort("skeleton_estimate"))
+        if requested_override is not None:
+            builder.Connect(requested_override, controller.GetInputPort("requested_override"))
+        if swept_volumes is not None:
+            builder.Connect(swept_volumes, controller.GetInputPort("swept_volumes"))
+    moving = config.moving_speed if not isinstance(config, NoSafety) else 0.01
+    accountant = ContactAccountant(rules, limits, kinematics.names, RegionCapsules().names, moving)
+    monitor = builder.AddSystem(SafetyMonitor(accountant, RobotPointDynamics(plant, kinematics), input_size,
+                                              monitor_period, mode_name(config), limits.source))
+    monitor.set_name("safety_monitor")
+    builder.Connect(human_capsules, monitor.GetInputPort("human_capsules"))
+    builder.Connect(positions, monitor.GetInputPort("positions"))
+    builder.Connect(velocities, monitor.GetInputPort("velocities"))
+    return controller, monitor
+
