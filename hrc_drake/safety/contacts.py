@@ -10,9 +10,12 @@ limits (transient, or quasi-static where a fixed surface clamps the part: then a
 force k x depth while the robot keeps pressing). While the contact lasts its penetration depth
 grows until the robot stops approaching (its protective stop, `stop_delay`).
 
-Violations by rule: `ssm`, the robot moving toward a region that SSM governs touched it; `pfl`, a
-contact over its region's limit; with no safety system (`none`) every contact over the ISO limits
-(head and face: any) counts, so an unprotected cell's verdict says what the standard would.
+Violations by rule, each the robot's doing (it was approaching the body at the onset, or pressed
+a clamped part): `ssm`, the robot touched a region that SSM governs; `pfl`, a contact over its
+region's limit; with no safety system (`none`) every such contact over the ISO limits (head and
+face: any) counts, so an unprotected cell's verdict says what the standard would. A clamped
+part's spring force k x depth counts the depth the robot made (its approach speed integrated
+over the contact), not the simulated operator's own pressing on.
 """
 
 from __future__ import annotations
@@ -52,6 +55,9 @@ class Contact(Immutable):
     ratio: float
     violation: bool
     penetration: float = 0.0
+    #: the part of the penetration the robot made: its approach speed integrated over the contact
+    #: (the simulated operator does not yield, so the rest is the operator pressing on)
+    robot_penetration: float = 0.0
     duration: float = 0.0
     #: s from the onset until the robot stopped approaching the body (nan: it never did)
     stop_delay: float = math.nan
@@ -99,7 +105,7 @@ class ContactAccountant:
     def step(self, run: MonitorRun, time: float, robot, robot_velocity, regions,
              effective_mass) -> MonitorRun:
         """The run after a sample at `time`: robot capsules and their end points' true velocities
-        (v_start, v_end), the true region capsules; effective_mass(k, point, u) gives m_R."""
+        (v_start, v_end), the true region capsules; effective_mass(k, points, u) gives m_R (vectorised)."""
         dt = time - run.last_time if math.isfinite(run.last_time) else 0.0
         body_velocity = _body_velocity(run.last_regions, regions, dt)
         rules = self.rules
@@ -121,7 +127,7 @@ class ContactAccountant:
             for n, (kk, rr) in enumerate(zip(pairs.k.tolist(), pairs.r.tolist(), strict=True)):
                 if nearest is not None and (kk, rr) == tuple(int(x) for x in nearest):
                     sp_nearest, rule_nearest = float(sp[n]), _rule(rules, bool(pfl[n]))
-            open_pairs = self._contacts(time, pairs, pfl, body_velocity, regions, open_pairs, effective_mass)
+            open_pairs = self._contacts(time, dt, pairs, pfl, body_velocity, regions, open_pairs, effective_mass)
         closed = [c for key, c in run.open if key not in open_pairs]
         contacts = run.contacts.extend(replace(c, duration=time - c.time) for c in closed)
         min_distance = float(distance[nearest]) if nearest is not None else math.inf
@@ -130,7 +136,7 @@ class ContactAccountant:
                           run.time_below_sp_moving + (dt if below else 0.0), time,
                           (np.array(regions[0]), np.array(regions[1])))
 
-    def _contacts(self, time, pairs, pfl, body_velocity, regions, open_pairs, effective_mass) -> dict:
+    def _contacts(self, time, dt, pairs, pfl, body_velocity, regions, open_pairs, effective_mass) -> dict:
         """The open contacts after this sample: new ones judged at their onset, old ones deepened."""
         out = {}
         for n, (k, r) in enumerate(zip(pairs.k.tolist(), pairs.r.tolist(), strict=True)):
@@ -139,18 +145,25 @@ class ContactAccountant:
                 continue
             approach = float(pairs.approach[n])
             contact = open_pairs.get((k, r))
+            pushed = 0.0
             if contact is None:
                 contact = self._onset(time, pairs, n, bool(pfl[n]), body_velocity, regions, effective_mass)
+            else:
+                pushed = max(approach, 0.0) * dt
             region = self.limits[contact.region]
+            robot_depth = contact.robot_penetration + pushed
             ratio = contact.ratio
+            violation = contact.violation
             if contact.clamped and region.force > 0:
-                ratio = max(ratio, region.spring_constant * depth / region.force)
+                # clamped: the body's spring compressed by the robot, F = k x depth (quasi-static)
+                pressed = region.spring_constant * robot_depth / region.force
+                ratio = max(ratio, pressed)
+                violation = violation or (contact.rule != "ssm" and pressed > 1.0)
             stop_delay = contact.stop_delay
             if math.isnan(stop_delay) and approach <= self.moving_speed:
                 stop_delay = time - contact.time
-            violation = contact.violation or (contact.rule != "ssm" and ratio > 1.0)
             out[(k, r)] = replace(contact, penetration=max(contact.penetration, depth), ratio=ratio,
-                                  stop_delay=stop_delay, violation=violation)
+                                  robot_penetration=robot_depth, stop_delay=stop_delay, violation=violation)
         return out
 
     def _onset(self, time, pairs, n, pfl, body_velocity, regions, effective_mass) -> Contact:
@@ -168,14 +181,14 @@ class ContactAccountant:
         region = self.limits[region_name]
         picked = _one(pairs, n)
         robot_mass = float(rules.robot_masses(picked, effective_mass)[0]) if rules.pfl else \
-            float(effective_mass(k, pairs.robot_point[n], pairs.direction[n]))
+            float(effective_mass(picked.k, picked.robot_point, picked.direction)[0])
         clamped = bool(rules.clamped(picked, regions[2])[0])
         mu, energy, force, pressure = contact_peak(region, robot_mass, relative, rules.contact_area or 1e-4)
         ratio = limit_ratio(region, force, pressure, clamped)
-        if rule == "ssm":
-            violation = robot_speed > self.moving_speed
-        else:
-            violation = ratio > 1.0
+        # a violation is the robot's doing: it was moving toward the body (a person who walks into a
+        # stopped robot is logged, not held against the mode); SSM forbids that contact at all
+        robot_moving = robot_speed > self.moving_speed
+        violation = robot_moving and (rule == "ssm" or ratio > 1.0)
         return Contact(time, self.link_names[k], self.region_names[r], region_name, rule, relative,
                        robot_speed, robot_mass, region.effective_mass, mu, energy, force, pressure, clamped,
                        region.force_limit(clamped), ratio, violation)

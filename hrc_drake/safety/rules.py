@@ -30,8 +30,7 @@ from hrc_drake.safety.config import (
     PowerForceLimiting,
     mode_name,
 )
-from hrc_drake.safety.limits import LimitsTable, iso_robot_mass
-from hrc_drake.safety.limits import permissible_speed as pfl_speed
+from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
 from hrc_drake.safety.regions import FixedBox, clamped
 from hrc_drake.safety.ssm import SeparationParameters, permissible_speed, protective_separation
 
@@ -124,6 +123,12 @@ class SafetyRules:
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None
+        if limits is not None:
+            rows = [limits[name] for name in self.regions]
+            self._region_table = {
+                "mass": np.array([x.effective_mass for x in rows]), "k": np.array([x.spring_constant for x in rows]),
+                "force": np.array([x.force for x in rows]), "pressure": np.array([x.pressure for x in rows]),
+                "transient": np.array([x.transient_factor for x in rows])}
 
     def in_zone(self, points) -> np.ndarray:
         """(N,) whether each point lies in a collaborative zone."""
@@ -148,21 +153,27 @@ class SafetyRules:
         return clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, margin)
 
     def robot_masses(self, pairs: PairGeometry, effective_mass) -> np.ndarray:
-        """m_R (N,) of each pair: the plant's along u (`effective_mass(k, point, u)`), or M/2 + m_L."""
+        """m_R (N,) of each pair: the plant's along u (`effective_mass(k, points, u)`, vectorised over
+        the pairs), or the standard's M/2 + m_L; plus the payload."""
         payload = self.config.payload
         if self.config.robot_mass == "iso":
             if self.arm_masses is None:
                 raise ValueError("SafetyRules: the 'iso' robot mass needs the arms' masses")
             return iso_robot_mass(self.arm_masses[pairs.k], payload)
-        return np.array([effective_mass(int(k), p, u) for k, p, u in
-                         zip(pairs.k, pairs.robot_point, pairs.direction, strict=True)]) + payload
+        return np.asarray(effective_mass(pairs.k, pairs.robot_point, pairs.direction), dtype=float) + payload
 
     def pfl_speeds(self, pairs: PairGeometry, masses, clamps) -> np.ndarray:
-        """v_rel,max (N,) of eq. (A.6) per pair, transient or quasi-static."""
-        out = np.zeros(len(pairs.k))
-        for n, (r, mass, clamp) in enumerate(zip(pairs.r, masses, clamps, strict=True)):
-            out[n] = pfl_speed(self.limits[self.regions[r]], mass, bool(clamp), self.contact_area)
-        return out
+        """v_rel,max (N,) of eq. (A.6) per pair, transient or quasi-static (`limits.permissible_speed`
+        over arrays of the regions' limits)."""
+        table = self._region_table
+        r = pairs.r
+        clamps = np.asarray(clamps, dtype=bool)
+        stiffness = np.sqrt(reduced_mass(table["mass"][r], masses) * table["k"][r])
+        factor = np.where(clamps, 1.0, table["transient"][r])
+        speed = factor * table["force"][r] / stiffness
+        if self.contact_area is not None:
+            speed = np.minimum(speed, factor * table["pressure"][r] * self.contact_area / stiffness)
+        return speed
 
     def screen(self, robot, robot_velocity, regions, z_d, covered_time: float = 0.0):
         """Candidate pairs: clearances (K, R) and the pairs nearer than S_p at the fastest point of
@@ -180,8 +191,8 @@ class SafetyRules:
         """(override in [0, 1], binding pair or None) that keeps every pair within its rule.
 
         robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
-        at full speed); z_d (R,): Z_d of each region; effective_mass(k, point, u): m_R of the
-        plant. The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest
+        at full speed); z_d (R,): Z_d of each region; effective_mass(k, points, u): m_R of the
+        plant, vectorised over pairs. The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest
         override."""
         if self.mode == "none":
             return FREE, None

@@ -120,18 +120,20 @@ class RobotPointDynamics:
         self._inverse_inertia[body] = value
         return value
 
-    def effective_mass(self, k: int, point, direction) -> float:
-        """m_R = (a^T J M^-1 J^T a)^-1 of capsule k's body at the world `point` along the unit
-        `direction` u, a = [r x u; u] with r the point's offset from the body origin: the same
-        as (u^T J_p M^-1 J_p^T u)^-1 with the point's translational Jacobian J_p (the last
-        `set_state`; call `capsules` first)."""
+    def effective_mass(self, k, points, directions) -> np.ndarray:
+        """m_R = (a^T J M^-1 J^T a)^-1 (N,) at world `points` (N, 3) of capsules `k` (N,) along the
+        unit `directions` u (N, 3), a = [r x u; u] with r the point's offset from its body's origin:
+        the same as (u^T J_p M^-1 J_p^T u)^-1 with the point's translational Jacobian J_p (the last
+        `set_state`)."""
         if self._origins is None:
             self.capsules()
-        u = np.asarray(direction, dtype=float)
-        r = np.asarray(point, dtype=float) - self._origins[k]
-        a = np.concatenate([_cross(r, u), u])
-        inverse_mass = float(a @ self._body_inverse_inertia(k) @ a)
-        return 1.0 / inverse_mass if inverse_mass > 1e-12 else math.inf
+        k = np.atleast_1d(np.asarray(k, dtype=int))
+        u = np.asarray(directions, dtype=float).reshape(-1, 3)
+        r = np.asarray(points, dtype=float).reshape(-1, 3) - self._origins[k]
+        a = np.concatenate([_cross(r, u), u], axis=1)
+        inertia = np.array([self._body_inverse_inertia(int(i)) for i in k])
+        inverse_mass = np.einsum("ni,nij,nj->n", a, inertia, a)
+        return np.where(inverse_mass > 1e-12, 1.0 / np.maximum(inverse_mass, 1e-12), np.inf)
 
 
 def _cross(a, b):

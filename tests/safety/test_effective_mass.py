@@ -1,0 +1,92 @@
+"""The robot's effective mass from a plant, m_R = (u^T J M^-1 J^T u)^-1, on a two-link arm."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from pydrake.math import RigidTransform
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, RotationalInertia, SpatialInertia
+
+from hrc_drake.safety.systems import RobotPointDynamics, effective_mass
+
+L1, L2, M1, M2 = 1.0, 0.8, 2.0, 1.5
+
+
+def point_mass(mass: float, length: float) -> SpatialInertia:
+    """A point mass at (length, 0, 0) of its body frame."""
+    return SpatialInertia.MakeFromCentralInertia(mass, [length, 0.0, 0.0], RotationalInertia(0.0, 0.0, 0.0))
+
+
+def two_link_arm():
+    """A planar arm in the xy plane: joints about z at the origin and at the end of link 1, a
+    point mass at the end of each link."""
+    plant = MultibodyPlant(0.0)
+    link1 = plant.AddRigidBody("link1", point_mass(M1, L1))
+    link2 = plant.AddRigidBody("link2", point_mass(M2, L2))
+    plant.AddJoint(RevoluteJoint("shoulder", plant.world_frame(), link1.body_frame(), [0.0, 0.0, 1.0]))
+    elbow_frame = plant.AddFrame(FixedOffsetFrame("elbow", link1.body_frame(), RigidTransform([L1, 0.0, 0.0])))
+    plant.AddJoint(RevoluteJoint("elbow", elbow_frame, link2.body_frame(), [0.0, 0.0, 1.0]))
+    plant.Finalize()
+    return plant, link2
+
+
+def hand_computed(q, u):
+    """m_R at the tip (the second point mass) by the textbook formulas of a two-link arm."""
+    q1, q2 = q
+    s1, c1, s12, c12 = np.sin(q1), np.cos(q1), np.sin(q1 + q2), np.cos(q1 + q2)
+    j1 = np.array([[-L1 * s1, 0.0], [L1 * c1, 0.0]])
+    j2 = np.array([[-L1 * s1 - L2 * s12, -L2 * s12], [L1 * c1 + L2 * c12, L2 * c12]])
+    mass = M1 * j1.T @ j1 + M2 * j2.T @ j2
+    ju = j2.T @ np.asarray(u)[:2]
+    return 1.0 / (ju @ np.linalg.solve(mass, ju))
+
+
+@pytest.mark.parametrize("q", [(0.0, 0.5), (0.3, 1.2), (-1.0, 2.0)])
+@pytest.mark.parametrize("angle", [0.0, 0.7, 2.0])
+def test_effective_mass_of_a_two_link_arm_matches_the_hand_computation(q, angle):
+    plant, link2 = two_link_arm()
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, np.array(q))
+    u = np.array([np.cos(angle), np.sin(angle), 0.0])
+    assert effective_mass(plant, context, link2, [L2, 0.0, 0.0], u) == pytest.approx(hand_computed(q, u), rel=1e-9)
+
+
+def test_stretched_arm_tangential_mass_worked_by_hand():
+    # q2 = 0, unit lengths and masses: M = [[5, 2], [2, 1]], J^T u = [2, 1] along y, so
+    # u^T J M^-1 J^T u = [2, 1] . [0, 1] = 1 and m_R = 1 kg
+    global L1, L2, M1, M2
+    saved = L1, L2, M1, M2
+    L1, L2, M1, M2 = 1.0, 1.0, 1.0, 1.0
+    try:
+        plant, link2 = two_link_arm()
+        context = plant.CreateDefaultContext()
+        assert effective_mass(plant, context, link2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]) == pytest.approx(1.0)
+    finally:
+        L1, L2, M1, M2 = saved
+
+
+def test_the_cached_body_form_equals_the_point_jacobian_form():
+    plant, link2 = two_link_arm()
+    kinematics = SimpleNamespace(names=("link2",), capsule_bodies=np.array([int(link2.index())]),
+                                 local_ends=(np.zeros((1, 3)), np.array([[L2, 0.0, 0.0]])), radius=np.array([0.05]))
+    dynamics = RobotPointDynamics(plant, kinematics)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q = rng.uniform(-2, 2, 2)
+        dynamics.set_state(q, rng.normal(size=2))
+        (start, end, _), (v_start, v_end) = dynamics.capsules()
+        assert np.allclose(end[0][:2], [L1 * np.cos(q[0]) + L2 * np.cos(q.sum()), L1 * np.sin(q[0]) + L2 * np.sin(q.sum())])
+        u = rng.normal(size=3)
+        u[2] = 0.0
+        u /= np.linalg.norm(u)
+        assert dynamics.effective_mass([0], end[:1], u)[0] == pytest.approx(hand_computed(q, u), rel=1e-9)
+    # end-point velocities: the tip's Jacobian times v
+    v = np.array([0.4, -0.9])
+    dynamics.set_state(q, v)
+    (_, end, _), (_, v_end) = dynamics.capsules()
+    s1, c1, s12, c12 = np.sin(q[0]), np.cos(q[0]), np.sin(q.sum()), np.cos(q.sum())
+    j2 = np.array([[-L1 * s1 - L2 * s12, -L2 * s12], [L1 * c1 + L2 * c12, L2 * c12]])
+    assert np.allclose(v_end[0][:2], j2 @ v)

@@ -1,0 +1,64 @@
+"""Body regions cut from the body capsules, and clamping against the scene."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hrc_drake.human.body import HAND_FRACTION, BodyModel
+from hrc_drake.safety.regions import FixedBox, RegionCapsules, clamped
+
+TABLE = FixedBox((0.45, 0.0, 0.73), (0.9, 1.6, 0.04))  # top surface at z = 0.75
+
+
+def test_regions_tile_each_body_capsule():
+    body = BodyModel()
+    start, end, radius = body.capsules(body.rest_q())
+    cutter = RegionCapsules(HAND_FRACTION)
+    r_start, r_end, r_radius = cutter.cut(start, end, radius)
+    assert len(r_radius) == len(cutter.names) == 10
+    index = {name: k for k, name in enumerate(cutter.names)}
+    # the right forearm capsule: lower arm elbow -> wrist, then the hand beyond
+    wrist = body.points(body.rest_q())[7]
+    assert np.allclose(r_start[index["right_lower_arm"]], start[5])
+    assert np.allclose(r_end[index["right_lower_arm"]], wrist, atol=1e-9)
+    assert np.allclose(r_start[index["right_hand"]], wrist, atol=1e-9)
+    assert np.allclose(r_end[index["right_hand"]], end[5])
+    assert np.allclose(r_end[index["abdomen"]], r_start[index["chest"]])
+    assert cutter.regions[index["right_hand"]] == "hand_fingers"
+    assert cutter.regions[index["face"]] == "face"
+
+
+def test_uncertainty_from_the_spread_of_the_points():
+    cutter = RegionCapsules()
+    spread = np.full(8, 0.01)
+    spread[7] = np.inf  # the right wrist is lost
+    z_d = cutter.point_uncertainty(spread, 3.0, 0.3)
+    index = {name: k for k, name in enumerate(cutter.names)}
+    assert z_d[index["right_hand"]] == pytest.approx(0.3)
+    assert z_d[index["right_lower_arm"]] == pytest.approx(0.3)
+    assert z_d[index["left_hand"]] == pytest.approx(0.03)
+    assert z_d[index["chest"]] == pytest.approx(0.03)
+
+
+def test_a_hand_pressed_onto_the_table_is_clamped():
+    hand = np.array([[0.5, 0.0, 0.78]])  # 3 cm above the top, radius 0.05: resting on it
+    down = np.array([[0.0, 0.0, -1.0]])
+    assert clamped(hand, down, np.array([0.05]), (TABLE,))[0]
+    # pushed sideways or up it can recoil
+    assert not clamped(hand, np.array([[1.0, 0.0, 0.0]]), np.array([0.05]), (TABLE,))[0]
+    assert not clamped(hand, -down, np.array([0.05]), (TABLE,))[0]
+    # well above the table it is free
+    assert not clamped(np.array([[0.5, 0.0, 1.0]]), down, np.array([0.05]), (TABLE,))[0]
+    # beyond the table's edge it is free
+    assert not clamped(np.array([[1.2, 0.0, 0.78]]), down, np.array([0.05]), (TABLE,))[0]
+    # no fixed surface: never clamped
+    assert not clamped(hand, down, np.array([0.05]), ())[0]
+
+
+def test_a_hand_pushed_against_a_fixture_side_is_clamped():
+    fixture = FixedBox((0.6, 0.0, 0.85), (0.1, 0.3, 0.2))
+    hand = np.array([[0.5, 0.0, 0.85]])  # 5 cm from the fixture's face at x = 0.55
+    toward = np.array([[1.0, 0.0, 0.0]])
+    assert clamped(hand, toward, np.array([0.04]), (TABLE, fixture))[0]
+    assert not clamped(hand, -toward, np.array([0.04]), (TABLE, fixture))[0]
