@@ -14,6 +14,7 @@ from threadpoolctl import threadpool_limits
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
 from hrc_drake.cell.metrics import MetricsLog, plot_collaboration, plot_gantt, summarize, write_events_csv
+from hrc_drake.safety.report import plot_safety
 
 
 @dataclass
@@ -121,8 +122,9 @@ def write_replay(cell: Cell, path: Path) -> int:
 
 
 def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
-    """metrics.json, events.csv and gantt.png in `out_dir`; with a use case a robot and a
-    predictor also collaboration.png (thesis Fig. 5.15)."""
+    """metrics.json, events.csv, gantt.png and safety.png (separation against S_p, contacts, worst
+    ratio per body region) in `out_dir`; with a use case a robot and a predictor also
+    collaboration.png (thesis Fig. 5.15)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     metrics_path = out_dir / "metrics.json"
@@ -133,6 +135,9 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     title = cell.scenario.description or "cell"
     plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title)
     paths = [metrics_path, events_path, gantt_path]
+    trace, contacts = cell.safety_trace(result.context)
+    paths.append(plot_safety(out_dir / "safety.png", trace, contacts, result.metrics.get("safety") or {},
+                             title=title))
     scheduler = cell.scenario.scheduler
     if hasattr(scheduler, "request_action") and result.log.forecasts:
         collaboration_path = out_dir / "collaboration.png"

@@ -71,7 +71,8 @@ class SpeedSeparationMonitoring:
     #: motion model's swept volumes (8.1), whose horizon covers S_h (the rest at v_h).
     human_motion: str = "iso13855"
     #: Z_d from "tracker" (`uncertainty_sigmas` x the estimate's spread of the region's points),
-    #: "camera" (sigmas x the camera's noise_std) or "fixed" (`fixed_uncertainty`).
+    #: "camera" (sigmas x the camera's noise_std, plus v_h x the time since a point the camera lost
+    #: was last seen) or "fixed" (`fixed_uncertainty`).
     position_uncertainty: str = "tracker"
     #: Standard deviations of the position noise that Z_d covers.
     uncertainty_sigmas: float = 3.0
@@ -79,8 +80,14 @@ class SpeedSeparationMonitoring:
     fixed_uncertainty: float = 0.05
     #: Largest Z_d (m): a lost point's spread grows without bound.
     max_uncertainty: float = 0.3
-    #: A robot point approaching slower than this (m/s) counts as stopped (contacts, S_p time).
-    moving_speed: float = 0.01
+    #: Largest Z_d (m) of a head the camera lost while it sees the thorax ("camera" source): the
+    #: head is carried with the thorax at its last measured offset, and the neck moves it at most
+    #: this far (a 0.25 m neck flexed by 20 degrees: 0.09 m; assumption).
+    lost_head_uncertainty: float = 0.1
+    #: A robot point approaching slower than this (m/s) counts as not approaching (the controller,
+    #: contacts, S_p time). 0.05 m/s moves it less than half of Z_r = 0.01 m in T_r = 0.1 s
+    #: (S_r + S_s = 5.3 mm): below the robot's own position uncertainty.
+    moving_speed: float = 0.05
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the controller cannot use."""
@@ -93,6 +100,7 @@ class SpeedSeparationMonitoring:
         _number(self.body_speed, path, "body_speed", 0.0, 10.0)
         _number(self.uncertainty_sigmas, path, "uncertainty_sigmas", 0.0, 10.0)
         _number(self.max_uncertainty, path, "max_uncertainty", 0.0, 2.0)
+        _number(self.lost_head_uncertainty, path, "lost_head_uncertainty", 0.0, self.max_uncertainty)
         _number(self.moving_speed, path, "moving_speed", 0.0, 1.0)
         check(self.human_motion in HUMAN_MOTIONS, f"{path}.human_motion",
               f"must be one of {HUMAN_MOTIONS}, got {self.human_motion!r}")

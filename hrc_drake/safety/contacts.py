@@ -245,7 +245,8 @@ def verdict_line(mode: str, total: int, violations: dict, worst: dict, n_contact
     by_rule = ", ".join(f"{n} {rule}" for rule, n in sorted(violations.items()))
     if worst:
         region, ratio = max(worst.items(), key=lambda item: item[1])
-        kind = "quasi-static" if any(c.clamped and c.region == region for c in contacts) else "transient"
+        worst_contact = max((c for c in contacts if c.region == region), key=lambda c: c.ratio)
+        kind = "quasi-static" if worst_contact.clamped else "transient"
         ratio_text = ("no contact permitted" if not math.isfinite(ratio)
                       else f"{ratio:.2f} of the {kind} limit")
         worst_text = f"; worst {region} contact {ratio_text}"

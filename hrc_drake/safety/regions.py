@@ -25,6 +25,8 @@ import numpy as np
 ABDOMEN_FRACTION = 0.45
 #: lower fraction of the head capsule (thorax -> head) that is neck
 NECK_FRACTION = 0.35
+#: skeleton point indices (thesis Fig. 9.1 order) of the thorax and the head
+THORAX, HEAD = 0, 1
 #: the body capsules in `human.body.CAPSULE_NAMES` order
 BODY_CAPSULES = ("torso", "head", "left_upper_arm", "right_upper_arm", "left_forearm", "right_forearm")
 #: skeleton points (thesis Fig. 9.1 order) that place each body capsule: its uncertainty is theirs

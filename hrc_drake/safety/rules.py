@@ -116,6 +116,8 @@ class SafetyRules:
         else:
             self.pfl_region = np.zeros(len(self.regions), dtype=bool)
         self.hybrid = isinstance(config, Hybrid)
+        #: a robot point approaching slower than this counts as not approaching (`moving_speed`)
+        self.moving_speed = getattr(config, "moving_speed", 0.0)
         centers, radii = zones if zones is not None else (np.zeros((0, 3)), np.zeros(0))
         self.zone_centers = np.asarray(centers, dtype=float).reshape(-1, 3)
         self.zone_radii = np.asarray(radii, dtype=float).reshape(-1)
@@ -201,7 +203,7 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
-        moving = approach > 1e-9
+        moving = approach > self.moving_speed
         z = np.asarray(z_d)[r]
         v_ssm = self.ssm_speeds(pairs, z, covered_time)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)

@@ -20,7 +20,7 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.safety.config import NoSafety, mode_name
 from hrc_drake.safety.contacts import ContactAccountant, MonitorRun, summarize_safety
-from hrc_drake.safety.regions import BODY_CAPSULES, CAPSULE_POINTS, RegionCapsules
+from hrc_drake.safety.regions import BODY_CAPSULES, CAPSULE_POINTS, HEAD, THORAX, RegionCapsules
 from hrc_drake.safety.rules import SafetyRules, decelerated_override
 from hrc_drake.systems import declare_periodic_discrete_update
 
@@ -152,12 +152,26 @@ class HumanRegions:
         self.config = config
         self.camera_noise = float(camera_noise)
         self._region_points = [list(CAPSULE_POINTS[BODY_CAPSULES[c.capsule]]) for c in self.cutter.cuts]
+        # a lost point may have moved at the human's speed since it was last seen (the limbs' v_h)
+        self.lost_speed = config.human_speed if config.human_speed > 0 else 2.0
 
-    def __call__(self, estimate: SkeletonEstimate):
-        """(region capsules, z_d (R,)), or None while some region's points were never seen."""
+    def __call__(self, estimate: SkeletonEstimate, unseen_for=None, head_offset=None):
+        """(region capsules, z_d (R,)), or None while some region's points were never seen.
+
+        unseen_for: (8,) s since each point was last measured (camera source: a point the camera
+        lost is held where it was last seen, and may have moved v_h x that time since).
+        head_offset: head - thorax when both were last measured: a lost head (the robot's arm
+        between camera and face) is carried with the measured thorax, its Z_d growing at v_h up to
+        `lost_head_uncertainty` (the neck's own motion), not to `max_uncertainty`."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
+        unseen = None if unseen_for is None else np.array(unseen_for, dtype=float)
+        head_carried = (unseen is not None and head_offset is not None and np.isfinite(head_offset).all()
+                        and unseen[HEAD] > 0.0 and unseen[THORAX] == 0.0 and np.isfinite(points[THORAX]).all())
+        if head_carried:
+            points = points.copy()
+            points[HEAD] = points[THORAX] + head_offset
         finite = np.isfinite(points).all(axis=1)
         if not all(finite[idx].all() for idx in self._region_points):
             return None
@@ -168,8 +182,13 @@ class HumanRegions:
         if config.position_uncertainty == "tracker":
             z_d = self.cutter.point_uncertainty(spread, config.uncertainty_sigmas, config.max_uncertainty)
         elif config.position_uncertainty == "camera":
-            noise = np.where(np.isfinite(spread), self.camera_noise, np.inf)
-            z_d = self.cutter.point_uncertainty(noise, config.uncertainty_sigmas, config.max_uncertainty)
+            noise = np.full(8, config.uncertainty_sigmas * self.camera_noise)
+            if unseen is not None:
+                moved = self.lost_speed * unseen
+                if head_carried:
+                    moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
+                noise = noise + moved
+            z_d = self.cutter.point_uncertainty(noise, 1.0, config.max_uncertainty)
         else:
             z_d = np.full(len(self.cutter), config.fixed_uncertainty)
         return regions, z_d
@@ -185,7 +204,8 @@ def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
 
 
 #: the controller's discrete state: [override applied, safety command, protective stops, stopped
-#: flag, binding clearance, S_p of the binding pair]
+#: flag, binding clearance, S_p of the binding pair], then the time each skeleton point was last
+#: measured (8) and the head's offset from the thorax when both were last measured (3)
 _STATE = ("override", "command", "stops", "stopped", "distance", "separation")
 
 
@@ -211,7 +231,8 @@ class SafetyController(LeafSystem):
         self.regions = regions
         self.period = 1.0 / config.rate
         self.swept = config.human_motion == "swept_volumes"
-        self._state = self.DeclareDiscreteState(np.array([1.0, 1.0, 0.0, 0.0, np.inf, np.nan]))
+        self._state = self.DeclareDiscreteState(np.concatenate([[1.0, 1.0, 0.0, 0.0, np.inf, np.nan],
+                                                                np.full(8, -np.inf), np.full(3, np.nan)]))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
@@ -222,11 +243,16 @@ class SafetyController(LeafSystem):
         ticket = {self.discrete_state_ticket(self._state)}
         self.DeclareVectorOutputPort("speed_override", 1, self._calc_override, ticket)
         self.DeclareVectorOutputPort("status", len(_STATE), self._calc_status, ticket)
+        self._seen = slice(len(_STATE), len(_STATE) + 8)
+        self._head = slice(len(_STATE) + 8, len(_STATE) + 11)
         declare_periodic_discrete_update(self, self.period, 0.0, self._update)
 
-    def _command(self, context):
-        """(rules' override, binding clearance, its S_p) for the inputs of `context`."""
-        human = self.regions(self._estimate.Eval(context)) if self._estimate.HasValue(context) else None
+    def _command(self, context, seen, head_offset):
+        """(rules' override, binding clearance, its S_p) for the inputs of `context`; `seen` (8,):
+        the time each point was last measured; head_offset: head - thorax when last both seen."""
+        human = None
+        if self._estimate.HasValue(context):
+            human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
             return 0.0, math.nan, math.nan
         regions, z_d = human
@@ -250,7 +276,16 @@ class SafetyController(LeafSystem):
     def _update(self, context, discrete_state):
         x = np.array(context.get_discrete_state(self._state).get_value())
         self._fastest = 0.0
-        command, distance, separation = self._command(context)
+        seen, head_offset = x[self._seen], x[self._head]
+        if self._estimate.HasValue(context):
+            estimate = self._estimate.Eval(context)
+            measured = np.isfinite(np.asarray(estimate.spread, dtype=float)) & np.asarray(estimate.tracked, bool)
+            if measured.shape == (8,):
+                seen = np.where(measured, context.get_time(), seen)
+                if measured[HEAD] and measured[THORAX]:
+                    points = np.asarray(estimate.points, dtype=float)
+                    head_offset = points[HEAD] - points[THORAX]
+        command, distance, separation = self._command(context, seen, head_offset)
         requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
         requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
         target = min(requested, command)
@@ -259,14 +294,14 @@ class SafetyController(LeafSystem):
         stopped = command <= 0.0
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            [applied, command, stops, float(stopped), distance, separation])
+            np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen, head_offset]))
         return EventStatus.Succeeded()
 
     def _calc_override(self, context, output: BasicVector):
         output.SetAtIndex(0, context.get_discrete_state(self._state).get_value()[0])
 
     def _calc_status(self, context, output: BasicVector):
-        output.SetFromVector(context.get_discrete_state(self._state).get_value())
+        output.SetFromVector(context.get_discrete_state(self._state).get_value()[: len(_STATE)])
 
     def protective_stops(self, context) -> int:
         """Protective stops so far in this system's `context`."""
