@@ -159,13 +159,13 @@ def test_a_table_or_camera_drake_cannot_build_is_refused_by_validate(edit, field
 
 
 def _with_recorded(tmp_path, csv_bytes: bytes) -> str:
-    import yaml
+    from hrc_drake.cell.scenario import _raw_document, dump_raw  # tag-aware (the cells' !Hybrid)
 
     (tmp_path / "skeleton.csv").write_bytes(csv_bytes)
-    raw = yaml.safe_load((DIAGRAMS / "torch_clock.yaml").read_text())
+    raw = _raw_document((DIAGRAMS / "torch_clock.yaml").read_text())
     raw["operator"]["recorded"] = "skeleton.csv"
     path = tmp_path / "cell.yaml"
-    path.write_text(yaml.safe_dump(raw))
+    path.write_text(dump_raw(raw))
     return str(path)
 
 

@@ -97,8 +97,9 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
             "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
             "violations": safety["violations_total"], "by_rule": safety["violations"],
-            "worst_ratio": (None if not ratios else (max(r for r in ratios if r is not None)
-                                                     if all(r is not None for r in ratios) else "inf")),
+            # a region where no contact is permitted has ratio null (infinite)
+            "worst_ratio": (None if not ratios else (max(ratios) if all(r is not None for r in ratios)
+                                                     else "inf")),
             "worst_by_region": safety["worst_ratio"], "stops": safety["protective_stops"],
             "below_sp_s": safety["time_below_sp_moving_s"], "contacts": safety["contact_count"],
             "min_distance_m": metrics.get("min_human_robot_distance")}

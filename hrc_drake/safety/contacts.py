@@ -27,7 +27,7 @@ import numpy as np
 
 from hrc_drake.messages import Immutable
 from hrc_drake.safety.limits import contact_peak, limit_ratio
-from hrc_drake.safety.rules import SafetyRules, pair_geometry
+from hrc_drake.safety.rules import SafetyRules, subset_pairs, pair_geometry
 from hrc_drake.traces import AppendOnly, DecimatedTrace
 
 
@@ -116,18 +116,23 @@ class ContactAccountant:
         sp_nearest = math.nan
         rule_nearest = ""
         if len(k) or open_pairs:
-            keys = set(zip(k.tolist(), r.tolist(), strict=True)) | set(open_pairs)
-            k = np.array([a for a, _ in sorted(keys)], dtype=int)
-            r = np.array([b for _, b in sorted(keys)], dtype=int)
+            if open_pairs:
+                keys = sorted(set(zip(k.tolist(), r.tolist(), strict=True)) | set(open_pairs))
+                k = np.array([a for a, _ in keys], dtype=int)
+                r = np.array([b for _, b in keys], dtype=int)
             pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
             pfl = rules.governed_by_pfl(pairs)
             sp = rules.separations(pairs, pairs.approach)
             moving = pairs.approach > self.moving_speed
             below = bool(np.any(~pfl & moving & (pairs.distance < sp))) and rules.mode != "none"
-            for n, (kk, rr) in enumerate(zip(pairs.k.tolist(), pairs.r.tolist(), strict=True)):
-                if nearest is not None and (kk, rr) == tuple(int(x) for x in nearest):
-                    sp_nearest, rule_nearest = float(sp[n]), _rule(rules, bool(pfl[n]))
-            open_pairs = self._contacts(time, dt, pairs, pfl, body_velocity, regions, open_pairs, effective_mass)
+            if nearest is not None:
+                at = np.nonzero((pairs.k == nearest[0]) & (pairs.r == nearest[1]))[0]
+                if len(at):
+                    sp_nearest, rule_nearest = float(sp[at[0]]), _rule(rules, bool(pfl[at[0]]))
+            touching = np.nonzero(pairs.distance < 0.0)[0]
+            if len(touching) or open_pairs:
+                open_pairs = self._contacts(time, dt, subset_pairs(pairs, touching), pfl[touching], body_velocity,
+                                            regions, open_pairs, effective_mass)
         closed = [c for key, c in run.open if key not in open_pairs]
         contacts = run.contacts.extend(replace(c, duration=time - c.time) for c in closed)
         min_distance = float(distance[nearest]) if nearest is not None else math.inf
@@ -201,9 +206,7 @@ def _rule(rules: SafetyRules, pfl: bool) -> str:
 
 
 def _one(pairs, n):
-    from hrc_drake.safety.rules import _subset
-
-    return _subset(pairs, np.array([n]))
+    return subset_pairs(pairs, np.array([n]))
 
 
 def _body_velocity(last, regions, dt: float):
@@ -222,7 +225,7 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
     for c in contacts:
         if c.violation:
             violations[c.rule] = violations.get(c.rule, 0) + 1
-        if math.isfinite(c.ratio) or c.ratio == math.inf:
+        if not math.isnan(c.ratio):
             worst[c.region] = max(worst.get(c.region, 0.0), c.ratio)
     total = sum(violations.values())
     return {
@@ -230,7 +233,7 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
         "standard": standard,
         "violations_total": total,
         "violations": violations,
-        "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else "inf")
+        "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else None)
                         for name, v in sorted(worst.items())},
         "time_below_sp_moving_s": round(run.time_below_sp_moving, 3),
         "protective_stops": int(protective_stops),

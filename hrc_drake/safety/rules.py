@@ -20,8 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from hrc_drake.kernels import capsule_clearances
-from hrc_drake.motion.geometry import segment_segment_closest
+from hrc_drake.kernels import capsule_clearances, pair_closest_parameters
 from hrc_drake.safety.config import (
     LIMB_REGIONS,
     NO_CONTACT_REGIONS,
@@ -64,7 +63,7 @@ def pair_geometry(robot, robot_velocity, regions, k, r, distance) -> PairGeometr
     segment, so the closest point's is the interpolation); regions: (start, end, radius) (R)."""
     r_start, r_end, r_radius = robot
     h_start, h_end, _ = regions
-    _, s, t = segment_segment_closest(r_start[k], r_end[k], h_start[r], h_end[r])
+    s, t = pair_closest_parameters(r_start, r_end, h_start, h_end, k, r).T
     on_robot = r_start[k] + s[:, None] * (r_end[k] - r_start[k])
     on_body = h_start[r] + t[:, None] * (h_end[r] - h_start[r])
     gap = on_body - on_robot
@@ -131,6 +130,11 @@ class SafetyRules:
                 "mass": np.array([x.effective_mass for x in rows]), "k": np.array([x.spring_constant for x in rows]),
                 "force": np.array([x.force for x in rows]), "pressure": np.array([x.pressure for x in rows]),
                 "transient": np.array([x.transient_factor for x in rows])}
+            table = self._region_table
+            floor = table["force"] / np.sqrt(table["mass"] * table["k"])
+            if self.contact_area is not None:
+                floor = np.minimum(floor, table["pressure"] * self.contact_area / np.sqrt(table["mass"] * table["k"]))
+            self._pfl_floor = floor
 
     def in_zone(self, points) -> np.ndarray:
         """(N,) whether each point lies in a collaborative zone."""
@@ -207,17 +211,23 @@ class SafetyRules:
         z = np.asarray(z_d)[r]
         v_ssm = self.ssm_speeds(pairs, z, covered_time)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
-        pfl = self.governed_by_pfl(pairs) & moving & (scale < FREE)
-        rule = np.where(self.governed_by_pfl(pairs), "pfl", "ssm")
+        governed = self.governed_by_pfl(pairs)
+        rule = np.where(governed, "pfl", "ssm")
+        # a pair approaching slower than its region's PFL speed for an infinite robot mass (the
+        # smallest eq. A.6 gives, quasi-static) is free whatever m_R: no Jacobian needed
+        pfl = governed & moving & (scale < FREE)
+        if np.any(pfl):
+            pfl &= approach > self._pfl_floor[r]
+            scale = np.where(governed & (approach <= self._pfl_floor[r]), FREE, scale)
         if np.any(pfl):
             sub = np.nonzero(pfl)[0]
-            picked = _subset(pairs, sub)
+            picked = subset_pairs(pairs, sub)
             masses = self.robot_masses(picked, effective_mass)
             clamps = self.clamped(picked, regions[2])
             v_pfl = self.pfl_speeds(picked, masses, clamps)
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
         n = int(np.argmin(scale))
-        sp = float(self.separations(_subset(pairs, np.array([n])), approach[n:n + 1], z[n], covered_time)[0])
+        sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n], covered_time)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
     def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0) -> np.ndarray:
@@ -233,7 +243,8 @@ class SafetyRules:
         return np.where(self.body_region[pairs.r], body, limbs)
 
 
-def _subset(pairs: PairGeometry, index) -> PairGeometry:
+def subset_pairs(pairs: PairGeometry, index) -> PairGeometry:
+    """The pairs at `index` (an index array or mask)."""
     return PairGeometry(*(getattr(pairs, f)[index] for f in PairGeometry.__dataclass_fields__))
 
 

@@ -151,8 +151,7 @@ def test_a_cell_can_hold_a_yumi_and_an_irb140(diagrams_dir):
 
 
 def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
-    import yaml
-
+    from hrc_drake.cell.scenario import _raw_document, dump_raw  # tag-aware (the cells' !Hybrid)
     from hrc_drake.human.body import BodyModel
     from hrc_drake.human.recorded import save_skeleton_csv
 
@@ -165,9 +164,9 @@ def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
     tracked[100:130, 7] = False
     points[100:130, 7] = np.nan
     save_skeleton_csv(tmp_path / "skeleton.csv", times, points, tracked)
-    raw = yaml.safe_load((diagrams_dir / "torch_clock.yaml").read_text())
+    raw = _raw_document((diagrams_dir / "torch_clock.yaml").read_text())
     raw["operator"]["recorded"] = "skeleton.csv"
-    (tmp_path / "cell.yaml").write_text(yaml.safe_dump(raw))
+    (tmp_path / "cell.yaml").write_text(dump_raw(raw))
     scenario = load_scenario(tmp_path / "cell.yaml")
     cell, result = _quiet_build_and_run(scenario, tmp_path / "cell.yaml", 18.0)
     recorded = np.array([p for p in result.log.human_points if p is not None]).reshape(-1, 8, 3)
@@ -175,7 +174,7 @@ def test_a_recorded_skeleton_replaces_the_operator(tmp_path, diagrams_dir):
     assert np.ptp(recorded[:, 7, 2]) > 0.1  # the recorded wrist moves in the cell
     assert result.metrics["agents"]["yumi_right"]["actions_finished"] >= 1
     raw["operator"]["recorded"] = "missing.csv"
-    (tmp_path / "bad.yaml").write_text(yaml.safe_dump(raw))
+    (tmp_path / "bad.yaml").write_text(dump_raw(raw))
     from hrc_drake.cell.scenario import ScenarioError
 
     with pytest.raises(ScenarioError, match="operator.recorded"):

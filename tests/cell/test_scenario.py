@@ -1,9 +1,13 @@
 import copy
 
 import pytest
-import yaml
 
-from hrc_drake.cell.scenario import ScenarioError, load_scenario
+from hrc_drake.cell.scenario import (  # tag-aware (the cells' !Hybrid)
+    ScenarioError,
+    _raw_document,
+    dump_raw,
+    load_scenario,
+)
 from hrc_drake.cli import main
 
 SCENARIOS = ["torch_clock.yaml", "box_usb.yaml", "pcb_occlusion.yaml", "pcb_collab.yaml", "carts.yaml",
@@ -14,12 +18,12 @@ SCENARIOS = ["torch_clock.yaml", "box_usb.yaml", "pcb_occlusion.yaml", "pcb_coll
 def torch_raw(request):
     from tests.conftest import DIAGRAMS
 
-    return yaml.safe_load((DIAGRAMS / "torch_clock.yaml").read_text())
+    return _raw_document((DIAGRAMS / "torch_clock.yaml").read_text())
 
 
 def write(tmp_path, raw, name="bad.yaml"):
     path = tmp_path / name
-    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    path.write_text(dump_raw(raw))
     return path
 
 
@@ -178,8 +182,12 @@ def test_every_kind_of_every_system_is_reachable_by_its_tag(tmp_path, torch_raw)
                 continue  # torch_clock's actions reach buffers, not goal spheres: see the next test
             if kind in COLLABORATION_SCHEDULERS:
                 continue  # the use case a robots name its actions: see test_use_case_a_robots_...
-            path = write(tmp_path, torch_raw)
+            path = write(tmp_path, {key: value for key, value in torch_raw.items() if key != name})
             path.write_text(path.read_text() + f"{name}: !{kind.__name__} {{}}\n")
+            if name == "safety" and kind.__name__ != "NoSafety":  # read by its tag, then its own check
+                with pytest.raises(ScenarioError, match="safety.position_uncertainty"):
+                    load_scenario(path)  # Z_d from a tracker, and torch_clock has none
+                continue
             if kind.__name__ == "BestScenarioScheduler":  # read by its tag, then its own check
                 with pytest.raises(ScenarioError, match="scheduler.collaboration"):
                     load_scenario(path)

@@ -2,35 +2,13 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
-from pydrake.math import RigidTransform
-from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import FixedOffsetFrame, RevoluteJoint, RotationalInertia, SpatialInertia
 
 from hrc_drake.safety.systems import RobotPointDynamics, effective_mass
+from tests.safety.arms import two_link_arm, two_link_kinematics
 
 L1, L2, M1, M2 = 1.0, 0.8, 2.0, 1.5
-
-
-def point_mass(mass: float, length: float) -> SpatialInertia:
-    """A point mass at (length, 0, 0) of its body frame."""
-    return SpatialInertia.MakeFromCentralInertia(mass, [length, 0.0, 0.0], RotationalInertia(0.0, 0.0, 0.0))
-
-
-def two_link_arm():
-    """A planar arm in the xy plane: joints about z at the origin and at the end of link 1, a
-    point mass at the end of each link."""
-    plant = MultibodyPlant(0.0)
-    link1 = plant.AddRigidBody("link1", point_mass(M1, L1))
-    link2 = plant.AddRigidBody("link2", point_mass(M2, L2))
-    plant.AddJoint(RevoluteJoint("shoulder", plant.world_frame(), link1.body_frame(), [0.0, 0.0, 1.0]))
-    elbow_frame = plant.AddFrame(FixedOffsetFrame("elbow", link1.body_frame(), RigidTransform([L1, 0.0, 0.0])))
-    plant.AddJoint(RevoluteJoint("elbow", elbow_frame, link2.body_frame(), [0.0, 0.0, 1.0]))
-    plant.Finalize()
-    return plant, link2
 
 
 def hand_computed(q, u):
@@ -47,7 +25,7 @@ def hand_computed(q, u):
 @pytest.mark.parametrize("q", [(0.0, 0.5), (0.3, 1.2), (-1.0, 2.0)])
 @pytest.mark.parametrize("angle", [0.0, 0.7, 2.0])
 def test_effective_mass_of_a_two_link_arm_matches_the_hand_computation(q, angle):
-    plant, link2 = two_link_arm()
+    plant, link2 = two_link_arm(L1, L2, M1, M2)
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, np.array(q))
     u = np.array([np.cos(angle), np.sin(angle), 0.0])
@@ -61,7 +39,7 @@ def test_stretched_arm_tangential_mass_worked_by_hand():
     saved = L1, L2, M1, M2
     L1, L2, M1, M2 = 1.0, 1.0, 1.0, 1.0
     try:
-        plant, link2 = two_link_arm()
+        plant, link2 = two_link_arm(L1, L2, M1, M2)
         context = plant.CreateDefaultContext()
         assert effective_mass(plant, context, link2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]) == pytest.approx(1.0)
     finally:
@@ -69,9 +47,8 @@ def test_stretched_arm_tangential_mass_worked_by_hand():
 
 
 def test_the_cached_body_form_equals_the_point_jacobian_form():
-    plant, link2 = two_link_arm()
-    kinematics = SimpleNamespace(names=("link2",), capsule_bodies=np.array([int(link2.index())]),
-                                 local_ends=(np.zeros((1, 3)), np.array([[L2, 0.0, 0.0]])), radius=np.array([0.05]))
+    plant, link2 = two_link_arm(L1, L2, M1, M2)
+    kinematics = two_link_kinematics(plant, L2)
     dynamics = RobotPointDynamics(plant, kinematics)
     rng = np.random.default_rng(3)
     for _ in range(5):

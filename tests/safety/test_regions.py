@@ -62,3 +62,21 @@ def test_a_hand_pushed_against_a_fixture_side_is_clamped():
     toward = np.array([[1.0, 0.0, 0.0]])
     assert clamped(hand, toward, np.array([0.04]), (TABLE, fixture))[0]
     assert not clamped(hand, -toward, np.array([0.04]), (TABLE, fixture))[0]
+
+
+def test_the_pair_closest_points_kernel_matches_the_numpy_reference():
+    from hrc_drake.kernels import pair_closest_parameters
+    from hrc_drake.motion.geometry import segment_segment_closest
+
+    rng = np.random.default_rng(5)
+    a0, a1 = rng.normal(size=(7, 3)), rng.normal(size=(7, 3))
+    b0, b1 = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    b1[2] = b0[2]  # a point
+    a1[3] = a0[3] + 1e-3 * (b1[1] - b0[1])  # nearly parallel to b[1]
+    k, r = np.meshgrid(np.arange(7), np.arange(5), indexing="ij")
+    k, r = k.ravel(), r.ravel()
+    _, s, t = segment_segment_closest(a0[k], a1[k], b0[r], b1[r])
+    st = pair_closest_parameters(a0, a1, b0, b1, k, r)
+    # the same closest points (the parameters of a point-like or parallel pair may differ)
+    assert np.allclose(a0[k] + st[:, :1] * (a1[k] - a0[k]), a0[k] + s[:, None] * (a1[k] - a0[k]), atol=1e-9)
+    assert np.allclose(b0[r] + st[:, 1:] * (b1[r] - b0[r]), b0[r] + t[:, None] * (b1[r] - b0[r]), atol=1e-9)

@@ -7,7 +7,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hrc_drake.safety.ssm import SeparationParameters, human_approach, permissible_speed, protective_separation
+from hrc_drake.safety.ssm import (
+    SeparationParameters,
+    human_approach,
+    permissible_speed,
+    protective_separation,
+)
 
 PARAMS = SeparationParameters(reaction_time=0.1, deceleration=5.0, intrusion=0.05, robot_uncertainty=0.01)
 

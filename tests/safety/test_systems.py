@@ -1,0 +1,103 @@
+"""The safety controller and monitor as Drake systems, and in a whole cell."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydrake.systems.analysis import Simulator
+
+from hrc_drake.messages import SkeletonEstimate
+from tests.contract import new_context
+from tests.safety.system_examples import _operator, safety_controller, safety_monitor
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _run(example, inputs, duration=0.3):
+    context = new_context(example, inputs)
+    simulator = Simulator(example.system, context)
+    simulator.Initialize()
+    simulator.AdvanceTo(duration)
+    return context
+
+
+def test_the_controller_slows_near_the_operator_and_not_far_from_him():
+    example = safety_controller()
+    near = _run(example, example.inputs_a)
+    far = _run(example, example.inputs_b)
+    override = example.system.GetOutputPort("speed_override")
+    assert override.Eval(far)[0] == pytest.approx(1.0)
+    assert override.Eval(near)[0] < 1.0
+
+
+def test_the_controller_holds_the_robot_until_it_has_seen_the_operator():
+    example = safety_controller()
+    unseen = {**example.inputs_b, "skeleton_estimate": SkeletonEstimate(points=np.full((8, 3), np.nan))}
+    context = _run(example, unseen, duration=0.5)
+    assert example.system.GetOutputPort("speed_override").Eval(context)[0] < 1.0
+    status = example.system.GetOutputPort("status").Eval(context)
+    assert status[1] == 0.0  # the command is a stop
+    assert example.system.protective_stops(context) == 1
+
+
+def test_the_requested_override_is_layered_under_the_safety_limit():
+    example = safety_controller()
+    # the thesis's own rule asks for 0.3: the robot brakes to it at the stopping model's rate
+    context = _run(example, {**example.inputs_b, "requested_override": [0.3]}, duration=1.0)
+    assert example.system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(0.3)
+
+
+def test_the_override_falls_no_faster_than_the_stopping_model():
+    example = safety_controller()
+    system = example.system
+    context = _run(example, example.inputs_b, duration=0.1)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(1.0)
+    # the operator appears at the arm: the command drops, the applied override only by a dt / v
+    _, near, _ = _operator(1.2)
+    system.GetInputPort("skeleton_estimate").FixValue(context, SkeletonEstimate(points=near))
+    simulator = Simulator(system, context)
+    simulator.AdvanceTo(0.1 + 1.0 / 30.0 + 1e-9)
+    status = system.GetOutputPort("status").Eval(context)
+    fastest = 1.5 * abs(1.0 + 0.8 * np.exp(0.3j))  # the tip at 1.5 rad/s on its lever (q2 = 0.3)
+    step = 5.0 / 30.0 / fastest  # a dt / v_max: what one 30 Hz period may take off
+    assert status[1] < status[0]
+    # the update at t = 0.1 s (processed on leaving it) and the one at 0.133 s
+    assert 1.0 - 2 * step - 1e-6 <= status[0] <= 1.0 - step + 1e-6
+
+
+def test_two_monitor_contexts_keep_their_own_runs():
+    example = safety_monitor()
+    a, b = _run(example, example.inputs_a), _run(example, example.inputs_b)
+    run_a, run_b = example.system.run(a), example.system.run(b)
+    assert run_a.samples == run_b.samples == 10
+    trace_a = [row[1] for row in run_a.trace]
+    trace_b = [row[1] for row in run_b.trace]
+    assert max(trace_a) < min(trace_b)  # near vs far operator
+    # nothing limits the arm here: it sweeps into the near operator, never the far one
+    near, far = example.system.summary(a), example.system.summary(b)
+    assert near["mode"] == "hybrid" and near["contact_count"] >= 1 and near["violations_total"] >= 1
+    assert far["contact_count"] == 0 and far["verdict"].endswith("0 contacts; no contact")
+
+
+@pytest.mark.slow
+def test_a_cell_reports_its_safety_verdict_and_writes_the_safety_report(tmp_path):
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.run import simulate, write_report
+    from hrc_drake.cell.scenario import load_scenario
+
+    path = REPO / "diagrams" / "torch_clock.yaml"
+    scenario = load_scenario(path)
+    cell = build_cell(scenario, path)
+    result = simulate(cell, 20.0, progress=None)
+    safety = result.metrics["safety"]
+    for key in ("mode", "violations", "violations_total", "worst_ratio", "time_below_sp_moving_s",
+                "protective_stops", "contacts", "contact_count", "verdict", "safety_distance"):
+        assert key in safety
+    assert safety["mode"] == "hybrid"
+    assert safety["verdict"].startswith("ISO/TS 15066 hybrid: ")
+    paths = write_report(cell, result, tmp_path)
+    assert (tmp_path / "safety.png") in paths and (tmp_path / "safety.png").stat().st_size > 10_000
+    assert json.loads((tmp_path / "metrics.json").read_text())["safety"]["mode"] == "hybrid"

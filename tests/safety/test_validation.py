@@ -1,0 +1,83 @@
+"""`validate` refuses a safety mode a cell cannot run, and a bad limits table."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from hrc_drake.cell.scenario import ScenarioError, Tagged, load_scenario, load_scenario_with
+
+REPO = Path(__file__).resolve().parents[2]
+TORCH = REPO / "diagrams" / "torch_clock.yaml"  # no tracker, no motion model
+PCB = REPO / "diagrams" / "pcb_occlusion.yaml"  # a particle filter
+
+
+def _refused(path, overrides) -> ScenarioError:
+    with pytest.raises(ScenarioError) as err:
+        load_scenario_with(path, overrides)
+    return err.value
+
+
+def test_z_d_from_a_tracker_needs_one():
+    err = _refused(TORCH, {"safety": Tagged("SpeedSeparationMonitoring", {"position_uncertainty": "tracker"})})
+    assert err.field == "safety.position_uncertainty" and "no tracker" in err.reason
+    load_scenario_with(PCB, {"safety": Tagged("SpeedSeparationMonitoring", {"position_uncertainty": "tracker"})})
+
+
+def test_swept_volumes_need_a_motion_model():
+    err = _refused(TORCH, {"safety": Tagged("SpeedSeparationMonitoring",
+                                            {"position_uncertainty": "camera", "human_motion": "swept_volumes"})})
+    assert err.field == "safety.human_motion"
+
+
+def test_a_hybrid_mode_needs_collaborative_zones():
+    err = _refused(TORCH, {"layout": {"collaborative_zones": []}})
+    assert err.field == "safety" and "collaborative_zones" in err.reason
+
+
+def test_an_unknown_body_region_is_refused():
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
+                                                       "pfl_regions": ["hand_fingers", "tail"]})})
+    assert err.field == "safety.pfl_regions[1]" and "tail" in err.reason
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", "pfl_regions": ["face"]})})
+    assert err.field == "safety.pfl_regions[0]"
+
+
+@pytest.mark.parametrize("field, value", [("deceleration", 0.0), ("reaction_time", -0.1), ("rate", 80.0),
+                                          ("position_uncertainty", "psychic"), ("robot_mass", "guess")])
+def test_bad_numbers_and_names_are_refused(field, value):
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", field: value})})
+    assert err.field == f"safety.{field}"
+
+
+def test_a_bad_limits_table_is_refused(tmp_path):
+    from importlib import resources
+
+    document = yaml.safe_load(resources.files("hrc_drake.safety").joinpath("iso_ts_15066.yaml").read_text())
+    document["regions"]["hand_fingers"]["force"] = "a lot"
+    bad = tmp_path / "limits.yaml"
+    bad.write_text(yaml.safe_dump(document))
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", "limits": str(bad)})})
+    assert err.field == "safety.limits" and "regions.hand_fingers.force" in err.reason
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
+                                                       "limits": str(tmp_path / "missing.yaml")})})
+    assert err.field == "safety.limits" and "no such" in err.reason
+
+
+def test_the_cli_validate_refuses_what_simulate_would(tmp_path, capsys):
+    from hrc_drake.cli import main
+
+    scenario = tmp_path / "cell.yaml"
+    scenario.write_text(f"extends: {TORCH}\nsafety: !SpeedSeparationMonitoring {{}}\n")
+    assert main(["validate", str(scenario)]) == 2
+    assert "safety.position_uncertainty" in capsys.readouterr().err
+
+
+def test_every_shipped_cell_declares_a_safety_mode():
+    from hrc_drake.safety.config import NoSafety
+
+    for path in sorted((REPO / "diagrams").glob("*.yaml")):
+        scenario = load_scenario(path)
+        assert not isinstance(scenario.safety, NoSafety), f"{path.name} declares no safety mode"
