@@ -10,7 +10,8 @@ the slab test and Ericson's clamped closest points of two segments (Real-Time Co
 Detection, 5.1.9) as `human.camera` and `motion.geometry` state them; the skeleton forward
 kinematics of `human.body`, its forward-difference Jacobian and the damped Gauss-Newton steps of
 `motion.reactive.tracking_inverse`; the Monte Carlo rollouts of eq. (8.8) on the GP of (8.7);
-the RTS smoothed means of (8.6); the closest points of the safety controller's robot-body pairs; `motion.reactive._bounding_capsule`; one lockstep step of
+the RTS smoothed means of (8.6); the closest points of the safety controller's robot-body pairs;
+`motion.reactive._bounding_capsule`; one lockstep step of
 the Monte Carlo scheduler's trials (Algorithm 4, `scheduling.montecarlo`); the intention
 estimator's wrist velocity window, the features and GMM densities of eq. (3.12) and its Bayes
 step (3.2); the Kalman time and measurement updates of the trackers, the particle filter's
@@ -106,7 +107,8 @@ def _pair_closest_parameters(start_a, end_a, start_b, end_b, index_a, index_b):
         i, j = index_a[n], index_b[n]
         d1x, d1y, d1z = end_a[i, 0] - start_a[i, 0], end_a[i, 1] - start_a[i, 1], end_a[i, 2] - start_a[i, 2]
         d2x, d2y, d2z = end_b[j, 0] - start_b[j, 0], end_b[j, 1] - start_b[j, 1], end_b[j, 2] - start_b[j, 2]
-        rx, ry, rz = start_a[i, 0] - start_b[j, 0], start_a[i, 1] - start_b[j, 1], start_a[i, 2] - start_b[j, 2]
+        rx, ry, rz = (start_a[i, 0] - start_b[j, 0], start_a[i, 1] - start_b[j, 1],
+                      start_a[i, 2] - start_b[j, 2])
         s, t = _closest_on_segments(d1x * d1x + d1y * d1y + d1z * d1z, d1x * d2x + d1y * d2y + d1z * d2z,
                                     d1x * rx + d1y * ry + d1z * rz, d2x * d2x + d2y * d2y + d2z * d2z,
                                     d2x * rx + d2y * ry + d2z * rz)
@@ -1094,7 +1096,8 @@ def warm_up() -> float:
     started = time.perf_counter()
     one = np.zeros((1, 3))
     capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1))
-    pair_closest_parameters(one, one + 1.0, one, one + 1.0, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
+    pair_closest_parameters(one, one + 1.0, one, one + 1.0, np.zeros(1, dtype=np.int64),
+                            np.zeros(1, dtype=np.int64))
     hidden_points(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.5, one + 1.0, one, one, one, one, np.ones(1))
     bounding_capsule(np.eye(3), np.zeros((1, 3)))
     rts_means(np.eye(3), np.eye(3), np.zeros((2, 1, 3)), np.tile(np.eye(3), (2, 1, 1, 1)))

@@ -30,7 +30,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
-LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels", "traces"}
+LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels",
+          "traces"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots", "safety"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}

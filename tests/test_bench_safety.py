@@ -1,4 +1,5 @@
-"""tools/bench_safety.py's layout check, and every shipped cell saying how it is kept safe."""
+"""tools/bench_safety.py's modes, PFL speeds and layout check, and every shipped cell saying how it
+is kept safe."""
 
 from __future__ import annotations
 
@@ -35,11 +36,42 @@ def test_a_longer_horizon_reaches_farther(bench):
         bench.separation_at_rest(path, horizon=0.3)["rest_reach_m"] + 0.1
 
 
+#: how a header names each mode
+MODE_WORDS = {"ssm": "speed and separation monitoring", "pfl": "power and force limiting", "hybrid": "hybrid"}
+
+
 @pytest.mark.parametrize("path", DIAGRAMS, ids=lambda p: p.stem)
 def test_every_cell_header_says_how_it_is_kept_safe(path):
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.safety.config import mode_name
+
     header = []
     for line in path.read_text().splitlines():
         if not line.startswith("#"):
             break
         header.append(line)
-    assert any(line.startswith("# Safety:") for line in header), f"{path.name}: no '# Safety:' line"
+    safety = [line for line in header if line.startswith("# Safety:")]
+    assert safety, f"{path.name}: no '# Safety:' line"
+    mode = mode_name(load_scenario(path).safety)
+    assert MODE_WORDS[mode] in safety[0].lower(), f"{path.name}: its '# Safety:' line does not name {mode}"
+
+
+def test_the_bench_puts_a_cell_under_each_mode(bench):
+    from hrc_drake.cell.scenario import load_scenario_with
+    from hrc_drake.safety.config import mode_name
+
+    torch = str(REPO / "diagrams" / "torch_clock.yaml")
+    for mode in ("none", "ssm", "pfl", "hybrid"):
+        assert mode_name(load_scenario_with(torch, bench.mode_overrides(torch, mode)).safety) == mode
+    assert bench.mode_overrides(torch, "declared") == {}
+    # a cell without zones gets one sphere over its table for the hybrid mode
+    coexistence = str(REPO / "diagrams" / "box_pcb_coexistence.yaml")
+    zones = load_scenario_with(coexistence, bench.mode_overrides(coexistence, "hybrid")).layout.collaborative_zones
+    assert len(zones) == 1 and zones[0].radius > 0.5
+
+
+def test_the_bench_reports_eq_a6_per_region(bench):
+    transient, quasi = bench.pfl_speeds(3.0)
+    assert transient["hand_fingers"] == pytest.approx(1.4459, abs=1e-4)
+    assert quasi["hand_fingers"] == pytest.approx(0.7230, abs=1e-4)
+    assert transient["face"] == 0.0

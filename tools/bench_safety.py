@@ -92,7 +92,7 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     cpu = time.thread_time() - start
     metrics = result.metrics
     safety = metrics["safety"]
-    ratios = [v for v in safety["worst_ratio"].values()]
+    ratios = [v for v in safety["worst_ratio"].values() if v != 0.0]  # 0: no contact with that region
     return {"scenario": Path(path).stem, "mode": mode, "declared": safety["mode"], "seed": scenario.seed,
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
             "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
@@ -233,7 +233,8 @@ def main() -> None:
             mode = row["mode"] if row["mode"] != "declared" else f"={row['declared']}"
             print(f"{row['scenario']:<24} {mode:<9} {row['seed']:>4} {row['products']:>8} {cycle:>8} "
                   f"{row['violations']:>10} {worst:>6} {row['stops']:>6} {row['below_sp_s']:>7.1f} "
-                  f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}", flush=True)
+                  f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}",
+                  flush=True)
     print(json.dumps(figures(rows, args)))
 
 

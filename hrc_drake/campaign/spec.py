@@ -438,7 +438,20 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         "safety.fraction_below",
         "safety.time_below_not_stopped_s",
         "safety.below",
+        "safety.mode",
+        "safety.standard",
+        "safety.violations_total",
+        "safety.time_below_sp_moving_s",
+        "safety.protective_stops",
+        "safety.contact_count",
+        "safety.verdict",
     ]
+    from hrc_drake.safety.config import mode_name
+    from hrc_drake.safety.contacts import MODE_RULES
+    from hrc_drake.safety.limits import BODY_REGIONS
+
+    names += [f"safety.violations.{rule}" for rule in MODE_RULES[mode_name(scenario.safety)]]
+    names += [f"safety.worst_ratio.{region}" for region in BODY_REGIONS]
     names += [
         f"agents.{a}.{k}"
         for a in agents

@@ -388,8 +388,8 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
 
-def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower, positions_port,
-                estimate_port, human_capsules, systems) -> None:
+def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower,
+                positions_port, estimate_port, human_capsules, systems) -> None:
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
     a cell without a safety system still has its contacts counted in its verdict)."""
     from hrc_drake.cell.scenario import safety_limits
@@ -398,7 +398,8 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
 
     lay = scenario.layout
     table = lay.table
-    fixed = [FixedBox((table.center[0], table.center[1], table.height - 0.5 * table.size[2]), tuple(table.size))]
+    fixed = [FixedBox((table.center[0], table.center[1], table.height - 0.5 * table.size[2]),
+                      tuple(table.size))]
     fixed += [FixedBox(tuple(o.center), tuple(o.size)) for o in lay.occluders]
     zones = (np.array([z.center for z in lay.collaborative_zones], float).reshape(-1, 3),
              np.array([z.radius for z in lay.collaborative_zones], float))

@@ -150,17 +150,18 @@ DEFINITIONS = {
     "safety": "samples whose true human-robot distance is under the scenario's safety_distance: their "
               "time (samples x period, s), their fraction of all samples, and whether there is any; "
               "time_below_not_stopped_s: the time of those samples where the speed override was above 1 % "
-              "(the robot was not held; with a speed scaler the rest is the human coming to a stopped robot). "
-              "ISO/TS 15066 (hrc_drake.safety, on the truth every 1/30 s): mode (none, ssm, pfl, hybrid); "
-              "violations by rule (ssm: the robot, approaching faster than moving_speed, touched a region SSM "
-              "governs; pfl: a contact over its region's limit, transient or, clamped against a fixed surface, "
-              "quasi-static incl. the spring force of the depth the robot pressed; none: a contact the robot made "
-              "over the standard's limits) and violations_total; worst_ratio per body region (peak force or "
-              "pressure over its limit; null: a region where no contact is permitted); "
+              "(the robot was not held; with a speed scaler the rest is the human coming to a stopped "
+              "robot). ISO/TS 15066 (hrc_drake.safety, on the truth every 1/30 s): mode (none, ssm, pfl, "
+              "hybrid); violations by rule (ssm: the robot, approaching faster than moving_speed, touched a "
+              "region SSM governs; pfl: a contact over its region's limit, transient or, clamped against a "
+              "fixed surface, quasi-static incl. the spring force of the depth the robot pressed; none: a "
+              "contact the robot made over the standard's limits) and violations_total; worst_ratio per body "
+              "region (peak force or pressure over its limit; null: a region where no contact is permitted); "
               "time_below_sp_moving_s (a robot point approaching a region SSM governs inside its S_p); "
-              "protective_stops (the controller's commands of 0); contacts (each: time, link, body part, region, "
-              "rule, relative speed, masses, energy, peak force and pressure, clamped, the limit, ratio, violation, "
-              "penetration, the robot's part of it, duration, stop delay); verdict: the CLI's line",
+              "protective_stops (the controller's commands of 0); contacts (each: time, link, body part, "
+              "region, rule, relative speed, masses, energy, peak force and pressure, clamped, the limit, "
+              "ratio, violation, penetration, the robot's part of it, duration, stop delay); verdict: the "
+              "CLI's line",
     "detection": "the action detector's perceived events against the truth (precision, recall, latency)",
     "realtime_factor": "simulated_time / wall_time",
 }

@@ -768,7 +768,8 @@ def _check_safety(sc: Scenario, file) -> None:
                             "one, or say 'camera' (the camera's noise) or 'fixed' (safety.fixed_uncertainty)")
     if config.human_motion == "swept_volumes" and isinstance(sc.motion_model, NoMotionModel):
         raise ScenarioError(file, "safety.human_motion",
-                            "'swept_volumes' needs the swept volumes of a motion_model (8.1); the cell has none")
+                            "'swept_volumes' needs the swept volumes of a motion_model (8.1); "
+                            "the cell has none")
     if isinstance(config, Hybrid) and not sc.layout.collaborative_zones:
         raise ScenarioError(file, "safety", "!Hybrid applies PFL inside layout.collaborative_zones, and the "
                                             "layout declares none")
@@ -777,7 +778,8 @@ def _check_safety(sc: Scenario, file) -> None:
         for k, name in enumerate(getattr(config, "pfl_regions", [])):
             if name not in limits.regions:
                 raise ScenarioError(file, f"safety.pfl_regions[{k}]",
-                                    f"unknown body region '{name}' (known: {', '.join(sorted(limits.regions))})")
+                                    f"unknown body region '{name}' "
+                                    f"(known: {', '.join(sorted(limits.regions))})")
 
 
 def _check_proactive_planner(sc: Scenario, file) -> None:

@@ -174,7 +174,8 @@ class PathFollower(LeafSystem):
         return v
 
     def _calc_v(self, context, output: BasicVector):
-        output.SetFromVector(self._velocities(context, context.get_discrete_state(self._state).get_value()[0]))
+        output.SetFromVector(self._velocities(context,
+                                              context.get_discrete_state(self._state).get_value()[0]))
 
     def _calc_v_full(self, context, output: BasicVector):
         output.SetFromVector(self._velocities(context, 1.0))

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hrc_drake.messages import Immutable
-from hrc_drake.safety.limits import contact_peak, limit_ratio
-from hrc_drake.safety.rules import SafetyRules, subset_pairs, pair_geometry
+from hrc_drake.safety.limits import BODY_REGIONS, contact_peak, limit_ratio
+from hrc_drake.safety.rules import SafetyRules, pair_geometry, subset_pairs
 from hrc_drake.traces import AppendOnly, DecimatedTrace
 
 
@@ -131,8 +131,8 @@ class ContactAccountant:
                     sp_nearest, rule_nearest = float(sp[at[0]]), _rule(rules, bool(pfl[at[0]]))
             touching = np.nonzero(pairs.distance < 0.0)[0]
             if len(touching) or open_pairs:
-                open_pairs = self._contacts(time, dt, subset_pairs(pairs, touching), pfl[touching], body_velocity,
-                                            regions, open_pairs, effective_mass)
+                open_pairs = self._contacts(time, dt, subset_pairs(pairs, touching), pfl[touching],
+                                            body_velocity, regions, open_pairs, effective_mass)
         closed = [c for key, c in run.open if key not in open_pairs]
         contacts = run.contacts.extend(replace(c, duration=time - c.time) for c in closed)
         min_distance = float(distance[nearest]) if nearest is not None else math.inf
@@ -216,11 +216,18 @@ def _body_velocity(last, regions, dt: float):
     return (np.asarray(regions[0]) - last[0]) / dt, (np.asarray(regions[1]) - last[1]) / dt
 
 
+#: the rules each mode has: the keys of its `violations`
+MODE_RULES = {"none": ("none",), "ssm": ("ssm",), "pfl": ("ssm", "pfl"), "hybrid": ("ssm", "pfl")}
+
+
 def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, standard: str) -> dict:
-    """The `safety` figures of metrics.json from a monitor run (open contacts counted as they are)."""
+    """The `safety` figures of metrics.json from a monitor run (open contacts counted as they are).
+
+    Every run of a mode has the same keys (campaign columns): `violations` per rule of the mode,
+    `worst_ratio` per body region (0: no contact; null: a contact where none is permitted)."""
     contacts = list(run.contacts) + [c for _, c in run.open]
     contacts.sort(key=lambda c: c.time)
-    violations: dict = {}
+    violations = dict.fromkeys(MODE_RULES[mode], 0)
     worst: dict = {}
     for c in contacts:
         if c.violation:
@@ -228,13 +235,13 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
         if not math.isnan(c.ratio):
             worst[c.region] = max(worst.get(c.region, 0.0), c.ratio)
     total = sum(violations.values())
+    ratios = {name: worst.get(name, 0.0) for name in BODY_REGIONS}
     return {
         "mode": mode,
         "standard": standard,
         "violations_total": total,
         "violations": violations,
-        "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else None)
-                        for name, v in sorted(worst.items())},
+        "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else None) for name, v in ratios.items()},
         "time_below_sp_moving_s": round(run.time_below_sp_moving, 3),
         "protective_stops": int(protective_stops),
         "contact_count": len(contacts),
@@ -245,7 +252,7 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
 
 def verdict_line(mode: str, total: int, violations: dict, worst: dict, n_contacts: int, contacts) -> str:
     """One line for the CLI: the mode, its violations and the worst contact against its limit."""
-    by_rule = ", ".join(f"{n} {rule}" for rule, n in sorted(violations.items()))
+    by_rule = ", ".join(f"{n} {rule}" for rule, n in sorted(violations.items()) if n)
     if worst:
         region, ratio = max(worst.items(), key=lambda item: item[1])
         worst_contact = max((c for c in contacts if c.region == region), key=lambda c: c.ratio)

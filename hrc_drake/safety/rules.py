@@ -127,13 +127,15 @@ class SafetyRules:
         if limits is not None:
             rows = [limits[name] for name in self.regions]
             self._region_table = {
-                "mass": np.array([x.effective_mass for x in rows]), "k": np.array([x.spring_constant for x in rows]),
+                "mass": np.array([x.effective_mass for x in rows]),
+                "k": np.array([x.spring_constant for x in rows]),
                 "force": np.array([x.force for x in rows]), "pressure": np.array([x.pressure for x in rows]),
                 "transient": np.array([x.transient_factor for x in rows])}
             table = self._region_table
             floor = table["force"] / np.sqrt(table["mass"] * table["k"])
             if self.contact_area is not None:
-                floor = np.minimum(floor, table["pressure"] * self.contact_area / np.sqrt(table["mass"] * table["k"]))
+                floor = np.minimum(floor, table["pressure"] * self.contact_area
+                                   / np.sqrt(table["mass"] * table["k"]))
             self._pfl_floor = floor
 
     def in_zone(self, points) -> np.ndarray:
@@ -198,8 +200,8 @@ class SafetyRules:
 
         robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
         at full speed); z_d (R,): Z_d of each region; effective_mass(k, points, u): m_R of the
-        plant, vectorised over pairs. The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest
-        override."""
+        plant, vectorised over pairs. The binding pair: (PairGeometry index, rule, S_p at full speed) of
+        the smallest override."""
         if self.mode == "none":
             return FREE, None
         distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
@@ -227,7 +229,8 @@ class SafetyRules:
             v_pfl = self.pfl_speeds(picked, masses, clamps)
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
         n = int(np.argmin(scale))
-        sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n], covered_time)[0])
+        sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n],
+                                    covered_time)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
     def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0) -> np.ndarray:

@@ -168,7 +168,8 @@ class HumanRegions:
             return None
         unseen = None if unseen_for is None else np.array(unseen_for, dtype=float)
         head_carried = (unseen is not None and head_offset is not None and np.isfinite(head_offset).all()
-                        and unseen[HEAD] > 0.0 and unseen[THORAX] == 0.0 and np.isfinite(points[THORAX]).all())
+                        and unseen[HEAD] > 0.0 and unseen[THORAX] == 0.0
+                        and np.isfinite(points[THORAX]).all())
         if head_carried:
             points = points.copy()
             points[HEAD] = points[THORAX] + head_offset
@@ -279,7 +280,8 @@ class SafetyController(LeafSystem):
         seen, head_offset = x[self._seen], x[self._head]
         if self._estimate.HasValue(context):
             estimate = self._estimate.Eval(context)
-            measured = np.isfinite(np.asarray(estimate.spread, dtype=float)) & np.asarray(estimate.tracked, bool)
+            measured = (np.isfinite(np.asarray(estimate.spread, dtype=float))
+                        & np.asarray(estimate.tracked, bool))
             if measured.shape == (8,):
                 seen = np.where(measured, context.get_time(), seen)
                 if measured[HEAD] and measured[THORAX]:
@@ -294,7 +296,8 @@ class SafetyController(LeafSystem):
         stopped = command <= 0.0
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
-            np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen, head_offset]))
+            np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,
+                            head_offset]))
         return EventStatus.Succeeded()
 
     def _calc_override(self, context, output: BasicVector):

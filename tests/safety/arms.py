@@ -33,4 +33,5 @@ def two_link_kinematics(plant, l2: float = 0.8, radius: float = 0.05):
     """The capsule kinematics (`RobotCapsuleKinematics`' interface) of link 2 of `two_link_arm`."""
     link2 = plant.GetBodyByName("link2")
     return SimpleNamespace(names=("arm/link2",), capsule_bodies=np.array([int(link2.index())]),
-                           local_ends=(np.zeros((1, 3)), np.array([[l2, 0.0, 0.0]])), radius=np.array([radius]))
+                           local_ends=(np.zeros((1, 3)), np.array([[l2, 0.0, 0.0]])),
+                           radius=np.array([radius]))

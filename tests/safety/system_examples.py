@@ -20,7 +20,8 @@ def _setup():
     kinematics = two_link_kinematics(plant)
     config = Hybrid(position_uncertainty="fixed")
     limits = load_limits()
-    rules = SafetyRules(config, limits, RegionCapsules().regions, (np.array([[1.0, 0.0, 0.9]]), np.array([0.6])))
+    rules = SafetyRules(config, limits, RegionCapsules().regions,
+                        (np.array([[1.0, 0.0, 0.9]]), np.array([0.6])))
     return plant, kinematics, config, limits, rules
 
 

@@ -31,7 +31,8 @@ def body(hand_height: float = 1.0):
 
 
 def robot_at(z: float):
-    """One vertical robot capsule above the hand at y = 0.58 (clear of the lower arm), its lower end at height z."""
+    """One vertical robot capsule above the hand at y = 0.58 (clear of the lower arm), its lower end
+    at height z."""
     start = np.array([[0.0, 0.58, z]])
     end = np.array([[0.0, 0.58, z + 0.2]])
     return start, end, np.array([0.03])
@@ -53,7 +54,8 @@ def drive(config, speed: float, stop_after: float | None = None, hand_height: fl
         if touched is not None and stop_after is not None and t - touched >= stop_after:
             v = 0.0
         velocity = np.array([[0.0, 0.0, -v]])
-        run = accountant.step(run, t, robot_at(z), (velocity, velocity), regions, lambda k, p, u: np.full(len(k), ROBOT_MASS))
+        run = accountant.step(run, t, robot_at(z), (velocity, velocity), regions,
+                              lambda k, p, u: np.full(len(k), ROBOT_MASS))
         if touched is None and run.open:
             touched = t
         z -= v * dt
@@ -81,7 +83,7 @@ def test_a_slow_pfl_contact_with_the_hand_is_within_the_limit():
 
 def test_a_fast_pfl_contact_violates_and_says_so():
     summary = drive(PowerForceLimiting(), speed=2.0, stop_after=0.1)
-    assert summary["violations"] == {"pfl": 1}
+    assert summary["violations"] == {"ssm": 0, "pfl": 1}
     assert summary["worst_ratio"]["hand_fingers"] > 1.0
     assert "1 VIOLATIONS (1 pfl)" in summary["verdict"]
 
@@ -113,7 +115,7 @@ def test_hybrid_outside_its_zones_is_ssm():
         run = accountant.step(run, step / 30.0, robot_at(z), (velocity, velocity), regions,
                               lambda k, p, u: np.full(len(k), ROBOT_MASS))
     summary = summarize_safety(run, "hybrid", 0, LIMITS, "")
-    assert summary["violations"] == {"ssm": 1}
+    assert summary["violations"] == {"ssm": 1, "pfl": 0}
 
 
 def test_no_safety_system_reports_contacts_against_the_standard():
@@ -139,6 +141,7 @@ def test_a_person_walking_into_a_stopped_robot_is_logged_not_a_violation():
 def test_no_contact_no_violation():
     summary = drive(PowerForceLimiting(), speed=0.0)
     assert summary["contact_count"] == 0 and summary["violations_total"] == 0
+    assert set(summary["worst_ratio"].values()) == {0.0}  # every region, none touched
     assert summary["verdict"] == "ISO/TS 15066 pfl: 0 violations; 0 contacts; no contact"
 
 

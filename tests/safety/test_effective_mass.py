@@ -29,7 +29,8 @@ def test_effective_mass_of_a_two_link_arm_matches_the_hand_computation(q, angle)
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, np.array(q))
     u = np.array([np.cos(angle), np.sin(angle), 0.0])
-    assert effective_mass(plant, context, link2, [L2, 0.0, 0.0], u) == pytest.approx(hand_computed(q, u), rel=1e-9)
+    assert (effective_mass(plant, context, link2, [L2, 0.0, 0.0], u)
+            == pytest.approx(hand_computed(q, u), rel=1e-9))
 
 
 def test_stretched_arm_tangential_mass_worked_by_hand():
@@ -55,7 +56,8 @@ def test_the_cached_body_form_equals_the_point_jacobian_form():
         q = rng.uniform(-2, 2, 2)
         dynamics.set_state(q, rng.normal(size=2))
         (start, end, _), (v_start, v_end) = dynamics.capsules()
-        assert np.allclose(end[0][:2], [L1 * np.cos(q[0]) + L2 * np.cos(q.sum()), L1 * np.sin(q[0]) + L2 * np.sin(q.sum())])
+        assert np.allclose(end[0][:2], [L1 * np.cos(q[0]) + L2 * np.cos(q.sum()),
+                                        L1 * np.sin(q[0]) + L2 * np.sin(q.sum())])
         u = rng.normal(size=3)
         u[2] = 0.0
         u /= np.linalg.norm(u)

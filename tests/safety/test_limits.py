@@ -86,7 +86,8 @@ def _document():
 @pytest.mark.parametrize("edit, field", [
     (lambda d: d["regions"]["hand_fingers"].pop("force"), "regions.hand_fingers.force"),
     (lambda d: d["regions"]["chest"].__setitem__("effective_mass", -3), "regions.chest.effective_mass"),
-    (lambda d: d["regions"]["neck"]["areas"].__setitem__("neck_muscle", "soft"), "regions.neck.areas.neck_muscle"),
+    (lambda d: d["regions"]["neck"]["areas"].__setitem__("neck_muscle", "soft"),
+     "regions.neck.areas.neck_muscle"),
     (lambda d: d["regions"].pop("face"), "regions"),
     (lambda d: d["regions"]["face"].__setitem__("colour", 1), "regions.face"),
 ])

@@ -21,14 +21,17 @@ def _refused(path, overrides) -> ScenarioError:
 
 
 def test_z_d_from_a_tracker_needs_one():
-    err = _refused(TORCH, {"safety": Tagged("SpeedSeparationMonitoring", {"position_uncertainty": "tracker"})})
+    err = _refused(TORCH, {"safety": Tagged("SpeedSeparationMonitoring",
+                                            {"position_uncertainty": "tracker"})})
     assert err.field == "safety.position_uncertainty" and "no tracker" in err.reason
-    load_scenario_with(PCB, {"safety": Tagged("SpeedSeparationMonitoring", {"position_uncertainty": "tracker"})})
+    load_scenario_with(PCB, {"safety": Tagged("SpeedSeparationMonitoring",
+                                              {"position_uncertainty": "tracker"})})
 
 
 def test_swept_volumes_need_a_motion_model():
     err = _refused(TORCH, {"safety": Tagged("SpeedSeparationMonitoring",
-                                            {"position_uncertainty": "camera", "human_motion": "swept_volumes"})})
+                                            {"position_uncertainty": "camera",
+                                             "human_motion": "swept_volumes"})})
     assert err.field == "safety.human_motion"
 
 
@@ -41,7 +44,8 @@ def test_an_unknown_body_region_is_refused():
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
                                                        "pfl_regions": ["hand_fingers", "tail"]})})
     assert err.field == "safety.pfl_regions[1]" and "tail" in err.reason
-    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", "pfl_regions": ["face"]})})
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
+                                                       "pfl_regions": ["face"]})})
     assert err.field == "safety.pfl_regions[0]"
 
 
@@ -59,7 +63,8 @@ def test_a_bad_limits_table_is_refused(tmp_path):
     document["regions"]["hand_fingers"]["force"] = "a lot"
     bad = tmp_path / "limits.yaml"
     bad.write_text(yaml.safe_dump(document))
-    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", "limits": str(bad)})})
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
+                                                       "limits": str(bad)})})
     assert err.field == "safety.limits" and "regions.hand_fingers.force" in err.reason
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
                                                        "limits": str(tmp_path / "missing.yaml")})})
