@@ -66,7 +66,8 @@ def test_the_bench_puts_a_cell_under_each_mode(bench):
     assert bench.mode_overrides(torch, "declared") == {}
     # a cell without zones gets one sphere over its table for the hybrid mode
     coexistence = str(REPO / "diagrams" / "box_pcb_coexistence.yaml")
-    zones = load_scenario_with(coexistence, bench.mode_overrides(coexistence, "hybrid")).layout.collaborative_zones
+    scenario = load_scenario_with(coexistence, bench.mode_overrides(coexistence, "hybrid"))
+    zones = scenario.layout.collaborative_zones
     assert len(zones) == 1 and zones[0].radius > 0.5
 
 
