@@ -46,8 +46,8 @@ def plot_safety(path: str | Path, trace, contacts, summary: dict, title: str = "
     top.legend(loc="upper right", fontsize=7, ncol=2)
     top.set_title(f"{title}\n{summary.get('verdict', '')}", fontsize=9)
     worst = summary.get("worst_ratio", {})
-    names = sorted(worst)
-    values = [worst[n] if worst[n] is not None else math.inf for n in names]
+    names = sorted({c.region for c in contacts})  # the regions touched
+    values = [worst.get(n, 0.0) if worst.get(n, 0.0) is not None else math.inf for n in names]
     shown = [v if math.isfinite(v) else 0.0 for v in values]
     bars = bottom.bar(names, shown, color=[REGION_COLOURS.get(n, "tab:gray") for n in names])
     for bar, value in zip(bars, values, strict=True):
