@@ -9,7 +9,7 @@ violations of the mode by rule, the worst ratio to the ISO limits per body regio
 stops, time below S_p while moving, contacts, and the CPU share of the PFL part of the safety
 controller (effective masses and permissible speeds).
 
-    python tools/bench_safety.py --quick            # 30 s runs, one seed: under 5 minutes
+    python tools/bench_safety.py --quick            # 20 s runs, one seed: under 5 minutes
     python tools/bench_safety.py --duration 300 --seeds 3
     python tools/bench_safety.py diagrams/torch_clock.yaml --modes declared,none
 
@@ -205,10 +205,10 @@ def main() -> None:
                         help="runs per (cell, mode): the scenario's seed, then seed + 1, ... (default 2)")
     parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {MODES}")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    parser.add_argument("--quick", action="store_true", help="30 s runs, one seed (under 5 minutes)")
+    parser.add_argument("--quick", action="store_true", help="20 s runs, one seed (under 5 minutes)")
     args = parser.parse_args()
     if args.quick:
-        args.duration, args.seeds = 30.0, 1
+        args.duration, args.seeds = 20.0, 1
     modes = [m for m in args.modes.split(",") if m]
     unknown = sorted(set(modes) - set(MODES))
     if unknown:

@@ -407,8 +407,8 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
     controller, monitor = apply_safety_config(
         scenario.safety, builder, plant=plant, kinematics=capsule_kin, body_model=body,
         limits=safety_limits(scenario, scenario_path), zones=zones, fixed_boxes=tuple(fixed),
-        positions=positions_port, velocities=follower.GetOutputPort("velocities"),
-        velocities_full=follower.GetOutputPort("velocities_full"), skeleton_estimate=estimate_port,
+        positions=positions_port, velocities_full=follower.GetOutputPort("velocities_full"),
+        skeleton_estimate=estimate_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
         camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)

@@ -86,6 +86,8 @@ class MonitorRun(Immutable):
     last_time: float = -math.inf
     #: region capsules (start, end) at the last sample, for the body's velocities
     last_regions: tuple | None = None
+    #: robot capsules (start, end) at the last sample, for the robot's velocities
+    last_robot: tuple | None = None
 
 
 class ContactAccountant:
@@ -105,9 +107,14 @@ class ContactAccountant:
     def step(self, run: MonitorRun, time: float, robot, robot_velocity, regions,
              effective_mass) -> MonitorRun:
         """The run after a sample at `time`: robot capsules and their end points' true velocities
-        (v_start, v_end), the true region capsules; effective_mass(k, points, u) gives m_R (vectorised)."""
+        (v_start, v_end; None: by finite differences since the last sample, as the body's), the
+        true region capsules; effective_mass(k, points, u) gives m_R (vectorised)."""
         dt = time - run.last_time if math.isfinite(run.last_time) else 0.0
         body_velocity = _body_velocity(run.last_regions, regions, dt)
+        if robot_velocity is None:  # the robot's true motion since the last sample
+            robot_velocity = _body_velocity(run.last_robot, robot, dt)
+            if robot_velocity is None:
+                robot_velocity = (np.zeros_like(robot[0]), np.zeros_like(robot[1]))
         rules = self.rules
         distance, k, r = rules.screen(robot, robot_velocity, regions, np.zeros(len(regions[2])))
         nearest = np.unravel_index(np.argmin(distance), distance.shape) if distance.size else None
@@ -139,7 +146,8 @@ class ContactAccountant:
         trace = run.trace.offer((time, min_distance, sp_nearest, rule_nearest))
         return MonitorRun(contacts, tuple(sorted(open_pairs.items())), trace, run.samples + 1,
                           run.time_below_sp_moving + (dt if below else 0.0), time,
-                          (np.array(regions[0]), np.array(regions[1])))
+                          (np.array(regions[0]), np.array(regions[1])),
+                          (np.array(robot[0]), np.array(robot[1])))
 
     def _contacts(self, time, dt, pairs, pfl, body_velocity, regions, open_pairs, effective_mass) -> dict:
         """The open contacts after this sample: new ones judged at their onset, old ones deepened."""
@@ -210,7 +218,7 @@ def _one(pairs, n):
 
 
 def _body_velocity(last, regions, dt: float):
-    """(v_start, v_end) (R, 3) of the region capsules by finite difference, or None."""
+    """(v_start, v_end) of capsules by finite difference since their `last` (start, end), or None."""
     if last is None or dt <= 0:
         return None
     return (np.asarray(regions[0]) - last[0]) / dt, (np.asarray(regions[1]) - last[1]) / dt

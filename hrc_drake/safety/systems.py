@@ -70,7 +70,11 @@ class RobotPointDynamics:
         bodies = np.asarray(kinematics.capsule_bodies, dtype=int)
         self.bodies = bodies
         self._unique, self._inverse = np.unique(bodies, return_inverse=True)
+        self._unique_list = [int(i) for i in self._unique]
+        # one body per capsule in the capsules' order needs no gather
+        self._gather = None if np.array_equal(self._unique, bodies) else self._inverse
         self._start_B, self._end_B = kinematics.local_ends
+        self._local = np.stack([self._start_B, self._end_B])
         self.radius = np.array(kinematics.radius, dtype=float)
         self._body = [plant.get_body(BodyIndex(int(b))) for b in bodies]
         self._poses_port = plant.get_body_poses_output_port()
@@ -91,19 +95,26 @@ class RobotPointDynamics:
         self._inverse_inertia = {}
         self._mass_factor = None
 
-    def capsules(self):
+    def capsules(self, velocities: bool = True):
         """((start, end, radius), (v_start, v_end)): world capsules (K) and their end points'
-        velocities (K, 3), v = v_B + w_B x (p - p_B) from each body's spatial velocity."""
+        velocities (K, 3), v = v_B + w_B x (p - p_B) from each body's spatial velocity (with
+        `velocities` False, only the capsules and None: the velocity kinematics is not run)."""
         poses = self._poses_port.Eval(self._context)
-        velocities = self._velocities_port.Eval(self._context)
-        X = np.array([poses[int(i)].GetAsMatrix4() for i in self._unique])[self._inverse]
-        V = np.array([velocities[int(i)].get_coeffs() for i in self._unique])[self._inverse]
+        X = np.array([poses[i].GetAsMatrix4() for i in self._unique_list])
+        if self._gather is not None:
+            X = X[self._gather]
         R, p = X[:, :3, :3], X[:, :3, 3]
         self._origins = p
-        start = np.einsum("kij,kj->ki", R, self._start_B) + p
-        end = np.einsum("kij,kj->ki", R, self._end_B) + p
-        w, v = V[:, :3], V[:, 3:]
-        return (start, end, self.radius.copy()), (v + _cross(w, start - p), v + _cross(w, end - p))
+        ends = np.einsum("kij,skj->ski", R, self._local) + p  # (2, K, 3): starts and ends
+        robot = (ends[0], ends[1], self.radius.copy())
+        if not velocities:
+            return robot, None
+        spatial = self._velocities_port.Eval(self._context)
+        V = np.array([spatial[i].get_coeffs() for i in self._unique_list])
+        if self._gather is not None:
+            V = V[self._gather]
+        moved = V[:, 3:] + _cross(V[:, :3], ends - p)  # (2, K, 3)
+        return robot, (moved[0], moved[1])
 
     def _body_inverse_inertia(self, k: int) -> np.ndarray:
         """J M^-1 J^T (6, 6) at the origin of capsule k's body, J its spatial Jacobian ([w; v])."""
@@ -326,10 +337,11 @@ class _MonitorRecording:
 class SafetyMonitor(LeafSystem):
     """Accounts contacts and the time below S_p on the truth, every `period` s (`safety.contacts`).
 
-    Inputs "human_capsules" (`Capsules`, the true body), "positions" (the plant's first) and
-    "velocities" (nv, the robot's true joint velocities). A recorder like `MetricsRecorder`: its
-    `MonitorRun` is a cache entry its periodic publish replaces, cleared at initialization, so it
-    costs the simulation no state copies. `summary(context, stops)` gives metrics.json's `safety`.
+    Inputs "human_capsules" (`Capsules`, the true body) and "positions" (the plant's first); the
+    robot's and the body's velocities are their capsules' motion since the last sample. A
+    recorder like `MetricsRecorder`: its `MonitorRun` is a cache entry its periodic publish
+    replaces, cleared at initialization, so it costs the simulation no state copies.
+    `summary(context, stops)` gives metrics.json's `safety`.
     """
 
     def __init__(self, accountant: ContactAccountant, dynamics: RobotPointDynamics, input_size: int,
@@ -342,7 +354,7 @@ class SafetyMonitor(LeafSystem):
         self.standard = standard
         self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
-        self._velocities = self.DeclareVectorInputPort("velocities", dynamics.num_velocities)
+        self._zero_velocities = np.zeros(dynamics.num_velocities)
         self._entry = self.DeclareCacheEntry(
             "monitor run", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
                                          calc=lambda *_: None), {self.nothing_ticket()})
@@ -365,9 +377,10 @@ class SafetyMonitor(LeafSystem):
         if len(radius) != len(BODY_CAPSULES):
             return EventStatus.DidNothing()
         regions = self.cutter.cut(start, end, radius)
-        self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
-        robot, velocity = self.dynamics.capsules()
-        recording.run = self.accountant.step(recording.run, time, robot, velocity, regions,
+        # positions only: the robot's velocities are its capsules' motion since the last sample
+        self.dynamics.set_state(self._positions.Eval(context), self._zero_velocities)
+        robot, _ = self.dynamics.capsules(velocities=False)
+        recording.run = self.accountant.step(recording.run, time, robot, None, regions,
                                              self.dynamics.effective_mass)
         return EventStatus.Succeeded()
 
@@ -382,14 +395,14 @@ class SafetyMonitor(LeafSystem):
 
 
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
-                        positions, velocities, velocities_full, skeleton_estimate, human_capsules,
+                        positions, velocities_full, skeleton_estimate, human_capsules,
                         requested_override, swept_volumes=None, camera_noise: float = 0.0,
                         monitor_period: float = 1.0 / 30.0):
     """Add the safety controller of `config` ("safety_controller"; none for `NoSafety`) and the
     contact monitor ("safety_monitor", always) to `builder` and connect them.
 
     positions: the plant's positions port (kinematic: the follower's; dynamic: the plant state);
-    velocities / velocities_full: the follower's joint velocities as applied and at full speed;
+    velocities_full: the follower's joint velocities at full speed (the controller's approach speeds);
     requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
     to connect later.
     Returns (controller or None, monitor); the follower reads the controller's "speed_override".
@@ -419,6 +432,5 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     monitor.set_name("safety_monitor")
     builder.Connect(human_capsules, monitor.GetInputPort("human_capsules"))
     builder.Connect(positions, monitor.GetInputPort("positions"))
-    builder.Connect(velocities, monitor.GetInputPort("velocities"))
     return controller, monitor
 

@@ -47,7 +47,7 @@ def safety_monitor() -> SystemExample:
     _, _, far = _operator(4.0)
     accountant = ContactAccountant(rules, limits, kinematics.names, RegionCapsules().names)
     system = SafetyMonitor(accountant, RobotPointDynamics(plant, kinematics), 2, 1.0 / 30.0, "hybrid", "")
-    moving = {"positions": [0.0, 0.3], "velocities": [1.0, 0.0]}
+    moving = {"positions": [0.0, 0.3]}
     # the monitor has no output ports: its run is read with `summary` (tests/safety/test_systems.py)
     return SystemExample(system, {**moving, "human_capsules": near}, {**moving, "human_capsules": far},
                          duration=0.3, inputs_matter=False)

@@ -76,9 +76,10 @@ def test_two_monitor_contexts_keep_their_own_runs():
     trace_a = [row[1] for row in run_a.trace]
     trace_b = [row[1] for row in run_b.trace]
     assert max(trace_a) < min(trace_b)  # near vs far operator
-    # nothing limits the arm here: it sweeps into the near operator, never the far one
+    # the arm rests (fixed positions) inside the near operator's reach: contacts, but the robot's
+    # motion made none of them, so no violation; the far operator is never touched
     near, far = example.system.summary(a), example.system.summary(b)
-    assert near["mode"] == "hybrid" and near["contact_count"] >= 1 and near["violations_total"] >= 1
+    assert near["mode"] == "hybrid" and near["contact_count"] >= 1 and near["violations_total"] == 0
     assert far["contact_count"] == 0 and far["verdict"].endswith("0 contacts; no contact")
 
 
