@@ -221,6 +221,11 @@ class SafetyRules:
         if np.any(pfl):
             pfl &= approach > self._pfl_floor[r]
             scale = np.where(governed & (approach <= self._pfl_floor[r]), FREE, scale)
+            # a PFL pair's override is at least max(SSM's, floor / approach): one whose bound is
+            # no smaller than the smallest override of the SSM pairs cannot set the minimum
+            bound = np.maximum(scale, self._pfl_floor[r] / np.maximum(approach, 1e-12))
+            ssm_min = float(np.min(scale[~governed], initial=FREE))
+            pfl &= bound < ssm_min
         if np.any(pfl):
             sub = np.nonzero(pfl)[0]
             picked = subset_pairs(pairs, sub)
