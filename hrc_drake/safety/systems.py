@@ -260,13 +260,14 @@ class SafetyController(LeafSystem):
         declare_periodic_discrete_update(self, self.period, 0.0, self._update)
 
     def _command(self, context, seen, head_offset):
-        """(rules' override, binding clearance, its S_p) for the inputs of `context`; `seen` (8,):
-        the time each point was last measured; head_offset: head - thorax when last both seen."""
+        """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
+        path speed) for the inputs of `context`; `seen` (8,): the time each point was last
+        measured; head_offset: head - thorax when last both seen."""
         human = None
         if self._estimate.HasValue(context):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
-            return 0.0, math.nan, math.nan
+            return 0.0, math.nan, math.nan, 0.0
         regions, z_d = human
         covered = 0.0
         if self.swept and self._swept_volumes.HasValue(context):
@@ -278,16 +279,15 @@ class SafetyController(LeafSystem):
         robot, velocity = self.dynamics.capsules()
         command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
                                                covered)
-        self._fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
-                                  np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
+        fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
+                            np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
         if binding is None:
-            return command, math.inf, math.nan
+            return command, math.inf, math.nan, fastest
         pairs, n, _, separation = binding
-        return command, float(pairs.distance[n]), separation
+        return command, float(pairs.distance[n]), separation, fastest
 
     def _update(self, context, discrete_state):
         x = np.array(context.get_discrete_state(self._state).get_value())
-        self._fastest = 0.0
         seen, head_offset = x[self._seen], x[self._head]
         if self._estimate.HasValue(context):
             estimate = self._estimate.Eval(context)
@@ -298,11 +298,11 @@ class SafetyController(LeafSystem):
                 if measured[HEAD] and measured[THORAX]:
                     points = np.asarray(estimate.points, dtype=float)
                     head_offset = points[HEAD] - points[THORAX]
-        command, distance, separation = self._command(context, seen, head_offset)
+        command, distance, separation, fastest = self._command(context, seen, head_offset)
         requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
         requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
         target = min(requested, command)
-        applied = decelerated_override(float(x[0]), target, self.period, self._fastest,
+        applied = decelerated_override(float(x[0]), target, self.period, fastest,
                                        self.rules.config.deceleration)
         stopped = command <= 0.0
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
