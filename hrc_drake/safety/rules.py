@@ -225,7 +225,9 @@ class SafetyRules:
             # no smaller than the smallest override of the SSM pairs cannot set the minimum
             bound = np.maximum(scale, self._pfl_floor[r] / np.maximum(approach, 1e-12))
             ssm_min = float(np.min(scale[~governed], initial=FREE))
-            pfl &= bound < ssm_min
+            skipped = pfl & (bound >= ssm_min)
+            scale = np.where(skipped, np.minimum(bound, FREE), scale)  # <= its true override
+            pfl &= ~skipped
         if np.any(pfl):
             sub = np.nonzero(pfl)[0]
             picked = subset_pairs(pairs, sub)

@@ -217,10 +217,15 @@ def test_a_shared_action_without_a_scheduler_must_be_in_every_program(tmp_path, 
 
 
 def _run(path, duration=240.0):
+    """The cell of `path` run as the thesis's experiments of Ch. 7 ran: without the ISO/TS 15066
+    layer (the same for every scheduler compared; tests/safety and tools/bench_safety.py run the
+    declared modes)."""
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
+    from hrc_drake.cell.scenario import Tagged, load_scenario_with
 
-    return simulate(build_cell(load_scenario(path), path), duration, progress=None)
+    scenario = load_scenario_with(path, {"safety": Tagged("NoSafety", {})})
+    return simulate(build_cell(scenario, path), duration, progress=None)
 
 
 @pytest.mark.slow

@@ -168,3 +168,41 @@ def test_the_controller_rules_keep_the_hand_within_its_pfl_speed():
     assert ssm.override(robot_at(1.15), (velocity, velocity), regions, z_d)[0] == 0.0
     # moving away is never limited
     assert ssm.override(robot_at(1.15), (-velocity, -velocity), regions, z_d)[0] == 1.0
+
+
+def test_a_pfl_pair_skipped_for_its_bound_does_not_stop_the_robot():
+    # the hand near and approached fast (PFL: a speed limit, not a stop), the torso far (SSM):
+    # the override is the hand's PFL speed over the approach, never the SSM's 0 of the hand
+    rules = SafetyRules(Hybrid(), LIMITS, CUTTER.regions, (np.array([[0.0, 0.5, 1.0]]), np.array([0.5])))
+    z_d = np.full(len(CUTTER), 0.03)
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    override, binding = rules.override(robot_at(1.15), (velocity, velocity), body(), z_d,
+                                       lambda k, p, u: np.full(len(k), ROBOT_MASS))
+    pairs, n, rule, _ = binding
+    assert rule == "pfl" and 0.3 < override < 1.0
+    v_hand = 280.0 / math.sqrt(1.0 / (1.0 / 0.6 + 1.0 / ROBOT_MASS) * 75e3)
+    assert override == pytest.approx(v_hand / 2.0, rel=1e-6)
+
+
+def test_the_override_is_the_smallest_pair_s_when_a_pfl_pair_is_skipped():
+    # the hand (PFL) 5 cm under the robot, the chest (SSM) at 0.6 m beside it: the chest's SSM
+    # override is below the hand's PFL bound, so the hand is not evaluated; the override is the
+    # chest's, not the hand's SSM stop
+    rules = SafetyRules(Hybrid(), LIMITS, CUTTER.regions, (np.array([[0.0, 0.5, 1.0]]), np.array([0.5])))
+    start, end, radius = (np.full((len(CUTTER), 3), 9.0), np.full((len(CUTTER), 3), 9.0),
+                          np.full(len(CUTTER), 0.05))
+    hand, chest = INDEX["right_hand"], INDEX["chest"]
+    start[hand], end[hand] = [0.0, 0.5, 1.0], [0.0, 0.7, 1.0]
+    start[chest], end[chest] = [0.0, 0.58, 0.2], [0.0, 0.58, 0.4]
+    z_d = np.full(len(CUTTER), 0.03)
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    robot = robot_at(1.13)
+    override, (pairs, n, rule, _) = rules.override(robot, (velocity, velocity), (start, end, radius), z_d,
+                                                   lambda k, p, u: np.full(len(k), ROBOT_MASS))
+    ssm_only = SafetyRules(SpeedSeparationMonitoring(), LIMITS, CUTTER.regions)
+    chest_only = (start.copy(), end.copy(), radius)
+    chest_only[0][hand] = chest_only[1][hand] = 9.0
+    expected, _ = ssm_only.override(robot, (velocity, velocity), chest_only, z_d)
+    assert 0.0 < expected < 1.0
+    assert rule == "ssm" and CUTTER.regions[pairs.r[n]] == "chest"
+    assert override == pytest.approx(expected)
