@@ -185,7 +185,7 @@ def test_a_pfl_pair_skipped_for_its_bound_does_not_stop_the_robot():
 
 
 def test_the_override_is_the_smallest_pair_s_when_a_pfl_pair_is_skipped():
-    # the hand (PFL) 5 cm under the robot, the chest (SSM) at 0.6 m beside it: the chest's SSM
+    # the hand (PFL) 5 cm under the robot, the chest (SSM) 0.45 m below it: the chest's SSM
     # override is below the hand's PFL bound, so the hand is not evaluated; the override is the
     # chest's, not the hand's SSM stop
     rules = SafetyRules(Hybrid(), LIMITS, CUTTER.regions, (np.array([[0.0, 0.5, 1.0]]), np.array([0.5])))
@@ -193,7 +193,7 @@ def test_the_override_is_the_smallest_pair_s_when_a_pfl_pair_is_skipped():
                           np.full(len(CUTTER), 0.05))
     hand, chest = INDEX["right_hand"], INDEX["chest"]
     start[hand], end[hand] = [0.0, 0.5, 1.0], [0.0, 0.7, 1.0]
-    start[chest], end[chest] = [0.0, 0.58, 0.2], [0.0, 0.58, 0.4]
+    start[chest], end[chest] = [0.0, 0.58, 0.4], [0.0, 0.58, 0.6]
     z_d = np.full(len(CUTTER), 0.03)
     velocity = np.array([[0.0, 0.0, -2.0]])
     robot = robot_at(1.13)
