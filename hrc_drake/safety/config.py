@@ -112,8 +112,10 @@ class SpeedSeparationMonitoring:
 class PowerForceLimiting(SpeedSeparationMonitoring):
     """Power and force limiting, ISO/TS 15066 5.5.5 and Annex A: near a body region the robot's
     speed toward it is held to the permissible speed of eq. (A.6) for the robot's effective mass
-    along the approach, transient limits for a free contact, quasi-static where a fixed surface
-    clamps the part; head, face and neck get SSM (the inherited fields), never contact."""
+    along the approach, with the transient limits of a free contact; head, face and neck get SSM
+    (the inherited fields), never contact, and so does a part a fixed surface clamps (a departure:
+    the simulated robot has no force sensing to stop within the F_qs / k of quasi-static
+    contact, `rules.SafetyRules.governed_by_pfl`)."""
 
     #: m_R: "plant" ((u^T J M^-1 J^T u)^-1 at the contact point, direction u) or "iso" (M/2 + m_L,
     #: M the moving links' mass of the arm).

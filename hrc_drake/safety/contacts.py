@@ -128,7 +128,7 @@ class ContactAccountant:
                 k = np.array([a for a, _ in keys], dtype=int)
                 r = np.array([b for _, b in keys], dtype=int)
             pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
-            pfl = rules.governed_by_pfl(pairs)
+            pfl = rules.governed_by_pfl(pairs, regions[2])
             sp = rules.separations(pairs, pairs.approach)
             moving = pairs.approach > self.moving_speed
             below = bool(np.any(~pfl & moving & (pairs.distance < sp))) and rules.mode != "none"
@@ -168,10 +168,11 @@ class ContactAccountant:
             ratio = contact.ratio
             violation = contact.violation
             if contact.clamped and region.force > 0:
-                # clamped: the body's spring compressed by the robot, F = k x depth (quasi-static)
+                # clamped: the body's spring compressed by the robot, F = k x depth (quasi-static),
+                # over its limit a violation under any rule
                 pressed = region.spring_constant * robot_depth / region.force
                 ratio = max(ratio, pressed)
-                violation = violation or (contact.rule != "ssm" and pressed > 1.0)
+                violation = violation or pressed > 1.0
             stop_delay = contact.stop_delay
             if math.isnan(stop_delay) and approach <= self.moving_speed:
                 stop_delay = time - contact.time

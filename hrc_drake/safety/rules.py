@@ -146,12 +146,18 @@ class SafetyRules:
         gaps = np.linalg.norm(points[:, None, :] - self.zone_centers[None], axis=2)
         return np.any(gaps <= self.zone_radii[None], axis=1)
 
-    def governed_by_pfl(self, pairs: PairGeometry) -> np.ndarray:
+    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None) -> np.ndarray:
         """(N,) whether each pair is under PFL (else SSM); in a hybrid mode only where the pair's
-        contact would be, the middle of its closest points, lies in a collaborative zone."""
+        contact would be, the middle of its closest points, lies in a collaborative zone. With the
+        regions' radii, a part clamped against a fixed surface is under SSM: the simulated robot
+        is position-controlled, without the force sensing that would stop it within the
+        F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all."""
         pfl = self.pfl_region[pairs.r]
         if self.hybrid and np.any(pfl):
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
+        if region_radius is not None and self.fixed_boxes and np.any(pfl):
+            at = np.nonzero(pfl)[0]
+            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius)
         return pfl
 
     def clamped(self, pairs: PairGeometry, region_radius) -> np.ndarray:
@@ -209,12 +215,15 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
-        moving = approach > self.moving_speed
+        governed = self.governed_by_pfl(pairs, regions[2])
+        rule = np.where(governed, "pfl", "ssm")
+        # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
+        # either: any approach toward it counts
+        clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
+        moving = approach > np.where(clamped, 1e-9, self.moving_speed)
         z = np.asarray(z_d)[r]
         v_ssm = self.ssm_speeds(pairs, z, covered_time)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
-        governed = self.governed_by_pfl(pairs)
-        rule = np.where(governed, "pfl", "ssm")
         # a pair approaching slower than its region's PFL speed for an infinite robot mass (the
         # smallest eq. A.6 gives, quasi-static) is free whatever m_R: no Jacobian needed
         pfl = governed & moving & (scale < FREE)
@@ -232,8 +241,7 @@ class SafetyRules:
             sub = np.nonzero(pfl)[0]
             picked = subset_pairs(pairs, sub)
             masses = self.robot_masses(picked, effective_mass)
-            clamps = self.clamped(picked, regions[2])
-            v_pfl = self.pfl_speeds(picked, masses, clamps)
+            v_pfl = self.pfl_speeds(picked, masses, np.zeros(len(sub), dtype=bool))  # free: transient
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
         n = int(np.argmin(scale))
         sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n],
