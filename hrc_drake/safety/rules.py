@@ -215,8 +215,7 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
-        # clamping judged with the part grown by its Z_d: the estimate may sit a Z_d off the surface
-        governed = self.governed_by_pfl(pairs, np.asarray(regions[2]) + np.asarray(z_d))
+        governed = self.governed_by_pfl(pairs, regions[2])
         rule = np.where(governed, "pfl", "ssm")
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
