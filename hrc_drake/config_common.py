@@ -5,7 +5,10 @@ No `from __future__ import annotations`: pydrake's typed YAML loader reads the a
 as real types at run time.
 """
 
+import math
 from dataclasses import dataclass, field
+
+from hrc_drake.errors import check
 
 #: The longest simulated run a scenario or the command line may ask for (s): a week.
 MAX_SIMULATED_DURATION = 7 * 24 * 3600.0
@@ -55,3 +58,18 @@ def replay_fps_within(fps: float, duration: float, max_frames: int = REPLAY_MAX_
         raise ValueError(f"need fps > 0, duration > 0 and max_frames >= 1, got {fps}, {duration}, "
                          f"{max_frames}")
     return min(fps, max_frames / duration)
+
+
+def check_number(value, path, name, low=None, high=None, low_open=False):
+    """Raise `ConfigError` naming `path.name` unless `value` is a finite number in [low, high]
+    ((low, high] with `low_open`; None: unbounded)."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if ok and low is not None:
+        ok = value > low if low_open else value >= low
+    if ok and high is not None:
+        ok = value <= high
+    if not ok:
+        lo = "-inf" if low is None else f"{low:g}"
+        hi = "inf" if high is None else f"{high:g}"
+        check(False, f"{path}.{name}", f"must be a finite number in {'(' if low_open else '['}{lo}, {hi}], "
+              f"got {value!r}")

@@ -8,9 +8,9 @@ A scenario's `motion_model` field is `NoMotionModel`, `GPMotionModel` or
 No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
 """
 
-import math
 from dataclasses import dataclass, field
 
+from hrc_drake.config_common import check_number as _finite
 from hrc_drake.errors import check
 
 #: The GP models of thesis 8.1.2: A (one GP per joint), B (one GP of all joints), C (base, arms).
@@ -19,19 +19,6 @@ VARIANTS = ("A", "B", "C")
 HUMAN_JOINT_GROUPS = ("shoulder", "shoulder_rotation", "elbow", "torso", "yaw")
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
 MAX_RATE = 50.0
-
-
-def _finite(value, path, name, low=None, high=None, low_open=False):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if ok and low is not None:
-        ok = value > low if low_open else value >= low
-    if ok and high is not None:
-        ok = value <= high
-    if not ok:
-        lo = "-inf" if low is None else f"{low:g}"
-        hi = "inf" if high is None else f"{high:g}"
-        check(False, f"{path}.{name}", f"must be a finite number in {'(' if low_open else '['}{lo}, {hi}], "
-              f"got {value!r}")
 
 
 def _integer(value, low, high, path, name):

@@ -6,9 +6,9 @@ for head and torso). `safety.systems.apply_safety_config` builds the safety cont
 No pydrake here, and real annotations (pydrake's typed YAML loader reads them).
 """
 
-import math
 from dataclasses import dataclass, field
 
+from hrc_drake.config_common import check_number as _number
 from hrc_drake.errors import check
 
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
@@ -23,13 +23,6 @@ ROBOT_MASS_MODELS = ("plant", "iso")
 NO_CONTACT_REGIONS = ("skull_forehead", "face", "neck")
 #: Hand and arm regions: the PFL regions of `Hybrid` by default; the rest is head and torso.
 LIMB_REGIONS = ("upper_arm_elbow", "lower_arm_wrist", "hand_fingers")
-
-
-def _number(value, path, name, low, high, low_open=False):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    ok = ok and (value > low if low_open else value >= low) and value <= high
-    check(ok, f"{path}.{name}", f"must be a finite number in {'(' if low_open else '['}{low:g}, {high:g}], "
-                                f"got {value!r}")
 
 
 @dataclass
