@@ -81,14 +81,43 @@ class RegionCapsules:
         radius = np.asarray(radius, dtype=float)[self._capsule]
         return start + self._t0 * axis, start + self._t1 * axis, radius
 
-    def point_uncertainty(self, spread, sigmas: float, cap: float) -> np.ndarray:
-        """Z_d (R,) of every region from the skeleton estimate's spread (8,): `sigmas` standard
-        deviations of the least certain point that places its body capsule, at most `cap` m (a
-        point the tracker lost has an unbounded spread)."""
-        spread = np.asarray(spread, dtype=float)
-        per_capsule = np.array([max(spread[list(CAPSULE_POINTS[name])]) for name in BODY_CAPSULES])
-        z_d = sigmas * per_capsule[self._capsule]
-        return np.minimum(np.where(np.isfinite(z_d), z_d, cap), cap)
+    def region_uncertainty(self, per_capsule) -> np.ndarray:
+        """Z_d (R,) of every region from its body capsule's uncertainty (6,)."""
+        return np.asarray(per_capsule, dtype=float)[self._capsule]
+
+
+#: the arms' kinematic chains: (shoulder, elbow, wrist) skeleton points, (upper arm, forearm) capsules
+ARM_CHAINS = (((2, 4, 6), (2, 4)), ((3, 5, 7), (3, 5)))
+
+
+def reach_bounded(start, end, radius, point_uncertainty, cap: float, upper_arm: float, forearm_reach: float):
+    """Body capsules (6, 3), (6, 3), (6,) and their uncertainty (6,) with every lost arm point
+    bounded by the body's reach instead of a capped spread.
+
+    A point whose uncertainty (m, (8,), inf when lost) exceeds `cap` may be anywhere its parent
+    joint lets it reach: a lost wrist within `forearm_reach` (forearm + hand) of a placed elbow,
+    a lost elbow within `upper_arm` of a placed shoulder (and its hand within upper_arm +
+    forearm_reach). The capsules they place become spheres of that reach around the parent, with
+    the parent's uncertainty: a reachable set, as sara-shield bounds a human it cannot see (a
+    Kalman filter's prediction of a hidden hand drifts away from it). Other capsules take the
+    largest uncertainty of their points, at most `cap`."""
+    start, end = np.array(start, dtype=float), np.array(end, dtype=float)
+    radius = np.array(radius, dtype=float)
+    u = np.asarray(point_uncertainty, dtype=float)
+    per_capsule = np.array([max(u[list(CAPSULE_POINTS[name])]) for name in BODY_CAPSULES])
+    for (shoulder, elbow, wrist), (upper, fore) in ARM_CHAINS:
+        if u[elbow] > cap and u[shoulder] <= cap:
+            end[upper] = start[upper]
+            start[fore] = end[fore] = start[upper]
+            radius[fore] += upper_arm + forearm_reach
+            radius[upper] += upper_arm
+            per_capsule[upper] = per_capsule[fore] = u[shoulder]
+        elif u[wrist] > cap and u[elbow] <= cap:
+            end[fore] = start[fore]
+            radius[fore] += forearm_reach
+            per_capsule[fore] = u[elbow]
+    per_capsule = np.minimum(np.where(np.isfinite(per_capsule), per_capsule, cap), cap)
+    return start, end, radius, per_capsule
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,14 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.safety.config import NoSafety, mode_name
 from hrc_drake.safety.contacts import ContactAccountant, MonitorRun, summarize_safety
-from hrc_drake.safety.regions import BODY_CAPSULES, CAPSULE_POINTS, HEAD, THORAX, RegionCapsules
+from hrc_drake.safety.regions import (
+    BODY_CAPSULES,
+    CAPSULE_POINTS,
+    HEAD,
+    THORAX,
+    RegionCapsules,
+    reach_bounded,
+)
 from hrc_drake.safety.rules import SafetyRules, decelerated_override
 from hrc_drake.systems import declare_periodic_discrete_update
 
@@ -173,7 +180,8 @@ class HumanRegions:
         lost is held where it was last seen, and may have moved v_h x that time since).
         head_offset: head - thorax when both were last measured: a lost head (the robot's arm
         between camera and face) is carried with the measured thorax, its Z_d growing at v_h up to
-        `lost_head_uncertainty` (the neck's own motion), not to `max_uncertainty`."""
+        `lost_head_uncertainty` (the neck's own motion), not to `max_uncertainty`. A lost arm
+        point is bounded by its parent's reach (`regions.reach_bounded`)."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
@@ -188,21 +196,24 @@ class HumanRegions:
         if not all(finite[idx].all() for idx in self._region_points):
             return None
         start, end, radius = self.body.capsules_from_points(points)
-        regions = self.cutter.cut(start, end, radius)
         config = self.config
-        spread = np.asarray(estimate.spread, dtype=float)
+        if config.position_uncertainty == "fixed":
+            return self.cutter.cut(start, end, radius), np.full(len(self.cutter), config.fixed_uncertainty)
         if config.position_uncertainty == "tracker":
-            z_d = self.cutter.point_uncertainty(spread, config.uncertainty_sigmas, config.max_uncertainty)
-        elif config.position_uncertainty == "camera":
-            noise = np.full(8, config.uncertainty_sigmas * self.camera_noise)
+            uncertainty = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
+        else:  # camera
+            uncertainty = np.full(8, config.uncertainty_sigmas * self.camera_noise)
             if unseen is not None:
                 moved = self.lost_speed * unseen
                 if head_carried:
                     moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
-                noise = noise + moved
-            z_d = self.cutter.point_uncertainty(noise, 1.0, config.max_uncertainty)
-        else:
-            z_d = np.full(len(self.cutter), config.fixed_uncertainty)
+                uncertainty = uncertainty + moved
+        uncertainty = np.where(np.isnan(uncertainty), np.inf, uncertainty)
+        start, end, radius, per_capsule = reach_bounded(
+            start, end, radius, uncertainty, config.max_uncertainty, self.body.upper_arm,
+            self.body.forearm + self.body.hand_length)
+        regions = self.cutter.cut(start, end, radius)
+        z_d = self.cutter.region_uncertainty(per_capsule)
         return regions, z_d
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hrc_drake.human.body import HAND_FRACTION, BodyModel
-from hrc_drake.safety.regions import FixedBox, RegionCapsules, clamped
+from hrc_drake.safety.regions import FixedBox, RegionCapsules, clamped, reach_bounded
 
 TABLE = FixedBox((0.45, 0.0, 0.73), (0.9, 1.6, 0.04))  # top surface at z = 0.75
 
@@ -29,16 +29,75 @@ def test_regions_tile_each_body_capsule():
     assert cutter.regions[index["face"]] == "face"
 
 
+def _reach_bounded(uncertainty, q=None):
+    body = BodyModel()
+    points = body.points(body.rest_q() if q is None else q)
+    start, end, radius = body.capsules_from_points(points)
+    bounded = reach_bounded(start, end, radius, uncertainty, 0.3, body.upper_arm,
+                            body.forearm + body.hand_length)
+    return body, points, (start, end, radius), bounded
+
+
 def test_uncertainty_from_the_spread_of_the_points():
     cutter = RegionCapsules()
-    spread = np.full(8, 0.01)
-    spread[7] = np.inf  # the right wrist is lost
-    z_d = cutter.point_uncertainty(spread, 3.0, 0.3)
+    uncertainty = np.full(8, 0.03)
+    uncertainty[0] = 0.05  # the thorax
+    _, _, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
+    z_d = cutter.region_uncertainty(per_capsule)
     index = {name: k for k, name in enumerate(cutter.names)}
-    assert z_d[index["right_hand"]] == pytest.approx(0.3)
-    assert z_d[index["right_lower_arm"]] == pytest.approx(0.3)
-    assert z_d[index["left_hand"]] == pytest.approx(0.03)
-    assert z_d[index["chest"]] == pytest.approx(0.03)
+    assert z_d[index["right_hand"]] == pytest.approx(0.03)
+    assert z_d[index["chest"]] == pytest.approx(0.05)
+    assert z_d[index["face"]] == pytest.approx(0.05)  # thorax and head place it
+    assert np.array_equal(start, placed[0]) and np.array_equal(end, placed[1])
+    assert np.array_equal(radius, placed[2])
+
+
+def test_a_lost_wrist_is_anywhere_its_elbow_lets_it_reach():
+    uncertainty = np.full(8, 0.03)
+    uncertainty[7] = np.inf  # the right wrist is lost (a Kalman prediction drifts away)
+    body, points, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
+    reach = body.forearm + body.hand_length
+    # right forearm (capsule 5): a sphere around the elbow, with the elbow's uncertainty
+    assert np.allclose(start[5], points[5]) and np.allclose(end[5], points[5])
+    assert radius[5] == pytest.approx(placed[2][5] + reach)
+    assert per_capsule[5] == pytest.approx(0.03)
+    # the fingertips anywhere on that reach lie inside it
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(200, 3))
+    tips = points[5] + reach * directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    assert np.all(np.linalg.norm(tips - points[5], axis=1) <= radius[5] - placed[2][5] + 1e-12)
+    # the other arm and the upper arm keep their capsules
+    for capsule in (0, 1, 2, 3, 4):
+        assert np.array_equal(start[capsule], placed[0][capsule])
+        assert radius[capsule] == placed[2][capsule]
+
+
+def test_a_lost_elbow_bounds_the_whole_arm_by_the_shoulder_and_a_lost_shoulder_is_capped():
+    uncertainty = np.full(8, 0.02)
+    uncertainty[[4, 6]] = [0.5, np.inf]  # the left elbow and wrist are lost
+    body, points, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
+    for capsule in (2, 4):  # left upper arm and forearm: spheres around the shoulder
+        assert np.allclose(start[capsule], points[2]) and np.allclose(end[capsule], points[2])
+        assert per_capsule[capsule] == pytest.approx(0.02)
+    assert radius[2] == pytest.approx(placed[2][2] + body.upper_arm)
+    assert radius[4] == pytest.approx(placed[2][4] + body.upper_arm + body.forearm + body.hand_length)
+    uncertainty[2] = np.inf  # no placed joint to bound it: the capped spread
+    _, _, _, (start, _, radius, per_capsule) = _reach_bounded(uncertainty)
+    assert per_capsule[2] == per_capsule[4] == pytest.approx(0.3)
+    assert np.array_equal(radius, placed[2])
+
+
+def test_a_lost_hand_near_the_table_counts_as_clamped():
+    uncertainty = np.full(8, 0.03)
+    uncertainty[7] = np.inf
+    body = BodyModel()
+    points = body.points(body.rest_q())
+    points = points + np.array([0.0, 0.0, TABLE.center[2] + 0.3 - points[5][2]])  # elbow 0.3 m above
+    start, end, radius = body.capsules_from_points(points)
+    start, end, radius, _ = reach_bounded(start, end, radius, uncertainty, 0.3, body.upper_arm,
+                                          body.forearm + body.hand_length)
+    down = np.array([[0.0, 0.0, -1.0]])
+    assert clamped(start[5:6], down, radius[5:6], (TABLE,))[0]
 
 
 def test_a_hand_pressed_onto_the_table_is_clamped():
