@@ -9,10 +9,13 @@ import sys
 from pathlib import Path
 
 from hrc_drake.config_common import MAX_SIMULATED_DURATION, REPLAY_MAX_FRAMES, replay_fps_within
-from hrc_drake.errors import ScenarioError
+from hrc_drake.errors import EnvironmentFailure, ScenarioError
 
-#: Exit codes: a finished run, an internal error, bad input (file or argument), Ctrl-C.
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: Exit codes: a finished run, an internal error, bad input (file or argument), the environment
+#: failed (a lost Dask scheduler, a table that cannot be written, a folder another campaign
+#: holds), Ctrl-C (SIGINT; SIGTERM: 143, 128 + the signal as shells report it).
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_ENVIRONMENT, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_TERMINATED = 143
 
 # Each command imports what it uses when it runs, so `hrc-drake --help` loads neither pydrake
 # nor scipy / scikit-learn (nor tempfile / traceback: `--help` has a 0.1 s budget, issue 18).
@@ -165,9 +168,12 @@ def _simulate(args) -> int:
         paths = write_report(cell, result, Path(args.out))
         print("report            " + ", ".join(str(p) for p in paths))
     if result.interrupted:
-        print(f"interrupted at t = {result.simulated_time:.1f} s of {duration:g} s: the figures and files "
-              "cover the time simulated so far", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        import signal
+
+        name = signal.Signals(result.stopped_by).name
+        print(f"interrupted at t = {result.simulated_time:.1f} s of {duration:g} s ({name}): the figures and "
+              "files cover the time simulated so far", file=sys.stderr)
+        return 128 + int(result.stopped_by)
     if args.meshcat:
         print("Meshcat is still serving the live view; press Ctrl-C to quit.", flush=True)
         try:
@@ -202,27 +208,44 @@ def _workers(text: str) -> int:
     return value
 
 
+def _wait(text: str) -> float:
+    value = _number(text)
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}")
+    return value
+
+
 def _campaign(args) -> int:
     from hrc_drake.campaign.engine import run_campaign
     from hrc_drake.campaign.spec import load_campaign
     from hrc_drake.campaign.store import check_output_dir
 
     out = Path(args.out)
-    check_output_dir(out)  # before the scenarios are loaded: a bad folder costs nothing
+    check_output_dir(out, create=False)  # before the scenarios are loaded, and nothing made yet
     campaign = load_campaign(args.spec)
-    runs = len(campaign.seeds) * len(campaign.scenarios) * len(campaign.variants)
     where = args.address or (f"{args.workers} local worker process(es)" if args.workers else "this process")
-    print(f"{campaign.name}: {runs} runs ({len(campaign.scenarios)} scenario(s) x {len(campaign.variants)} "
-          f"variant(s) x {len(campaign.seeds)} seed(s), {campaign.duration:g} s each) on {where}", flush=True)
+    print(f"{campaign.name}: {campaign.run_count} runs ({len(campaign.scenarios)} scenario(s) x "
+          f"{len(campaign.variants)} variant(s) x {len(campaign.seeds)} seed(s), "
+          f"{campaign.duration:g} s each) on {where}", flush=True)
     try:
-        outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr)
-    except KeyboardInterrupt:
+        outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr,
+                               new_spec=args.new_spec, wait=args.wait)
+    except KeyboardInterrupt as err:
         from hrc_drake.campaign.engine import quiet_interrupted_shutdown
+        from hrc_drake.campaign.store import read_runs
+        from hrc_drake.interrupts import exit_code
 
         quiet_interrupted_shutdown()  # the cluster's processes may still be closing
-        print(f"interrupted: the finished runs are in {out / 'runs.parquet'}; run the same command again to "
-              "resume", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        try:
+            kept = len(read_runs(out))
+        except Exception:  # noqa: BLE001 - the message only
+            kept = 0
+        if kept:
+            print(f"interrupted: the finished runs are in {out / 'runs.parquet'} ({kept} row(s)); run the "
+                  "same command again to resume", file=sys.stderr)
+        else:
+            print("interrupted before any run finished: nothing was saved", file=sys.stderr)
+        return exit_code(err)
     print(f"{outcome.ran} run(s) now ({outcome.failed} failed), {outcome.skipped} done before, in "
           f"{outcome.wall_time:.1f} s")
     _print_results(out)
@@ -305,20 +328,32 @@ def main(argv: list[str] | None = None) -> int:
                       help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
     camp.add_argument("--address", default=None,
                       help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
+    camp.add_argument("--new-spec", action="store_true",
+                      help="the folder holds runs of another configuration: move them into a subfolder "
+                           "(previous-<time>/) and start a new table, instead of refusing")
+    camp.add_argument("--wait", nargs="?", type=_wait, const=math.inf, default=0.0, metavar="SECONDS",
+                      help="another campaign is writing the folder: wait for it (at most SECONDS) instead "
+                           "of refusing")
     camp.set_defaults(func=_campaign)
     comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
     comp.add_argument("dirs", nargs="+", help="campaign output folders")
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
     comp.set_defaults(func=_compare)
     args = parser.parse_args(argv)
+    from hrc_drake.interrupts import exit_code, raise_on_sigterm
+
+    raise_on_sigterm()  # a batch system's or `kill`'s SIGTERM saves what Ctrl-C saves
     try:
         return args.func(args)
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
+    except EnvironmentFailure as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_ENVIRONMENT
+    except KeyboardInterrupt as err:
         print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return exit_code(err)
     except Exception as err:  # noqa: BLE001 - one line for the user, the traceback in a log
         return _internal_error(err)
 

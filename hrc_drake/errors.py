@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # annotations only: `hrc-drake --help` imports this module
@@ -31,3 +34,31 @@ def check(condition: bool, field: str, reason: str) -> None:
     """Raise `ConfigError(field, reason)` unless `condition` holds."""
     if not condition:
         raise ConfigError(field, reason)
+
+
+class EnvironmentFailure(RuntimeError):
+    """The machine, not the input, failed the command: a lost Dask scheduler, a table that cannot
+    be written, a folder another campaign holds. Says what happened and what to do."""
+
+
+def check_input_file(path: Path, kind: str = "scenario") -> None:
+    """`path` is a readable regular file; else `ScenarioError` saying what it is instead: missing,
+    a dangling link or a link loop, a folder, a FIFO or device (which reading would block on)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            raise ScenarioError(path, "", "is a symbolic link loop: point it at the YAML file") from None
+        if os.path.islink(path):
+            target = os.readlink(path)
+            raise ScenarioError(path, "", f"is a symbolic link to {target}, which does not exist") from None
+        if err.errno == errno.ENOENT:
+            raise ScenarioError(path, "", "no such file") from None
+        raise ScenarioError(path, "", f"cannot be read: {err.strerror or err}") from None
+    if stat.S_ISDIR(mode):
+        raise ScenarioError(path, "", f"is a folder, not a {kind} file: give the YAML file's path")
+    if not stat.S_ISREG(mode):
+        what = "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode) else "a device"
+        raise ScenarioError(path, "", f"is {what}, not a {kind} file: give the YAML file's path")
+    if not os.access(path, os.R_OK):
+        raise ScenarioError(path, "", "cannot be read (permission denied)")

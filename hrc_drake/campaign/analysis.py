@@ -7,6 +7,11 @@ Groups are (scenario, variant); only `ok` runs count. Tests compare two groups o
 campaign expects one variant to win. Effect sizes are rank-biserial correlations: for the
 signed-rank test r = (R+ - R-) / (R+ + R-) of the differences a - b (matched pairs), for the
 rank-sum test r = 2 U_a / (n_a n_b) - 1; both are positive when the first group is larger.
+
+A group without values of a metric stays in the results with a note: "no ok runs" (every run
+failed), "all NaN" (no run measured it, e.g. no product finished) or "one sample" (no interval, no
+test); tests.csv says in its `note` why a test was skipped, and the plots say it in the panel
+(a metric without a value in any group has no plot).
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from hrc_drake.campaign.worker import KEY_COLUMNS, RUN_COLUMNS
 #: bootstrap resamples of the 95 % confidence interval of a mean
 BOOTSTRAP_RESAMPLES = 2000
 GROUP = ("scenario", "variant")
+NO_OK_RUNS, ALL_NAN, ONE_SAMPLE = "no ok runs", "all NaN", "one sample"
 
 
 def bootstrap_ci(
@@ -40,47 +46,60 @@ def bootstrap_ci(
 
 
 def metric_columns(runs, patterns: list[str]) -> list[str]:
-    """The numeric metric columns of `runs` the patterns name."""
+    """The numeric metric columns of `runs` the patterns name, with those that have no value at all
+    (reported as all NaN)."""
     candidates = [c for c in runs.columns if c not in (*KEY_COLUMNS, *RUN_COLUMNS)]
-    return [c for c in expand_metrics(patterns, candidates) if _numeric(runs[c]) is not None]
+    return [
+        c
+        for c in expand_metrics(patterns, candidates)
+        if runs[c].isna().all() or _numeric(runs[c]).notna().any()
+    ]
 
 
 def _numeric(column):
+    """`column` as floats, NaN where a value is missing or not a number."""
     import pandas as pd
 
-    values = pd.to_numeric(column, errors="coerce")
-    return values.astype(float) if values.notna().any() else None
+    return pd.to_numeric(column, errors="coerce").astype(float)
+
+
+def _groups(runs) -> list[tuple[tuple[str, str], object]]:
+    """((scenario, variant), the group's ok rows) of every group with a row, ok or not."""
+    return [(key, rows[rows["status"] == "ok"]) for key, rows in runs.groupby(list(GROUP), sort=True)]
+
+
+def _values(ok_rows, metric: str) -> np.ndarray:
+    """The values of `metric` in `ok_rows`, without NaN."""
+    return _numeric(ok_rows[metric]).dropna().to_numpy()
+
+
+def group_note(n_ok: int, n_values: int) -> str:
+    """Why a group has no or few values of a metric: "no ok runs", "all NaN", "one sample" or ""."""
+    if n_ok == 0:
+        return NO_OK_RUNS
+    if n_values == 0:
+        return ALL_NAN
+    return ONE_SAMPLE if n_values == 1 else ""
 
 
 def summary_table(runs, metrics: list[str], seed: int = 0):
-    """Per scenario, variant and metric: n, median, quartiles, IQR, mean and its 95 % bootstrap CI."""
+    """Per scenario, variant and metric: n, median, quartiles, IQR, mean and its 95 % bootstrap CI,
+    and a note on a group with no or one value (statistics NaN where they need more)."""
     import pandas as pd
 
     rng = np.random.default_rng(seed)
-    ok = runs[runs["status"] == "ok"]
     rows = []
-    for (scenario, variant), group in ok.groupby(list(GROUP), sort=True):
+    for (scenario, variant), ok_rows in _groups(runs):
         for metric in metrics:
-            values = _numeric(group[metric]).dropna().to_numpy() if metric in group else np.zeros(0)
-            if not len(values):
-                continue
-            q1, median, q3 = np.percentile(values, [25, 50, 75])
-            low, high = bootstrap_ci(values, rng)
-            rows.append(
-                {
-                    "scenario": scenario,
-                    "variant": variant,
-                    "metric": metric,
-                    "n": len(values),
-                    "median": median,
-                    "q1": q1,
-                    "q3": q3,
-                    "iqr": q3 - q1,
-                    "mean": float(values.mean()),
-                    "ci95_low": low,
-                    "ci95_high": high,
-                }
-            )
+            values = _values(ok_rows, metric)
+            row = {"scenario": scenario, "variant": variant, "metric": metric, "n": len(values)}
+            row["note"] = group_note(len(ok_rows), len(values))
+            if len(values):
+                q1, median, q3 = np.percentile(values, [25, 50, 75])
+                low, high = bootstrap_ci(values, rng)
+                row.update(median=median, q1=q1, q3=q3, iqr=q3 - q1, mean=float(values.mean()))
+                row.update(ci95_low=low, ci95_high=high)
+            rows.append(row)
     return pd.DataFrame(
         rows,
         columns=[
@@ -95,6 +114,7 @@ def summary_table(runs, metrics: list[str], seed: int = 0):
             "mean",
             "ci95_low",
             "ci95_high",
+            "note",
         ],
     )
 
@@ -149,26 +169,28 @@ def rank_sum_test(a, b, alternative: str = "two-sided") -> tuple[float, float, f
 
 def tests_table(runs, metrics: list[str], expect: list[dict]):
     """Paired and unpaired tests of every two variants of a scenario (and of every two scenarios
-    of a variant) on every metric."""
+    of a variant) on every metric; a test that cannot run has NaN results and a note why."""
     import pandas as pd
 
-    ok = runs[runs["status"] == "ok"]
     rows = []
     for fixed, varied in (("scenario", "variant"), ("variant", "scenario")):
-        for held, frame in ok.groupby(fixed, sort=True):
+        for held, frame in runs.groupby(fixed, sort=True):
             names = sorted(frame[varied].unique())
+            ok = frame[frame["status"] == "ok"]
             for first, second in itertools.combinations(names, 2):
-                a_rows, b_rows = frame[frame[varied] == first], frame[frame[varied] == second]
+                a_rows, b_rows = ok[ok[varied] == first], ok[ok[varied] == second]
                 for metric in metrics:
-                    if metric not in frame:
-                        continue
                     alternative, claim = ("two-sided", "")
                     if varied == "variant":
                         alternative, claim = _alternative(first, second, metric, expect)
                     a = _numeric(a_rows[metric])
                     b = _numeric(b_rows[metric])
-                    if a is None or b is None:
-                        continue
+                    side_notes = [
+                        f"{side}: {note}"
+                        for side, ok_rows, values in (("a", a_rows, a), ("b", b_rows, b))
+                        if (note := group_note(len(ok_rows), int(values.notna().sum())))
+                    ]
+                    skipped = f"skipped ({'; '.join(side_notes)})" if side_notes else ""
                     paired = (
                         pd.DataFrame({"seed": a_rows["seed"].to_numpy(), "a": a.to_numpy()})
                         .merge(
@@ -198,8 +220,9 @@ def tests_table(runs, metrics: list[str], expect: list[dict]):
                             "statistic": w,
                             "p": p_w,
                             "effect_size": matched_rank_biserial(paired["a"], paired["b"])
-                            if n_pairs
+                            if n_pairs and not skipped
                             else math.nan,
+                            "note": skipped or _paired_note(paired["a"], paired["b"]),
                         }
                     )
                     rows.append(
@@ -211,6 +234,7 @@ def tests_table(runs, metrics: list[str], expect: list[dict]):
                             "statistic": u,
                             "p": p_u,
                             "effect_size": r_u,
+                            "note": skipped,
                         }
                     )
     columns = [
@@ -230,8 +254,18 @@ def tests_table(runs, metrics: list[str], expect: list[dict]):
         "statistic",
         "p",
         "effect_size",
+        "note",
     ]
     return pd.DataFrame(rows, columns=columns)
+
+
+def _paired_note(a, b) -> str:
+    """Why `paired_test` gives NaN on these pairs, or ""."""
+    if len(a) < 2:
+        return "skipped (fewer than 2 seeds with values in both)"
+    if np.all(np.asarray(a, float) == np.asarray(b, float)):
+        return "skipped (every difference is zero)"
+    return ""
 
 
 def metric_label(metric: str) -> str:
@@ -246,30 +280,34 @@ def metric_label(metric: str) -> str:
 
 
 def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> list[Path]:
-    """One box plot and one ECDF figure per metric, a box / curve per (scenario, variant)."""
+    """One box plot and one ECDF figure per metric with values, a box / curve per (scenario,
+    variant); a group without values is named in the panel with the reason ("no ok runs", "all NaN")."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    ok = runs[runs["status"] == "ok"]
     groups = [
-        (f"{s}\n{v}" if ok["scenario"].nunique() > 1 else str(v), g)
-        for (s, v), g in ok.groupby(list(GROUP), sort=True)
+        (f"{s}\n{v}" if runs["scenario"].nunique() > 1 else str(v), ok_rows)
+        for (s, v), ok_rows in _groups(runs)
     ]
     paths = []
     for metric in metrics:
-        data = [
-            (label, _numeric(g[metric]).dropna().to_numpy() if metric in g else np.zeros(0))
-            for label, g in groups
-        ]
-        data = [(label, values) for label, values in data if len(values)]
-        if not data:
+        data = []
+        for label, ok_rows in groups:
+            values = _values(ok_rows, metric)
+            data.append((label, values, group_note(len(ok_rows), len(values))))
+        if not any(len(values) for _, values, _ in data):
             continue
         stem = metric.replace(".", "_")
         fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(data) + 2), 4))
-        ax.boxplot([v for _, v in data], showmeans=True)
-        ax.set_xticks(range(1, len(data) + 1), [label for label, _ in data])
+        drawn = [(k, values) for k, (_, values, _) in enumerate(data, start=1) if len(values)]
+        ax.boxplot([values for _, values in drawn], positions=[k for k, _ in drawn], showmeans=True)
+        for k, (_, _, note) in enumerate(data, start=1):
+            if note:
+                ax.text(k, 0.97, note, transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=8)
+        ax.set_xlim(0.5, len(data) + 0.5)
+        ax.set_xticks(range(1, len(data) + 1), [label for label, _, _ in data])
         ax.set_ylabel(metric_label(metric))
         ax.set_title(f"{title}: {metric}" if title else metric, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
@@ -278,9 +316,17 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
         fig.savefig(paths[-1], dpi=100)
         plt.close(fig)
         fig, ax = plt.subplots(figsize=(6, 4))
-        for label, values in data:
-            x = np.sort(values)
-            ax.step(x, np.arange(1, len(x) + 1) / len(x), where="post", label=label.replace("\n", " / "))
+        for label, values, note in data:
+            if len(values):
+                x = np.sort(values)
+                name = label.replace("\n", " / ") + (f" ({note})" if note else "")
+                marker = "o" if len(x) == 1 else None  # a step of one point draws no line
+                ax.step(x, np.arange(1, len(x) + 1) / len(x), where="post", label=name, marker=marker)
+        missing = [f"{label}: {note}".replace("\n", " / ") for label, values, note in data if not len(values)]
+        if missing:
+            box = {"facecolor": "white", "alpha": 0.8, "edgecolor": "none"}
+            text = "no values\n" + "\n".join(missing)
+            ax.text(0.98, 0.02, text, transform=ax.transAxes, ha="right", va="bottom", fontsize=8, bbox=box)
         ax.set_xlabel(metric_label(metric))
         ax.set_ylabel("fraction of runs")
         ax.set_title(f"{title}: ECDF of {metric}" if title else f"ECDF of {metric}", fontsize=10)
@@ -294,10 +340,13 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
 
 
 def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:
-    """summary.csv, tests.csv and the plots of `runs` in `out_dir`; returns their paths."""
+    """summary.csv, tests.csv and the plots of `runs` in `out_dir`; returns their paths. Without
+    ok rows the two tables are still written (only their groups, or empty), so no stale ones stay."""
+    import pandas as pd
+
     out_dir = Path(out_dir)
-    if runs.empty or not (runs["status"] == "ok").any():
-        return []
+    if runs.empty:
+        runs = pd.DataFrame(columns=[*KEY_COLUMNS, *RUN_COLUMNS])
     metrics = metric_columns(runs, description.get("metrics", []))
     summary = summary_table(runs, metrics)
     tests = tests_table(runs, metrics, description.get("expect", []))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import os
 import signal
 import sys
 import threading
@@ -19,9 +20,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hrc_drake.campaign.spec import Campaign, RunTask
-from hrc_drake.campaign.store import RunStore, check_output_dir
+from hrc_drake.campaign.store import (
+    CampaignLock,
+    RunStore,
+    archive_previous,
+    check_compatible,
+    check_output_dir,
+)
 from hrc_drake.campaign.worker import failed_row, run_task, warm_up
-from hrc_drake.errors import ScenarioError
+from hrc_drake.errors import EnvironmentFailure, ScenarioError
 
 #: seconds to reach a scheduler at --address before giving up
 CONNECT_TIMEOUT = 3.0
@@ -99,53 +106,78 @@ def run_campaign(
     progress=sys.stderr,
     analyze: bool = True,
     client=None,
+    new_spec: bool = False,
+    wait: float = 0.0,
 ) -> CampaignOutcome:
-    """Run the campaign's runs not yet in DIR/runs.parquet; write the rows, replays, analysis.
+    """Run the campaign's runs not yet in DIR; write the rows, replays, analysis.
 
     workers: worker processes of the embedded `LocalCluster`; 0 runs every run in this process,
     one after the other (no Dask). address: an existing scheduler (tcp://HOST:PORT) instead.
     client: an existing `distributed.Client` to use (and leave open) instead of either.
+    new_spec: move an earlier campaign's results in DIR aside (`store.archive_previous`) instead of
+    refusing a spec whose runs differ from them. wait: seconds to wait for a folder another
+    campaign holds (`store.CampaignLock`). An interruption (Ctrl-C, SIGTERM) propagates after the
+    finished rows are saved; a run it cut short is not a row.
     """
     out_dir = Path(out_dir)
-    check_output_dir(out_dir)
     if workers < 0:
         raise ScenarioError("", "--workers", f"must be >= 0, got {workers}")
-    store = RunStore(out_dir)
-    (out_dir / "campaign.json").write_text(json.dumps(campaign.describe(), indent=2))
-    tasks = campaign.tasks()
-    todo = [
-        t
-        for t in tasks
-        if not store.is_done(t.key, t.config_hash) or (t.replay and not replay_path(out_dir, t).is_file())
-    ]
-    skipped = len(tasks) - len(todo)
+    check_output_dir(out_dir)
+    with CampaignLock(out_dir, wait, progress):
+        if new_spec:
+            moved = archive_previous(out_dir)
+            if moved is not None and progress is not None:
+                print(f"the earlier results are in {moved}", file=progress, flush=True)
+        store = _environment(lambda: RunStore(out_dir), f"cannot read or update the table in {out_dir}")
+        try:
+            return _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client)
+        finally:
+            store.close()
+
+
+def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client) -> CampaignOutcome:
+    hashes = campaign.config_hashes()
+    check_compatible(store.rows(), campaign.duration, hashes, out_dir)
+    _environment(lambda: _write_description(out_dir, campaign), f"cannot write {out_dir / 'campaign.json'}")
+
+    def todo(task: RunTask) -> bool:
+        return not store.is_done(task.key, task.config_hash) or (
+            task.replay and not replay_path(out_dir, task).is_file())
+
+    total = campaign.run_count
+    remaining = sum(1 for t in campaign.iter_tasks() if todo(t))  # counted, not held: specs may be large
+    skipped = total - remaining
     if progress is not None and skipped:
-        print(f"resuming: {skipped} of {len(tasks)} runs are done", file=progress, flush=True)
-    bar = Progress(len(todo), progress, label=campaign.name)
+        print(f"resuming: {skipped} of {total} runs are done", file=progress, flush=True)
+    bar = Progress(remaining, progress, label=campaign.name)
     start = time.perf_counter()
     dashboard = ""
+    pending = (t for t in campaign.iter_tasks() if todo(t))
+    interrupted = True
     try:
-        if not todo:
-            pass
-        elif client is not None:
-            dashboard = _announce_dashboard(client, progress, local=False)
-            _run_on(client, todo, store, bar, out_dir)
+        if client is not None:
+            if remaining:
+                dashboard = _announce_dashboard(client, progress, local=False)
+                _run_on(client, pending, store, bar, out_dir)
         elif address is None and workers == 0:
-            for task in todo:
+            for task in pending:
                 _record(run_task(task), task, store, bar, out_dir)
-        else:
+        elif remaining:
             with ClusterClient(address, workers) as own_client:
                 dashboard = _announce_dashboard(own_client, progress, local=address is None)
-                _run_on(own_client, todo, store, bar, out_dir)
+                _run_on(own_client, pending, store, bar, out_dir, address)
+        else:
+            check_scheduler(address)  # nothing to run, but a wrong address is still an error
+        interrupted = False
     finally:
-        store.flush()
-    rows = store.frame()
+        _flush(store, out_dir, quiet=interrupted)
+    rows = campaign_rows(store.frame(), campaign, hashes)
     if analyze:
         from hrc_drake.campaign.analysis import analyze_campaign
 
         analyze_campaign(rows, campaign.describe(), out_dir)
     return CampaignOutcome(
-        total=len(tasks),
+        total=total,
         skipped=skipped,
         ran=bar.done,
         failed=bar.failed,
@@ -155,51 +187,168 @@ def run_campaign(
     )
 
 
+def _environment(action, what: str):
+    """`action()`, an OSError of it an `EnvironmentFailure` saying `what` failed."""
+    try:
+        return action()
+    except OSError as err:
+        raise EnvironmentFailure(f"{what}: {err.strerror or err}") from None
+
+
+def _flush(store: RunStore, out_dir: Path, quiet: bool) -> None:
+    """Write the table at the end; when another exception is on its way (quiet), only say so."""
+    try:
+        store.flush()
+    except OSError as err:
+        message = (f"cannot rewrite {store.path} ({err.strerror or err}); the finished runs are kept in "
+                   f"{store.journal_path} and join the table on the next run of the campaign")
+        if not quiet:
+            raise EnvironmentFailure(message) from None
+        print(f"warning: {message}", file=sys.stderr, flush=True)
+
+
+def _write_description(out_dir: Path, campaign: Campaign) -> None:
+    """DIR/campaign.json: the campaign, the configuration of each (scenario, variant), the code."""
+    from hrc_drake.provenance import code_version
+
+    description = campaign.describe()
+    description["configurations"] = {f"{s}/{v}": h for (s, v), h in campaign.config_hashes().items()}
+    description["code_version"] = code_version()
+    path = Path(out_dir) / "campaign.json"
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(description, indent=2))
+    os.replace(tmp, path)
+
+
+def campaign_rows(frame, campaign: Campaign, hashes: dict):
+    """The rows of `frame` that are runs of `campaign` as it is now (its seeds, scenarios and
+    variants with their current configuration): rows an earlier, wider spec left are kept in
+    the table but not analysed."""
+    if frame.empty:
+        return frame
+    wanted = frame["config_hash"] == [hashes.get((s, v)) for s, v in zip(frame["scenario"], frame["variant"],
+                                                                         strict=True)]
+    wanted &= frame["seed"].isin(campaign.seeds)
+    return frame[wanted].reset_index(drop=True)
+
+
 def replay_path(out_dir: Path, task: RunTask) -> Path:
     return Path(out_dir) / "replays" / f"{task.scenario}__{task.variant}__{task.seed}.html"
 
 
 def _record(outcome: dict, task: RunTask, store: RunStore, bar: Progress, out_dir: Path) -> None:
     row = outcome["row"]
+    what = f"run {task.scenario}/{task.variant} seed {task.seed} finished, but"
     if outcome.get("replay_html") is not None:
         path = replay_path(out_dir, task)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(outcome["replay_html"])
-    store.add(row)
+
+        def write():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(outcome["replay_html"])
+
+        _environment(write, f"{what} its replay cannot be written to {path}; the campaign stopped with the "
+                            "earlier runs saved")
+    _environment(lambda: store.add(row), f"{what} its row cannot be written to {store.journal_path} (it is "
+                                         "lost); the campaign stopped with the earlier runs saved")
     bar.update(row["status"] == "ok")
 
 
-def _run_on(client, todo: list[RunTask], store: RunStore, bar: Progress, out_dir: Path) -> None:
-    """Submit every run, record each as it finishes (cancel the rest on Ctrl-C)."""
+#: runs submitted per worker at a time: a huge spec starts at once and stops promptly
+IN_FLIGHT_PER_WORKER = 2
+#: seconds the client may be without its scheduler before the campaign gives up (it reconnects
+#: meanwhile: a scheduler restarted at the same address takes the runs again)
+SCHEDULER_LOST_TIMEOUT = 30.0
+#: how often the loop looks for finished runs and the scheduler's health (s)
+POLL_INTERVAL = 0.1
+
+
+class SchedulerLost(EnvironmentFailure):
+    """The Dask scheduler stopped answering during a campaign."""
+
+
+def _run_on(client, pending, store: RunStore, bar: Progress, out_dir: Path, address: str | None = None
+            ) -> None:
+    """Submit the `pending` runs a few per worker at a time, record each as it finishes; stop on
+    a lost scheduler (`SchedulerLost`) or an interruption, cancelling what is left."""
     from distributed import as_completed
 
     client.run_on_scheduler(_allow_worker_deaths, ALLOWED_WORKER_DEATHS)
-    futures = {}
-    for task in todo:
-        key = f"hrc-run-{task.scenario}-{task.variant}-{task.seed}-{task.config_hash}"
-        futures[client.submit(run_task, task, key=key, pure=False)] = task
-    finished = as_completed(futures)
+    n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+    in_flight = IN_FLIGHT_PER_WORKER * n_workers
+    futures: dict = {}
+    finished = as_completed()
+    attempts: dict[tuple, int] = {}
+    orphans: list[RunTask] = []
+    lost_since = None
+
+    def submit(task: RunTask) -> None:
+        attempt = attempts.get(task.key, 0)
+        attempts[task.key] = attempt + 1
+        key = f"hrc-run-{task.scenario}-{task.variant}-{task.seed}-{task.config_hash}" + (
+            f"-{attempt}" if attempt else "")
+        future = client.submit(run_task, task, key=key, pure=False)
+        futures[future] = task
+        finished.add(future)
+
+    def top_up() -> None:
+        while len(futures) < in_flight and client.status == "running":
+            task = next(pending, None)
+            if task is None:
+                return
+            submit(task)
+
     try:
-        for future in finished:
-            task = futures[future]
-            outcome = None
-            if future.status == "finished":
-                try:
-                    outcome = future.result()
-                except Exception:  # noqa: BLE001 - lost with its worker between the two calls
-                    outcome = None
-            elif future.status == "error":
-                outcome = {"row": failed_row(task, _death_message(future.exception())), "replay_html": None}
-            if outcome is None:
-                # the result died with the worker that held it: the scheduler computes it again
-                finished.add(future)
+        top_up()
+        while futures or orphans:
+            batch = finished.next_batch(block=False) if finished.has_ready() else []
+            if not batch:
+                if client.status == "running":
+                    lost_since = None
+                    while orphans:  # the scheduler is back: its forgotten runs again
+                        submit(orphans.pop())
+                else:
+                    lost_since = lost_since or time.monotonic()
+                    if client.status == "closed" or time.monotonic() - lost_since > SCHEDULER_LOST_TIMEOUT:
+                        raise SchedulerLost(_lost_message(address, bar, store))
+                time.sleep(POLL_INTERVAL)
                 continue
-            del futures[future]
-            future.release()
-            _record(outcome, task, store, bar, out_dir)
+            for future in batch:
+                task = futures.pop(future)
+                outcome = _outcome(future, task)
+                if outcome is None and future.status == "finished":
+                    # the result died with the worker that held it: the scheduler computes it again
+                    futures[future] = task
+                    finished.add(future)
+                    continue
+                future.release()
+                if outcome is None:  # cancelled: the scheduler forgot it (lost, or restarted)
+                    orphans.append(task)
+                    continue
+                _record(outcome, task, store, bar, out_dir)
+            top_up()
     finally:
-        if futures:
+        if futures and client.status == "running":
             client.cancel(list(futures))
+
+
+def _outcome(future, task: RunTask) -> dict | None:
+    """The run's outcome, a failed row for an error, None when it has none (yet)."""
+    if future.status == "finished":
+        try:
+            return future.result()
+        except Exception:  # noqa: BLE001 - lost with its worker between the two calls
+            return None
+    if future.status == "error":
+        return {"row": failed_row(task, _death_message(future.exception())), "replay_html": None}
+    return None
+
+
+def _lost_message(address: str | None, bar: Progress, store: RunStore) -> str:
+    quiet_interrupted_shutdown()  # the client's own reconnect errors: this message says it
+    where = f"at {address}" if address else "of the local cluster"
+    return (f"lost the Dask scheduler {where} (no answer for {SCHEDULER_LOST_TIMEOUT:g} s, or the client "
+            f"gave up reconnecting); {bar.done} run(s) finished and are saved in {store.out_dir}: restart "
+            "the scheduler and its workers, then run the same command to resume")
 
 
 def _death_message(err) -> str:
@@ -217,6 +366,31 @@ def _allow_worker_deaths(deaths: int, dask_scheduler=None) -> None:
     dask_scheduler.allowed_failures = deaths
 
 
+#: the address the embedded cluster serves on (its scheduler, workers and dashboard)
+LOOPBACK = "127.0.0.1"
+
+
+def connect(address: str):
+    """A client of the scheduler at `address`; `ScenarioError` on --address when none answers."""
+    from distributed import Client
+
+    try:
+        return Client(address, timeout=f"{CONNECT_TIMEOUT:g}s")
+    except (OSError, TimeoutError, ValueError) as err:
+        raise ScenarioError(
+            "",
+            "--address",
+            f"no Dask scheduler answers at {address} within {CONNECT_TIMEOUT:g} s "
+            f"({type(err).__name__}: {err})",
+        ) from None
+
+
+def check_scheduler(address: str | None) -> None:
+    """A scheduler answers at `address` (nothing to check without one)."""
+    if address:
+        connect(address).close()
+
+
 class ClusterClient:
     """A client of the scheduler at `address`, or of a new `LocalCluster` of `workers` processes
     (one thread each: a cell is single-threaded Python), its workers warm (pydrake and the cell
@@ -230,15 +404,7 @@ class ClusterClient:
         from distributed import Client, LocalCluster
 
         if self.address:
-            try:
-                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT:g}s")
-            except (OSError, TimeoutError, ValueError) as err:
-                raise ScenarioError(
-                    "",
-                    "--address",
-                    f"no Dask scheduler answers at {self.address} within "
-                    f"{CONNECT_TIMEOUT:g} s ({type(err).__name__}: {err})",
-                ) from None
+            self.client = connect(self.address)
             try:
                 self.client.wait_for_workers(1, timeout=WORKERS_TIMEOUT)
             except (OSError, TimeoutError) as err:
@@ -260,11 +426,13 @@ class ClusterClient:
                 "distributed.scheduler.worker-saturation": 1.0,
             }
             with dask.config.set(settings):
+                # loopback only: the scheduler, its unauthenticated dashboard and the workers
                 self.cluster = LocalCluster(
                     n_workers=self.workers,
                     threads_per_worker=1,
                     processes=True,
-                    dashboard_address=":0" if _has_dashboard() else None,
+                    host=LOOPBACK,
+                    dashboard_address=f"{LOOPBACK}:0" if _has_dashboard() else None,
                     silence_logs=logging.ERROR,
                 )
             self.client = Client(self.cluster)

@@ -33,10 +33,12 @@ from hrc_drake.cell.scenario import (
 )
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
-from hrc_drake.errors import ScenarioError
+from hrc_drake.errors import ScenarioError, check_input_file
 
-#: the most runs one campaign may hold (scenarios x variants x seeds)
-MAX_RUNS = 1_000_000
+#: the most runs one campaign may hold (scenarios x variants x seeds): 100,000 runs of a fast
+#: 120 s cell are ~3 CPU-days; a larger study is several campaigns (each folder's table and
+#: resume stay quick: the table is rewritten whole, ~12 s at this size)
+MAX_RUNS = 100_000
 #: a variant's or a scenario's label: it names files and table cells
 LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]*$")
 #: the metrics a campaign compares unless its file says which (`*` matches any agent or product)
@@ -154,30 +156,41 @@ class Campaign:
     #: extra-metrics functions run after every run (`campaign.extras`)
     extra_metrics: list[str] = field(default_factory=list)
 
-    def tasks(self) -> list[RunTask]:
-        """Every run, seed by seed (an interrupted campaign holds whole seeds of every variant)."""
-        hashes = {
+    @property
+    def run_count(self) -> int:
+        return len(self.seeds) * len(self.scenarios) * len(self.variants)
+
+    def config_hashes(self) -> dict[tuple[str, str], str]:
+        """(scenario, variant) -> the hash of its configuration (`RunTask.config_hash`)."""
+        return {
             (s, v): _config_hash(self.scenarios[s], self.variants[v], self.duration, self.extra_metrics)
             for s in self.scenarios
             for v in self.variants
         }
-        return [
-            RunTask(
-                scenario=s,
-                scenario_path=str(self.scenarios[s]),
-                variant=v,
-                overrides=self.variants[v],
-                seed=seed,
-                duration=self.duration,
-                config_hash=hashes[s, v],
-                replay=(s, v, seed) in self.replays,
-                replay_fps=self.replay_fps,
-                extra_metrics=tuple(self.extra_metrics),
-            )
-            for seed in self.seeds
-            for s in self.scenarios
-            for v in self.variants
-        ]
+
+    def iter_tasks(self):
+        """Every run, seed by seed (an interrupted campaign holds whole seeds of every variant),
+        made as they are asked for."""
+        hashes = self.config_hashes()
+        for seed in self.seeds:
+            for s in self.scenarios:
+                for v in self.variants:
+                    yield RunTask(
+                        scenario=s,
+                        scenario_path=str(self.scenarios[s]),
+                        variant=v,
+                        overrides=self.variants[v],
+                        seed=seed,
+                        duration=self.duration,
+                        config_hash=hashes[s, v],
+                        replay=(s, v, seed) in self.replays,
+                        replay_fps=self.replay_fps,
+                        extra_metrics=tuple(self.extra_metrics),
+                    )
+
+    def tasks(self) -> list[RunTask]:
+        """Every run, as `iter_tasks` makes them."""
+        return list(self.iter_tasks())
 
     def describe(self) -> dict:
         """The campaign as plain values, for DIR/campaign.json and `hrc-drake compare`."""
@@ -186,13 +199,20 @@ class Campaign:
             "description": self.description,
             "file": str(self.file),
             "duration": self.duration,
-            "seeds": self.seeds,
+            "seeds": _compact_seeds(self.seeds),
             "scenarios": {k: str(v) for k, v in self.scenarios.items()},
             "variants": {k: dump_raw(v) for k, v in self.variants.items()},
             "metrics": self.metrics,
             "expect": [dataclasses.asdict(e) for e in self.expect],
             "extra_metrics": self.extra_metrics,
         }
+
+
+def _compact_seeds(seeds: list[int]):
+    """The seeds as {first, count} when they are consecutive (campaign.json stays small)."""
+    if len(seeds) > 2 and seeds == list(range(seeds[0], seeds[0] + len(seeds))):
+        return {"first": seeds[0], "count": len(seeds)}
+    return list(seeds)
 
 
 def _config_hash(scenario_path: Path, overrides: dict, duration: float, extra_metrics=()) -> str:
@@ -205,6 +225,7 @@ def _config_hash(scenario_path: Path, overrides: dict, duration: float, extra_me
 def load_campaign(path: str | Path) -> Campaign:
     """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
     path = Path(path)
+    check_input_file(path, "campaign")
     return make_campaign(_read_raw(path), path)
 
 
@@ -247,7 +268,8 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
     variants = _variants(path, raw.get("variants"))
     if len(seeds) * len(scenarios) * len(variants) > MAX_RUNS:
         raise ScenarioError(
-            path, "seeds", f"{len(seeds) * len(scenarios) * len(variants)} runs: at most {MAX_RUNS}"
+            path, "seeds", f"{len(seeds) * len(scenarios) * len(variants)} runs: at most {MAX_RUNS} "
+            "per campaign (split the seeds over several campaigns)"
         )
     metric_names = {}
     for label, scenario_path in scenarios.items():
@@ -331,7 +353,7 @@ def _read_raw(path: Path) -> dict:
     if path.stat().st_size > MAX_SCENARIO_BYTES:
         raise ScenarioError(path, "", "too large for a campaign file")
     try:
-        raw = _raw_document(path.read_bytes().decode("utf-8"))
+        raw = _raw_document(path.read_bytes().decode("utf-8"), path)  # refuses alias bombs
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
     except yaml.YAMLError as err:

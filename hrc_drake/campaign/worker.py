@@ -66,6 +66,11 @@ def run_task(task: RunTask) -> dict:
             fps = replay_fps_within(task.replay_fps, task.duration)
         cell = build_cell(scenario, task.scenario_path, meshcat=meshcat, replay_fps=fps)
         result = simulate(cell, task.duration, progress=None, record=task.replay)
+        if result.interrupted:
+            # a run cut short is never a row: the campaign stops, and a resume runs it again
+            from hrc_drake.interrupts import interruption
+
+            raise interruption(result.stopped_by)
         row.update(flatten_metrics(result.metrics))
         if task.extra_metrics:
             from hrc_drake.campaign.extras import extra_columns

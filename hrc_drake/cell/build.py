@@ -78,6 +78,8 @@ class Cell:
     shared_actions: dict[str, tuple[str, ...]] = field(default_factory=dict)
     meshcat: object = None
     visualizer: object = None
+    #: the scenario file it was built from
+    scenario_path: str = "<scenario>"
 
     def system(self, name: str):
         """The subsystem called `name` (e.g. "metrics", "cell_world", "tracker", "scheduler")."""
@@ -551,6 +553,7 @@ def build_cell(
         shared_actions={a.name: tuple(a.agents) for a in scenario.flow.actions if len(a.agents) > 1},
         meshcat=meshcat,
         visualizer=visualizer,
+        scenario_path=str(scenario_path),
     )
 
 

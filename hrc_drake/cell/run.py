@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import json
+import signal
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import EventStatus
 from threadpoolctl import threadpool_limits
 
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
 from hrc_drake.cell.metrics import MetricsLog, plot_collaboration, plot_gantt, summarize, write_events_csv
+from hrc_drake.interrupts import signal_of, stop_requested_by_signals
 from hrc_drake.safety.report import plot_safety
 
 
@@ -26,8 +29,12 @@ class RunResult:
     simulated_time: float
     log: MetricsLog
     context: object
-    #: the run was stopped (Ctrl-C) before `duration`: the figures cover `simulated_time` only
+    #: the run was stopped (Ctrl-C, SIGTERM) before `duration`: the figures cover `simulated_time` only
     interrupted: bool = False
+    #: the simulated time asked for (s)
+    duration: float = 0.0
+    #: the signal that stopped it (signal.SIGINT or SIGTERM), None when it ran to `duration`
+    stopped_by: int | None = None
 
 
 def simulate(
@@ -42,7 +49,8 @@ def simulate(
 
     realtime_rate: 0 runs as fast as possible; 1 paces the run with the wall clock (live view).
     Every call runs in a new Context: one built cell can be simulated again. Ctrl-C stops the
-    run: the result then covers the time simulated so far, with `interrupted` set.
+    run (SIGTERM too, `interrupts`): the result then covers the time simulated so far, with
+    `interrupted` and `stopped_by` set.
     """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
@@ -57,20 +65,32 @@ def simulate(
     # On a terminal one line is rewritten in place; in a log, a line every 10 %.
     interactive = progress is not None and getattr(progress, "isatty", lambda: False)()
     start = time.perf_counter()
-    interrupted = False
     # One BLAS thread: a cell's matrices are small (at most 100 x 100), where OpenBLAS's extra
     # threads only spin (torch_segmentation: 33 % more CPU for the same wall time), and seeded
     # runs side by side (campaigns) use the other cores.
-    with threadpool_limits(limits=1, user_api="blas"):
-        simulator.Initialize()
+    with threadpool_limits(limits=1, user_api="blas"), stop_requested_by_signals() as stop:
+        # a signal only sets `stop`; the monitor ends the step it lands in (`interrupts`)
+        diagram = cell.diagram
+        simulator.set_monitor(
+            lambda _: EventStatus.ReachedTermination(diagram, "stop requested by a signal") if stop else None)
         try:
+            simulator.Initialize()
             for k in range(1, chunks + 1):
                 simulator.AdvanceTo(duration * k / chunks)
+                if stop:
+                    break
                 if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
                     _print_progress(progress, interactive, simulator, world_system, world_context, k, chunks,
                                     duration, time.perf_counter() - start)
-        except KeyboardInterrupt:
-            interrupted = True
+        except KeyboardInterrupt as err:
+            stop.signum = stop.signum or signal_of(err)
+        except SystemError as err:
+            # an interruption raised inside a compiled kernel (numba reports it so)
+            if not isinstance(err.__context__ or err.__cause__, KeyboardInterrupt):
+                raise
+            stop.signum = stop.signum or signal_of(err.__context__ or err.__cause__)
+        interrupted = bool(stop) and context.get_time() < duration
+        stopped_by = stop.signum
     wall = time.perf_counter() - start
     if interactive:
         print(file=progress)
@@ -86,8 +106,10 @@ def simulate(
     metrics["safety"] = {**(metrics.get("safety") or {}), **cell.safety(context)}
     if interrupted:
         metrics["interrupted"] = True
+        metrics["stopped_by"] = signal.Signals(stopped_by).name
     return RunResult(metrics=metrics, wall_time=wall, simulated_time=end_time, log=log, context=context,
-                     interrupted=interrupted)
+                     interrupted=interrupted, duration=duration,
+                     stopped_by=stopped_by if interrupted else None)
 
 
 def _print_progress(progress, interactive: bool, simulator, world_system, world_context, k: int, chunks: int,
@@ -121,14 +143,31 @@ def write_replay(cell: Cell, path: Path) -> int:
     return path.stat().st_size
 
 
+#: the files `write_report` may write: an earlier run's are removed first, so a folder never
+#: holds one run's results beside another's plots
+REPORT_FILES = ("metrics.json", "events.csv", "gantt.png", "safety.png", "collaboration.png")
+
+
+def run_header(cell: Cell, result: RunResult) -> dict:
+    """What metrics.json says it is: the scenario file, seed, duration asked and simulated, the code."""
+    from hrc_drake.provenance import code_version
+
+    return {"scenario": cell.scenario_path, "seed": cell.scenario.seed, "duration": result.duration,
+            "simulated_time": result.simulated_time, "interrupted": result.interrupted,
+            "code_version": code_version()}
+
+
 def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
-    """metrics.json, events.csv, gantt.png and safety.png (separation against S_p, contacts, worst
-    ratio per body region) in `out_dir`; with a use case a robot and a predictor also
-    collaboration.png (thesis Fig. 5.15)."""
+    """metrics.json (headed by `run_header`), events.csv, gantt.png and safety.png (separation
+    against S_p, contacts, worst ratio per body region) in `out_dir`; with a use case a robot and
+    a predictor also collaboration.png (thesis Fig. 5.15). An earlier run's `REPORT_FILES` there
+    are removed first."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    for name in REPORT_FILES:
+        (out_dir / name).unlink(missing_ok=True)
     metrics_path = out_dir / "metrics.json"
-    metrics_path.write_text(json.dumps(result.metrics, indent=2))
+    metrics_path.write_text(json.dumps({"run": run_header(cell, result), **result.metrics}, indent=2))
     events_path = out_dir / "events.csv"
     write_events_csv(events_path, result.log.events, result.log.perceived_events)
     gantt_path = out_dir / "gantt.png"

@@ -35,7 +35,7 @@ from hrc_drake.config_common import (
     MIN_TIME_STEP,
 )
 from hrc_drake.distributions import Distribution, validate_distribution
-from hrc_drake.errors import ScenarioError
+from hrc_drake.errors import ScenarioError, check_input_file
 from hrc_drake.robots.registry import ROBOT_MODELS
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
@@ -108,33 +108,91 @@ _ScenarioYamlLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_T
 _ScenarioYamlLoader.add_multi_constructor("!", _tagged)
 
 
-def _raw_document(text: str):
+def _raw_document(text: str, file: str | Path = "<scenario>"):
     """The document as plain mappings, lists and scalars, only to name the field at fault in
     errors (safe constructors only: `_ScenarioYamlLoader` is a SafeLoader). The scenario itself
-    is read by pydrake's typed loader."""
+    is read by pydrake's typed loader. Checked by `_check_shape` before it is built, so
+    `ScenarioError(file, ...)` when it nests too deeply or its aliases expand it too far."""
     loader = _ScenarioYamlLoader(text)
     try:
-        return loader.get_single_data()
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_shape(node, file)
+        return loader.construct_document(node)
     finally:
         loader.dispose()
 
 
 #: Deepest nesting of mappings and lists a scenario may have (the shipped ones have 6).
 MAX_NESTING = 50
+#: Most nodes (scalars, lists, mappings) the aliases (`*name`) of a document may add when expanded:
+#: 100x the largest shipped file (about 1,100 nodes, no aliases). pydrake's typed loader expands
+#: aliases and reads 100,000 nodes in about 0.4 s; a "billion laughs" of a few hundred bytes adds
+#: 10^9. The nodes written out in the file are bounded by MAX_SCENARIO_BYTES instead.
+MAX_EXPANDED_NODES = 100_000
 
 
-def _nesting_depth(node) -> int:
-    """How deeply mappings and lists nest in `node`, without recursion (the C parser builds
-    documents deeper than Python's recursion limit)."""
-    deepest, stack = 0, [(node, 1)]
+def _children(node) -> list:
+    """The nodes directly under a composed YAML node (a mapping's keys and values, in order)."""
+    if isinstance(node, yaml.MappingNode):
+        return [child for pair in node.value for child in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
+
+def _field_path(stack: list) -> str:
+    """The field path (`layout.buffers[0]`) of the node on top of `_check_shape`'s stack."""
+    parts = []
+    for parent, children, k in stack[:-1]:  # k - 1: the child being walked
+        if isinstance(parent, yaml.SequenceNode):
+            parts.append(f"[{k - 1}]")
+        else:
+            key = children[(k - 1) // 2 * 2]
+            name = key.value if isinstance(key, yaml.ScalarNode) else "<key>"
+            parts.append(("." if parts else "") + str(name))
+    return "".join(parts)
+
+
+def _check_shape(root, file) -> None:
+    """Refuse a composed YAML document nesting deeper than MAX_NESTING, or whose aliases add more
+    than MAX_EXPANDED_NODES values when expanded or refer to what holds them; name the field.
+
+    An alias is its anchor's node object, so each node is visited once and its expanded size and
+    depth memoised: the cost is the file's size, never the expansion (no recursion either)."""
+    shape: dict[int, tuple[int, int]] = {}  # id(node) -> (nodes with aliases expanded, depth)
+    added = 0  # values the aliases met so far add when expanded
+    open_nodes = {id(root)}
+    stack = [[root, _children(root), 0]]  # node, its children, the next child to walk
     while stack:
-        item, depth = stack.pop()
-        if isinstance(item, (dict, list)):
-            deepest = max(deepest, depth)
-            if depth <= MAX_NESTING:
-                children = item.values() if isinstance(item, dict) else item
-                stack.extend((child, depth + 1) for child in children)
-    return deepest
+        frame = stack[-1]
+        node, children, k = frame
+        if k < len(children):
+            frame[2] += 1
+            child = children[k]
+            if id(child) in open_nodes:
+                raise ScenarioError(file, _field_path(stack),
+                                    "an alias (*name) refers to the list or mapping that holds it")
+            if id(child) in shape:  # seen before: an alias
+                added += shape[id(child)][0]
+                if added > MAX_EXPANDED_NODES:
+                    raise ScenarioError(file, _field_path([*stack, None]),
+                                        f"the aliases (*name) up to this one expand to {added:,} values, "
+                                        f"more than {MAX_EXPANDED_NODES:,}: write the values out or use "
+                                        "fewer aliases")
+            else:
+                open_nodes.add(id(child))
+                stack.append([child, _children(child), 0])
+            continue
+        sizes = [shape[id(c)] for c in children]
+        depth = (1 + max((d for _, d in sizes), default=0)) if isinstance(node, yaml.CollectionNode) else 0
+        if depth > MAX_NESTING:
+            raise ScenarioError(file, "", f"nested too deeply (more than {MAX_NESTING} levels of lists "
+                                          "and mappings)")
+        shape[id(node)] = (1 + sum(n for n, _ in sizes), depth)
+        open_nodes.discard(id(node))
+        stack.pop()
 
 
 def _union_members(tp) -> tuple:
@@ -230,8 +288,7 @@ MAX_EXTENDS = 8
 def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
     """Read, type and check a scenario file; raise `ScenarioError` on any problem."""
     path = Path(path)
-    if not path.is_file():
-        raise ScenarioError(path, "", "no such file")
+    check_input_file(path)
     size = path.stat().st_size
     if size > MAX_SCENARIO_BYTES:
         raise ScenarioError(path, "", f"{size / 1e6:.1f} MB is too large for a scenario (at most "
@@ -246,13 +303,11 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
 def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
     """`load_scenario`'s steps on `text`, read as the file `path` (relative names from its folder)."""
     try:
-        raw = _raw_document(text)
+        raw = _raw_document(text, path)
     except yaml.YAMLError as err:
         raise ScenarioError(path, "", f"not valid YAML: {err}") from err
     except RecursionError:
         raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
-    if _nesting_depth(raw) > MAX_NESTING:
-        raise ScenarioError(path, "", f"nested too deeply to be a scenario (more than {MAX_NESTING} levels)")
     if not isinstance(raw, dict):
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
     _check_keys(raw, Scenario, "", str(path))
@@ -323,7 +378,7 @@ def load_scenario_with(
         raise ScenarioError(path, "", f"overrides must be a mapping of scenario fields, got {overrides!r}")
     if check_file_alone:
         load_scenario(path)  # the file alone first: its own problems are named as its own
-    raw = _raw_document(path.read_bytes().decode("utf-8"))
+    raw = _raw_document(path.read_bytes().decode("utf-8"), path)
     return _load_text(path, dump_raw(merge_raw(raw, overrides)), check_reachability)
 
 

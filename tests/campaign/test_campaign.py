@@ -129,9 +129,11 @@ def test_an_interrupted_campaign_keeps_its_rows_and_resumes(sequential, tmp_path
     pd.testing.assert_frame_equal(_comparable(pd.read_parquet(out / "runs.parquet")), _comparable(expected))
     again = run_campaign(campaign, out, workers=0, progress=None)
     assert (again.skipped, again.ran) == (4, 0)
-    # a changed variant runs again: the rows of the old configuration do not count
+    # a changed variant is another configuration: refused, or its rows moved aside with new_spec
     changed = _spec(tmp_path, SPEC.replace("wait_quantum: 5.0", "wait_quantum: 4.0"))
-    assert run_campaign(load_campaign(changed), out, workers=0, progress=None).ran == 2
+    with pytest.raises(ScenarioError, match="overrides of torch_clock/rr changed"):
+        run_campaign(load_campaign(changed), out, workers=0, progress=None)
+    assert run_campaign(load_campaign(changed), out, workers=0, progress=None, new_spec=True).ran == 4
 
 
 def test_a_worker_that_dies_is_retried_once_then_its_run_is_failed(sequential, tmp_path, monkeypatch):
@@ -360,9 +362,12 @@ def test_extra_metrics_from_the_python_api_are_columns_of_the_rows(tmp_path):
     # the rows read back (lists as arrays) are written again, and the run counts as done
     again = run_campaign(campaign, tmp_path / "out", workers=0, progress=None, analyze=False)
     assert (again.skipped, again.ran) == (1, 0)
-    document["extra_metrics"] = ["per_product"]  # other columns asked: the run is not done
+    document["extra_metrics"] = ["per_product"]  # other columns asked: another configuration
+    with pytest.raises(ScenarioError, match="another campaign configuration"):
+        run_campaign(make_campaign(document, tmp_path / "extras.campaign"), tmp_path / "out", workers=0,
+                     progress=None, analyze=False)
     changed = run_campaign(make_campaign(document, tmp_path / "extras.campaign"), tmp_path / "out",
-                           workers=0, progress=None, analyze=False)
+                           workers=0, progress=None, analyze=False, new_spec=True)
     assert (changed.skipped, changed.ran) == (0, 1)
 
 
@@ -424,5 +429,5 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_pat
     finally:
         proc.kill()
     assert proc.returncode == EXIT_INTERRUPTED, err
-    assert "interrupted: the finished runs are in" in err
+    assert "interrupted before any run finished: nothing was saved" in err
     assert "Traceback" not in err and "ERROR" not in err, err
