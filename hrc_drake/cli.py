@@ -280,6 +280,9 @@ def _print_results(out: Path) -> None:
             table = pd.read_csv(path)
             if name == "tests.csv":
                 table = table[table["test"] == "wilcoxon_signed_rank"]
+            if table.empty:
+                print(f"{path}: no rows (no finished run with values to summarise or test)")
+                continue
             with pd.option_context("display.width", 160, "display.max_columns", 20, "display.max_rows", 60):
                 print(f"{path}:\n{table.to_string(index=False, float_format=lambda x: f'{x:.4g}')}")
 
