@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
-from pathlib import Path
 
 import numpy as np
 
+from hrc_drake.datasets import data_root
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.config import Segments
@@ -30,11 +29,6 @@ def median_time(fn, repeats: int, inner: int = 1) -> float:
             fn()
         samples.append((time.perf_counter() - start) / inner)
     return float(np.median(samples))
-
-
-def data_root() -> Path:
-    env = os.environ.get("HRC_DRAKE_DATA")
-    return Path(env) if env else Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
 
 
 def make_operator(seed=0):

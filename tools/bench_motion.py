@@ -7,7 +7,7 @@ shoulders (q4-6, q8-10), elbows (q7, q11). For model C at the largest order, the
 of the real wrists, elbows and shoulders to the swept volumes at violating samples (Fig. 8.10).
 
 Sequences: simulated operators (`SyntheticOperator`, skeleton points -> body-model IK) and
-the LEGO arm trajectories of ../shared/data/lego_assembly_arm (camera frame -> world frame,
+the LEGO arm trajectories of data/lego_assembly_arm (or $HRC_DRAKE_DATA) (camera frame -> world frame,
 IK with head missing; the frame rate is not stated: 15 Hz assumed).
 
 The cycle-time comparison runs the Drake cell of diagrams/box_pcb_coexistence.yaml with model C
@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
-import os
 import sys
 import time
 import warnings
@@ -38,6 +37,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from hrc_drake.datasets import data_root  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
 from hrc_drake.human.config import Segments  # noqa: E402
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator  # noqa: E402
@@ -69,7 +69,8 @@ ARM_POINTS = [L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST]
 
 
 def data_dir() -> Path:
-    return Path(os.environ.get("HRC_DRAKE_DATA", REPO / ".." / "shared" / "data")).resolve()
+    """The real recordings: the repository's data/, or $HRC_DRAKE_DATA (`hrc_drake.datasets`)."""
+    return data_root()
 
 
 # ------------------------------------------------------------------ sequences

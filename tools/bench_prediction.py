@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
 import sys
 import time
 from collections import defaultdict
@@ -20,6 +19,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from hrc_drake.datasets import data_root  # noqa: E402
 from hrc_drake.prediction import (  # noqa: E402
     ChingHigherOrderModel,
     HigherOrderMarkovModel,
@@ -222,7 +222,8 @@ def bench_fig57(n_series: int, orders: list[int], n_reference_series: int = 20) 
 
 # ------------------------------------------------------------------------------ IKEA ASM
 def data_dir() -> Path:
-    return Path(os.environ.get("HRC_DRAKE_DATA", REPO / ".." / "shared" / "data"))
+    """The real recordings: the repository's data/, or $HRC_DRAKE_DATA (`hrc_drake.datasets`)."""
+    return data_root()
 
 
 def load_ikea() -> dict[str, list[tuple[list[str], list[float]]]] | None:
@@ -248,7 +249,8 @@ def load_ikea() -> dict[str, list[tuple[list[str], list[float]]]] | None:
 def bench_ikea(max_held_out: int | None) -> dict:
     data = load_ikea()
     if data is None:
-        log("\nIKEA ASM data not found (set HRC_DRAKE_DATA): skipped")
+        log("\nIKEA ASM annotations not found: skipped (not shipped: the IKEA ASM data terms are not "
+            "restated by their source; put ikea_asm_eventlog/ in a folder named by $HRC_DRAKE_DATA)")
         return {"skipped": True}
     makers = {
         "markov_chain": lambda acts: MarkovChainModel(buffer_size=None, actions=acts),

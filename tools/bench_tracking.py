@@ -33,7 +33,7 @@ Parts:
   render ms per depth frame of the rendered camera (issue 15) in the PCB cell, at the
          scenario's resolution and the Kinect v2's 512 x 424;
   lego   RMS error of occluded points, PF vs KF, on the real arm trajectories of
-         ../shared/data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
+         data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
          the elbow for 1-3 s (frame rate unknown: 30 Hz assumed).
 
 Usage: python tools/bench_tracking.py [--quick] [--cycles N] [--seeds N] [--duration S]
@@ -55,6 +55,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from hrc_drake.datasets import data_root  # noqa: E402
 from hrc_drake.messages import (  # noqa: E402
     L_ELBOW,
     L_SHOULDER,
@@ -84,8 +85,8 @@ WS_CENTER, WS_SIZE = np.array([0.2, 0.1, 1.0]), np.array([0.5, 0.8, 0.6])
 
 
 def data_dir() -> Path:
-    env = os.environ.get("HRC_DRAKE_DATA")
-    return Path(env) if env else Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+    """The real recordings: the repository's data/, or $HRC_DRAKE_DATA (`hrc_drake.datasets`)."""
+    return data_root()
 
 
 def rms(errors) -> float:

@@ -3,7 +3,7 @@
 Which robots exist, their arms, tools, grippers, PD gains and capsules is the registry
 `hrc_drake.robots.registry.ROBOT_MODELS`; their URDFs are the `hrc_drake.models` package data
 (the top-level `models/` folder, mapped into the package by pyproject.toml), read with
-`importlib.resources`. The URDFs follow /work/shared/robots/KINEMATICS.md (joint origins, axes,
+`importlib.resources`. The URDFs follow docs/KINEMATICS.md (joint origins, axes,
 limits and velocities of the public ROS descriptions); masses, inertias and capsule radii are
 approximations. This module loads them into a `MultibodyPlant` and gives the capsule set used for
 human-robot distance computations (thesis Fig. 8.18 draws the robot links as capsules).

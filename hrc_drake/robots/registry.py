@@ -4,7 +4,7 @@ Adding a robot is one URDF in `models/` (installed as `hrc_drake.models` package
 record here. Nothing else in the package names a model: the cell's scenario checks, the
 plant builder, IK and the capsule kinematics all read these records.
 
-Numbers follow /work/shared/robots/KINEMATICS.md (joint names and chain order of the public ROS
+Numbers follow docs/KINEMATICS.md (joint names and chain order of the public ROS
 descriptions; capsule radii after the median mesh distances of 1.4 / 2.6; PD gains chosen so
 that gravity sag stays below ~0.01 rad on a 1-10 ms discrete plant). Plain data: no pydrake.
 """

@@ -120,6 +120,10 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
     contact_area: float = 1.0
     #: A fixed surface within the part's radius plus this (m) behind it along the push clamps it.
     clamp_margin: float = 0.02
+    #: A (robot capsule, region) pair judged clamped stays clamped for this long (s): the estimate's
+    #: noise flips a hand resting near a surface between clamped and free from one period to the
+    #: next, and a free judgement lets the robot approach at the transient speed (carts, seed 3).
+    clamp_hold: float = 0.5
     #: The limits table (a file relative to the scenario); "": the packaged ISO/TS 15066 one.
     limits: str = ""
 
@@ -131,6 +135,7 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
         _number(self.payload, path, "payload", 0.0, 100.0)
         _number(self.contact_area, path, "contact_area", 0.0, 1000.0)
         _number(self.clamp_margin, path, "clamp_margin", 0.0, 0.5)
+        _number(self.clamp_hold, path, "clamp_hold", 0.0, 10.0)
 
 
 @dataclass

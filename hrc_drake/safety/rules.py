@@ -201,13 +201,15 @@ class SafetyRules:
         k, r = np.nonzero(near)
         return distance, k, r
 
-    def override(self, robot, robot_velocity, regions, z_d, effective_mass=None, covered_time: float = 0.0):
+    def override(self, robot, robot_velocity, regions, z_d, effective_mass=None, covered_time: float = 0.0,
+                 clamped_until=None, now: float = 0.0):
         """(override in [0, 1], binding pair or None) that keeps every pair within its rule.
 
         robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
         at full speed); z_d (R,): Z_d of each region; effective_mass(k, points, u): m_R of the
-        plant, vectorised over pairs. The binding pair: (PairGeometry index, rule, S_p at full speed) of
-        the smallest override."""
+        plant, vectorised over pairs. clamped_until (K, R), updated in place: the time until which
+        each pair counts as clamped (`clamp_hold` after it was last judged so); now: the time.
+        The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest override."""
         if self.mode == "none":
             return FREE, None
         distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
@@ -216,10 +218,14 @@ class SafetyRules:
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
         governed = self.governed_by_pfl(pairs, regions[2])
-        rule = np.where(governed, "pfl", "ssm")
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
+        if clamped_until is not None and self.pfl and self.fixed_boxes:
+            clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
+            held = governed & (clamped_until[k, r] > now)
+            governed, clamped = governed & ~held, clamped | held
+        rule = np.where(governed, "pfl", "ssm")
         moving = approach > np.where(clamped, 1e-9, self.moving_speed)
         z = np.asarray(z_d)[r]
         v_ssm = self.ssm_speeds(pairs, z, covered_time)

@@ -228,7 +228,8 @@ def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
 
 #: the controller's discrete state: [override applied, safety command, protective stops, stopped
 #: flag, binding clearance, S_p of the binding pair], then the time each skeleton point was last
-#: measured (8) and the head's offset from the thorax when both were last measured (3)
+#: measured (8), the head's offset from the thorax when both were last measured (3) and the time
+#: until which each (robot capsule, region) pair counts as clamped (K x R)
 _STATE = ("override", "command", "stops", "stopped", "distance", "separation")
 
 
@@ -254,8 +255,11 @@ class SafetyController(LeafSystem):
         self.regions = regions
         self.period = 1.0 / config.rate
         self.swept = config.human_motion == "swept_volumes"
-        self._state = self.DeclareDiscreteState(np.concatenate([[1.0, 1.0, 0.0, 0.0, np.inf, np.nan],
-                                                                np.full(8, -np.inf), np.full(3, np.nan)]))
+        # then the time until which each (robot capsule, region) pair counts as clamped (`clamp_hold`)
+        self._pairs = (len(dynamics.names), len(regions.cutter))
+        initial = [[1.0, 1.0, 0.0, 0.0, np.inf, np.nan], np.full(8, -np.inf), np.full(3, np.nan),
+                   np.full(self._pairs[0] * self._pairs[1], -np.inf)]
+        self._state = self.DeclareDiscreteState(np.concatenate(initial))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
@@ -268,12 +272,14 @@ class SafetyController(LeafSystem):
         self.DeclareVectorOutputPort("status", len(_STATE), self._calc_status, ticket)
         self._seen = slice(len(_STATE), len(_STATE) + 8)
         self._head = slice(len(_STATE) + 8, len(_STATE) + 11)
+        self._clamped = slice(len(_STATE) + 11, None)
         declare_periodic_discrete_update(self, self.period, 0.0, self._update)
 
-    def _command(self, context, seen, head_offset):
+    def _command(self, context, seen, head_offset, clamped_until):
         """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
         path speed) for the inputs of `context`; `seen` (8,): the time each point was last
-        measured; head_offset: head - thorax when last both seen."""
+        measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
+        in place (`SafetyRules.override`)."""
         human = None
         if self._estimate.HasValue(context):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
@@ -289,7 +295,7 @@ class SafetyController(LeafSystem):
         self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
         robot, velocity = self.dynamics.capsules()
         command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
-                                               covered)
+                                               covered, clamped_until, context.get_time())
         fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
                             np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
         if binding is None:
@@ -309,7 +315,8 @@ class SafetyController(LeafSystem):
                 if measured[HEAD] and measured[THORAX]:
                     points = np.asarray(estimate.points, dtype=float)
                     head_offset = points[HEAD] - points[THORAX]
-        command, distance, separation, fastest = self._command(context, seen, head_offset)
+        clamped_until = x[self._clamped].reshape(self._pairs)
+        command, distance, separation, fastest = self._command(context, seen, head_offset, clamped_until)
         requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
         requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
         target = min(requested, command)
@@ -319,7 +326,7 @@ class SafetyController(LeafSystem):
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,
-                            head_offset]))
+                            head_offset, clamped_until.ravel()]))
         return EventStatus.Succeeded()
 
     def _calc_override(self, context, output: BasicVector):

@@ -1,4 +1,4 @@
-"""YuMi / IRB 140 models against /work/shared/robots/KINEMATICS.md (tables 1.2, 1.3, 2.2, 2.5)."""
+"""YuMi / IRB 140 models against docs/KINEMATICS.md (tables 1.2, 1.3, 2.2, 2.5)."""
 
 import numpy as np
 import pytest

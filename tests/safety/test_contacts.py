@@ -206,3 +206,26 @@ def test_the_override_is_the_smallest_pair_s_when_a_pfl_pair_is_skipped():
     assert 0.0 < expected < 1.0
     assert rule == "ssm" and CUTTER.regions[pairs.r[n]] == "chest"
     assert override == pytest.approx(expected)
+
+
+def test_a_pair_judged_clamped_stays_clamped_for_the_hold_time():
+    """A hand resting on a table under the robot is clamped (SSM: stop). When the estimate's noise
+    lifts it off the table in the next period, the pair stays clamped for `clamp_hold`, then it is
+    free again (PFL's transient speed)."""
+    table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95: the hand (r 0.05) rests on it
+    config = PowerForceLimiting(clamp_hold=0.5)
+    rules = SafetyRules(config, LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    z_d = np.full(len(CUTTER), 0.03)
+    velocity = np.array([[0.0, 0.0, -0.3]])
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    until = np.full((1, len(CUTTER)), -np.inf)
+    resting, lifted = body(1.0), body(1.05)  # lifted: 5 cm of noise puts it 0.05 m clear of the table
+    assert rules.override(robot_at(1.2), (velocity, velocity), resting, z_d, mass, 0.0, until, 0.0)[0] == 0.0
+    assert np.isfinite(until).any()
+    robot = robot_at(1.25)
+    held, (_, _, rule, _) = rules.override(robot, (velocity, velocity), lifted, z_d, mass, 0.0, until, 0.1)
+    assert held == 0.0 and rule == "ssm"
+    free, (_, _, rule, _) = rules.override(robot, (velocity, velocity), lifted, z_d, mass, 0.0, until, 0.7)
+    assert free > 0.0 and rule == "pfl"
+    # without the memory, the lifted estimate is free at once
+    assert rules.override(robot_at(1.25), (velocity, velocity), lifted, z_d, mass)[0] > 0.0
