@@ -343,22 +343,23 @@ def main(argv: list[str] | None = None) -> int:
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
     comp.set_defaults(func=_compare)
     args = parser.parse_args(argv)
-    from hrc_drake.interrupts import exit_code, raise_on_sigterm
+    from hrc_drake.interrupts import exit_code, sigterm_raises
 
-    raise_on_sigterm()  # a batch system's or `kill`'s SIGTERM saves what Ctrl-C saves
-    try:
-        return args.func(args)
-    except ScenarioError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except EnvironmentFailure as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_ENVIRONMENT
-    except KeyboardInterrupt as err:
-        print("interrupted", file=sys.stderr)
-        return exit_code(err)
-    except Exception as err:  # noqa: BLE001 - one line for the user, the traceback in a log
-        return _internal_error(err)
+    # a batch system's or `kill`'s SIGTERM saves what Ctrl-C saves
+    with sigterm_raises():
+        try:
+            return args.func(args)
+        except ScenarioError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except EnvironmentFailure as err:
+            print(f"error: {err}", file=sys.stderr)
+            return EXIT_ENVIRONMENT
+        except KeyboardInterrupt as err:
+            print("interrupted", file=sys.stderr)
+            return exit_code(err)
+        except Exception as err:  # noqa: BLE001 - one line for the user, the traceback in a log
+            return _internal_error(err)
 
 
 def _internal_error(err: Exception) -> int:

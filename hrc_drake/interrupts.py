@@ -41,10 +41,19 @@ def _in_main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
 
 
-def raise_on_sigterm() -> None:
-    """From now on SIGTERM raises `Terminated` in the main thread (no-op elsewhere)."""
-    if _in_main_thread() and signal.getsignal(signal.SIGTERM) is not signal.SIG_IGN:
-        signal.signal(signal.SIGTERM, _raise_terminated)
+@contextmanager
+def sigterm_raises():
+    """Within: SIGTERM raises `Terminated` in the main thread (nothing changes elsewhere, or where
+    SIGTERM is ignored); the previous handler is back afterwards."""
+    previous = signal.getsignal(signal.SIGTERM)
+    if not _in_main_thread() or previous is signal.SIG_IGN:
+        yield
+        return
+    signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
 def _raise_terminated(signum, frame):

@@ -488,3 +488,10 @@ def test_a_dangling_out_link_and_an_unchecked_address_are_refused(tmp_path, caps
     address = f"tcp://127.0.0.1:{_free_port()}"
     assert main(["campaign", str(spec), "--out", str(out), "--address", address]) == EXIT_BAD_INPUT
     assert "no Dask scheduler answers" in capsys.readouterr().err
+
+
+def test_the_command_leaves_the_caller_s_signal_handlers_as_they_were():
+    """`main` handles SIGTERM while it runs, and gives the caller's handlers back."""
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    assert main(["validate", str(TORCH)]) == 0
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
