@@ -198,6 +198,19 @@ def _validate(args) -> int:
     return 0
 
 
+def _import(args) -> int:
+    from hrc_drake.human.importers import import_recording
+
+    summary = import_recording(args.format, Path(args.source), Path(args.out), source_rate=args.rate,
+                               person=args.person, columns=args.columns, units=args.units,
+                               delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
+                               camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y),
+                               facing=args.facing, table_height=args.table_height)
+    for line in summary:
+        print(line)
+    return 0
+
+
 def _workers(text: str) -> int:
     try:
         value = int(text)
@@ -338,6 +351,33 @@ def main(argv: list[str] | None = None) -> int:
                       help="another campaign is writing the folder: wait for it (at most SECONDS) instead "
                            "of refusing")
     camp.set_defaults(func=_campaign)
+    imp = sub.add_parser("import", help="turn a real recording into a skeleton CSV placed in a cell "
+                                        "(operator.recorded)")
+    imp.add_argument("format", choices=("lego", "kth", "table"),
+                     help="lego: a LEGO assembly trial (.txt); kth: the KTH hand-over folder; table: any "
+                          "joint-position table with --columns")
+    imp.add_argument("source", help="the recording's file (lego, table) or folder (kth)")
+    imp.add_argument("--out", required=True,
+                     help="the skeleton CSV to write (a .json of provenance beside it)")
+    imp.add_argument("--rate", type=_rate, default=None,
+                     help="the recording's frame rate (Hz): required for lego (its source does not state "
+                          "it) and table; kth records 120 Hz")
+    imp.add_argument("--person", choices=("giver", "taker"), default="giver", help="kth: whose body")
+    imp.add_argument("--columns", default=None,
+                     help="table: YAML file mapping skeleton points to their x, y, z columns (0-based)")
+    imp.add_argument("--units", choices=("m", "cm", "mm"), default="m", help="table: coordinate units")
+    imp.add_argument("--delimiter", default=None, help="table: column separator (default: whitespace)")
+    imp.add_argument("--header-rows", type=int, default=0, help="table: rows to skip at the top")
+    imp.add_argument("--up", default="0,0,1", help="table: the recording frame's up direction x,y,z")
+    imp.add_argument("--camera-rate", type=_fps, default=30.0,
+                     help="the rate to resample to (Hz, default 30)")
+    imp.add_argument("--operator-x", type=_number, default=1.0,
+                     help="where the operator stands (m, default 1.0)")
+    imp.add_argument("--operator-y", type=_number, default=0.0, help="(m, default 0.0)")
+    imp.add_argument("--facing", type=_number, default=3.141592653589793,
+                     help="the operator's facing yaw (rad; default pi: toward a robot at the origin)")
+    imp.add_argument("--table-height", type=_number, default=0.75, help="the table top (m, default 0.75)")
+    imp.set_defaults(func=_import)
     comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
     comp.add_argument("dirs", nargs="+", help="campaign output folders")
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")

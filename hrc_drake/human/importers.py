@@ -1,0 +1,338 @@
+"""Real recordings of people as skeleton streams of the thesis's 8 points (Fig. 9.1): a generic
+joint-position table and the shipped sets (`datasets`) read into a `Recording`, the points a set
+lacks synthesised (and named), the recording placed in a cell and resampled to a camera rate.
+
+Never invented: a point a frame does not hold stays NaN and untracked; resampling interpolates
+a point only between two frames that both hold it (a gap stays a gap).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from hrc_drake.messages import HEAD, L_SHOULDER, L_WRIST, R_SHOULDER, R_WRIST, SKELETON_POINTS, THORAX
+
+#: metres per unit of a recording's coordinates
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A real recording as skeleton points: times (T,) s from 0, points (T, 8, 3) m (NaN where a
+    frame does not hold the point), tracked (T, 8); `synthesized`: points built from others
+    (`synthesize_missing`), `up`: the recording frame's up direction (unit)."""
+
+    times: np.ndarray
+    points: np.ndarray
+    tracked: np.ndarray
+    rate: float
+    source: str = ""
+    synthesized: tuple[str, ...] = ()
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def frames(self) -> int:
+        return len(self.times)
+
+
+def _recording(points: np.ndarray, rate: float, source: str, up, notes=()) -> Recording:
+    points = np.asarray(points, dtype=float)
+    tracked = np.all(np.isfinite(points), axis=2)
+    points = np.where(tracked[..., None], points, np.nan)
+    times = np.arange(len(points)) / rate
+    up = tuple(float(u) for u in up)
+    return Recording(times, points, tracked, float(rate), source, (), up, tuple(notes))
+
+
+def _check_rate(rate: float, where: str) -> float:
+    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0.1 <= rate <= 10_000):
+        raise ValueError(f"{where}: the frame rate must be a number of Hz in [0.1, 10000], got {rate!r}")
+    return float(rate)
+
+
+def read_joint_table(path, columns: dict, units: str = "m", rate: float = 30.0, delimiter: str | None = None,
+                     header_rows: int = 0, up=(0.0, 0.0, 1.0)) -> Recording:
+    """A table of joint positions, one frame per row: `columns` maps skeleton point names
+    (`messages.SKELETON_POINTS`) to their (x, y, z) column indices (0-based); `units` m, cm or
+    mm; `delimiter` None for whitespace, else e.g. ","; the first `header_rows` rows are skipped.
+    Empty or NaN cells leave the point untracked in that frame. ValueError naming the file, line
+    and column for anything else."""
+    path = Path(path)
+    rate = _check_rate(rate, str(path))
+    if units not in UNITS:
+        raise ValueError(f"{path}: units must be one of {sorted(UNITS)}, got {units!r}")
+    unknown = [name for name in columns if name not in SKELETON_POINTS]
+    if unknown:
+        raise ValueError(f"{path}: unknown skeleton point(s) {unknown}; known: {list(SKELETON_POINTS)}")
+    for name, cols in columns.items():
+        if len(cols) != 3 or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in cols):
+            raise ValueError(f"{path}: columns of {name!r} must be 3 column indices >= 0, got {cols!r}")
+    rows = _table_rows(path, delimiter, header_rows)
+    needed = 1 + max(c for cols in columns.values() for c in cols)
+    points = np.full((len(rows), 8, 3), np.nan)
+    index = {name: k for k, name in enumerate(SKELETON_POINTS)}
+    for n, (line, cells) in enumerate(rows):
+        if len(cells) < needed:
+            raise ValueError(f"{path}:{line}: {len(cells)} columns, the mapping reads column {needed - 1}")
+        for name, cols in columns.items():
+            points[n, index[name]] = [_cell(cells[c], path, line, c) for c in cols]
+    scale = UNITS[units]
+    return _recording(points * scale, rate, str(path), up)
+
+
+def _table_rows(path: Path, delimiter, header_rows: int) -> list[tuple[int, list[str]]]:
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: not UTF-8 text (byte {err.start})") from None
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read it: {err.strerror or err}") from None
+    lines = text.splitlines()[header_rows:]
+    if delimiter is None:
+        rows = [(k, line.split()) for k, line in enumerate(lines, start=header_rows + 1)]
+    else:
+        rows = list(zip(range(header_rows + 1, header_rows + 1 + len(lines)),
+                        csv.reader(lines, delimiter=delimiter), strict=True))
+    rows = [(k, cells) for k, cells in rows if any(c.strip() for c in cells)]
+    if not rows:
+        raise ValueError(f"{path}: no frames")
+    return rows
+
+
+def _cell(text: str, path, line: int, column: int) -> float:
+    text = text.strip()
+    if not text or text.lower() == "nan":
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{path}:{line}: column {column}: {text!r} is not a number") from None
+    return value if math.isfinite(value) else math.nan
+
+
+#: the LEGO assembly arm keypoints (`data/lego_assembly_arm`): 18 columns, metres, camera frame
+#: (x right, y down, z depth)
+LEGO_COLUMNS = {"left_wrist": (0, 1, 2), "right_wrist": (3, 4, 5), "left_elbow": (6, 7, 8),
+                "right_elbow": (9, 10, 11), "left_shoulder": (12, 13, 14), "right_shoulder": (15, 16, 17)}
+
+
+def read_lego(path, rate: float) -> Recording:
+    """One LEGO trial (`Task*/Human*/trial*.txt`). The source does not state its frame rate
+    (4.5 mm per frame median wrist motion: 15-30 Hz); `rate` must be given."""
+    recording = read_joint_table(path, LEGO_COLUMNS, "m", rate, None, 0, up=(0.0, -1.0, 0.0))
+    return replace(recording, notes=(f"frame rate not stated by the source: {rate:g} Hz assumed",))
+
+
+#: KTH hand-over segments (`data/real/kth_handover`) whose origins stand for our points: the upper
+#: arm's origin is the shoulder joint, the forearm's the elbow, the hand's the wrist
+KTH_SEGMENTS = {"head": "head", "left_shoulder": "LUArm", "right_shoulder": "RUArm", "left_elbow": "LFArm",
+                "right_elbow": "RFArm", "left_wrist": "LHand", "right_wrist": "RHand"}
+KTH_RATE = 120.0
+
+
+def read_kth(folder, person: str = "giver") -> Recording:
+    """The giver's or taker's upper body of the KTH hand-over: one `<person>_<segment>_pose_saved.csv`
+    per segment (header x,y,z,q0..q3, metres, z up, 120 Hz); the segment origins as points."""
+    folder = Path(folder)
+    if person not in ("giver", "taker"):
+        raise ValueError(f"{folder}: person must be 'giver' or 'taker', got {person!r}")
+    series = {}
+    for name, segment in KTH_SEGMENTS.items():
+        path = folder / f"{person}_{segment}_pose_saved.csv"
+        if not path.is_file():
+            raise ValueError(f"{folder}: no {path.name} (the {name} of the {person})")
+        series[name] = read_joint_table(path, {name: (0, 1, 2)}, "m", KTH_RATE, ",", header_rows=1)
+    lengths = {len(r.times) for r in series.values()}
+    if len(lengths) != 1:
+        raise ValueError(f"{folder}: the {person}'s segment files hold different frame counts "
+                         f"{sorted(lengths)}")
+    index = {name: k for k, name in enumerate(SKELETON_POINTS)}
+    points = np.full((lengths.pop(), 8, 3), np.nan)
+    for name, recording in series.items():
+        points[:, index[name]] = recording.points[:, index[name]]
+    return _recording(points, KTH_RATE, f"{folder} ({person})", (0.0, 0.0, 1.0))
+
+
+def synthesize_missing(recording: Recording, neck: float = 0.25) -> Recording:
+    """The thorax (midpoint of the shoulders, as the body model places it) and the head (`neck` m
+    above the thorax along the recording's up) where the recording has none; named in
+    `synthesized`. A frame without both shoulders gets neither."""
+    points, tracked = recording.points.copy(), recording.tracked.copy()
+    made = []
+    both = tracked[:, L_SHOULDER] & tracked[:, R_SHOULDER]
+    if not tracked[:, THORAX].any():
+        points[both, THORAX] = 0.5 * (points[both, L_SHOULDER] + points[both, R_SHOULDER])
+        tracked[:, THORAX] = both
+        made.append("thorax")
+    if not tracked[:, HEAD].any():
+        up = np.asarray(recording.up, dtype=float)
+        points[tracked[:, THORAX], HEAD] = points[tracked[:, THORAX], THORAX] + neck * up / np.linalg.norm(up)
+        tracked[:, HEAD] = tracked[:, THORAX]
+        made.append("head")
+    return replace(recording, points=points, tracked=tracked,
+                   synthesized=tuple(dict.fromkeys((*recording.synthesized, *made))))
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where a recording goes in a cell: its operator stands at `operator_xy` facing `facing`
+    (a yaw, rad: pi faces -x, toward a robot at the origin), the low wrist heights (their 5th
+    percentile) `wrist_above_table` m above the table top at `table_height`."""
+
+    operator_xy: tuple[float, float] = (1.0, 0.0)
+    facing: float = math.pi
+    table_height: float = 0.75
+    wrist_above_table: float = 0.05
+
+
+def place_in_cell(recording: Recording, placement: Placement) -> tuple[Recording, np.ndarray, np.ndarray]:
+    """The recording moved rigidly into the cell frame (z up): (placed recording, R (3, 3), t (3,)),
+    cell = R @ recorded + t. Up becomes +z; the shoulders' facing direction (up x left-to-right,
+    median over frames) becomes `placement.facing`; the thorax's median lies over `operator_xy`,
+    the wrists' 5th height percentile `wrist_above_table` above the table."""
+    p, tr = recording.points, recording.tracked
+    up = np.asarray(recording.up, dtype=float)
+    up = up / np.linalg.norm(up)
+    both = tr[:, L_SHOULDER] & tr[:, R_SHOULDER]
+    if not both.any():
+        raise ValueError(f"{recording.source}: no frame holds both shoulders: the facing cannot be found")
+    across = np.median(p[both, R_SHOULDER] - p[both, L_SHOULDER], axis=0)  # left to right
+    across = across - (across @ up) * up
+    # a person's right is forward x up: forward = up x (left -> right)
+    forward = np.cross(up, across)
+    forward /= np.linalg.norm(forward)
+    left = np.cross(up, forward)
+    recorded_axes = np.stack([forward, left, up])  # rows: the person's forward, left, up
+    c, s = math.cos(placement.facing), math.sin(placement.facing)
+    cell_axes = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # rows: the same in the cell
+    rotation = cell_axes.T @ recorded_axes
+    rotated = p @ rotation.T
+    centres = 0.5 * (rotated[both, L_SHOULDER] + rotated[both, R_SHOULDER])  # the body model's thorax
+    centre = np.median(centres, axis=0)
+    wrists = np.concatenate([rotated[tr[:, L_WRIST], L_WRIST, 2], rotated[tr[:, R_WRIST], R_WRIST, 2]])
+    if not len(wrists):
+        raise ValueError(f"{recording.source}: no wrist is recorded: the table height cannot be found")
+    low = float(np.percentile(wrists, 5))
+    shift = np.array([placement.operator_xy[0] - centre[0], placement.operator_xy[1] - centre[1],
+                      placement.table_height + placement.wrist_above_table - low])
+    placed = replace(recording, points=np.where(tr[..., None], rotated + shift, np.nan), up=(0.0, 0.0, 1.0))
+    return placed, rotation, shift
+
+
+def resample(recording: Recording, rate: float) -> Recording:
+    """The recording at `rate` Hz (e.g. the camera's): each point interpolated linearly between
+    the two recorded frames around a time when both hold it, untracked otherwise (gaps stay)."""
+    rate = _check_rate(rate, recording.source or "resample")
+    times = np.arange(0.0, recording.times[-1] + 1e-9, 1.0 / rate)
+    after = np.clip(np.searchsorted(recording.times, times, side="right"), 1, recording.frames - 1)
+    before = after - 1
+    span = recording.times[after] - recording.times[before]
+    w = np.clip((times - recording.times[before]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
+    exact_before, exact_after = w <= 1e-9, w >= 1.0 - 1e-9
+    tb, ta = recording.tracked[before], recording.tracked[after]
+    tracked = (tb & ta) | (tb & exact_before[:, None]) | (ta & exact_after[:, None])
+    pb = np.nan_to_num(recording.points[before])
+    pa = np.nan_to_num(recording.points[after])
+    points = pb + w[:, None, None] * (pa - pb)
+    points = np.where(exact_before[:, None, None] & tb[..., None], pb, points)
+    points = np.where(exact_after[:, None, None] & ta[..., None], pa, points)
+    points = np.where(tracked[..., None], points, np.nan)
+    return replace(recording, times=times, points=points, tracked=tracked, rate=float(rate))
+
+
+def read_columns_file(path) -> dict:
+    """A YAML mapping of skeleton point names to [x, y, z] column indices; ScenarioError naming the
+    file and the entry at fault."""
+    import yaml
+
+    from hrc_drake.errors import ScenarioError, check_input_file
+
+    path = Path(path)
+    check_input_file(path, "column mapping")
+    try:
+        document = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise ScenarioError(path, "", f"not a YAML mapping: {err}") from None
+    if not isinstance(document, dict) or not document:
+        raise ScenarioError(path, "", "must map skeleton point names to [x, y, z] column indices")
+    for name, cols in document.items():
+        if name not in SKELETON_POINTS:
+            raise ScenarioError(path, str(name), f"unknown skeleton point; known: {list(SKELETON_POINTS)}")
+        if not (isinstance(cols, list) and len(cols) == 3
+                and all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c < 10_000 for c in cols)):
+            raise ScenarioError(path, str(name), f"must be [x, y, z] column indices (0-based), got {cols!r}")
+    return {name: tuple(cols) for name, cols in document.items()}
+
+
+def import_recording(kind: str, source: Path, out: Path, source_rate: float | None = None,
+                     person: str = "giver", columns: str | None = None, units: str = "m",
+                     delimiter: str | None = None, header_rows: int = 0, up: str = "0,0,1",
+                     camera_rate: float = 30.0, operator_xy=(1.0, 0.0), facing: float = math.pi,
+                     table_height: float = 0.75) -> list[str]:
+    """Read a real recording (`kind` lego, kth or table), synthesise what it lacks, place it in a
+    cell, resample it to `camera_rate` and write it as a skeleton CSV (`recorded.save_skeleton_csv`)
+    with a JSON of its provenance beside it; returns summary lines. ScenarioError on bad input."""
+    import json
+
+    from hrc_drake.errors import ScenarioError
+    from hrc_drake.human.recorded import save_skeleton_csv
+
+    if kind in ("lego", "table") and source_rate is None:
+        raise ScenarioError(source, "--rate", f"a {kind} recording needs its frame rate (Hz)")
+    try:
+        if kind == "lego":
+            recording = read_lego(source, source_rate)
+        elif kind == "kth":
+            recording = read_kth(source, person)
+        elif kind == "table":
+            if columns is None:
+                raise ScenarioError(source, "--columns", "a table needs its column mapping (a YAML file)")
+            up_axis = _vector(up, "--up")
+            recording = read_joint_table(source, read_columns_file(columns), units, source_rate, delimiter,
+                                         header_rows, up_axis)
+        else:
+            raise ScenarioError(source, "", f"unknown recording kind {kind!r}")
+        recording = synthesize_missing(recording)
+        placement = Placement(tuple(operator_xy), facing, table_height)
+        placed, rotation, shift = place_in_cell(recording, placement)
+        resampled = resample(placed, camera_rate)
+    except ValueError as err:
+        if isinstance(err, ScenarioError):
+            raise
+        raise ScenarioError(source, "", str(err)) from None
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_skeleton_csv(out, resampled.times, resampled.points, resampled.tracked)
+    untracked = {name: int((~resampled.tracked[:, k]).sum()) for k, name in enumerate(SKELETON_POINTS)}
+    provenance = {"source": recording.source, "kind": kind, "frames_recorded": recording.frames,
+                  "recorded_rate_hz": recording.rate, "frames_written": resampled.frames,
+                  "written_rate_hz": resampled.rate, "synthesized": list(recording.synthesized),
+                  "untracked_frames": untracked, "rotation": rotation.round(6).tolist(),
+                  "translation_m": shift.round(6).tolist(), "placement": {"operator_xy": list(operator_xy),
+                  "facing_rad": facing, "table_height_m": table_height}, "notes": list(recording.notes)}
+    sidecar = out.with_suffix(".json")
+    sidecar.write_text(json.dumps(provenance, indent=2))
+    lines = [f"{out}: {resampled.frames} frames at {resampled.rate:g} Hz from {recording.frames} at "
+             f"{recording.rate:g} Hz ({recording.source})",
+             f"synthesised: {', '.join(recording.synthesized) or 'none'}; untracked frames: "
+             + (", ".join(f"{k} {v}" for k, v in untracked.items() if v) or "none"),
+             f"provenance: {sidecar}"]
+    return lines + [f"note: {note}" for note in recording.notes]
+
+
+def _vector(text: str, option: str) -> tuple[float, float, float]:
+    from hrc_drake.errors import ScenarioError
+
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values) or not any(values):
+        raise ScenarioError("", option, f"must be three numbers x,y,z, not all 0, got {text!r}")
+    return values
