@@ -353,10 +353,11 @@ def main(argv: list[str] | None = None) -> int:
     camp.set_defaults(func=_campaign)
     imp = sub.add_parser("import", help="turn a real recording into a skeleton CSV placed in a cell "
                                         "(operator.recorded)")
-    imp.add_argument("format", choices=("lego", "kth", "table"),
-                     help="lego: a LEGO assembly trial (.txt); kth: the KTH hand-over folder; table: any "
-                          "joint-position table with --columns")
-    imp.add_argument("source", help="the recording's file (lego, table) or folder (kth)")
+    imp.add_argument("format", choices=("lego", "kth", "ue", "table"),
+                     help="lego: a LEGO assembly trial (.txt); kth: the KTH hand-over folder; ue: a trial of "
+                          "the UE reaching set (Vicon CSV; its folder's *_static.csv gives the joint "
+                          "centres); table: any joint-position table with --columns")
+    imp.add_argument("source", help="the recording's file (lego, ue, table) or folder (kth)")
     imp.add_argument("--out", required=True,
                      help="the skeleton CSV to write (a .json of provenance beside it)")
     imp.add_argument("--rate", type=_rate, default=None,

@@ -15,7 +15,17 @@ from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.messages import HEAD, L_SHOULDER, L_WRIST, R_SHOULDER, R_WRIST, SKELETON_POINTS, THORAX
+from hrc_drake.messages import (
+    HEAD,
+    L_ELBOW,
+    L_SHOULDER,
+    L_WRIST,
+    R_ELBOW,
+    R_SHOULDER,
+    R_WRIST,
+    SKELETON_POINTS,
+    THORAX,
+)
 
 #: metres per unit of a recording's coordinates
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -159,6 +169,90 @@ def read_kth(folder, person: str = "giver") -> Recording:
     return _recording(points, KTH_RATE, f"{folder} ({person})", (0.0, 0.0, 1.0))
 
 
+def read_vicon_trajectories(path) -> tuple[float, list[str], np.ndarray]:
+    """The "Trajectories" section of a Vicon Nexus CSV export: (rate Hz, marker names without the
+    subject prefix, positions (T, M, 3) in metres, NaN where a marker was not seen)."""
+    path = Path(path)
+    rows = [r for _, r in _table_rows(path, ",", 0)]
+    if len(rows) < 5 or rows[0][0].strip() != "Trajectories":
+        raise ValueError(f"{path}: not a Vicon Nexus export (its first line is not 'Trajectories')")
+    try:
+        rate = _check_rate(float(rows[1][0]), str(path))
+    except ValueError:
+        raise ValueError(f"{path}:2: the frame rate {rows[1][0]!r} is not a number of Hz") from None
+    names = [cell.split(":")[-1].strip() for cell in rows[2][2::3]]
+    names = [n for n in names if n]
+    units = {u.strip() for u in rows[4][2:2 + 3 * len(names)]}
+    if units - {"mm", ""} or "mm" not in units:
+        raise ValueError(f"{path}:5: the trajectories must be in mm, got units {sorted(units)}")
+    data = []
+    for line, cells in enumerate(rows[5:], start=6):
+        if not cells[0].strip().isdigit():
+            break  # the next section of the export
+        values = [_cell(c, path, line, k + 2) for k, c in enumerate(cells[2:2 + 3 * len(names)])]
+        values += [math.nan] * (3 * len(names) - len(values))
+        data.append(values)
+    if not data:
+        raise ValueError(f"{path}: no frames")
+    return rate, names, np.array(data).reshape(len(data), len(names), 3) * UNITS["mm"]
+
+
+def rigid_fit(reference, current) -> tuple[np.ndarray, np.ndarray] | None:
+    """(R, t) with current ~ R @ reference + t by least squares (Kabsch) over the markers both
+    hold (M, 3) each; None with fewer than 3."""
+    both = np.all(np.isfinite(reference), axis=1) & np.all(np.isfinite(current), axis=1)
+    if both.sum() < 3:
+        return None
+    a, b = reference[both], current[both]
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    return rotation, cb - rotation @ ca
+
+
+#: UE ADL (`data/real/ue_adl`): each joint centre from static-trial landmarks and the cluster that
+#: carries them: the shoulder at the greater tubercle with the acromion cluster (the joint centre
+#: stays with the scapula), the elbow between the epicondyles with the upper arm's, the wrist
+#: between the styloid processes with the forearm's
+UE_JOINTS = {"shoulder": (("GTH",), "SHO"), "elbow": (("LEP", "MEP"), "UAR"),
+             "wrist": (("SPR", "SPU"), "LAR")}
+
+
+def read_ue_adl(trial, static=None) -> Recording:
+    """A trial of the seated reaching set: joint centres rebuilt from the marker clusters with the
+    static trial (`static`, default: the folder's `*_static.csv`): each landmark is expressed in
+    its cluster's static pose, then carried by the cluster's rigid fit in every frame."""
+    trial = Path(trial)
+    if static is None:
+        found = sorted(trial.parent.glob("*_static.csv"))
+        if not found:
+            raise ValueError(f"{trial}: no static trial (*_static.csv) beside it for the joint centres")
+        static = found[0]
+    _, static_names, static_positions = read_vicon_trajectories(static)
+    rate, names, positions = read_vicon_trajectories(trial)
+    static_mean = np.nanmean(static_positions, axis=0)
+    static_index = {n: k for k, n in enumerate(static_names)}
+    index = {n: k for k, n in enumerate(names)}
+    points = np.full((len(positions), 8, 3), np.nan)
+    slots = {"shoulder": (L_SHOULDER, R_SHOULDER), "elbow": (L_ELBOW, R_ELBOW), "wrist": (L_WRIST, R_WRIST)}
+    for joint, (landmarks, cluster) in UE_JOINTS.items():
+        for side, slot in zip("LR", slots[joint], strict=True):
+            markers = [f"{side}{cluster}{k}" for k in range(1, 5)]
+            wanted = [f"{side}{m}" for m in landmarks] + markers
+            missing = [m for m in wanted if m not in static_index] + [m for m in markers if m not in index]
+            if missing:
+                raise ValueError(f"{trial}: the markers {missing} are missing (static {static.name})")
+            landmark = np.mean([static_mean[static_index[f"{side}{m}"]] for m in landmarks], axis=0)
+            reference = static_mean[[static_index[m] for m in markers]]
+            for k, frame in enumerate(positions[:, [index[m] for m in markers]]):
+                fit = rigid_fit(reference, frame)
+                if fit is not None:
+                    points[k, slot] = fit[0] @ landmark + fit[1]
+    return _recording(points, rate, str(trial), (0.0, 0.0, 1.0),
+                      (f"joint centres from the clusters and {static.name}",))
+
+
 def synthesize_missing(recording: Recording, neck: float = 0.25) -> Recording:
     """The thorax (midpoint of the shoulders, as the body model places it) and the head (`neck` m
     above the thorax along the recording's up) where the recording has none; named in
@@ -290,6 +384,8 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
             recording = read_lego(source, source_rate)
         elif kind == "kth":
             recording = read_kth(source, person)
+        elif kind == "ue":
+            recording = read_ue_adl(source)
         elif kind == "table":
             if columns is None:
                 raise ScenarioError(source, "--columns", "a table needs its column mapping (a YAML file)")

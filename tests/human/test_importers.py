@@ -181,3 +181,40 @@ def test_the_real_operator_cell_validates():
 
     scenario = load_scenario(DIAGRAMS / "lego_real_operator.yaml")
     assert scenario.operator.recorded.endswith("lego_task1_human1_trial1.csv")
+
+
+def test_a_landmark_is_carried_by_its_cluster_s_rigid_motion():
+    """The joint-centre reconstruction: a cluster of 4 markers and a landmark moved by a hand-made
+    rigid motion; the fit of the moved markers carries the landmark exactly, with one marker
+    lost too, and not with only 2 markers seen."""
+    from hrc_drake.human.importers import rigid_fit
+
+    cluster = np.array([[0.0, 0.0, 0.0], [0.05, 0.0, 0.01], [0.0, 0.04, 0.02], [0.03, 0.03, 0.05]])
+    landmark = np.array([0.02, -0.06, -0.03])
+    rotation, shift = _rotation([1.0, 2.0, -0.5], 0.9), np.array([0.3, -0.1, 0.8])
+    moved = cluster @ rotation.T + shift
+    fit_r, fit_t = rigid_fit(cluster, moved)
+    assert np.allclose(fit_r @ landmark + fit_t, rotation @ landmark + shift, atol=1e-12)
+    moved[2] = np.nan
+    fit_r, fit_t = rigid_fit(cluster, moved)
+    assert np.allclose(fit_r @ landmark + fit_t, rotation @ landmark + shift, atol=1e-12)
+    moved[0] = np.nan
+    assert rigid_fit(cluster, moved) is None
+
+
+def test_the_reaching_set_gives_rigid_forearms_from_its_clusters(tmp_path):
+    """A UE trial cut to 40 frames: 100 Hz from the file, joint centres in every frame, the forearm
+    (elbow to wrist, two clusters apart) within 2 cm of one length."""
+    from hrc_drake.human.importers import read_ue_adl
+
+    source = dataset_dir("ue_adl") / "ADL001"
+    _cut(source / "ADL001FR1.csv", tmp_path / "ADL001FR1.csv", 45)  # 5 header lines, 40 frames
+    _cut(source / "ADL001_static.csv", tmp_path / "ADL001_static.csv", 20)
+    recording = read_ue_adl(tmp_path / "ADL001FR1.csv")
+    assert recording.frames == 40 and recording.rate == 100.0
+    assert recording.tracked[:, 2:].all() and not recording.tracked[:, :2].any()
+    forearm = np.linalg.norm(recording.points[:, R_WRIST] - recording.points[:, 5], axis=1)
+    assert 0.2 < forearm.min() and forearm.max() - forearm.min() < 0.02
+    (tmp_path / "ADL001_static.csv").unlink()
+    with pytest.raises(ValueError, match="no static trial"):
+        read_ue_adl(tmp_path / "ADL001FR1.csv")
