@@ -115,7 +115,14 @@ def _raw_document(text: str, file: str | Path = "<scenario>"):
     `ScenarioError(file, ...)` when it nests too deeply or its aliases expand it too far."""
     loader = _ScenarioYamlLoader(text)
     try:
-        node = loader.get_single_node()
+        try:
+            node = loader.get_single_node()
+        except yaml.YAMLError as err:
+            # libyaml >= 0.2.5 (PyYAML 6.0.4) stops at its own depth limit, which lies beyond ours
+            if "nesting depth" in str(err):
+                raise ScenarioError(file, "", f"nested too deeply (more than {MAX_NESTING} levels of lists "
+                                              "and mappings)") from None
+            raise
         if node is None:
             return None
         _check_shape(node, file)
