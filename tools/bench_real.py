@@ -1,0 +1,215 @@
+"""Human-side systems on real people (issue 37): every shipped recording set imported
+(`hrc_drake.human.importers`), and human motion prediction (8.1) judged where safety uses it, in
+Cartesian terms: do the swept volumes at the thesis's 0.3 s horizon hold the arm's real future?
+
+For each sequence (one trial per set with --quick, more without; a synthetic operator beside them)
+the recording is placed upright, resampled to 30 Hz (the cells' camera rate), fitted by the body
+model's IK, and fed step by step to the GP models A, B, C (P = 4) and the worst-case model [107]
+(`bench_motion.run_model`). At every step after a 3 s warm-up the swept volumes of that step are
+built and the recorded arm points (shoulders, elbows, wrists) of the next 0.3 s are tested
+against them: `miss_fraction` is the share of those points outside every volume, `miss_median_m`
+and `miss_p90_m` how far the missing ones lie outside, `volume_m3` the summed volume of
+the capsules (median over steps; overlaps counted twice). Not yet here (issue 37, next steps):
+tracking, intention and the GPDM on real motion.
+
+Usage:
+    python3 tools/bench_real.py [--quick] [--data DIR]
+Last line: one JSON object (frames_imported.<set>, prediction.<model>.*,
+prediction_synthetic.<model>.*).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+TOOLS = Path(__file__).resolve().parent
+sys.path.insert(0, str(TOOLS.parent))
+sys.path.insert(0, str(TOOLS))
+
+from bench_motion import joint_sequence, run_model, simulated_sequence  # noqa: E402
+
+from hrc_drake.datasets import data_root, dataset_dir  # noqa: E402
+from hrc_drake.human.body import BodyModel  # noqa: E402
+from hrc_drake.human.config import Segments  # noqa: E402
+from hrc_drake.human.importers import (  # noqa: E402
+    Placement,
+    place_in_cell,
+    read_kth,
+    read_lego,
+    read_ue_adl,
+    resample,
+    synthesize_missing,
+)
+from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST  # noqa: E402
+from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
+
+MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
+ARM_POINTS = [L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST]
+RATE = 30.0
+HORIZON = 0.3
+ORDER = 4
+#: the LEGO set does not state its rate (4.5 mm of wrist motion per frame: 15-30 Hz)
+LEGO_RATE = 15.0
+
+
+def log(text: str) -> None:
+    print(text, flush=True)
+
+
+def recordings(root: Path, trials: int, seconds: float) -> tuple[dict, list]:
+    """(frames imported per set, [(name, points (T, 8, 3) at RATE, z up)]) of the first `trials`
+    trials of each set under `root`, each cut to `seconds`."""
+    frames, out = {}, []
+    sources = []
+    try:
+        lego = sorted(dataset_dir("lego_assembly_arm", root).glob("Task*/Human*/trial*.txt"))
+        sources += [
+            (f"lego:{p.parent.parent.name}/{p.parent.name}/{p.stem}", lambda p=p: read_lego(p, LEGO_RATE))
+            for p in lego
+        ]
+    except FileNotFoundError as err:
+        log(f"skipped: {err}")
+    try:
+        ue = sorted(p for p in dataset_dir("ue_adl", root).glob("*/*.csv") if "static" not in p.name)
+        sources += [(f"ue:{p.stem}", lambda p=p: read_ue_adl(p)) for p in ue]
+    except FileNotFoundError as err:
+        log(f"skipped: {err}")
+    try:
+        kth = dataset_dir("kth_handover", root)
+        sources += [
+            (f"kth:{person}", lambda person=person: read_kth(kth, person)) for person in ("giver", "taker")
+        ]
+    except FileNotFoundError as err:
+        log(f"skipped: {err}")
+    taken: dict[str, int] = {}
+    for name, read in sources:
+        kind = name.split(":")[0]
+        recording = read()
+        frames[kind] = frames.get(kind, 0) + recording.frames
+        if taken.get(kind, 0) >= trials:
+            continue
+        taken[kind] = taken.get(kind, 0) + 1
+        placed, _, _ = place_in_cell(synthesize_missing(recording), Placement())
+        points = resample(placed, RATE).points[: int(seconds * RATE)]
+        out.append((name, points))
+    return frames, out
+
+
+def body_of(points: np.ndarray) -> BodyModel:
+    """A body model with the recording's segment lengths (medians over frames)."""
+
+    def length(a, b):
+        return float(np.nanmedian(np.linalg.norm(points[:, a] - points[:, b], axis=-1)))
+
+    upper = 0.5 * (length(L_SHOULDER, L_ELBOW) + length(R_SHOULDER, R_ELBOW))
+    fore = 0.5 * (length(L_ELBOW, L_WRIST) + length(R_ELBOW, R_WRIST))
+    width = length(L_SHOULDER, R_SHOULDER)
+    return BodyModel(Segments(shoulder_width=width, upper_arm=upper, forearm=fore))
+
+
+def cartesian_misses(predictor, deltas, filtered, points, warmup: int) -> dict:
+    """The recorded arm points of the next `predictor.steps` samples against the swept volumes of
+    each step: miss fraction, miss distances (median, p90), mean summed capsule volume."""
+    steps = predictor.steps
+    outside, misses, volumes = 0, [], []
+    total = 0
+    for k in range(warmup, len(filtered) - steps):
+        start, end, radius = predictor.builder.build(filtered[k], deltas[k, 0], deltas[k, 1])
+        future = points[k : k + steps + 1][:, ARM_POINTS].reshape(-1, 3)
+        future = future[np.all(np.isfinite(future), axis=1)]
+        if not len(future):
+            continue
+        gap = point_capsule_distance(future, start, end, radius).min(axis=1)
+        total += len(gap)
+        outside += int(np.sum(gap > 0))
+        misses += gap[gap > 0].tolist()
+        lengths = np.linalg.norm(np.asarray(end) - np.asarray(start), axis=1)
+        radius = np.asarray(radius)
+        volumes.append(float(np.sum(math.pi * radius**2 * lengths + 4.0 / 3.0 * math.pi * radius**3)))
+    return {
+        "miss_fraction": outside / total if total else math.nan,
+        "miss_median_m": float(np.median(misses)) if misses else 0.0,
+        "miss_p90_m": float(np.percentile(misses, 90)) if misses else 0.0,
+        "volume_m3": float(np.mean(volumes)) if volumes else math.nan,
+        "points_tested": total,
+    }
+
+
+def evaluate(name: str, body: BodyModel, points: np.ndarray, n_trials: int) -> dict:
+    dt = 1.0 / RATE
+    qs, stds = joint_sequence(body, points, 0.02)
+    warmup = int(round(3.0 / dt))
+    out = {}
+    for kind in MODELS:
+        start = time.perf_counter()
+        predictor, deltas, filtered, _ = run_model(body, qs, stds, kind, ORDER, dt, n_trials, HORIZON, warmup)
+        out[kind] = cartesian_misses(predictor, deltas, filtered, points, warmup)
+        row = out[kind]
+        log(
+            f"{name[:30]:<30} {kind:<11} {100 * row['miss_fraction']:7.2f} {row['miss_median_m']:8.3f} "
+            f"{row['miss_p90_m']:8.3f} {row['volume_m3']:9.4f} {time.perf_counter() - start:7.1f}"
+        )
+    return out
+
+
+def pooled(rows: list[dict]) -> dict:
+    """Per model: miss fraction over all points tested, medians of the per-sequence miss figures."""
+    out = {}
+    for kind in MODELS:
+        tested = sum(r[kind]["points_tested"] for r in rows)
+        missed = sum(r[kind]["miss_fraction"] * r[kind]["points_tested"] for r in rows)
+        out[kind] = {
+            "miss_fraction": missed / tested if tested else None,
+            "miss_median_m": float(np.median([r[kind]["miss_median_m"] for r in rows])),
+            "miss_p90_m": float(np.median([r[kind]["miss_p90_m"] for r in rows])),
+            "volume_m3": float(np.median([r[kind]["volume_m3"] for r in rows])),
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one trial per set, 12 s each (a few minutes)")
+    parser.add_argument("--data", default=None, help="a data folder laid out like data/ (default: it)")
+    args = parser.parse_args()
+    warnings.filterwarnings("ignore")
+    trials, seconds, n_trials = (1, 12.0, 30) if args.quick else (3, 30.0, 50)
+    root = data_root(args.data)
+    log(f"real recordings from {root} ({trials} trial(s) per set, {seconds:g} s each, {RATE:g} Hz)")
+    frames, sequences = recordings(root, trials, seconds)
+    log(f"imported frames per set: {frames}")
+    log(f"\n{'sequence':<30} {'model':<11} {'miss %':>7} {'med m':>8} {'p90 m':>8} {'vol m3':>9} {'s':>7}")
+    real = [evaluate(name, body_of(points), points, n_trials) for name, points in sequences]
+    body, synthetic = simulated_sequence(seconds, 1.0 / RATE, seed=7)
+    synthetic_row = evaluate("synthetic operator", body, synthetic, n_trials)
+    figures = {
+        "quick": bool(args.quick),
+        "horizon_s": HORIZON,
+        "order": ORDER,
+        "rate_hz": RATE,
+        "sequences": [name for name, _ in sequences],
+        "frames_imported": frames,
+        "prediction": pooled(real),
+        "prediction_synthetic": pooled([synthetic_row]),
+    }
+    log("\npooled over the real sequences (every future point tested, every miss):")
+    for kind in MODELS:
+        r, s = figures["prediction"][kind], figures["prediction_synthetic"][kind]
+        log(
+            f"  {kind:<11} real {100 * r['miss_fraction']:6.2f} % (p90 {r['miss_p90_m']:.3f} m, "
+            f"{r['volume_m3']:.4f} m3)   synthetic {100 * s['miss_fraction']:6.2f} % "
+            f"(p90 {s['miss_p90_m']:.3f} m, {s['volume_m3']:.4f} m3)"
+        )
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()
