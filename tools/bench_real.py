@@ -138,8 +138,9 @@ def cartesian_misses(predictor, deltas, filtered, points, warmup: int) -> dict:
         "miss_fraction": outside / total if total else math.nan,
         "miss_median_m": float(np.median(misses)) if misses else 0.0,
         "miss_p90_m": float(np.percentile(misses, 90)) if misses else 0.0,
-        "volume_m3": float(np.mean(volumes)) if volumes else math.nan,
+        "volume_m3": float(np.median(volumes)) if volumes else math.nan,
         "points_tested": total,
+        "misses_m": misses,
     }
 
 
@@ -161,15 +162,16 @@ def evaluate(name: str, body: BodyModel, points: np.ndarray, n_trials: int) -> d
 
 
 def pooled(rows: list[dict]) -> dict:
-    """Per model: miss fraction over all points tested, medians of the per-sequence miss figures."""
+    """Per model over all sequences: the share of future points missed, the distances of every
+    miss (median, p90), the median of the sequences' median summed volumes."""
     out = {}
     for kind in MODELS:
         tested = sum(r[kind]["points_tested"] for r in rows)
-        missed = sum(r[kind]["miss_fraction"] * r[kind]["points_tested"] for r in rows)
+        misses = [m for r in rows for m in r[kind]["misses_m"]]
         out[kind] = {
-            "miss_fraction": missed / tested if tested else None,
-            "miss_median_m": float(np.median([r[kind]["miss_median_m"] for r in rows])),
-            "miss_p90_m": float(np.median([r[kind]["miss_p90_m"] for r in rows])),
+            "miss_fraction": len(misses) / tested if tested else None,
+            "miss_median_m": float(np.median(misses)) if misses else 0.0,
+            "miss_p90_m": float(np.percentile(misses, 90)) if misses else 0.0,
             "volume_m3": float(np.median([r[kind]["volume_m3"] for r in rows])),
         }
     return out
