@@ -5,7 +5,8 @@ Cartesian terms: do the swept volumes at the thesis's 0.3 s horizon hold the arm
 For each sequence (one trial per set with --quick, more without; a synthetic operator beside them)
 the recording is placed upright, resampled to 30 Hz (the cells' camera rate), its shoulders put
 at the standing body model's height (`standing`), fitted by the body model's IK, and fed step
-by step to the GP models A, B, C (P = 4) and the worst-case model [107] (`bench_motion.run_model`). At every step after a 3 s warm-up the swept volumes of that step are
+by step to the GP models A, B, C (P = 4) and the worst-case model [107] (`bench_motion.run_model`).
+At every step after a 3 s warm-up the swept volumes of that step are
 built and the recorded arm points (shoulders, elbows, wrists) of the next 0.3 s are tested
 against them: `miss_fraction` is the share of those points outside every volume, `miss_median_m`
 and `miss_p90_m` how far the missing ones lie outside, `volume_m3` the summed volume of
