@@ -13,6 +13,7 @@ from hrc_drake.cell.build import build_cell  # noqa: E402
 from hrc_drake.cell.metrics import summarize  # noqa: E402
 from hrc_drake.cell.scenario import load_scenario  # noqa: E402
 from hrc_drake.messages import RobotEvent  # noqa: E402
+from hrc_drake.safety.config import NoSafety  # noqa: E402
 from hrc_drake.scheduling.config import MonteCarloScheduler  # noqa: E402
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy  # noqa: E402
 
@@ -23,6 +24,8 @@ SCENARIO = Path(__file__).resolve().parents[2] / "diagrams" / "torch_clock.yaml"
 def test_torch_clock_cell_runs_with_the_monte_carlo_scheduler():
     scenario = load_scenario(SCENARIO)
     scenario.scheduler = MonteCarloScheduler(n_trials=40, horizon=20.0)
+    # the scheduler's commands and the products they make, not the cell's safety stops (tests/safety)
+    scenario.safety = NoSafety()
     cell = build_cell(scenario)
     # the run's commands live in its Context: simulate here and read them from it
     simulator = Simulator(cell.diagram)
