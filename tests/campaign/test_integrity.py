@@ -58,6 +58,19 @@ def _wait_for_line(proc, text: str, timeout: float) -> str:
     return "".join(seen)
 
 
+def _sigterm_after(command: list[str], line: str, delay: float = 0.0) -> int:
+    """Exit code of `command` sent SIGTERM `delay` s after its stderr shows `line`."""
+    proc = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_line(proc, line, timeout=240)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=120)
+    finally:
+        proc.kill()
+    return proc.returncode
+
+
 # ---------------------------------------------------------------- interrupts and signals (1, 8, 11)
 
 
@@ -139,20 +152,8 @@ def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(m
 def test_sigterm_during_simulate_writes_the_partial_report(tmp_path):
     """Item 11 (simulate): SIGTERM stops the run like Ctrl-C; the report covers the time simulated."""
     out = tmp_path / "report"
-    proc = subprocess.Popen(
-        _command("simulate", TORCH, "--duration", 100, "--out", out),
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        _wait_for_line(proc, "simulating  10%", timeout=240)
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(timeout=120)
-    finally:
-        proc.kill()
-    assert proc.returncode == EXIT_TERMINATED
+    code = _sigterm_after(_command("simulate", TORCH, "--duration", 100, "--out", out), "simulating  10%")
+    assert code == EXIT_TERMINATED
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["interrupted"] and metrics["stopped_by"] == "SIGTERM"
     assert 10.0 <= metrics["run"]["simulated_time"] < 100.0 and metrics["run"]["duration"] == 100.0
@@ -162,28 +163,10 @@ def test_sigterm_during_simulate_writes_the_partial_report(tmp_path):
 def test_sigterm_during_a_campaign_keeps_the_finished_runs(tmp_path):
     """Item 11 (campaign): SIGTERM stops the campaign with 143, finished rows kept, none cut short."""
     out = tmp_path / "out"
-    proc = subprocess.Popen(
-        _command(
-            "campaign",
-            _spec(tmp_path, SPEC.replace("seeds: [1, 2]", "seeds: [1, 2, 3]")),
-            "--out",
-            out,
-            "--workers",
-            0,
-        ),
-        cwd=REPO,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    try:
-        _wait_for_line(proc, "1/3 done", timeout=240)
-        time.sleep(0.2)  # two runs (> 1 s) are left
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(timeout=120)
-    finally:
-        proc.kill()
-    assert proc.returncode == EXIT_TERMINATED
+    spec = _spec(tmp_path, SPEC.replace("seeds: [1, 2]", "seeds: [1, 2, 3]"))
+    # two runs (> 1 s) are left 0.2 s after the first is done
+    code = _sigterm_after(_command("campaign", spec, "--out", out, "--workers", 0), "1/3 done", delay=0.2)
+    assert code == EXIT_TERMINATED
     rows = store.read_runs(out)
     assert list(rows["seed"]) in ([1], [1, 2]) and set(rows["status"]) == {"ok"}
 
