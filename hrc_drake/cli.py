@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -199,16 +200,71 @@ def _validate(args) -> int:
 
 
 def _import(args) -> int:
+    from hrc_drake.errors import check_input_file
     from hrc_drake.human.importers import import_recording
 
-    summary = import_recording(args.format, Path(args.source), Path(args.out), source_rate=args.rate,
+    out = Path(args.out)
+    scenario_path = out.with_suffix(".yaml")
+    if args.replay and not args.cell:
+        raise ScenarioError("", "--replay", "needs --cell SCENARIO: the cell the recording replays in "
+                                            "(e.g. diagrams/box_pcb_coexistence.yaml)")
+    if args.cell:
+        check_input_file(Path(args.cell))
+        if scenario_path == out:
+            raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .yaml: the "
+                                              "scenario of --cell is written beside it as .yaml")
+    if args.replay:
+        _check_writable_file("--replay", Path(args.replay))
+    summary = import_recording(args.format, Path(args.source), out, source_rate=args.rate,
                                person=args.person, columns=args.columns, units=args.units,
                                delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
                                camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y),
                                facing=args.facing, table_height=args.table_height)
     for line in summary:
         print(line)
-    return 0
+    if not args.cell:
+        print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
+              "with --cell SCENARIO [--replay FILE.html]")
+        return 0
+    duration = _write_recorded_scenario(scenario_path, Path(args.cell), out, summary[0])
+    print(f"scenario: {scenario_path} (the recording as the operator of {args.cell}, {duration:g} s); "
+          f"run it with: hrc-drake simulate {scenario_path}")
+    if not args.replay:
+        return 0
+    replay = argparse.Namespace(scenario=str(scenario_path), duration=None, seed=None, replay=args.replay,
+                                replay_fps=10.0, replay_max_frames=REPLAY_MAX_FRAMES, meshcat=False,
+                                realtime_rate=None, out=None)
+    return _simulate(replay)
+
+
+def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str) -> float:
+    """A scenario that extends `cell` with the skeleton CSV as its operator for the recording's
+    length (paths relative to the scenario's folder); checked by loading it. Returns the duration."""
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.human.recorded import load_skeleton_csv
+
+    times, _, _ = load_skeleton_csv(skeleton)
+    duration = max(math.ceil(float(times[-1]) * 10.0) / 10.0, 0.1)
+    folder = path.parent.resolve()
+
+    def named(target: Path) -> str:  # relative when both lie under one folder below the root
+        target = target.resolve()
+        shared = os.path.commonpath([target, folder])
+        return os.path.relpath(target, folder) if shared != os.path.dirname(shared) else str(target)
+
+    base, recorded = named(cell), named(skeleton)
+    comment = provenance.replace("\n", " ")
+    path.write_text(
+        f"# A recorded person as the operator of {cell.name}, written by `hrc-drake import`:\n"
+        f"# {comment}\n"
+        "# The recording holds no actions: the operator's flow actions do not happen, the robot's do.\n"
+        f"extends: {json.dumps(base)}\n"
+        f"description: {json.dumps(f'Recorded operator ({skeleton.name}) in {cell.stem}')}\n"
+        f"duration: {duration:g}\n"
+        f"operator:\n  recorded: {json.dumps(recorded)}\n",
+        encoding="utf-8")
+    load_scenario(path)
+    return duration
 
 
 def _workers(text: str) -> int:
@@ -378,6 +434,12 @@ def main(argv: list[str] | None = None) -> int:
     imp.add_argument("--facing", type=_number, default=3.141592653589793,
                      help="the operator's facing yaw (rad; default pi: toward a robot at the origin)")
     imp.add_argument("--table-height", type=_number, default=0.75, help="the table top (m, default 0.75)")
+    imp.add_argument("--cell", default=None,
+                     help="a cell scenario to drive with the recording: writes OUT with .yaml, a scenario "
+                          "that extends it with the recording as its operator")
+    imp.add_argument("--replay", default=None,
+                     help="with --cell: simulate that scenario for the recording's length and write its "
+                          "self-contained HTML replay to this file")
     imp.set_defaults(func=_import)
     comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
     comp.add_argument("dirs", nargs="+", help="campaign output folders")

@@ -401,7 +401,10 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
     except ValueError as err:
         if isinstance(err, ScenarioError):
             raise
-        raise ScenarioError(source, "", str(err)) from None
+        refusal = ScenarioError(source, "", str(err))
+        if str(err).startswith(str(source)):  # the reader named the file (and line) already
+            refusal.args = (str(err),)
+        raise refusal from None
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     save_skeleton_csv(out, resampled.times, resampled.points, resampled.tracked)

@@ -218,3 +218,25 @@ def test_the_reaching_set_gives_rigid_forearms_from_its_clusters(tmp_path):
     (tmp_path / "ADL001_static.csv").unlink()
     with pytest.raises(ValueError, match="no static trial"):
         read_ue_adl(tmp_path / "ADL001FR1.csv")
+
+
+def test_an_import_drives_a_cell_and_writes_its_replay(tmp_path, capsys):
+    from hrc_drake.cell.scenario import load_scenario
+    from tests.conftest import DIAGRAMS
+
+    trial = dataset_dir("ue_adl") / "ADL001" / "ADL001AR1.csv"
+    out, replay = tmp_path / "ue.csv", tmp_path / "ue.html"
+    # a replay needs a cell, refused before anything is written
+    assert main(["import", "ue", str(trial), "--out", str(out), "--replay", str(replay)]) == EXIT_BAD_INPUT
+    assert "--cell" in capsys.readouterr().err and not out.exists()
+    cell = DIAGRAMS / "box_pcb_coexistence.yaml"
+    assert main(["import", "ue", str(trial), "--out", str(out), "--cell", str(cell),
+                 "--replay", str(replay)]) == 0
+    printed = capsys.readouterr().out
+    scenario = load_scenario(tmp_path / "ue.yaml")
+    times, _, _ = load_skeleton_csv(out)
+    assert scenario.operator.recorded == str(out.resolve()) or scenario.operator.recorded.endswith("ue.csv")
+    assert scenario.duration == pytest.approx(math.ceil(times[-1] * 10) / 10)
+    assert "ISO/TS 15066 ssm" in printed and "replay" in printed
+    html = replay.read_text()
+    assert len(html) > 1_000_000 and "meshcat" in html.lower()
