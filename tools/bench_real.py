@@ -35,7 +35,7 @@ TOOLS = Path(__file__).resolve().parent
 sys.path.insert(0, str(TOOLS.parent))
 sys.path.insert(0, str(TOOLS))
 
-from bench_motion import joint_sequence, run_model, simulated_sequence  # noqa: E402
+from bench_motion import GROUPS, epsilons, joint_sequence, run_model, simulated_sequence  # noqa: E402
 
 from hrc_drake.datasets import data_root, dataset_dir  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
@@ -53,6 +53,9 @@ from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER
 from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
 
 MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
+#: joint-space eps of 8.1.3 (bench_motion): the share of (sample, joint) pairs whose real excursion
+#: over the horizon left the predicted interval, on the IK's filtered joints
+JOINT_GROUPS = ("shoulders", "elbows")
 ARM_POINTS = [L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_WRIST, R_WRIST]
 RATE = 30.0
 HORIZON = 0.3
@@ -164,6 +167,11 @@ def evaluate(name: str, body: BodyModel, points: np.ndarray, n_trials: int) -> d
         predictor, deltas, filtered, _ = run_model(body, qs, stds, kind, ORDER, dt, n_trials, HORIZON, warmup)
         out[kind] = cartesian_misses(predictor, deltas, filtered, points, warmup)
         row = out[kind]
+        eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
+        row["joint_misses"] = {group: int(np.sum((eps_plus[:, GROUPS[group]] < 0)
+                                                 | (eps_minus[:, GROUPS[group]] < 0)))
+                               for group in JOINT_GROUPS}
+        row["joint_samples"] = {group: int(eps_plus[:, GROUPS[group]].size) for group in JOINT_GROUPS}
         log(
             f"{name[:30]:<30} {kind:<11} {100 * row['miss_fraction']:7.2f} {row['miss_median_m']:8.3f} "
             f"{row['miss_p90_m']:8.3f} {row['volume_m3']:9.4f} {time.perf_counter() - start:7.1f}"
@@ -183,6 +191,11 @@ def pooled(rows: list[dict]) -> dict:
             "miss_median_m": float(np.median(misses)) if misses else 0.0,
             "miss_p90_m": float(np.percentile(misses, 90)) if misses else 0.0,
             "volume_m3": float(np.median([r[kind]["volume_m3"] for r in rows])),
+            "joint_eps_violation_rate": {
+                group: sum(r[kind]["joint_misses"][group] for r in rows)
+                / max(1, sum(r[kind]["joint_samples"][group] for r in rows))
+                for group in JOINT_GROUPS
+            },
         }
     return out
 
