@@ -13,6 +13,8 @@ from hrc_drake.errors import check
 
 #: Methods of Table 3.1.
 METHODS = ("M1", "M2", "M3")
+#: How a perceived action ends (`detector.GoalRegionDetector.end_rule`).
+END_RULES = ("exit", "next", "next_merging_reentries")
 #: Hands whose goals the feedback may announce.
 HANDS = ("left", "right")
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
@@ -130,14 +132,16 @@ class GoalRegionActionDetector:
     lost_timeout: float = 2.0
     #: Update rate (Hz), at most 50: the camera's, normally.
     rate: float = 30.0
-    #: How an action ends: "exit" (the last hand leaves its region) or "next" (another action
-    #: begins: for actions that take a part at their region and go on elsewhere).
+    #: How an action ends: "exit" (the last hand leaves its region) or "next" (the next action
+    #: begins, a new entry into the same region included: for actions that take a part at their
+    #: region and go on elsewhere); "next_merging_reentries", our earlier variant, lets a
+    #: re-entry continue the action (it misses consecutive repeats of one action).
     end_rule: str = "exit"
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the detector cannot use."""
-        check(self.end_rule in ("exit", "next"), f"{path}.end_rule",
-              f"must be 'exit' or 'next', got {self.end_rule!r}")
+        check(self.end_rule in END_RULES, f"{path}.end_rule",
+              f"must be one of {', '.join(END_RULES)}, got {self.end_rule!r}")
         check(math.isfinite(self.entry_scale) and 0.0 < self.entry_scale <= 10.0, f"{path}.entry_scale",
               f"must be in (0, 10], got {self.entry_scale!r}")
         check(math.isfinite(self.exit_scale) and self.entry_scale <= self.exit_scale <= 10.0,

@@ -7,8 +7,12 @@ what a tracker gives:
 
 - hysteresis: a wrist enters G_a when |w - C_a| <= entry_scale * r_a and leaves it only when
   |w - C_a| > exit_scale * r_a, so jitter at the border starts and ends nothing;
-- minimum dwell: an entry counts once the wrist has stayed min_dwell s; a hand that crosses a
-  region on its way elsewhere starts no action. The begin is dated at the entry;
+- minimum dwell: an entry counts once the wrist has stayed min_dwell s within the entry radius
+  (entry_scale * r_a; the exit band does not count), so a hand that crosses a region on its way
+  elsewhere starts no action when its chord through the entry sphere takes less than min_dwell:
+  through the centre, any crossing faster than 2 entry_scale r_a / min_dwell (0.8 m/s for
+  r_a = 0.08 m and 0.2 s); slower crossings, or longer chords, are actions. The begin is dated
+  at the entry;
 - lost points: a wrist whose estimate is not finite, or whose spread exceeds max_spread, is
   unknown: it changes nothing, and a wrist unknown for longer than lost_timeout s leaves its
   region, the action ending when it was last seen inside;
@@ -26,14 +30,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from hrc_drake.intention.config import END_RULES
 from hrc_drake.messages import HANDS, L_WRIST, R_WRIST, HumanEvent, Immutable
 
 #: the skeleton point of each hand, in `HANDS` order
 WRIST_POINTS = (L_WRIST, R_WRIST)
 
 OUTSIDE, ENTERING, INSIDE = "outside", "entering", "inside"
-#: how a perceived action ends (`GoalRegionDetector.end_rule`)
-END_RULES = ("exit", "next")
 
 
 @dataclass(frozen=True)
@@ -58,9 +61,13 @@ class GoalRegionDetector(Immutable):
     (0 < entry_scale <= exit_scale). min_dwell (s >= 0), max_spread (m > 0: the largest
     estimate spread still used), lost_timeout (s > 0): see the module docstring. agent: the
     events' agent. end_rule: "exit" (an action ends when the last hand leaves its region) or
-    "next" (an action lasts until another action begins: for actions that go on beyond their
-    region, e.g. take a part there and work elsewhere; a region left and entered again
-    continues the action; the thesis dates only the begin by the entry).
+    "next" (an action lasts until the next begins: for actions that go on beyond their region,
+    e.g. take a part there and work elsewhere; the thesis dates only the begin, by the entry).
+    Under "next" every entry into a region that no hand was in begins an instance, so two
+    consecutive instances of one action are two actions (thesis Ch. 2: a hand entering G_a is
+    the beginning of a). "next_merging_reentries" is our earlier variant: a region left and
+    entered again continues its action, which never perceives two consecutive instances of one
+    action (pcb_ic's pattern 2 of Fig. 5.17, two IC insertions in a row, lost every second one).
     """
 
     goals: tuple[str, ...]
@@ -76,8 +83,11 @@ class GoalRegionDetector(Immutable):
     end_rule: str = "exit"
     hands: tuple[HandTrack, ...] = (HandTrack(), HandTrack())
     seq: int = 0
-    #: with end_rule "next": the action begun last and not yet ended (-1: none)
+    #: with end_rule "next" (or its variant): the action begun last and not yet ended (-1: none)
     current: int = -1
+    #: with end_rule "next": when the last hand left the current action's region (NaN: a hand is
+    #: in it); only an entry after that begins a new instance of the same action
+    current_left: float = math.nan
     #: time of the last transition: an earlier (or not finite) frame time is ignored
     last_transition: float = -math.inf
 
@@ -138,8 +148,9 @@ class GoalRegionDetector(Immutable):
                        for h in range(2))
         if all(new is old for new, old in zip(tracks, self.hands, strict=True)):
             return self, []  # a hand's track is replaced only at a transition
-        events, seq, current = self._merge(hand_events)
-        return replace(self, hands=tracks, seq=seq, current=current, last_transition=time), events
+        events, seq, current, current_left = self._merge(hand_events)
+        return replace(self, hands=tracks, seq=seq, current=current, current_left=current_left,
+                       last_transition=time), events
 
     def known_wrists(self, points, spread):
         """(wrists (2, 3), known (2,)) of a skeleton estimate: points (8, 3), spread (8,) (m);
@@ -168,15 +179,15 @@ class GoalRegionDetector(Immutable):
             track = replace(track, lost_since=math.nan)
         if track.phase == OUTSIDE:
             return self._maybe_enter(track, h, time, distance, out)
-        inside = distance[track.goal] <= self.exit_scale * self.radii[track.goal]
         if track.phase == ENTERING:
-            if not inside:  # passed through, or jitter before the dwell: no action
+            # the dwell is measured within the entry radius: the exit band only holds an action
+            if distance[track.goal] > self.entry_scale * self.radii[track.goal]:
                 return self._maybe_enter(HandTrack(), h, time, distance, out)
             if time - track.entered >= self.min_dwell:
                 out.append((track.entered, h, "begin", track.goal))
                 return replace(track, phase=INSIDE)
             return track
-        if inside:  # INSIDE
+        if distance[track.goal] <= self.exit_scale * self.radii[track.goal]:  # INSIDE, still
             return track
         out.append((time, h, "end", track.goal))
         return self._maybe_enter(HandTrack(), h, time, distance, out)
@@ -193,15 +204,16 @@ class GoalRegionDetector(Immutable):
             return HandTrack(INSIDE, goal, time)
         return HandTrack(ENTERING, goal, time)
 
-    def _merge(self, hand_events: list) -> tuple[list[HumanEvent], int, int]:
+    def _merge(self, hand_events: list) -> tuple[list[HumanEvent], int, int, float]:
         """Hand-level transitions to action events: an action begins with the first hand inside
-        its region and ends when the last one leaves ("exit"), or when another begins ("next")."""
+        its region and ends when the last one leaves ("exit"), or when the next begins ("next": a
+        new entry into an empty region, the same action's included; the variant skips those)."""
         inside = [0] * len(self.goals)
         for track in self.hands:
             if track.phase == INSIDE:
                 inside[track.goal] += 1
         events: list[HumanEvent] = []
-        seq, current = self.seq, self.current
+        seq, current, current_left = self.seq, self.current, self.current_left
 
         def emit(time, h, kind, goal):
             nonlocal seq
@@ -215,12 +227,20 @@ class GoalRegionDetector(Immutable):
                 continue  # the other hand began this action already, or is still inside
             if self.end_rule == "exit":
                 emit(time, h, kind, goal)
-            elif kind == "begin" and goal != current:
-                if current >= 0:
-                    emit(time, h, "end", current)
-                emit(time, h, "begin", goal)
-                current = goal
-        return events, seq, current
+            elif kind == "end":
+                if goal == current:
+                    current_left = time
+            else:
+                # a hand whose dwell ends after the other hand left entered while it was inside:
+                # the same instance
+                repeat = self.end_rule == "next" and goal == current and time >= current_left
+                if goal != current or repeat:
+                    if current >= 0:
+                        emit(time, h, "end", current)
+                    emit(time, h, "begin", goal)
+                    current = goal
+                current_left = math.nan
+        return events, seq, current, current_left
 
 
 def _instances(events) -> list[tuple[str, float, float]]:

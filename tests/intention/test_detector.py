@@ -198,14 +198,46 @@ def test_detection_quality_matches_perceived_to_true_actions():
     assert perfect["event_latency_p90_s"] == 0.0
 
 
-def test_end_rule_next_ends_an_action_when_the_next_begins():
-    # take a part at region A, work elsewhere (outside every region), come back to A, then go to B
+def test_end_rule_next_ends_an_action_when_the_next_begins_a_re_entry_included():
+    # take a part at region A, work elsewhere (outside every region), come back to A, then go to B:
+    # two consecutive instances of take_a (issue 38: the re-entry was lost, every second IC
+    # insertion of pcb_ic's pattern 2)
     left = path((FAR, 3), (CENTERS[0], 10), (FAR, 20), (CENTERS[0], 10), (FAR, 5), (CENTERS[1], 10), (FAR, 3))
     _, events = run(detector(end_rule="next"), left)
     assert [(e.kind, e.action) for e in events] == [("begin", "take_a"), ("end", "take_a"),
+                                                    ("begin", "take_a"), ("end", "take_a"),
                                                     ("begin", "take_b")]
-    assert events[1].time == pytest.approx(events[2].time) == pytest.approx(48 * DT)
+    assert events[1].time == pytest.approx(events[2].time) == pytest.approx(33 * DT)  # the re-entry
+    assert events[3].time == pytest.approx(events[4].time) == pytest.approx(48 * DT)
+    # the earlier variant merges the re-entry into the action
+    _, merged = run(detector(end_rule="next_merging_reentries"), left)
+    assert [(e.kind, e.action) for e in merged] == [("begin", "take_a"), ("end", "take_a"),
+                                                    ("begin", "take_b")]
     _, exits = run(detector(), left)  # "exit": every stay in a region is an action
     assert [e.action for e in exits if e.kind == "begin"] == ["take_a", "take_a", "take_b"]
+    # a second hand entering while the first is inside is the same instance
+    right = path((FAR, 8), (CENTERS[0] + [0.01, 0, 0], 10), (FAR, len(left) - 18))
+    _, both = run(detector(end_rule="next"), left, right)
+    assert [e.action for e in both if e.kind == "begin"] == ["take_a", "take_a", "take_b"]
+
+
+def test_the_dwell_is_counted_inside_the_entry_radius_only():
+    # a hand crossing region A (r = 0.05 m, entry 1.0 r, exit 1.3 r) at 0.42 m/s on a chord 0.035 m
+    # off its centre: under 0.2 s within r (half-chord 0.036 m), over 0.2 s within 1.3 r (0.055 m);
+    # the 0.2 s dwell is met only if the exit band counts (issue 38)
+    offset = 0.035
+    speed = 0.42
+    x = np.arange(-0.08, 0.08, speed * DT)
+    crossing = CENTERS[0] + np.stack([x, np.full_like(x, offset), np.zeros_like(x)], axis=1)
+    inside_entry = np.sum(np.linalg.norm(crossing - CENTERS[0], axis=1) <= 0.05) * DT
+    inside_exit = np.sum(np.linalg.norm(crossing - CENTERS[0], axis=1) <= 0.065) * DT
+    assert inside_entry < 0.2 < inside_exit  # the case the exit band used to turn into an action
+    for rule in ("exit", "next"):
+        _, events = run(detector(min_dwell=0.2, end_rule=rule), np.concatenate([path((FAR, 5)), crossing,
+                                                                                path((FAR, 5))]))
+        assert events == [], rule
+    # a stay within the entry radius of 0.2 s is an action
+    _, events = run(detector(min_dwell=0.2), path((FAR, 5), (CENTERS[0] + [0.04, 0, 0], 8), (FAR, 5)))
+    assert [e.kind for e in events] == ["begin", "end"]
     with pytest.raises(ValueError):
         detector(end_rule="never")
