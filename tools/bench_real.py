@@ -36,6 +36,10 @@ sys.path.insert(0, str(TOOLS.parent))
 sys.path.insert(0, str(TOOLS))
 
 from bench_motion import GROUPS, epsilons, joint_sequence, run_model, simulated_sequence  # noqa: E402
+from real_gpdm import gpdm_figures  # noqa: E402
+from real_intention import bench_keys as intention_keys  # noqa: E402
+from real_intention import intention_figures  # noqa: E402
+from real_tracking import synthetic_points, tracking_figures  # noqa: E402
 
 from hrc_drake.datasets import data_root, dataset_dir  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
@@ -53,6 +57,7 @@ from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER
 from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
 
 MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
+PARTS = ("prediction", "tracking", "intention", "gpdm")
 #: joint-space eps of 8.1.3 (bench_motion): the share of (sample, joint) pairs whose real excursion
 #: over the horizon left the predicted interval, on the IK's filtered joints
 JOINT_GROUPS = ("shoulders", "elbows")
@@ -68,9 +73,9 @@ def log(text: str) -> None:
     print(text, flush=True)
 
 
-def recordings(root: Path, trials: int, seconds: float) -> tuple[dict, list]:
+def recordings(root: Path, trials: int | None, seconds: float | None) -> tuple[dict, list]:
     """(frames imported per set, [(name, points (T, 8, 3) at RATE, z up)]) of the first `trials`
-    trials of each set under `root`, each cut to `seconds`."""
+    trials of each set under `root` (None: all), each cut to `seconds` (None: whole)."""
     frames, out = {}, []
     sources = []
     try:
@@ -98,13 +103,27 @@ def recordings(root: Path, trials: int, seconds: float) -> tuple[dict, list]:
         kind = name.split(":")[0]
         recording = read()
         frames[kind] = frames.get(kind, 0) + recording.frames
-        if taken.get(kind, 0) >= trials:
+        if trials is not None and taken.get(kind, 0) >= trials:
             continue
         taken[kind] = taken.get(kind, 0) + 1
         placed, _, _ = place_in_cell(synthesize_missing(recording), Placement())
-        points = resample(placed, RATE).points[: int(seconds * RATE)]
-        out.append((name, points))
+        points = resample(placed, RATE).points
+        out.append((name, points if seconds is None else points[: int(seconds * RATE)]))
     return frames, out
+
+
+def arm_speeds(points: np.ndarray) -> np.ndarray:
+    """Speeds (m/s) of the wrists between consecutive frames at RATE where both are recorded."""
+    wrists = points[:, [L_WRIST, R_WRIST]]
+    speed = np.linalg.norm(np.diff(wrists, axis=0), axis=-1).ravel() * RATE
+    return speed[np.isfinite(speed)]
+
+
+def speed_summary(speeds: list[np.ndarray]) -> dict:
+    joined = np.concatenate(speeds) if speeds else np.zeros(0)
+    if not joined.size:
+        return {"median": None, "p95": None}
+    return {"median": float(np.median(joined)), "p95": float(np.percentile(joined, 95))}
 
 
 def body_of(points: np.ndarray) -> BodyModel:
@@ -200,33 +219,26 @@ def pooled(rows: list[dict]) -> dict:
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="one trial per set, 12 s each (a few minutes)")
-    parser.add_argument("--data", default=None, help="a data folder laid out like data/ (default: it)")
-    args = parser.parse_args()
-    warnings.filterwarnings("ignore")
-    trials, seconds, n_trials = (1, 12.0, 30) if args.quick else (3, 30.0, 50)
-    root = data_root(args.data)
-    log(f"real recordings from {root} ({trials} trial(s) per set, {seconds:g} s each, {RATE:g} Hz)")
-    frames, sequences = recordings(root, trials, seconds)
-    log(f"imported frames per set: {frames}")
+def prediction_part(sequences, seconds_synthetic: float, n_trials: int) -> dict:
+    """8.1 on real motion: each sequence's Cartesian misses and joint eps per model, pooled over
+    all, per set, and for the synthetic operator over `seconds_synthetic` s; wrist speeds beside."""
     log(f"\n{'sequence':<30} {'model':<11} {'miss %':>7} {'med m':>8} {'p90 m':>8} {'vol m3':>9} {'s':>7}")
-    real = []
+    rows, speeds = {}, {}
     for name, points in sequences:
         body = body_of(points)
-        real.append(evaluate(name, body, standing(points, body), n_trials))
-    body, synthetic = simulated_sequence(seconds, 1.0 / RATE, seed=7)
+        kind = name.split(":")[0]
+        rows.setdefault(kind, []).append(evaluate(name, body, standing(points, body), n_trials))
+        speeds.setdefault(kind, []).append(arm_speeds(points))
+    body, synthetic = simulated_sequence(seconds_synthetic, 1.0 / RATE, seed=7)
     synthetic_row = evaluate("synthetic operator", body, synthetic, n_trials)
+    real = [row for kind_rows in rows.values() for row in kind_rows]
     figures = {
-        "quick": bool(args.quick),
-        "horizon_s": HORIZON,
-        "order": ORDER,
-        "rate_hz": RATE,
-        "sequences": [name for name, _ in sequences],
-        "frames_imported": frames,
         "prediction": pooled(real),
+        "prediction_by_set": {kind: pooled(kind_rows) for kind, kind_rows in rows.items()},
         "prediction_synthetic": pooled([synthetic_row]),
+        "wrist_speed_mps": {**{kind: speed_summary(v) for kind, v in speeds.items()},
+                            "real": speed_summary([x for v in speeds.values() for x in v]),
+                            "synthetic": speed_summary([arm_speeds(synthetic)])},
     }
     log("\npooled over the real sequences (every future point tested, every miss):")
     for kind in MODELS:
@@ -236,6 +248,69 @@ def main() -> None:
             f"{r['volume_m3']:.4f} m3)   synthetic {100 * s['miss_fraction']:6.2f} % "
             f"(p90 {s['miss_p90_m']:.3f} m, {s['volume_m3']:.4f} m3)"
         )
+    for kind, row in figures["wrist_speed_mps"].items():
+        if row["median"] is not None:
+            log(f"  wrist speed {kind:<10} median {row['median']:.3f} m/s, p95 {row['p95']:.3f} m/s")
+    return figures
+
+
+def gpdm_part(root: Path, quick: bool) -> dict:
+    """8.2's GPDM on the seated reaches (`real_gpdm`): the same person's other trials train it."""
+    result = gpdm_figures(root, seed=0, quick=quick)
+    return {"gpdm": result["real"], "gpdm_synthetic": result["synthetic"],
+            "gpdm_settings": result["settings"], "gpdm_sweep": result["sweep"]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="one trial per set, 12 s each (about a minute)")
+    parser.add_argument("--trials", type=int, default=None, help="trials per set (default: all)")
+    parser.add_argument("--seconds", type=float, default=None,
+                        help="cut each recording to this length (default: whole)")
+    parser.add_argument("--data", default=None, help="a data folder laid out like data/ (default: it)")
+    parser.add_argument("--parts", default=",".join(PARTS),
+                        help=f"comma-separated parts to run (default: all of {','.join(PARTS)})")
+    args = parser.parse_args()
+    unknown = set(args.parts.split(",")) - set(PARTS)
+    if unknown:
+        parser.error(f"--parts: unknown {sorted(unknown)}; known: {', '.join(PARTS)}")
+    warnings.filterwarnings("ignore")
+    if args.quick:
+        trials, seconds, n_trials, synthetic_s = 1, 12.0, 30, 12.0
+    else:
+        trials, seconds, n_trials, synthetic_s = args.trials, args.seconds, 50, 120.0
+    root = data_root(args.data)
+    log(f"real recordings from {root} ({trials or 'all'} trial(s) per set, "
+        f"{f'{seconds:g} s' if seconds else 'whole'} each, {RATE:g} Hz)")
+    frames, sequences = recordings(root, trials, seconds)
+    log(f"imported frames per set: {frames}")
+    figures = {
+        "quick": bool(args.quick),
+        "horizon_s": HORIZON,
+        "order": ORDER,
+        "rate_hz": RATE,
+        "sequences": [name for name, _ in sequences],
+        "frames_imported": frames,
+        "seconds_tested": {"real": sum(len(p) for _, p in sequences) / RATE, "synthetic": synthetic_s},
+    }
+    parts = args.parts.split(",")
+    if "prediction" in parts:
+        figures.update(prediction_part(sequences, synthetic_s, n_trials))
+    if "tracking" in parts:
+        log("\n== tracking (Ch. 9): real and synthetic arms through the cell's camera, occluders added")
+        figures.update(tracking_figures(sequences, synthetic_points(synthetic_s, seed=7), seed=0,
+                                        quick=args.quick))
+    if "intention" in parts:
+        log("\n== intention (3.1): the seated reaches, forward / across / rest")
+        intention = intention_figures(root, seed=0, quick=args.quick)
+        figures["intention_detail"] = intention
+        for key, value in intention_keys(intention).items():
+            prefix, model, name = key.split(".")
+            figures.setdefault(prefix, {}).setdefault(model, {})[name] = value
+    if "gpdm" in parts:
+        log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")
+        figures.update(gpdm_part(root, args.quick))
     print(json.dumps(figures))
 
 
