@@ -39,7 +39,7 @@ from bench_motion import GROUPS, epsilons, joint_sequence, run_model, simulated_
 from real_gpdm import gpdm_figures  # noqa: E402
 from real_intention import bench_keys as intention_keys  # noqa: E402
 from real_intention import intention_figures  # noqa: E402
-from real_tracking import synthetic_points, tracking_figures  # noqa: E402
+from real_tracking import TRACKERS, synthetic_points, tracking_figures  # noqa: E402
 
 from hrc_drake.datasets import data_root, dataset_dir  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
@@ -58,6 +58,12 @@ from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
 
 MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
 PARTS = ("prediction", "tracking", "intention", "gpdm")
+#: the trackers of 9.1.3 (hold, kf2, kf4, pf) and two particle-filter variants beside them: the
+#: literal bootstrap PF for seen points too (`bootstrap_tracked`), and hidden points starting at
+#: rest (`hidden_at_rest`, ours, after the drift this bench found on real arms)
+TRACKER_SPECS = {**TRACKERS,
+                 "pf_bootstrap": ("particle_filter", {"particles": 500, "bootstrap_tracked": 1}),
+                 "pf_at_rest": ("particle_filter", {"particles": 500, "hidden_at_rest": 1})}
 #: joint-space eps of 8.1.3 (bench_motion): the share of (sample, joint) pairs whose real excursion
 #: over the horizon left the predicted interval, on the IK's filtered joints
 JOINT_GROUPS = ("shoulders", "elbows")
@@ -300,7 +306,7 @@ def main() -> None:
     if "tracking" in parts:
         log("\n== tracking (Ch. 9): real and synthetic arms through the cell's camera, occluders added")
         figures.update(tracking_figures(sequences, synthetic_points(synthetic_s, seed=7), seed=0,
-                                        quick=args.quick))
+                                        quick=args.quick, trackers=TRACKER_SPECS))
     if "intention" in parts:
         log("\n== intention (3.1): the seated reaches, forward / across / rest")
         intention = intention_figures(root, seed=0, quick=args.quick)

@@ -99,6 +99,9 @@ class ParticleFilterTracker:
     #: The literal thesis: seen points by the bootstrap PF, weights eq. (9.8); False samples
     #: seen points from their exact Kalman posterior (our default, see particle_filter.py).
     bootstrap_tracked: bool = False
+    #: A variant (not the thesis): a newly hidden point's particles keep only their positions,
+    #: with velocity .. jerk 0, instead of the full posterior (particle_filter.py, issue 37).
+    hidden_at_rest: bool = False
     #: Frames with both ends seen used to calibrate each segment length.
     calibration_frames: int = 10
     #: Re-acquisition gate: a seen point farther than gate * measurement_std from its whole

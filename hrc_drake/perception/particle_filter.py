@@ -18,7 +18,10 @@ are updated; occluded points are handled the same way in both modes.
   At the frame a point gets hidden its full 12-dim state is sampled from the Kalman posterior
   and the particles then run the thesis' motion update + constraint likelihood + resampling;
   when the point is seen again the Kalman posterior restarts from the moments of the
-  constrained cloud.
+  constrained cloud. `hidden_onset="at_rest"` (a variant, not the thesis) keeps only the
+  position samples at that frame and sets velocity .. jerk to 0: on real recorded arms, which
+  mostly rest (median wrist speed 0.06 m/s, tools/bench_real.py), the inherited derivatives
+  carried the cloud away from a still hidden point (issue 37).
 - "bootstrap" (the literal thesis; tracker parameter `bootstrap_tracked: 1`): every point is
   a bootstrap PF, seen or not: motion update, weights (9.8)-(9.9), resampling. It works as
   such with a short chain (order 2: position, velocity; tests test_literal_bootstrap_*). With
@@ -126,6 +129,9 @@ class SkeletonParticleFilter:
     tracked_update: "kalman" (default, NOT the literal thesis: seen points sampled from their
         exact Kalman posterior) or "bootstrap" (the thesis' bootstrap PF for seen points too);
         see the module docstring.
+    hidden_onset: in "kalman" mode, the state a newly hidden point's particles start from:
+        "posterior" (default: the full Kalman posterior) or "at_rest" (its positions, with
+        velocity .. jerk 0; a variant, see the module docstring).
     seen_samples: in "kalman" mode, how many particles of a seen point are drawn from its
         Kalman posterior each frame (None: all N). With fewer, the other rows of a seen point
         are stale and unused: `spread` and `fraction_in_box` of a seen point come from the
@@ -142,7 +148,8 @@ class SkeletonParticleFilter:
                  measurement_std: float = 0.01, crown: float = 0.05, resampling: str = "bootstrap",
                  calibration_frames: int = 10, segment_lengths=None, initial_std=DEFAULT_INITIAL_STD,
                  gate: float = 6.0, reseed_tries: int = 4, tracked_update: str = "kalman",
-                 parents=SKELETON_PARENTS, seen_samples: int | None = None, rng=None):
+                 parents=SKELETON_PARENTS, seen_samples: int | None = None, hidden_onset: str = "posterior",
+                 rng=None):
         if int(n_particles) != n_particles or n_particles < 2:
             raise ValueError(_WHERE + f"n_particles must be an integer >= 2, got {n_particles!r}")
         if resampling not in ("bootstrap", "systematic"):
@@ -169,6 +176,9 @@ class SkeletonParticleFilter:
         if tracked_update not in ("kalman", "bootstrap"):
             raise ValueError(_WHERE + f"tracked_update must be kalman|bootstrap, got {tracked_update!r}")
         self.tracked_update = tracked_update
+        if hidden_onset not in ("posterior", "at_rest"):
+            raise ValueError(_WHERE + f"hidden_onset must be posterior|at_rest, got {hidden_onset!r}")
+        self.hidden_onset = hidden_onset
         if seen_samples is not None and (int(seen_samples) != seen_samples or seen_samples < 1):
             raise ValueError(_WHERE + f"seen_samples must be None or an integer >= 1, got {seen_samples!r}")
         self.seen_samples = None if seen_samples is None or seen_samples >= self.n_particles \
@@ -482,6 +492,8 @@ class SkeletonParticleFilter:
                 chol = np.linalg.cholesky(self._kf.P_[onset] + self._cov_floor)
                 z = rng.standard_normal((len(onset), n, self.model.state_size))
                 self.particles_[onset] = self._kf.x_[onset, None, :] + z @ np.swapaxes(chol, 1, 2)
+                if self.hidden_onset == "at_rest":
+                    self.particles_[onset, :, 3:] = 0.0
             self._seen_kalman(points, seen, active, np.flatnonzero(seen), steps)
             moving = hidden_idx
         else:

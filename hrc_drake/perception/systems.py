@@ -37,6 +37,7 @@ def tracker_params(config: TrackingConfig) -> tuple[str, dict]:
     if isinstance(config, ParticleFilterTracker):
         params.update(particles=config.particles, crown=config.crown, systematic=int(config.systematic),
                       bootstrap_tracked=int(config.bootstrap_tracked),
+                      hidden_at_rest=int(config.hidden_at_rest),
                       calibration_frames=config.calibration_frames, gate=config.gate)
         return "particle_filter", params
     if isinstance(config, KalmanTracker):

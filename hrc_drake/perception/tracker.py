@@ -66,6 +66,7 @@ DEFAULT_PARAMS = {
     "crown": 0.05,  # half amplitude theta of the spherical crowns (m), eq. (9.13)
     "systematic": 0,  # 1: systematic resampling instead of the thesis' bootstrap
     "bootstrap_tracked": 0,  # 1: literal thesis, seen points by the bootstrap PF (9.8); 0: Kalman sampling
+    "hidden_at_rest": 0,  # 1: a variant, a newly hidden point's particles start with velocity .. jerk 0
     "calibration_frames": 10,  # frames used to calibrate the segment lengths
     "gate": 6.0,  # re-acquisition gate (measurement std units)
     "confidence": 0.9,  # KF ellipsoid confidence (9.1.3)
@@ -162,6 +163,7 @@ class SkeletonTracker:
                 resampling="systematic" if p["systematic"] else "bootstrap",
                 calibration_frames=p["calibration_frames"], initial_std=self._initial, gate=p["gate"],
                 tracked_update="bootstrap" if p["bootstrap_tracked"] else "kalman",
+                hidden_onset="at_rest" if p["hidden_at_rest"] else "posterior",
                 seen_samples=p["display_particles"], rng=rng)  # only the displayed ones are read
         elif self.kind == "kalman":
             model = ChainOfIntegrators(p["order"], self.dt, self._sigma, dim=3)

@@ -299,3 +299,25 @@ def test_summaries_equal_the_numpy_spread_and_fraction_in_box(seen_samples):
     assert np.any((partly > 0.0) & (partly < 1.0))  # the fractions are not trivially 0 or 1
     with pytest.raises(ValueError, match="center and size"):
         pf.summaries([0.0, 0.0], [1.0, 1.0, 1.0])
+
+
+def test_the_at_rest_onset_keeps_a_still_hidden_wrist_where_it_stopped():
+    # The body moves along +y at 0.3 m/s, stops, and the wrist is hidden (everywhere counts as
+    # hidden) as it stops: the full posterior carries the seen velocity into the hidden cloud,
+    # the at_rest variant (issue 37) starts it still.
+    def error(onset, seed):
+        pf = SkeletonParticleFilter(n_particles=300, rng=seed, calibration_frames=5, hidden_onset=onset)
+        for k in range(30):
+            pf.step(POSE + [0.0, 0.01 * k, 0.0])
+        stopped = POSE + [0.0, 0.29, 0.0]
+        for _ in range(12):
+            pf.step(occluded(stopped, L_WRIST), is_hidden=lambda p: np.ones(len(p), dtype=bool))
+        if onset == "at_rest":
+            assert pf.hidden_onset == "at_rest"
+        return np.linalg.norm(pf.means_[L_WRIST] - stopped[L_WRIST])
+
+    posterior = np.mean([error("posterior", seed) for seed in range(4)])
+    at_rest = np.mean([error("at_rest", seed) for seed in range(4)])
+    assert at_rest < 0.6 * posterior, (at_rest, posterior)
+    with pytest.raises(ValueError, match="hidden_onset"):
+        SkeletonParticleFilter(hidden_onset="frozen")
