@@ -1,22 +1,35 @@
 """Human-side systems on real people (issue 37): every shipped recording set imported
-(`hrc_drake.human.importers`), and human motion prediction (8.1) judged where safety uses it, in
-Cartesian terms: do the swept volumes at the thesis's 0.3 s horizon hold the arm's real future?
+(`hrc_drake.human.importers`) and each human-side system judged on it, the synthetic operator
+beside it by the same procedure (the gap between the two is the point).
 
-For each sequence (one trial per set with --quick, more without; a synthetic operator beside them)
-the recording is placed upright, resampled to 30 Hz (the cells' camera rate), its shoulders put
-at the standing body model's height (`standing`), fitted by the body model's IK, and fed step
-by step to the GP models A, B, C (P = 4) and the worst-case model [107] (`bench_motion.run_model`).
-At every step after a 3 s warm-up the swept volumes of that step are
-built and the recorded arm points (shoulders, elbows, wrists) of the next 0.3 s are tested
-against them: `miss_fraction` is the share of those points outside every volume, `miss_median_m`
-and `miss_p90_m` how far the missing ones lie outside, `volume_m3` the summed volume of
-the capsules (median over steps; overlaps counted twice). Not yet here (issue 37, next steps):
-tracking, intention and the GPDM on real motion.
+prediction (8.1) Each sequence (every trial of every set, or --trials / --seconds; --quick: one
+    trial per set, 12 s) is placed upright, resampled to 30 Hz (the cells' camera rate), its
+    shoulders put at the standing body model's height (`standing`), fitted by the body model's IK
+    and fed step by step to the GP models A, B, C (P = 4) and the worst-case model [107]
+    (`bench_motion.run_model`). The GP models of 8.1 are fit online on the operator's own last
+    samples, so every step trains on the part of the trial before it and tests on what follows
+    (a model trained on one person and tested on another is not how 8.1 uses them). After a 3 s
+    warm-up the swept volumes of each step are tested against the recorded arm points
+    (shoulders, elbows, wrists) of the next 0.3 s: `miss_fraction` is the share outside every
+    volume, `miss_median_m` / `miss_p90_m` how far the missing ones lie outside, `volume_m3` the
+    summed capsule volume (median over steps); `joint_eps_violation_rate` the joint-space eps of
+    8.1.3. Wrist speeds (median, p95) say how the motions differ.
+tracking (Ch. 9) `real_tracking`: the sequences through the analytic camera of pcb_occlusion.yaml
+    with its shelves, plus occluder panels hiding a wrist, an elbow or both during seeded 1-3 s
+    windows; hold, kf2, kf4, pf and two pf variants on the same frames: RMS error of the hidden
+    points and the coverage of each tracker's belief region with its volume.
+intention (3.1) `real_intention`: the UE seated reaches (forward, across, and the rest position
+    as goals placed from the other trials); when M1, M2, M3 first commit (0.8) to the right
+    target, as a fraction of the reach, and how often a wrong target reaches 0.8.
+gpdm (8.2) `real_gpdm`: one GPDM per reach kind fitted on the same person's other trials (leave
+    one out) predicts the arm 0.3 s ahead, against constant-velocity extrapolation.
 
 Usage:
-    python3 tools/bench_real.py [--quick] [--data DIR]
+    python3 tools/bench_real.py [--quick] [--data DIR] [--parts prediction,tracking,intention,gpdm]
+        [--trials N] [--seconds S]
 Last line: one JSON object (frames_imported.<set>, prediction.<model>.*,
-prediction_synthetic.<model>.*).
+prediction_synthetic.<model>.*, tracking.<tracker>.*, tracking_synthetic.<tracker>.*,
+intention.<model>.*, intention_synthetic.<model>.*, gpdm.*, gpdm_synthetic.*).
 """
 
 from __future__ import annotations
