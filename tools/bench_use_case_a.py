@@ -16,7 +16,8 @@ seeds. Detection figures are the medians over the perceived predictive runs.
 
 Prints a line per run, a table, and as its last line one JSON object with the keys
 predictive_cycle_s, reactive_cycle_s, data_driven_cycle_s, predictive_cycle_s_pattern2,
-reactive_cycle_s_pattern2, wilcoxon_p, event_precision, event_recall, event_latency_p90_s,
+reactive_cycle_s_pattern2, wilcoxon_p, event_precision, event_recall, event_recall_pattern2
+(detection of the predictive pattern-2 runs: two IC insertions in a row), event_latency_p90_s,
 predictive_cycle_s_truth, reactive_cycle_s_truth (and the per-seed lists).
 
 The predictive robot compares t_p with the duration of its quality check. The check is slowed
@@ -233,6 +234,7 @@ def main(argv: list[str] | None = None) -> None:
     results = run_all(jobs, duration, args.warmup, args.workers)
     cycle = {name: [r["cycle_s"] for r in runs] for name, runs in results.items()}
     detection = [r["detection"] for r in results["predictive_perceived"]]
+    detection2 = [r["detection"] for r in results["predictive_perceived_pattern2"]]
     out = {
         "predictive_cycle_s": median(cycle["predictive_perceived"]),
         "reactive_cycle_s": median(cycle["reactive_perceived"]),
@@ -246,6 +248,8 @@ def main(argv: list[str] | None = None) -> None:
                                              cycle["reactive_perceived_pattern2"]),
         "event_precision": median(d.get("event_precision", float("nan")) for d in detection),
         "event_recall": median(d.get("event_recall", float("nan")) for d in detection),
+        "event_recall_pattern2": median(d.get("event_recall", float("nan")) for d in detection2),
+        "event_precision_pattern2": median(d.get("event_precision", float("nan")) for d in detection2),
         "event_latency_median_s": median(d.get("event_latency_median_s", float("nan")) for d in detection),
         "event_latency_p90_s": median(d.get("event_latency_p90_s", float("nan")) for d in detection),
         "spurious_actions": median(d.get("spurious_actions", float("nan")) for d in detection),
