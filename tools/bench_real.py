@@ -205,7 +205,10 @@ def evaluate(name: str, body: BodyModel, points: np.ndarray, n_trials: int) -> d
         predictor, deltas, filtered, _ = run_model(body, qs, stds, kind, ORDER, dt, n_trials, HORIZON, warmup)
         out[kind] = cartesian_misses(predictor, deltas, filtered, points, warmup)
         row = out[kind]
-        eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
+        if len(filtered) > warmup + predictor.steps:
+            eps_plus, eps_minus = epsilons(deltas, filtered, predictor.steps, warmup)
+        else:  # a recording shorter than the warm-up and one horizon (a UE reach): nothing to test
+            eps_plus = eps_minus = np.zeros((0, 12))
         row["joint_misses"] = {group: int(np.sum((eps_plus[:, GROUPS[group]] < 0)
                                                  | (eps_minus[:, GROUPS[group]] < 0)))
                                for group in JOINT_GROUPS}
