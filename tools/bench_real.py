@@ -268,6 +268,9 @@ def prediction_part(sequences, seconds_synthetic: float, n_trials: int) -> dict:
     log("\npooled over the real sequences (every future point tested, every miss):")
     for kind in MODELS:
         r, s = figures["prediction"][kind], figures["prediction_synthetic"][kind]
+        if r["miss_fraction"] is None or s["miss_fraction"] is None:
+            log(f"  {kind:<11} nothing tested (recordings shorter than the 3 s warm-up)")
+            continue
         log(
             f"  {kind:<11} real {100 * r['miss_fraction']:6.2f} % (p90 {r['miss_p90_m']:.3f} m, "
             f"{r['volume_m3']:.4f} m3)   synthetic {100 * s['miss_fraction']:6.2f} % "
