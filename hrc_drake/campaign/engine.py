@@ -272,7 +272,10 @@ def _run_on(client, pending, store: RunStore, bar: Progress, out_dir: Path, addr
     a lost scheduler (`SchedulerLost`) or an interruption, cancelling what is left."""
     from distributed import as_completed
 
-    client.run_on_scheduler(_allow_worker_deaths, ALLOWED_WORKER_DEATHS)
+    try:
+        client.run_on_scheduler(_allow_worker_deaths, ALLOWED_WORKER_DEATHS)
+    except OSError:  # the scheduler went away before the first run was sent
+        raise SchedulerLost(_lost_message(address, bar, store)) from None
     n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
     in_flight = IN_FLIGHT_PER_WORKER * n_workers
     futures: dict = {}
@@ -436,7 +439,19 @@ class ClusterClient:
                     silence_logs=logging.ERROR,
                 )
             self.client = Client(self.cluster)
-        self.client.run(warm_up)  # import pydrake and the cell in every worker at once
+        try:
+            self.client.run(warm_up)  # import pydrake and the cell in every worker at once
+        except OSError as err:  # the scheduler went away while its workers were warming up
+            self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+            where = f"at {self.address}" if self.address else "of the local cluster"
+            quiet_interrupted_shutdown()
+            raise SchedulerLost(
+                f"lost the Dask scheduler {where} while its workers were starting ({type(err).__name__}); "
+                "no run had started: restart the scheduler and its workers, then run the same command "
+                "to resume"
+            ) from None
         if self.cluster is not None:  # our own workers only, never a user's cluster
             # a plugin: a worker the nanny restarts (after a death) gets it too
             self.client.register_plugin(_quiet_local_worker_plugin())

@@ -311,6 +311,32 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+def test_a_scheduler_lost_while_its_workers_warm_up_is_a_lost_scheduler(monkeypatch):
+    """The scheduler dying during the workers' warm-up (a loaded machine) was an internal error."""
+    from distributed.comm.core import CommClosedError
+
+    from hrc_drake.campaign import engine
+
+    class DyingClient:
+        closed = False
+
+        def wait_for_workers(self, n, timeout=None):
+            return None
+
+        def run(self, function):
+            raise CommClosedError("in <TCP (closed) ConnectionPool.broadcast>: Stream is closed")
+
+        def close(self):
+            DyingClient.closed = True
+
+    monkeypatch.setattr(engine, "connect", lambda address: DyingClient())
+    lost = "lost the Dask scheduler at tcp://h:1.*run the same command"
+    with pytest.raises(engine.SchedulerLost, match=lost):
+        with ClusterClient("tcp://h:1", 0):
+            pass
+    assert DyingClient.closed
+
+
 @pytest.mark.slow
 def test_a_scheduler_that_stops_mid_campaign_is_a_clear_error_not_a_hang(tmp_path):
     port = _free_port()
