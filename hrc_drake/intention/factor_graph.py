@@ -17,7 +17,7 @@ Public API (names of variables are any hashable; values are 0 .. cardinality - 1
     g.log_partition(evidence)  -> log Z(o), eq. (C.11)      g.log_energy(assignment) -> log E
     g.weights() / g.set_weights({name: w})                 g.variables -> {name: cardinality}
     g.fit(samples, method="lbfgs" | "gradient", ...) -> FitReport       App. C.0.2-C.0.3
-    g.last_report  -> BPReport(mode, exact, converged, iterations, max_change) of the last query
+    g.last_report  -> BPReport(mode, exact, converged, iterations, max_change, feasible) of the last query
 
 Inference. Evidence is conditioned on by slicing the factors (eq. (C.21), Fig. C.4); factors left
 over the same set of hidden variables are merged. If the remaining factor graph is a forest, the
@@ -30,6 +30,14 @@ reported; the marginals are then approximate, and the MAP is the argmax of each 
 eq. (C.23), which is approximate too (a strong local optimum, not always the global one).
 Messages are kept in log space, normalised, so long chains do not underflow.
 
+Zeros. A query whose evidence leaves Z(o) = 0 raises ValueError ("zero probability"), on trees
+(a variable with no possible value, exact there) and on loopy graphs too, where BP alone cannot
+see it (a triangle of "not equal" factors on two values keeps uniform, converged messages):
+when a loopy graph has zero entries, a depth-first search with arc consistency over the zeros
+(`_possible_assignment`) looks for an assignment of non-zero energy. Its verdict is
+`last_report.feasible`; the loopy MAP is that search's answer, values tried in max-marginal
+order, so it is the argmax of eq. (C.23) whenever that is possible and a possible one otherwise.
+
 Learning (App. C.0.2-C.0.3). The average log-likelihood J(W) of fully observed samples,
 eq. (C.29), has the gradient of eq. (C.38): for a weight shared by several factors the sum over
 them of (empirical mean of Phi - mean of Phi under the model), eq. (C.40)-(C.42); the model means
@@ -39,6 +47,7 @@ beliefs (both exact on trees, approximate on loopy graphs).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -51,19 +60,24 @@ MAX = "max"
 _NEG_INF = -np.inf
 #: Compiled graphs kept, one per set of observed variables.
 _CACHED_STRUCTURES = 32
+#: Values the search for a possible assignment of a loopy graph with zeros tries before giving up.
+SEARCH_BUDGET = 20000
 
 
 @dataclass(frozen=True)
 class BPReport:
     """How the last inference went: `exact` when the graph left by the evidence is a forest (then
     `converged` is True, `iterations` 1 and `max_change` 0); otherwise loopy BP's iterations and
-    the largest change of a message (probabilities) in the last one."""
+    the largest change of a message (probabilities) in the last one. `feasible`: an assignment of
+    non-zero energy exists (True), none does (False: Z = 0, the query raised ValueError), or the
+    search of a loopy graph with zeros gave up after `SEARCH_BUDGET` nodes (None: unknown)."""
 
     mode: str
     exact: bool
     converged: bool
     iterations: int
     max_change: float
+    feasible: bool | None = True
 
 
 @dataclass(frozen=True)
@@ -127,6 +141,7 @@ class _Structure:
     down: list = field(default_factory=list)
     backtrack: list = field(default_factory=list)
     roots: list[int] = field(default_factory=list)
+    feasible: dict = field(default_factory=dict)  # evidence items -> verdict of the search
 
 
 # ---------------------------------------------------------------------------------------------
@@ -462,6 +477,109 @@ def _backtrack_steps(st: _Structure, factors: list[tuple[int, int]]) -> list:
 
 
 # ---------------------------------------------------------------------------------------------
+# zeros on loopy graphs: is any assignment possible?
+
+
+def _zero_factors(st: _Structure, tables: list[np.ndarray]) -> list[tuple[tuple[int, ...], np.ndarray]]:
+    """(hidden variables, mask of the possible entries) of every merged factor with a zero."""
+    out = []
+    for g, grp in enumerate(st.groups):
+        for row, m in enumerate(grp.members):
+            possible = np.isfinite(tables[g][row])
+            if not possible.all():
+                out.append((st.merged_vars[m], possible))
+    return out
+
+
+def _arc_consistent(domains: list[np.ndarray], factors, watching, queue) -> bool:
+    """Generalised arc consistency over the zeros: each domain shrunk to the values some possible
+    entry of each of its factors supports (domains are replaced, never changed in place); False
+    when a domain empties."""
+    pending = set(queue)
+    queue = list(queue)
+    while queue:
+        f = queue.pop()
+        pending.discard(f)
+        variables, possible = factors[f]
+        arity = len(variables)
+        t = possible
+        for i, v in enumerate(variables):
+            shape = [1] * arity
+            shape[i] = len(domains[v])
+            t = t & domains[v].reshape(shape)
+        for i, v in enumerate(variables):
+            support = t.any(axis=tuple(a for a in range(arity) if a != i))
+            if np.array_equal(support, domains[v]):
+                continue
+            if not support.any():
+                return False
+            domains[v] = support
+            for h in watching[v]:
+                if h != f and h not in pending:
+                    pending.add(h)
+                    queue.append(h)
+    return True
+
+
+def _possible_assignment(
+    st: _Structure, prior: np.ndarray, tables: list[np.ndarray], preference: np.ndarray, budget: int
+) -> tuple[bool | None, np.ndarray | None]:
+    """(True, values) of non-zero energy, (False, None) when none exists (Z = 0), (None, None) when
+    `budget` values were tried in vain. Depth-first over the variables of the zero factors (fewest
+    values left first) with arc consistency after each choice; values in decreasing `preference`
+    (hidden, kmax), so the first assignment tried is its argmax. Variables outside the zero
+    factors take their preferred possible value."""
+    n = len(st.hidden)
+    domains = [np.isfinite(prior[v, : st.card[v]]) for v in range(n)]
+    if not all(d.any() for d in domains):
+        return False, None
+    factors = _zero_factors(st, tables)
+    watching: list[list[int]] = [[] for _ in range(n)]
+    for f, (variables, _) in enumerate(factors):
+        for v in variables:
+            watching[v].append(f)
+    constrained = [v for v in range(n) if watching[v]]
+    if not _arc_consistent(domains, factors, watching, range(len(factors))):
+        return False, None
+
+    def candidates(v: int, doms: list[np.ndarray]):
+        order = np.argsort(-preference[v, : st.card[v]], kind="stable")
+        return iter([int(x) for x in order if doms[v][x]])
+
+    def pick(doms: list[np.ndarray]) -> int | None:
+        open_ = [v for v in constrained if doms[v].sum() > 1]
+        return min(open_, key=lambda v: int(doms[v].sum())) if open_ else None
+
+    def finish(doms: list[np.ndarray]) -> np.ndarray:
+        masked = np.where(np.stack([np.pad(d, (0, st.kmax - len(d))) for d in doms]), preference, -np.inf)
+        return np.argmax(masked, axis=1).astype(np.int64)
+
+    first = pick(domains)
+    if first is None:
+        return True, finish(domains)
+    stack = [(domains, first, candidates(first, domains))]
+    tried = 0
+    while stack:
+        doms, v, values = stack[-1]
+        x = next(values, None)
+        if x is None:
+            stack.pop()
+            continue
+        tried += 1
+        if tried > budget:
+            return None, None
+        trial = list(doms)
+        trial[v] = np.arange(st.card[v]) == x
+        if not _arc_consistent(trial, factors, watching, watching[v]):
+            continue
+        nxt = pick(trial)
+        if nxt is None:
+            return True, finish(trial)
+        stack.append((trial, nxt, candidates(nxt, trial)))
+    return False, None
+
+
+# ---------------------------------------------------------------------------------------------
 # the graph
 
 
@@ -576,10 +694,14 @@ class FactorGraph:
         tol: float = 1e-10,
     ) -> dict[Hashable, int]:
         """The most probable joint assignment given the evidence (App. C.0.1, eq. (C.22)-(C.23)):
-        exact by backtracking on forests, the max-marginals' argmax (approximate) on loopy graphs."""
+        exact by backtracking on forests, the max-marginals' argmax (approximate) on loopy graphs;
+        with zero entries there, the first possible assignment in max-marginal order (see Zeros in
+        the module docstring). ValueError when none is possible."""
         obs, st, bp, _ = self._propagate(evidence, MAX, max_iter, damping, tol, downward=False)
         if st.forest:
             values = bp.backtrack()
+        elif bp.possible is not None:  # zeros: the possible assignment nearest the argmax
+            values = bp.possible
         else:
             values = np.argmax(bp.variable_beliefs(), axis=1)
         return {
@@ -725,17 +847,46 @@ class FactorGraph:
         st = self._structure(frozenset(obs))
         prior, tables, const = self._reduced_tables(st, obs)
         bp = _Propagation(st, prior, tables, mode)
+        bp.possible = None  # a possible assignment found by the search (loopy graphs with zeros)
         if st.forest:
             bp.tree_passes(downward=downward)
             self.last_report = BPReport(mode, True, True, 1, 0.0)
         else:
             converged, iterations, change = bp.loopy(max_iter, damping, tol)
             self.last_report = BPReport(mode, False, converged, iterations, change)
-        dead = np.all(np.isneginf(bp.variable_beliefs()), axis=1)
+        beliefs = bp.variable_beliefs()
+        dead = np.all(np.isneginf(beliefs), axis=1)
         if np.any(dead):
+            self.last_report = dataclasses.replace(self.last_report, feasible=False)
             name = self._names[st.hidden[int(np.flatnonzero(dead)[0])]]
             raise ValueError(f"evidence has zero probability (no value of {name!r} is possible)")
+        if not st.forest:
+            self._check_zeros(st, obs, prior, tables, beliefs, bp)
         return obs, st, bp, const
+
+    def _check_zeros(self, st: _Structure, obs: dict[int, int], prior, tables, beliefs, bp) -> None:
+        """On a loopy graph with zero entries, whether Z(o) > 0 (`_possible_assignment`): the verdict
+        goes to `last_report.feasible`, ValueError when Z(o) = 0. The verdict of a sum-product query
+        is kept per evidence (the zeros do not depend on the weights); a max-product query keeps
+        the assignment found, its MAP."""
+        live = np.arange(st.kmax)[None, :] < st.card[:, None]
+        if not (np.any(np.isneginf(prior) & live) or any(np.isneginf(t).any() for t in tables)):
+            return
+        key = tuple(sorted(obs.items()))
+        if len(st.feasible) >= _CACHED_STRUCTURES:  # many evidence patterns: drop the oldest
+            st.feasible.pop(next(iter(st.feasible)))
+        if self.last_report.mode == MAX or key not in st.feasible:
+            verdict, values = _possible_assignment(st, prior, tables, beliefs, SEARCH_BUDGET)
+            st.feasible[key] = verdict
+            bp.possible = values
+        verdict = st.feasible[key]
+        self.last_report = dataclasses.replace(self.last_report, feasible=verdict)
+        if verdict is False:
+            what = "evidence has" if obs else "every assignment has"
+            raise ValueError(
+                f"{what} zero probability: no assignment of the hidden variables is possible (Z = 0; "
+                "loopy BP cannot tell, a search over the zero entries proved it)"
+            )
 
     def _reduced_tables(self, st: _Structure, obs: dict[int, int]):
         """Slice the evidence out of every factor, eq. (C.21), into priors, merged tables and a

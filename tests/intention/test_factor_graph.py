@@ -501,3 +501,135 @@ def test_impossible_evidence_and_samples_are_reported():
         g.fit(np.array([[0, 0, 0], [0, 1, 0]]))
     with pytest.raises(ValueError, match="no learnable weights"):
         FactorGraph().fit(np.zeros((1, 0), dtype=int))
+
+
+# ---------------------------------------------------------------------------------------------
+# zeros on loopy graphs (Z = 0 and impossible MAPs)
+
+NOT_EQUAL = 1.0 - np.eye(2)
+
+
+def ring(n: int, cards: int = 2, table=None) -> FactorGraph:
+    """n variables on a cycle of "not equal" factors (or `table`)."""
+    g = FactorGraph()
+    for v in range(n):
+        g.add_variable(f"V{v}", cards)
+    for v in range(n):
+        g.add_factor([f"V{v}", f"V{(v + 1) % n}"], 1.0 - np.eye(cards) if table is None else table)
+    return g
+
+
+@pytest.mark.parametrize("query", [lambda g: g.marginals(), lambda g: g.log_partition(), lambda g: g.map()])
+def test_triangle_of_not_equal_factors_has_no_possible_assignment(query):
+    """Three binary variables pairwise different: Z = 0. Loopy BP keeps uniform, converged messages
+    (so it used to answer uniform marginals, log Z = 0 and a MAP of probability zero); the query
+    now raises, and the report says no assignment is possible."""
+    g = ring(3)
+    with pytest.raises(ValueError, match="zero probability"):
+        query(g)
+    report = g.last_report
+    assert not report.exact and report.feasible is False
+
+
+def test_even_ring_of_not_equal_factors_maps_to_a_possible_assignment():
+    """Four binary variables in a ring of "not equal": the max-marginals are flat, so their argmax
+    (all zeros) is impossible; the MAP is one of the two alternating assignments."""
+    g = ring(4)
+    best = g.map()
+    assert g.last_report.feasible is True and not g.last_report.exact
+    assert g.log_energy(best) == 0.0
+    assert [best[f"V{v}"] for v in range(4)] in ([0, 1, 0, 1], [1, 0, 1, 0])
+    np.testing.assert_allclose(g.marginals()["V0"], [0.5, 0.5])
+    assert g.last_report.feasible is True
+
+
+def test_evidence_that_leaves_no_possible_assignment_on_a_loop_raises():
+    """A 5-ring of "not equal" on 3 values, its neighbours V1 and V2 equal to the observed E and F:
+    E = 0, F = 1 leaves the ring loopy and possible; E = F = 1 makes V1 = V2, which their "not
+    equal" forbids."""
+    g = ring(5, cards=3)
+    for observed, hidden in (("E", "V1"), ("F", "V2")):
+        g.add_variable(observed, 3)
+        g.add_factor([observed, hidden], np.eye(3))
+    best = g.map({"E": 0, "F": 1})
+    assert g.last_report.feasible is True and not g.last_report.exact
+    assert np.isfinite(g.log_energy(best))
+    with pytest.raises(ValueError, match="evidence has zero probability"):
+        g.marginals({"E": 1, "F": 1})
+    assert g.last_report.feasible is False
+
+
+def test_search_that_gives_up_is_reported_as_unknown(monkeypatch):
+    """Four variables pairwise different on 3 values (K4 is not 3-colourable): arc consistency does
+    not see it, the search does after a few values; with a budget of one value it gives up and the
+    report says so (feasible None) instead of claiming either answer."""
+    import hrc_drake.intention.factor_graph as fg
+
+    g = FactorGraph()
+    for v in range(4):
+        g.add_variable(v, 3)
+    for a in range(4):
+        for b in range(a + 1, 4):
+            g.add_factor([a, b], 1.0 - np.eye(3))
+    with pytest.raises(ValueError, match="zero probability"):
+        g.marginals()
+    monkeypatch.setattr(fg, "SEARCH_BUDGET", 1)
+    g.add_variable("free", 2)  # a new structure: the verdict kept above is not reused
+    g.marginals()
+    assert g.last_report.feasible is None and not g.last_report.exact
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_loopy_zeros_against_brute_force(seed):
+    """Random loopy graphs of 2-3 valued variables whose pairwise tables are a third zeros: a query
+    raises exactly when the brute-force joint has no possible assignment, and otherwise the MAP is
+    possible (a finite score)."""
+    rng = np.random.default_rng(7000 + seed)
+    n = int(rng.integers(4, 8))
+    cards = [int(k) for k in rng.integers(2, 4, n)]
+    g, specs = FactorGraph(), []
+    for v in range(n):
+        g.add_variable(f"V{v}", cards[v])
+    pairs = [(v, (v + 1) % n) for v in range(n)] + [tuple(int(x) for x in rng.choice(n, 2, replace=False))]
+    for a, b in pairs:
+        table = np.exp(rng.normal(0.0, 1.0, (cards[a], cards[b])))
+        table[rng.random(table.shape) < 0.35] = 0.0
+        if not table.any():
+            table[0, 0] = 1.0
+        g.add_factor([f"V{a}", f"V{b}"], table)
+        with np.errstate(divide="ignore"):
+            specs.append(([a, b], np.log(table)))
+    joint = log_joint(cards, specs)
+    if not np.isfinite(joint).any():
+        for query in (g.marginals, g.map, g.log_partition):
+            with pytest.raises(ValueError, match="zero probability"):
+                query()
+            assert g.last_report.feasible is False
+        return
+    best = g.map()
+    assert g.last_report.feasible is True
+    assert np.isfinite(score(joint, best))
+    marg = g.marginals()
+    assert all(np.isfinite(p).all() for p in marg.values())
+
+
+def test_loopy_zeros_seeds_cover_both_outcomes():
+    """The brute-force sweep above meets both possible and impossible graphs (else it tests one)."""
+    outcomes = set()
+    for seed in range(40):
+        rng = np.random.default_rng(7000 + seed)
+        n = int(rng.integers(4, 8))
+        cards = [int(k) for k in rng.integers(2, 4, n)]
+        specs = []
+        pairs = [(v, (v + 1) % n) for v in range(n)] + [
+            tuple(int(x) for x in rng.choice(n, 2, replace=False))
+        ]
+        for a, b in pairs:
+            table = np.exp(rng.normal(0.0, 1.0, (cards[a], cards[b])))
+            table[rng.random(table.shape) < 0.35] = 0.0
+            if not table.any():
+                table[0, 0] = 1.0
+            with np.errstate(divide="ignore"):
+                specs.append(([a, b], np.log(table)))
+        outcomes.add(bool(np.isfinite(log_joint(cards, specs)).any()))
+    assert outcomes == {True, False}
