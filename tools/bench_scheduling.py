@@ -83,11 +83,13 @@ def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
                               forecaster=forecaster)
 
 
-def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 300) -> dict:
+def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 300,
+                     merge: bool = True) -> dict:
     """Time of one fuzzy (7.4, Algorithm 5) and one uniform (eq. 7.21-7.23) decision at T_sch =
     `horizon` on the torch_clock net (t_w = 5 s, 7.5.3), over the markings a round-robin run of
-    that net meets (decisions with a choice); also the trees' sizes and how many of them the
-    node cap (max_nodes, default 300) cut short of T_sch."""
+    that net meets (decisions with a choice); also the trees' sizes (nodes), how many of them the
+    node cap (max_nodes) cut short of T_sch, how far ahead they reached (s, median) and the
+    share of decisions taken by the tie rule (root children of equal J)."""
     from pathlib import Path
 
     from hrc_drake.cell.scenario import load_scenario
@@ -104,17 +106,19 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max
              if net.enabled(a[0])[net.agent_transitions(a[1])].sum() > 1][:n_decisions]
     out = {}
     for name, kind in (("fuzzy", FuzzyPolicy), ("uniform", UniformPolicy)):
-        policy = kind(net, horizon=horizon, max_nodes=max_nodes)
-        times, nodes, truncated = [], [], 0
+        policy = kind(net, horizon=horizon, max_nodes=max_nodes, merge=merge)
+        times, nodes, depths = [], [], []
         for marking, agent, now, elapsed in asked:
             t0 = time.perf_counter()
             policy.decide(marking, agent, now, elapsed)
             times.append(time.perf_counter() - t0)
-            tree = policy.tree(marking, roots=net.agent_choices(marking, agent), elapsed=elapsed)
-            nodes.append(len(tree.nodes))
-            truncated += bool(tree.truncated)
+            nodes.append(policy.last_tree_size_)
+            depths.append(policy.last_depth_reached_)
+        s = policy.stats_  # counts every decision with a choice (FuzzyStats)
         out[name] = {"ms_median": 1000 * float(np.median(times)), "ms_max": 1000 * float(np.max(times)),
-                     "nodes_median": int(np.median(nodes)), "truncated": truncated, "decisions": len(times)}
+                     "nodes_median": int(np.median(nodes)), "truncated": s.truncated,
+                     "depth_reached_s_median": float(np.median(depths)),
+                     "ties_pct": round(100.0 * s.ties / max(s.decisions, 1), 1), "decisions": len(times)}
     return out
 
 
@@ -132,6 +136,13 @@ def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
         from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy
 
         return FuzzyPolicy(net, horizon=horizon, max_nodes=int(kind[11:]), random_state=seed)
+    if kind.startswith("fuzzy_w"):  # fuzzy_w<w1>_<w2>[_frac][_random]: w_1, w_2 (7.16), W_R's unit, ties
+        from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy
+
+        w1, w2, *flags = kind[7:].split("_")
+        return FuzzyPolicy(net, horizon=horizon, w_human=float(w1), w_robot=float(w2), random_state=seed,
+                           robot_wait_measure="horizon_fraction" if "frac" in flags else "seconds",
+                           ties="random" if "random" in flags else "first")
     if kind == "monte_carlo_uniform_support":  # Scheduler B of 7.5.2: uniform delays on the measured supports
         return MonteCarloPolicy(
             net, n_trials=n_trials, horizon=horizon, random_state=seed, durations="uniform_support"
@@ -255,6 +266,46 @@ def sweep_fuzzy_max_nodes(quick: bool) -> dict:
     return out
 
 
+def sweep_fuzzy_weights(quick: bool) -> dict:
+    """w_1, w_2 of eq. (7.16) (the thesis: tunable, cost per hour of worker against robots), W_R
+    in seconds (the thesis) and as t_w / T_sch per wait (the variant on W_H's scale), and the
+    random tie rule: at event level on the torch_clock net (T_sch 50 s, t_w 5 s, round robin as
+    the reference), the human's idle time and the time per product, and the ties' share."""
+    from pathlib import Path
+
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.scheduling.config import FuzzyScheduler
+    from hrc_drake.scheduling.systems import net_from_scenario
+
+    root = Path(__file__).resolve().parents[1]
+    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
+    grid = ["1_1", "1_0.1", "10_1", "1_1_random", "1_1_frac", "1_0.1_frac", "10_1_frac"]
+    if quick:
+        grid = ["1_1", "1_1_frac"]
+    arms = {f"w{g}": f"fuzzy_w{g}" for g in grid} | {"round_robin": "round_robin"}
+    runs = campaign(net, arms, 2 if quick else 4, None, "fuzzy w", horizon=50.0, n_products=4 if quick else 6)
+    return {arm: {"human_idle_per_product": round(r["human_idle_per_product"], 3),
+                  "time_per_product": round(r["time_per_product"], 3)} for arm, r in runs.items()}
+
+
+def fuzzy_reach(quick: bool) -> dict:
+    """How far the fuzzy tree reaches on the torch_clock net at T_sch = 50 s per node cap, merged
+    (exact DAG, the default) and literal (Algorithm 5's tree): nodes, depth reached, latency."""
+    caps = (300, 3000) if quick else (300, 1000, 3000, 10000)
+    out = {}
+    for merge in (True, False):
+        for cap in caps:
+            f = fuzzy_latency_ms(3 if quick else 10, max_nodes=cap, merge=merge)["fuzzy"]
+            key = f"{'merged' if merge else 'literal'}_{cap}"
+            out[key] = {k: f[k] for k in ("nodes_median", "depth_reached_s_median", "ms_median", "truncated",
+                                          "decisions")}
+            print(f"  fuzzy tree {key:14s}: {f['nodes_median']:6d} nodes, reaches "
+                  f"{f['depth_reached_s_median']:5.1f} s of 50 s, {f['ms_median']:8.1f} ms, "
+                  f"{f['truncated']} of {f['decisions']} cut", flush=True)
+    return out
+
+
 def sweep_use_case_b(quick: bool) -> dict:
     """Scheduler A of use case b around the thesis's settings: T_sch (15, 30, 60 s), the
     work-first rollouts and branch pooling (options), per pattern; time per product and human
@@ -375,8 +426,17 @@ def latencies(quick: bool, result: dict) -> None:
     result["fuzzy_T50"] = fuzzy
     for name, f in fuzzy.items():
         print(f"  {name} (7.4), torch_clock net, T_sch = 50 s: {f['ms_median']:7.1f} ms median, "
-              f"{f['ms_max']:.1f} ms max, {f['nodes_median']} nodes, {f['truncated']} of {f['decisions']} "
-              "trees cut at max_nodes (thesis: a few ms)", flush=True)
+              f"{f['ms_max']:.1f} ms max, {f['nodes_median']} nodes, reaches "
+              f"{f['depth_reached_s_median']:.1f} s, "
+              f"{f['truncated']} of {f['decisions']} trees cut at max_nodes, {f['ties_pct']} % ties "
+              "(thesis: a few ms)", flush=True)
+    f = fuzzy["fuzzy"]
+    result["fuzzy"] = {key: f[key] for key in ("depth_reached_s_median", "nodes_median", "ties_pct",
+                                               "ms_median", "truncated", "decisions")}
+    result["fuzzy"]["reach"] = fuzzy_reach(quick)
+    result["fuzzy"]["sweep_weights"] = sweep_fuzzy_weights(quick)
+    print("  fuzzy w_1, w_2 (event level, idle per product, time per product): "
+          + json.dumps(result["fuzzy"]["sweep_weights"]), flush=True)
 
 
 def use_case_a_campaign(quick: bool) -> dict:

@@ -237,6 +237,11 @@ class BestScenarioScheduler(_SchedulerCommon):
               f"{self.max_nodes} must be an integer in 10..10000000")
 
 
+#: W_R measures and tie rules of the fuzzy scheduler (hrc_drake.scheduling.fuzzy_scheduler)
+FUZZY_ROBOT_WAIT_MEASURES = ("seconds", "horizon_fraction")
+FUZZY_TIE_RULES = ("first", "random")
+
+
 @dataclass
 class FuzzyScheduler(_SchedulerCommon):
     """Receding-horizon fuzzy scheduler, thesis 7.4 (Algorithm 5, eq. 7.3-7.18), the durations
@@ -263,9 +268,22 @@ class FuzzyScheduler(_SchedulerCommon):
     #: eq. (7.18) sums the possibilities of the leaves as written; True divides by their sum
     #: (a variant: the plain sum favours choices with more branchings)
     normalize_possibilities: bool = False
+    #: build equal nodes of the tree once (same marking, arrival times, open waits, path costs):
+    #: exact, the same J; False builds Algorithm 5's tree literally
+    merge: bool = True
+    #: W_R of 7.4.1: "seconds" (t_w per robot wait, the thesis) or "horizon_fraction" (t_w / T_sch
+    #: per wait, a variant on the scale of W_H, which is an index of at most about 2)
+    robot_wait_measure: str = "seconds"
+    #: root children of equal J (the text names no rule): "first" the lowest transition index
+    #: (the flow's order, waits last), "random" one drawn with the scenario's seed; counted either way
+    ties: str = "first"
 
     def validate(self, path: str) -> None:
         self._validate_common(path)
+        check(self.robot_wait_measure in FUZZY_ROBOT_WAIT_MEASURES, f"{path}.robot_wait_measure",
+              f"{self.robot_wait_measure!r} must be one of {FUZZY_ROBOT_WAIT_MEASURES}")
+        check(self.ties in FUZZY_TIE_RULES, f"{path}.ties", f"{self.ties!r} must be one of {FUZZY_TIE_RULES}")
+        check(isinstance(self.merge, bool), f"{path}.merge", f"{self.merge!r} must be true or false")
         check(_finite(self.horizon) and 0 < self.horizon <= 3600, f"{path}.horizon",
               f"{self.horizon} must be in (0, 3600] s")
         for name in ("w_human", "w_robot"):

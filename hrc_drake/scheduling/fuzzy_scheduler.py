@@ -34,18 +34,28 @@ Where the text leaves a choice open, the simplest reading is taken:
   branched; the others decide in the child (the same arrival time), as the cell asks free
   robots one at a time. Algorithm 5 line 10 branches on all of them, which repeats every
   combination once per order; False does that.
-- ties of J at the root go to the lowest transition index (the flow order; waits come last).
+- ties of J at the root (the text names no rule) go to the lowest transition index (the flow
+  order; waits come last), or with `ties="random"` to one drawn by the seeded generator; the
+  policy counts them (`FuzzyStats.ties`).
 - the root's arrival time is crisp 0 (times are relative to `now`); a transition enabled e s
   ago has alpha_E = crisp(-e), so eq. (7.4) at the root conditions it on not having fired yet;
   one overdue (its whole support before 0) fires at crisp 0.
 - `max_nodes` bounds the tree: the first level of Algorithm 5 that would exceed it is left out
-  whole (its fathers stay leaves), so the horizon is then shorter than T_sch.
+  whole (its fathers stay leaves), so the horizon is then shorter than T_sch; the tree says how
+  far it reached (`depth_reached`), the policy counts cut trees and logs the first.
+- `merge` (default): a node equal to one already built (marking, arrival time, enab times and
+  epochs, open human waits, path costs; floats bit for bit) is built once and linked (a DAG):
+  exact, J is the tree's. On torch_clock it reaches a few seconds further per node budget; the
+  full tree to T_sch = 50 s is out of reach (10,000 merged nodes reach about 26 s in ~2 s).
+- W_R in seconds (t_w per wait, 6.3.1) is the text's; `robot_wait_measure="horizon_fraction"`
+  (t_w / T_sch per wait) is a variant that puts it on the scale of W_H (an index <= ~2).
 - of several crisp winners of a conflict tied at the same instant, one is fired (the lowest
   index) unless it disables another: the other orders are the same evolution.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -63,6 +73,8 @@ from hrc_drake.scheduling.fuzzy import (
 from hrc_drake.scheduling.learning import DurationModel
 from hrc_drake.scheduling.montecarlo import copy_generator
 from hrc_drake.scheduling.petri import PcTPN
+
+_log = logging.getLogger(__name__)
 
 # -- fuzzyfication (7.5.3) ----------------------------------------------------------------------
 
@@ -178,12 +190,18 @@ class FuzzyNode:
     human_wait: float = 0.0
     robot_waits: int = 0
     children: list = field(default_factory=list)
+    child_possibility: list = field(default_factory=list)
     conflict: str = ""
     fitness: float = math.nan
 
 
 _ZERO = FuzzyNumber.crisp(0.0)
 _NEW_EPOCH = -2
+#: W_R of 7.4.1: "seconds" t_w per robot wait (the thesis), "horizon_fraction" t_w / T_sch per
+#: wait (a variant: the scale of W_H's phi_2 - 1, so w_1 and w_2 weigh comparable indices)
+ROBOT_WAIT_MEASURES = ("seconds", "horizon_fraction")
+#: ties of J at the root: "first" the lowest transition index, "random" one drawn by the seeded rng
+TIE_RULES = ("first", "random")
 
 
 class FuzzyReachabilityTree:
@@ -198,7 +216,9 @@ class FuzzyReachabilityTree:
     sampled (plus their breakpoints). arrival_shape: "triangular" (eq. 7.10) or "trapezoidal"
     (eq. 7.22, core shrunk by trapezoid_eps). with_phi2: False for eq. (7.23).
     w_human, w_robot: w_1, w_2 of eq. (7.16). normalize_possibilities: divide the sum of
-    eq. (7.18) by sum_i P_fi (False: eq. 7.18 as written).
+    eq. (7.18) by sum_i P_fi (False: eq. 7.18 as written). merge: build equal nodes once (a DAG,
+    exact: the same J; see `_build`). robot_wait_measure: see ROBOT_WAIT_MEASURES.
+    After the build: truncated, cut_nodes, depth_reached (s), merged.
     """
 
     def __init__(
@@ -221,6 +241,8 @@ class FuzzyReachabilityTree:
         wait_time: float | None = None,
         serialize_robots: bool = True,
         normalize_possibilities: bool = False,
+        merge: bool = True,
+        robot_wait_measure: str = "seconds",
     ):
         if not horizon > 0 or not math.isfinite(horizon):
             raise ValueError(f"FuzzyReachabilityTree: horizon must be finite and > 0, got {horizon}")
@@ -231,6 +253,8 @@ class FuzzyReachabilityTree:
             )
         if arrival_shape not in ("triangular", "trapezoidal"):
             raise ValueError(f"FuzzyReachabilityTree: arrival_shape {arrival_shape!r}")
+        if robot_wait_measure not in ROBOT_WAIT_MEASURES:
+            raise ValueError(f"FuzzyReachabilityTree: robot_wait_measure {robot_wait_measure!r}")
         if len(delays) != net.n_transitions:
             raise ValueError(
                 f"FuzzyReachabilityTree: {len(delays)} delays for {net.n_transitions} transitions"
@@ -247,6 +271,8 @@ class FuzzyReachabilityTree:
         self.w_human, self.w_robot = float(w_human), float(w_robot)
         self.serialize_robots = bool(serialize_robots)
         self.normalize_possibilities = bool(normalize_possibilities)
+        self.merge = bool(merge)
+        self.robot_wait_measure = robot_wait_measure
         self.wait_time = float(getattr(net, "wait_quantum", 1.0) if wait_time is None else wait_time)
         human = getattr(net, "human_agent", "human")
         human_places = [i for i in range(net.n_places) if net.idle_agent[i] == human]
@@ -270,6 +296,12 @@ class FuzzyReachabilityTree:
         waiting = {i: _ZERO for i in human_places if m0[i] > 0}
         self.nodes: list[FuzzyNode] = [FuzzyNode(m0.copy(), -1, -1, 0, _ZERO, 0, enab, open_waits=waiting)]
         self.truncated = False
+        #: children linked to a node already built instead of a new one (`merge`)
+        self.merged = 0
+        #: nodes left unexpanded by max_nodes, and the least arrival time (core's lower end)
+        #: among them: how far ahead every branch was explored (T_sch when not truncated)
+        self.cut_nodes = 0
+        self.depth_reached = self.horizon
         self._build()
         self._fitness()
 
@@ -277,30 +309,87 @@ class FuzzyReachabilityTree:
 
     def _build(self):
         """Algorithm 5 level by level (Open2 -> Open). A level that would take the tree past
-        max_nodes is not added at all, so every branch is explored to the same level."""
+        max_nodes is not added at all, so every branch is explored to the same level.
+
+        With `merge` a child equal to a node already built (`_key`: the same marking, arrival
+        time, enab arrival times and epochs, open human waits and path costs W_H, W_R) is not
+        built again: the father links to that node, whose subtree (and so J) is the same. The
+        tree becomes a DAG whose possibilities P_fi are on its edges."""
         open_ = [0]
+        table = {self._key(0): 0} if self.merge else None
         while open_:
             staged, count = [], len(self.nodes)
+            seen: dict = {}
             for i in open_:
                 children = self._children(i)
-                count += len(children)
+                if table is None:
+                    count += len(children)
+                else:
+                    for child in children:
+                        key = self._key_of_child(i, child)
+                        if key not in table and key not in seen:
+                            seen[key] = True
+                            count += 1
                 if count > self.max_nodes and i != 0:  # the root's children are always added
                     self.truncated = True
+                    self.cut_nodes = len(open_)
                     for k, _ in staged + [(i, children)]:
                         self.nodes[k].conflict = ""
+                    self.depth_reached = min(
+                        self.horizon, min(self.nodes[k].arrival.b for k in open_)
+                    )
                     return
                 staged.append((i, children))
             open_ = []
             for i, children in staged:
+                father = self.nodes[i]
                 for child in children:
+                    if table is not None:
+                        key = self._key_of_child(i, child)
+                        index = table.get(key)
+                        if index is not None:
+                            father.children.append(index)
+                            father.child_possibility.append(child.possibility)
+                            self.merged += 1
+                            continue
                     self.nodes.append(child)
                     index = len(self.nodes) - 1
+                    if table is not None:
+                        table[key] = index
                     if child.epoch == _NEW_EPOCH:  # a new arrival time: the node is its own epoch
                         child.epoch = index
                     new = (child.epoch, child.arrival)
                     child.enab = {k: (new if v is None else v) for k, v in child.enab.items()}
-                    self.nodes[i].children.append(index)
+                    father.children.append(index)
+                    father.child_possibility.append(child.possibility)
                     open_.append(index)
+
+    @staticmethod
+    def _corners(x: FuzzyNumber) -> tuple:
+        return (x.a, x.b, x.c, x.d)
+
+    def _key(self, i: int) -> tuple:
+        """What the subtree of node i depends on (see `_build`); times compared bit for bit."""
+        node = self.nodes[i]
+        c = self._corners
+        enab = tuple((j, e == node.epoch, c(a)) for j, (e, a) in sorted(node.enab.items()))
+        return self._pack(node, enab)
+
+    def _key_of_child(self, i: int, child: FuzzyNode) -> tuple:
+        """`_key` of a child not yet added (its enab entries of new transitions are None)."""
+        f, c = self.nodes[i], self._corners
+        new_epoch = child.epoch == _NEW_EPOCH
+        enab = tuple(
+            (j, True, c(child.arrival)) if v is None else (j, (not new_epoch) and v[0] == f.epoch, c(v[1]))
+            for j, v in sorted(child.enab.items())
+        )
+        return self._pack(child, enab)
+
+    def _pack(self, node: FuzzyNode, enab: tuple) -> tuple:
+        c = self._corners
+        waits = tuple((p, c(a)) for p, a in sorted(node.open_waits.items()))
+        return (node.marking.tobytes(), c(node.arrival), enab, waits, round(node.human_wait, 12),
+                node.robot_waits)
 
     def _children(self, i: int) -> list[FuzzyNode]:
         net, f = self.net, self.nodes[i]
@@ -480,10 +569,31 @@ class FuzzyReachabilityTree:
         w_h = node.human_wait + sum(
             human_wait_index(a, end, self.horizon, self.with_phi2) for a in node.open_waits.values()
         )
-        return w_h, node.robot_waits * self.wait_time
+        w_r = node.robot_waits * self.wait_time
+        if self.robot_wait_measure == "horizon_fraction":
+            w_r /= self.horizon
+        return w_h, w_r
+
+    def _order(self) -> list[int]:
+        """Every node after all of its children (post-order of the DAG from the root)."""
+        done = bytearray(len(self.nodes))
+        order, stack = [], [(0, 0)]
+        while stack:
+            i, k = stack.pop()
+            children = self.nodes[i].children
+            while k < len(children) and done[children[k]]:
+                k += 1
+            if k < len(children):
+                stack.append((i, k + 1))
+                stack.append((children[k], 0))
+            elif not done[i]:
+                done[i] = 1
+                order.append(i)
+        return order
 
     def _fitness(self):
-        for i in range(len(self.nodes) - 1, -1, -1):
+        order = range(len(self.nodes) - 1, -1, -1) if not self.merged else self._order()
+        for i in order:
             node = self.nodes[i]
             if not node.children:
                 w_h, w_r = self.leaf_cost(i)
@@ -492,9 +602,10 @@ class FuzzyReachabilityTree:
             elif node.conflict == "controllable":
                 node.fitness = max(self.nodes[c].fitness for c in node.children)  # eq. (7.17)
             else:
-                total = sum(self.nodes[c].fitness * self.nodes[c].possibility for c in node.children)
+                pairs = list(zip(node.children, node.child_possibility, strict=True))
+                total = sum(self.nodes[c].fitness * p for c, p in pairs)
                 if self.normalize_possibilities:
-                    total /= sum(self.nodes[c].possibility for c in node.children)
+                    total /= sum(p for _, p in pairs)
                 node.fitness = total  # eq. (7.18)
 
     # -- queries ---------------------------------------------------------------------------------
@@ -514,12 +625,24 @@ class FuzzyReachabilityTree:
             i = self.child(i, t)
         return i
 
-    def best_root_child(self) -> int:
-        """The root child with the largest J; ties go to the lowest transition index."""
+    def best_root_children(self) -> list[int]:
+        """The root children whose J equals the largest (relative tolerance 1e-9: equal up to
+        rounding; two infinite J are equal), in transition index order."""
         children = self.nodes[0].children
         if not children:
             raise ValueError("FuzzyReachabilityTree: the root has no child")
-        return min(children, key=lambda c: (-self.nodes[c].fitness, self.nodes[c].transition))
+        best = max(self.nodes[c].fitness for c in children)
+        tied = [c for c in children
+                if self.nodes[c].fitness == best or math.isclose(self.nodes[c].fitness, best, rel_tol=1e-9)]
+        return sorted(tied, key=lambda c: self.nodes[c].transition)
+
+    def best_root_child(self, rng=None) -> int:
+        """The root child with the largest J; ties go to the lowest transition index (the flow
+        order, waits last), or with `rng` to one drawn uniformly."""
+        tied = self.best_root_children()
+        if rng is None or len(tied) == 1:
+            return tied[0]
+        return tied[int(rng.integers(len(tied)))]
 
 
 # -- policies ----------------------------------------------------------------------------------
@@ -533,8 +656,10 @@ class FuzzyPolicy:
     7.4. window, min_samples: a transition's d is `fuzzify_samples` of its last `window`
     observed delays once it has `min_samples`, before that `fuzzify_distribution` of the net's
     delay. learn: update from `observe`. max_nodes, grid_points, serialize_robots,
-    normalize_possibilities: see `FuzzyReachabilityTree`. random_state: unused (the policy is
-    deterministic), kept for the shared policy interface (`rng`, `clone`).
+    normalize_possibilities, merge, robot_wait_measure: see `FuzzyReachabilityTree`. ties: the
+    rule for root children of equal J (TIE_RULES; the text names none); random_state: seeds the
+    "random" rule. `stats_` counts the decisions with a choice, those decided by a tie, the trees
+    cut by max_nodes and the least depth any tree reached (s); the first cut tree is logged.
     """
 
     arrival_shape = "triangular"
@@ -556,6 +681,9 @@ class FuzzyPolicy:
         serialize_robots: bool = True,
         normalize_possibilities: bool = False,
         random_state=None,
+        merge: bool = True,
+        robot_wait_measure: str = "seconds",
+        ties: str = "first",
     ):
         if not horizon > 0 or not math.isfinite(horizon):
             raise ValueError(f"{type(self).__name__}: horizon must be finite and > 0, got {horizon}")
@@ -563,6 +691,11 @@ class FuzzyPolicy:
             raise ValueError(
                 f"{type(self).__name__}: w_human, w_robot must be >= 0, got {w_human}, {w_robot}"
             )
+        if robot_wait_measure not in ROBOT_WAIT_MEASURES or ties not in TIE_RULES:
+            raise ValueError(f"{type(self).__name__}: robot_wait_measure {robot_wait_measure!r} not in "
+                             f"{ROBOT_WAIT_MEASURES} or ties {ties!r} not in {TIE_RULES}")
+        self.merge, self.robot_wait_measure, self.ties = bool(merge), robot_wait_measure, ties
+        self.stats_ = FuzzyStats()
         self.net = net
         self.horizon = float(horizon)
         self.w_human, self.w_robot = float(w_human), float(w_robot)
@@ -577,6 +710,7 @@ class FuzzyPolicy:
         self._delay_cache: dict[int, FuzzyNumber] = {}
         self.last_fitness_: dict[str, float] = {}
         self.last_tree_size_ = 0
+        self.last_depth_reached_ = math.nan
 
     def fuzzy_delay(self, j: int) -> FuzzyNumber:
         """d of transition j: eq. (7.19)-(7.20) on its observed delays, or on its prior (cached
@@ -611,6 +745,8 @@ class FuzzyPolicy:
             w_robot=self.w_robot,
             serialize_robots=self.serialize_robots,
             normalize_possibilities=self.normalize_possibilities,
+            merge=self.merge,
+            robot_wait_measure=self.robot_wait_measure,
         )
 
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
@@ -623,11 +759,19 @@ class FuzzyPolicy:
             return int(choices[0])
         tree = self.tree(marking, roots=choices, elapsed=elapsed)
         self.last_tree_size_ = len(tree.nodes)
+        self.last_depth_reached_ = tree.depth_reached
         self.last_fitness_ = {
             self.net.transitions[tree.nodes[c].transition]: tree.nodes[c].fitness
             for c in tree.nodes[0].children
         }
-        return int(tree.nodes[tree.best_root_child()].transition)
+        tied = len(tree.best_root_children()) > 1
+        best = tree.best_root_child(self.rng if self.ties == "random" else None)
+        if tree.truncated and not self.stats_.truncated:
+            _log.warning("%s: the tree was cut at max_nodes = %d, reaching %.1f s of T_sch = %.1f s "
+                         "(counted in stats_.truncated)", type(self).__name__, self.max_nodes,
+                         tree.depth_reached, self.horizon)
+        self.stats_ = self.stats_.add(len(tree.nodes), tree.depth_reached, tree.truncated, tied)
+        return int(tree.nodes[best].transition)
 
     def observe(self, transition, delay: float) -> None:
         """An observed firing delay of an uncontrollable transition (7.1 online learning)."""
@@ -644,6 +788,27 @@ class FuzzyPolicy:
         new.rng = copy_generator(self.rng)
         new._delay_cache = dict(self._delay_cache)
         return new
+
+
+@dataclass(frozen=True)
+class FuzzyStats:
+    """Counts over a policy's decisions with a choice (immutable: `add` returns a new one).
+
+    decisions; ties: decided by the tie rule between root children of equal J; truncated:
+    trees cut by max_nodes; depth_min: the least depth reached (s); nodes_total."""
+
+    decisions: int = 0
+    ties: int = 0
+    truncated: int = 0
+    depth_min: float = math.inf
+    nodes_total: int = 0
+
+    def add(self, nodes: int, depth: float, truncated: bool, tied: bool) -> FuzzyStats:
+        return FuzzyStats(self.decisions + 1, self.ties + int(tied), self.truncated + int(truncated),
+                          min(self.depth_min, depth), self.nodes_total + nodes)
+
+    def __deepcopy__(self, memo):
+        return self
 
 
 class UniformPolicy(FuzzyPolicy):

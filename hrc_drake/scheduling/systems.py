@@ -75,7 +75,8 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
         return kind(net, horizon=config.horizon, w_human=config.w_human, w_robot=config.w_robot,
                     eps=config.eps, window=config.window, min_samples=config.min_samples, learn=config.learn,
                     max_nodes=config.max_nodes, grid_points=config.grid_points,
-                    normalize_possibilities=config.normalize_possibilities, random_state=seed)
+                    normalize_possibilities=config.normalize_possibilities, random_state=seed,
+                    merge=config.merge, robot_wait_measure=config.robot_wait_measure, ties=config.ties)
     if isinstance(config, BestScenarioScheduler):
         for field, action in (("collaboration", config.collaboration), ("feed_action", config.feed_action)):
             key = f"{action}:commit" if field == "collaboration" else f"{action}:begin"

@@ -423,3 +423,110 @@ def test_bad_parameters_are_refused():
         FuzzyReachabilityTree(net, [C(0.0)], 10.0)
     with pytest.raises(ValueError, match="eps"):
         FuzzyReachabilityTree(net, [C(0.0)] * net.n_transitions, 10.0, eps=0.0)
+
+
+# -- exact merging, visible cuts, ties, W_R's measure (issue 38) --------------------------------
+
+
+def _torch_clock_net():
+    """The torch_clock.yaml flow (use case c, 7.5.3) compiled with t_w = 5 s, without Drake."""
+    def fixed(mean):
+        return Distribution("fixed", mean=mean)
+
+    def normal(mean, std):
+        return Distribution("normal", mean=mean, std=std)
+
+    spec = [  # name, agent, inputs, outputs, duration
+        ("R1", "yumi_right", ["front_feeder"], ["torch_front"], fixed(9.0)),
+        ("H1", "human", ["torch_front", "body_feeder"], ["torch_body"], normal(9.0, 1.5)),
+        ("L1", "yumi_left", ["torch_body"], ["station_A"], fixed(5.0)),
+        ("H2", "human", ["battery_feeder"], ["batteries"], normal(8.0, 1.2)),
+        ("R2", "yumi_right", ["batteries", "station_A"], ["torch_ready"], fixed(9.0)),
+        ("H3", "human", ["torch_ready"], ["torch_out"], normal(10.0, 1.5)),
+        ("R3", "yumi_right", ["dial_feeder"], ["dial"], fixed(9.0)),
+        ("H4", "human", ["dial", "hands_feeder"], ["dial_hands"], normal(9.0, 1.5)),
+        ("L2", "yumi_left", ["glass_feeder"], ["glass_frame"], fixed(8.0)),
+        ("L3", "yumi_left", ["glass_frame", "dial_hands", "bottom_feeder"], ["clock_assembly"], fixed(9.0)),
+        ("R4", "yumi_right", ["clock_assembly"], ["clock_delivery"], fixed(5.0)),
+        ("H5", "human", ["clock_delivery"], ["clock_out"], normal(11.0, 2.0)),
+    ]
+    flow = Flow(actions=[FlowAction(n, [a], i, o, duration=d) for n, a, i, o, d in spec])
+    raw = ["front_feeder", "body_feeder", "battery_feeder", "dial_feeder", "hands_feeder", "glass_feeder",
+           "bottom_feeder"]
+    buffers = [Buffer(b, kind="raw") for b in raw]
+    buffers += [Buffer(b, kind="product") for b in ("torch_out", "clock_out")]
+    buffers += [Buffer(b, capacity=1) for b in ("station_A", "glass_frame", "clock_assembly", "torch_ready",
+                                                "clock_delivery", "torch_body")]
+    buffers += [Buffer(b, capacity=2) for b in ("torch_front", "dial", "batteries", "dial_hands")]
+    return compile_flow(flow, buffers, "human", ["H1", "H4", "H2", "H5", "H3"], ["yumi_right", "yumi_left"],
+                        wait_quantum=5.0)
+
+
+@pytest.mark.parametrize("normalize", [False, True])
+def test_merged_tree_has_the_literal_trees_fitness(normalize):
+    """Building equal nodes once (a DAG) changes no J: on the torch_clock net (T_sch = 15 s, both
+    complete) every root child's J is the literal Algorithm 5 tree's, with fewer nodes."""
+    net = _torch_clock_net()
+    policy = FuzzyPolicy(net)
+    delays = [policy.fuzzy_delay(j) for j in range(net.n_transitions)]
+    m = net.m0
+    for t in ("R1:begin", "intent:0"):
+        m = net.fire(m, t)
+    for agent in ("yumi_left",):
+        roots = net.agent_choices(m, agent)
+        trees = [FuzzyReachabilityTree(net, delays, 15.0, m, roots=roots, max_nodes=10**6, merge=merge,
+                                       normalize_possibilities=normalize) for merge in (True, False)]
+        assert not trees[0].truncated and not trees[1].truncated
+        assert trees[0].merged > 0 and len(trees[0].nodes) < len(trees[1].nodes)
+        assert trees[1].merged == 0
+        fits = [{t.nodes[c].transition: t.nodes[c].fitness for c in t.nodes[0].children} for t in trees]
+        assert fits[0] == pytest.approx(fits[1], rel=1e-12)
+
+
+def test_a_cut_tree_says_how_far_it_reached_and_the_policy_counts_and_logs_it(caplog):
+    net = _torch_clock_net()
+    m = net.fire(net.fire(net.m0, "R1:begin"), "intent:0")
+    policy = FuzzyPolicy(net, horizon=50.0, max_nodes=300)
+    with caplog.at_level("WARNING"):
+        policy.decide(m, "yumi_left")
+    assert policy.stats_.decisions == 1 and policy.stats_.truncated == 1
+    assert 0 < policy.last_depth_reached_ < 50.0 and policy.stats_.depth_min == policy.last_depth_reached_
+    assert "cut at max_nodes" in caplog.text
+    full = FuzzyPolicy(net, horizon=8.0, max_nodes=10**6)
+    full.decide(m, "yumi_left")
+    assert full.stats_.truncated == 0 and full.last_depth_reached_ == 8.0
+
+
+def test_ties_are_counted_and_the_random_rule_is_seeded():
+    """The left arm's L2 now or after a wait: within a short horizon both paths have the same
+    waits, so J ties; "first" takes the lowest index (L2), "random" draws with the seed."""
+    net = _torch_clock_net()
+    m = net.fire(net.fire(net.m0, "R1:begin"), "intent:0")
+    first = FuzzyPolicy(net, horizon=50.0)
+    assert net.transitions[first.decide(m, "yumi_left")] == "L2:begin"
+    assert len(set(first.last_fitness_.values())) == 1 and first.stats_.ties == 1
+    picks = []
+    for seed in range(12):
+        policy = FuzzyPolicy(net, horizon=50.0, ties="random", random_state=seed)
+        picks.append(net.transitions[policy.decide(m, "yumi_left")])
+        twin = FuzzyPolicy(net, horizon=50.0, ties="random", random_state=seed)
+        assert net.transitions[twin.decide(m, "yumi_left")] == picks[-1]
+        assert policy.stats_.ties == 1
+    assert set(picks) == {"L2:begin", "yumi_left:wait"}
+    with pytest.raises(ValueError, match="ties"):
+        FuzzyPolicy(net, ties="coin")
+
+
+def test_robot_waits_as_a_fraction_of_the_horizon():
+    """W_R's variant: t_w / T_sch per robot wait in place of t_w seconds."""
+    net = _net_7_6()
+    delays = [FuzzyPolicy(net).fuzzy_delay(j) for j in range(net.n_transitions)]
+    roots = net.agent_transitions("robot")
+    trees = {m: FuzzyReachabilityTree(net, delays, 10.0, roots=roots, robot_wait_measure=m)
+             for m in ("seconds", "horizon_fraction")}
+    wait = trees["seconds"].child(0, "robot:wait")
+    w_h, w_r = trees["seconds"].leaf_cost(wait)
+    w_h2, w_r2 = trees["horizon_fraction"].leaf_cost(wait)
+    assert w_r == pytest.approx(1.0) and w_r2 == pytest.approx(0.1) and w_h2 == pytest.approx(w_h)
+    with pytest.raises(ValueError, match="robot_wait_measure"):
+        FuzzyReachabilityTree(net, delays, 10.0, robot_wait_measure="hours")
