@@ -5,19 +5,23 @@ On `diagrams/torch_segmentation.yaml` (a1..a5 of 4.2, shared buffers A and B): t
 learns from a library recorded by a synthetic operator of other seeds and other anthropometrics
 (the scenario's `library_arm_scale` and `library_shoulder_scale`: arms 8 % longer, shoulders 5 %
 wider) than the test runs; each test run is a seeded operator
-doing the pattern (three orders of a1..a5) on their own, at the segmenter's rate with the
-camera's noise. E_s (4.2.1) is the share of the frames of the true actions labelled with another
-action. Variants (Fig. 4.10): F_O with the wrists' distances to the buffer and station centres
-("buffers"), or to the camera origin only ("no_buffers"). Baseline: the goal-region detector
+doing the pattern (three orders of a1..a5) on their own, at the segmenter's rate (25 Hz: the
+40 ms of 4.2, 10 samples a 400 ms window) with the camera's noise. E_s (4.2.1) is the share of the
+frames of the true actions labelled with another action. Variants (Fig. 4.10): F_O with the wrists'
+distances to the buffer and station centres ("buffers"), or to the camera origin only
+("no_buffers"); each with both readings of Phi_OjY (eq. (4.1)): the counts of 4.1.1 ("literal",
+the default) and our per-action frequencies ("frequency"). Baseline: the goal-region detector
 (each action marked by its first goal, `end_rule: next`) on the same frames.
 
     python tools/bench_segmentation.py [--quick] [--runs N]
 
-Last line: one JSON object with `segmentation_error_buffers`, `segmentation_error_no_buffers`,
-`goal_region_error` (medians over the test runs, with the per-run values), `window_ms_median`
-(one sliding-window step: the GA and the marginals of a batch of L windows), `batch_period_s`
-(the time a batch of L windows covers), `bp_ms_median_chain_30` (marginals of a 30-variable
-chain with 5 values).
+Last line: one JSON object with `segmentation_error_buffers`, `segmentation_error_no_buffers`
+(the scenario's Phi_OjY reading), `segmentation_error_literal_phi` (buffers, counts),
+`segmentation_error_literal_phi_no_buffers`, `segmentation_error_frequency_phi` (buffers,
+per-action frequencies), `segmentation_error_frequency_phi_no_buffers`, `goal_region_error`
+(medians over the test runs, with the per-run values), `window_ms_median` (one sliding-window
+step: the GA and the marginals of a batch of L windows), `batch_period_s` (the time a batch of L
+windows covers), `bp_ms_median_chain_30` (marginals of a 30-variable chain with 5 values).
 """
 
 from __future__ import annotations
@@ -123,20 +127,26 @@ def main() -> None:
     pattern = list(scenario.operator.pattern)
     actions = list(dict.fromkeys(pattern))
     library = segmenter_library(scenario, config, seed=1000)  # another seed and person than the tests
-    variants = {
+    centres = {
         "buffers": np.array([g.center for g in scenario.layout.goals], float),
         "no_buffers": np.array([scenario.layout.camera.position], float),
     }
+    readings = {"literal": "counts", "frequency": "per_action_frequencies"}  # Phi_OjY, eq. (4.1)
     segmenters = {}
-    for name, centres in variants.items():
-        start = time.perf_counter()
-        segmenters[name] = new_segmenter(config, centres, seed=7).fit(
-            library, pattern_precedence(pattern), actions=actions, seed=7)
-        print(f"{name}: learnt from {len(library)} recorded actions in {time.perf_counter() - start:.1f} s",
-              flush=True)
-    errors = {"buffers": [], "no_buffers": [], "goal_region": []}
+    for where, points in centres.items():
+        for reading, kind in readings.items():
+            start = time.perf_counter()
+            variant = dataclasses.replace(config, observation_potential=kind)
+            segmenters[f"{where}/{reading}"] = new_segmenter(variant, points, seed=7).fit(
+                library, pattern_precedence(pattern), actions=actions, seed=7)
+            print(f"{where}, {reading} Phi_OjY: learnt from {len(library)} recorded actions in "
+                  f"{time.perf_counter() - start:.1f} s", flush=True)
+    default = next(r for r, kind in readings.items() if kind == config.observation_potential)
+    errors = {name: [] for name in segmenters} | {"goal_region": []}
     steps = []
-    print(f"{'run':>4} {'frames':>7} {'E_s buffers':>12} {'E_s no buffers':>15} {'goal regions':>13}")
+    print(f"{'':>12} {'E_s buffers':>25} {'E_s no buffers':>25}")
+    print(f"{'run':>4} {'frames':>7} {'literal':>12} {'frequency':>12} {'literal':>12} {'frequency':>12} "
+          f"{'goal regions':>13}")
     for run in range(runs):
         frames, labels = operator_stream(scenario, cycles, config.rate, seed=run)
         truth = label_segments(labels)
@@ -144,23 +154,34 @@ def main() -> None:
             errors[name].append(segmentation_error(segmenter.segment(frames), truth))
         regions = goal_region_labels(scenario, frames, config.rate)
         errors["goal_region"].append(segmentation_error(regions, truth))
-        steps += batch_step_ms(segmenters["buffers"], frames)
-        print(f"{run:>4} {len(frames):>7} {errors['buffers'][-1]:>12.3f} {errors['no_buffers'][-1]:>15.3f} "
-              f"{errors['goal_region'][-1]:>13.3f}", flush=True)
+        steps += batch_step_ms(segmenters[f"buffers/{default}"], frames)
+        print(f"{run:>4} {len(frames):>7} " + " ".join(f"{errors[name][-1]:>12.3f}" for name in segmenters)
+              + f" {errors['goal_region'][-1]:>13.3f}", flush=True)
     batch_period = config.window * config.batch_windows
+
+    def median(name: str) -> float:
+        return float(np.median(errors[name]))
+
     figures = {
         "quick": bool(args.quick), "runs": runs, "cycles_per_run": cycles, "library_actions": len(library),
-        "segmentation_error_buffers": float(np.median(errors["buffers"])),
-        "segmentation_error_no_buffers": float(np.median(errors["no_buffers"])),
-        "goal_region_error": float(np.median(errors["goal_region"])),
+        "rate_hz": config.rate, "window_samples": segmenters[f"buffers/{default}"].window_length,
+        "observation_potential": config.observation_potential,
+        "segmentation_error_buffers": median(f"buffers/{default}"),
+        "segmentation_error_no_buffers": median(f"no_buffers/{default}"),
+        "segmentation_error_literal_phi": median("buffers/literal"),
+        "segmentation_error_literal_phi_no_buffers": median("no_buffers/literal"),
+        "segmentation_error_frequency_phi": median("buffers/frequency"),
+        "segmentation_error_frequency_phi_no_buffers": median("no_buffers/frequency"),
+        "goal_region_error": median("goal_region"),
         "per_run": errors,
         "window_ms_median": float(np.median(steps)) if steps else None,
         "window_s": config.window, "batch_period_s": batch_period,
         "bp_ms_median_chain_30": chain_bp_ms(),
     }
-    print(f"E_s median: buffers {figures['segmentation_error_buffers']:.3f}, no buffers "
-          f"{figures['segmentation_error_no_buffers']:.3f}, goal regions {figures['goal_region_error']:.3f} "
-          f"(thesis Fig. 4.10: buffers lower)")
+    for reading in readings:
+        print(f"E_s median, {reading} Phi_OjY: buffers {median(f'buffers/{reading}'):.3f}, no buffers "
+              f"{median(f'no_buffers/{reading}'):.3f} (thesis Fig. 4.10: buffers lower)")
+    print(f"E_s median, goal regions: {figures['goal_region_error']:.3f}")
     if steps:
         print(f"one sliding-window step (GA + marginals of L = {config.batch_windows} windows): "
               f"{figures['window_ms_median']:.0f} ms median, for {batch_period:.0f} s of camera data")

@@ -201,7 +201,8 @@ def new_segmenter(config, centres, seed: int):
 
     genetic = GeneticSettings(population=config.population, generations=config.generations)
     return Segmenter(max(1, int(round(config.window * config.rate))), batch_windows=config.batch_windows,
-                     order=config.order, n_bins=config.n_bins, centres=centres, genetic=genetic, seed=seed)
+                     order=config.order, n_bins=config.n_bins, centres=centres, genetic=genetic, seed=seed,
+                     observation_potential=config.observation_potential)
 
 
 def fitted_segmenter(scenario: Scenario):

@@ -19,6 +19,8 @@ END_RULES = ("exit", "next", "next_merging_reentries")
 HANDS = ("left", "right")
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
 MAX_RATE = 50.0
+#: How the segmenter makes Phi_OjY of eq. (4.1) (`segmentation.OBSERVATION_POTENTIALS`).
+OBSERVATION_POTENTIALS = ("counts", "per_action_frequencies")
 
 
 def _unit(value, path: str, name: str, low_open: bool = False) -> None:
@@ -183,8 +185,13 @@ class SegmenterActionDetector:
     #: scaled by these factors from the scenario's operator (4.2 trains on other volunteers).
     library_arm_scale: float = 1.08
     library_shoulder_scale: float = 1.05
-    #: Rate at which skeleton estimates are sampled (Hz), at most 50.
-    rate: float = 15.0
+    #: Rate at which skeleton estimates are sampled (Hz), at most 50: 25 Hz is the 40 ms sampling
+    #: time of 4.2, so a window of 400 ms holds 10 samples.
+    rate: float = 25.0
+    #: Phi_OjY of eq. (4.1): "counts", the times the pair (Ô_j, Y) occurs in the library (4.1.1),
+    #: or "per_action_frequencies", our variant: the counts divided by the action's library windows
+    #: (every action's potentials on one scale, however long or often it was recorded).
+    observation_potential: str = "counts"
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the segmenter cannot use."""
@@ -192,6 +199,8 @@ class SegmenterActionDetector:
               f"must be in (0, {MAX_RATE:g}] Hz, got {self.rate!r}")
         check(math.isfinite(self.window) and 1.0 / self.rate <= self.window <= 10.0, f"{path}.window",
               f"must be in [1 / rate, 10] s, got {self.window!r}")
+        check(self.observation_potential in OBSERVATION_POTENTIALS, f"{path}.observation_potential",
+              f"must be one of {', '.join(OBSERVATION_POTENTIALS)}, got {self.observation_potential!r}")
         for name in ("library_arm_scale", "library_shoulder_scale"):
             value = getattr(self, name)
             check(math.isfinite(value) and 0.5 <= value <= 2.0, f"{path}.{name}",

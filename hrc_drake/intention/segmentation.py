@@ -32,10 +32,10 @@ potential each, as 4.1.4 says), which drops their correlation.
 
 Actions are any hashable labels; inside they are codes 0..m-1 (the order of `SegmentationModel.
 actions`). A segment is (start_frame, end_frame, action), end exclusive. The choices the thesis
-leaves open are stated where they are made; the main ones: Phi_OjY is the count of the thesis
-divided by the number of library windows of the action (4.1.1, `observation_phi`), the prior rate
-is 1 + L / (mean action length in windows) (`window_prior_rate`), and a hypothesis is kept in the
-rounded form it is evaluated in (`canonical_hypothesis`).
+leaves open are stated where they are made; the main ones: the prior rate is 1 + L / (mean action
+length in windows) (`window_prior_rate`), and a hypothesis is kept in the rounded form it is
+evaluated in (`canonical_hypothesis`). Phi_OjY is the count of the thesis (4.1.1); the variant
+"per_action_frequencies" of `observation_phi` divides it by the action's library windows.
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.special import gammaln
 
+from hrc_drake.intention.config import OBSERVATION_POTENTIALS  # how Phi_OjY is made, counts first
 from hrc_drake.intention.factor_graph import FactorGraph, FitReport
 from hrc_drake.messages import L_WRIST, R_WRIST, SKELETON_POINTS
 from hrc_drake.prediction.markov import HigherOrderMarkovModel
@@ -213,13 +214,16 @@ def discretise(values, edges) -> np.ndarray:
 # the potentials (4.1.1, 4.1.2) and the learnt model
 
 
-def observation_phi(codes, labels, n_bins: int, n_actions: int) -> np.ndarray:
-    """Phi_OjY of eq. (4.1) for every feature, (F, n_bins, m) as phi[j, ô, y].
+def observation_phi(codes, labels, n_bins: int, n_actions: int, kind: str = "counts") -> np.ndarray:
+    """Phi_OjY of eq. (4.1) for every feature, (F, n_bins, m) as phi[j, ô, y]: "counts" (4.1.1) is
+    the number of times the pair (Ô_j = ô, Y = y) occurs in the library windows.
 
-    The thesis takes the number of times the pair (Ô_j = ô, Y = y) occurs in the training set; it is
-    divided here by the number of library windows of action y (so phi[j, :, y] is the empirical
-    distribution of Ô_j under y): an action recorded more often does not get larger potentials, and
-    the scale, which w_Oj would absorb anyway, does not grow with the library."""
+    "per_action_frequencies" departs from the text: the counts divided by the library windows of
+    action y (phi[j, :, y] is the empirical distribution of Ô_j under y), so an action recorded
+    longer or more often does not get larger potentials; one w_Oj can rescale all actions alike,
+    not each its own."""
+    if kind not in OBSERVATION_POTENTIALS:
+        raise ValueError(f"observation_phi: kind must be one of {OBSERVATION_POTENTIALS}, got {kind!r}")
     codes = np.asarray(codes)
     labels = np.asarray(labels)
     if codes.ndim != 2 or labels.shape != (codes.shape[0],):
@@ -239,7 +243,7 @@ def observation_phi(codes, labels, n_bins: int, n_actions: int) -> np.ndarray:
     counts = np.zeros((n_features, n_bins, n_actions))
     feature = np.broadcast_to(np.arange(n_features), codes.shape)
     np.add.at(counts, (feature, codes, np.broadcast_to(labels[:, None], codes.shape)), 1.0)
-    return counts / per_action[None, None, :]
+    return counts if kind == "counts" else counts / per_action[None, None, :]
 
 
 def sequence_phi(sequence: Sequence[int], n_actions: int, order: int) -> np.ndarray:
@@ -912,17 +916,24 @@ def learn_weights(
     """w_O1..w_OF and w_Y (4.1.5) by maximum likelihood (FactorGraph.fit, App. C.0.2-C.0.3) on the
     artificial action sequences (N, K) with observations sampled from the library windows `codes`
     (n, F) labelled `labels` (n,). A small L2 penalty keeps the weights finite when the data are
-    deterministic (e.g. a single valid order makes w_Y grow without bound)."""
+    deterministic (e.g. a single valid order makes w_Y grow without bound). Each w_Oj is fitted as
+    u_j = w_Oj max Phi_Oj on Phi_Oj / max Phi_Oj (the same model), so the penalty and the optimiser
+    see one scale whether Phi_OjY is a count of hundreds (4.1.1) or a frequency; the report's
+    weights are the w, its gradient norm that of the u."""
     phi_obs, phi_seq = np.asarray(phi_obs, dtype=float), np.asarray(phi_seq, dtype=float)
     sequences = np.asarray(sequences)
     if sequences.ndim != 2 or sequences.shape[1] < 1 or not np.issubdtype(sequences.dtype, np.integer):
         raise ValueError(f"training sequences must be an integer (N, K) array, got shape {sequences.shape}")
     windows_per_action = _check_int(windows_per_action, "windows_per_action", 1)
-    graph = training_graph(phi_obs, phi_seq, sequences.shape[1], windows_per_action)
+    peak = np.max(np.abs(phi_obs), axis=(1, 2))
+    scale = np.where(peak > 0, peak, 1.0)
+    graph = training_graph(phi_obs / scale[:, None, None], phi_seq, sequences.shape[1], windows_per_action)
     samples = training_samples(codes, labels, sequences, windows_per_action, _generator(seed))
     report = graph.fit(samples, l2=l2, max_iter=max_iter)
-    weights = report.weights
-    w_obs = np.array([weights[observation_weight_name(j)] for j in range(phi_obs.shape[0])])
+    weights = dict(report.weights)
+    w_obs = np.array([weights[observation_weight_name(j)] for j in range(phi_obs.shape[0])]) / scale
+    weights.update({observation_weight_name(j): float(w) for j, w in enumerate(w_obs)})
+    report = dataclasses.replace(report, weights=weights)
     return TrainingResult(w_obs, float(weights[SEQUENCE_WEIGHT]), report)
 
 
@@ -969,9 +980,10 @@ class Segmenter:
     window_length: l_w samples per observation window; batch_windows: L, observations per GA run;
     order: o of the sequence potentials (1: exact MAP on the chain; higher orders make the graph
     loopy and the MAP approximate); n_bins: values of each Ô_j; centres: goal/buffer centres (m, 3)
-    or None; prior_rate: lambda of eq. (4.6) (None: `window_prior_rate`); seed: an int (each `reset`
-    restarts the same draws) or a Generator (shared, consumed); model: a learnt SegmentationModel
-    (else call `fit`)."""
+    or None; prior_rate: lambda of eq. (4.6) (None: `window_prior_rate`); observation_potential: how
+    `fit` makes Phi_OjY (`observation_phi`: "counts" as 4.1.1, or "per_action_frequencies"); seed:
+    an int (each `reset` restarts the same draws) or a Generator (shared, consumed); model: a learnt
+    SegmentationModel (else call `fit`)."""
 
     def __init__(
         self,
@@ -985,6 +997,7 @@ class Segmenter:
         genetic: GeneticSettings | None = None,
         seed=0,
         model: SegmentationModel | None = None,
+        observation_potential: str = "counts",
     ):
         self.window_length = _check_int(window_length, "window_length", 1)
         self.batch_windows = _check_int(batch_windows, "batch_windows", 1)
@@ -994,6 +1007,12 @@ class Segmenter:
         if prior_rate is not None and not (np.isfinite(prior_rate) and prior_rate > 0):
             raise ValueError(f"prior_rate must be finite and > 0, got {prior_rate!r}")
         self.prior_rate = prior_rate
+        if observation_potential not in OBSERVATION_POTENTIALS:
+            raise ValueError(
+                f"observation_potential must be one of {OBSERVATION_POTENTIALS}, "
+                f"got {observation_potential!r}"
+            )
+        self.observation_potential = observation_potential
         self.genetic = genetic or GeneticSettings()
         self.seed = seed
         self.fit_report_: FitReport | None = None
@@ -1049,7 +1068,7 @@ class Segmenter:
         values = np.vstack(features)
         edges = fit_ecdf_edges(values, self.n_bins)
         codes = discretise(values, edges)
-        phi_obs = observation_phi(codes, window_labels, self.n_bins, len(actions))
+        phi_obs = observation_phi(codes, window_labels, self.n_bins, len(actions), self.observation_potential)
         series = artificial_sequence(len(actions), precedence_pairs(precedence, actions), n_cycles, rng)
         phi_seq = sequence_phi(series, len(actions), self.order)
         length = max(len(actions), self.order + 1) if sequence_length is None else sequence_length

@@ -56,7 +56,8 @@ def reaching_library(rng, frames: int = 12) -> list:
 def small_segmenter(config: SegmenterActionDetector, seed: int = 0) -> Segmenter:
     genetic = GeneticSettings(population=config.population, generations=config.generations)
     segmenter = Segmenter(int(round(config.window * config.rate)), batch_windows=config.batch_windows,
-                          centres=GOALS, genetic=genetic, seed=seed)
+                          centres=GOALS, genetic=genetic, seed=seed,
+                          observation_potential=config.observation_potential)
     return segmenter.fit(reaching_library(np.random.default_rng(seed)), [("a", "b"), ("b", "c")],
                          n_cycles=4, n_sequences=10, seed=seed)
 

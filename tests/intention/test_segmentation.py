@@ -153,12 +153,37 @@ def test_discretise_new_values():
 # potentials (4.1.1, 4.1.2)
 
 
-def test_observation_phi_counts_per_action():
+def test_observation_phi_counts_and_per_action_frequencies():
+    """4.1.1: Phi_OjY(ô, y) is the number of library windows with Ô_j = ô and Y = y (the default);
+    the variant divides by the windows of y."""
     codes = np.array([[0], [0], [1], [1], [1]])
     labels = np.array([0, 0, 0, 1, 1])
     phi = seg.observation_phi(codes, labels, n_bins=2, n_actions=2)
-    # action 0: bins (0, 0, 1) -> 2/3, 1/3; action 1: bins (1, 1) -> 0, 1
-    np.testing.assert_allclose(phi[0], [[2 / 3, 0.0], [1 / 3, 1.0]])
+    # action 0: bins (0, 0, 1); action 1: bins (1, 1)
+    np.testing.assert_allclose(phi[0], [[2.0, 0.0], [1.0, 2.0]])
+    frequencies = seg.observation_phi(codes, labels, n_bins=2, n_actions=2, kind="per_action_frequencies")
+    np.testing.assert_allclose(frequencies[0], [[2 / 3, 0.0], [1 / 3, 1.0]])
+    with pytest.raises(ValueError, match="kind"):
+        seg.observation_phi(codes, labels, n_bins=2, n_actions=2, kind="normalised")
+
+
+def test_fitted_phi_is_the_library_counts_unless_the_variant_is_chosen(library):
+    """The segmenter learns the literal Phi_OjY of 4.1.1 by default: every action's column sums to
+    its number of library windows; "per_action_frequencies" sums to 1."""
+    labels, features, _ = seg.library_windows(library, WINDOW, CENTRES)
+    windows = {a: sum(len(f) for lab, f in zip(labels, features, strict=True) if lab == a) for a in range(3)}
+    genetic = seg.GeneticSettings(population=4, generations=1)
+    fitted = {}
+    for kind in seg.OBSERVATION_POTENTIALS:
+        segmenter = seg.Segmenter(
+            WINDOW, centres=CENTRES, genetic=genetic, seed=0, observation_potential=kind
+        ).fit(library, PRECEDENCE, n_sequences=10, max_iter=5, seed=3)
+        fitted[kind] = segmenter.model_.phi_obs
+    for code, action in enumerate(segmenter.model_.actions):
+        np.testing.assert_allclose(fitted["counts"][:, :, code].sum(axis=1), windows[action])
+        np.testing.assert_allclose(fitted["per_action_frequencies"][:, :, code].sum(axis=1), 1.0)
+    with pytest.raises(ValueError, match="observation_potential"):
+        seg.Segmenter(WINDOW, observation_potential="normalised")
 
 
 def test_sequence_phi_is_lambda_q_of_the_homm():
@@ -526,3 +551,23 @@ def test_update_rejects_a_bad_frame(segmenter):
     with pytest.raises(ValueError, match="frame 1"):
         segmenter.update(np.full((8, 3), np.inf))
     segmenter.reset()
+
+
+# ---------------------------------------------------------------------------------------------
+# the scenario config (4.2)
+
+
+def test_segmenter_config_defaults_follow_4_2():
+    """4.2: a camera sample every 40 ms and l_w = 400 ms, so 10 samples a window; L = 30; the
+    literal Phi_OjY; a bad variant name is a ConfigError naming the field."""
+    from hrc_drake.errors import ConfigError
+    from hrc_drake.intention.config import SegmenterActionDetector
+
+    config = SegmenterActionDetector()
+    config.validate("action_detector")
+    assert 1.0 / config.rate == pytest.approx(0.040)
+    assert round(config.window * config.rate) == 10 and config.batch_windows == 30
+    assert config.observation_potential == "counts"
+    assert set(seg.OBSERVATION_POTENTIALS) == {"counts", "per_action_frequencies"}
+    with pytest.raises(ConfigError, match="action_detector.observation_potential"):
+        SegmenterActionDetector(observation_potential="normalised").validate("action_detector")
