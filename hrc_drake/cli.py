@@ -71,6 +71,10 @@ def _number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
 
 
+SCENARIO_HELP = ("scenario YAML file, or the name of a shipped example (e.g. torch_clock; the names: "
+                 "diagrams/*.yaml)")
+
+
 def _check_writable_dir(option: str, path: Path) -> None:
     """`path` is, or can be made, a folder we can write in; else ScenarioError on `option`."""
     import tempfile
@@ -94,26 +98,144 @@ def _check_writable_file(option: str, path: Path) -> None:
         raise ScenarioError(path, option, "exists and is not writable")
 
 
+class _VersionAction(argparse.Action):
+    """`--version`: the package version (and git commit in a checkout), computed only when asked."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from hrc_drake.provenance import code_version
+
+        print(code_version())
+        parser.exit(EXIT_OK)
+
+
+#: the top-level keys only a campaign spec has (a scenario has none of them)
+CAMPAIGN_ONLY_KEYS = frozenset({"name", "scenarios", "variants", "seeds", "expect", "extra_metrics",
+                                "replays", "replay_fps"})
+
+
+def _wrong_kind_hint(err: ScenarioError, expected: str) -> ScenarioError:
+    """`err` with a hint naming the right command when the file is of the other kind: a
+    campaign spec given to simulate / validate (`expected` "scenario"), a scenario given to
+    campaign ("campaign"). Recognised by the first unknown top-level key the loader named."""
+    key = err.field
+    if "unknown key" not in err.reason or not key or any(c in key for c in ".["):
+        return err
+    if expected == "scenario" and key in CAMPAIGN_ONLY_KEYS:
+        hint = (f"{err.file} looks like a campaign spec (it has '{key}'): run it with "
+                f"`hrc-drake campaign {err.file} --out FOLDER`")
+    elif expected == "campaign":
+        import dataclasses
+
+        from hrc_drake.cell.schema import Scenario
+
+        if key not in {f.name for f in dataclasses.fields(Scenario)} - CAMPAIGN_ONLY_KEYS:
+            return err
+        hint = (f"{err.file} looks like a scenario (it has '{key}'): run it with "
+                f"`hrc-drake simulate {err.file}`, or name it under `scenarios:` in a campaign spec")
+    else:
+        return err
+    return ScenarioError(err.file, err.field, f"{err.reason}\nhint: {hint}")
+
+
+def _load_scenario(name: str, check_reachability: bool = False):
+    """`load_scenario` of the file `name` (or the shipped scenario of that name, `_scenario_path`),
+    with the hint of `_wrong_kind_hint`. Returns (scenario, path)."""
+    from hrc_drake.cell.scenario import load_scenario
+
+    path = _scenario_path(name)
+    try:
+        return load_scenario(path, check_reachability=check_reachability), path
+    except ScenarioError as err:
+        hinted = _wrong_kind_hint(err, "scenario")
+        if hinted is err:
+            raise
+        raise hinted from None
+
+
+#: the package holding the example scenarios (diagrams/ of the repository, shipped as package data)
+EXAMPLES_PACKAGE = "hrc_drake.diagrams"
+
+
+def example_names(campaign: bool = False) -> list[str]:
+    """The names of the shipped example scenarios (or campaign specs), sorted."""
+    folder = _examples_folder(campaign)
+    return sorted(p.stem for p in folder.glob("*.yaml")) if folder is not None else []
+
+
+def example_path(name: str, campaign: bool = False) -> Path | None:
+    """The shipped example scenario (campaign spec) called `name` (no suffix), None if there is none."""
+    folder = _examples_folder(campaign)
+    if folder is None or not name or name.startswith("."):
+        return None
+    path = folder / f"{name}.yaml"
+    return path if path.is_file() else None
+
+
+def _examples_folder(campaign: bool) -> Path | None:
+    """The folder of the shipped examples on disk (a namespace package: no __init__.py)."""
+    from importlib.resources import files
+
+    try:
+        # the entries of a namespace package's MultiplexedPath are file-system paths
+        entry = next(iter(files(EXAMPLES_PACKAGE).iterdir()), None)
+    except (ModuleNotFoundError, TypeError, OSError):
+        return None
+    if entry is None:
+        return None
+    folder = Path(str(entry)).parent
+    folder = folder / "campaigns" if campaign else folder
+    return folder if folder.is_dir() else None
+
+
+def _looks_like_a_path(name: str) -> bool:
+    return Path(name).exists() or os.sep in name or "/" in name or name.endswith((".yaml", ".yml"))
+
+
+def _scenario_path(name: str) -> str:
+    """`name` itself when it is a file (or looks like a path: has a folder or a .yaml suffix);
+    else the example scenario of that name shipped with the package (`hrc-drake simulate
+    torch_clock`); else ScenarioError naming the examples there are."""
+    if _looks_like_a_path(name):
+        return name
+    found = example_path(name)
+    if found is None:
+        raise ScenarioError(name, "", "no such file, and no shipped example scenario of that name (examples: "
+                                      f"{', '.join(example_names()) or 'none installed'})")
+    return str(found)
+
+
+def _print_files(paths) -> None:
+    """The files a command wrote, one a line, at its end."""
+    paths = [str(p) for p in paths]
+    if paths:
+        print(f"files written ({len(paths)}):")
+        for p in paths:
+            print(f"  {p}")
+
+
 def _simulate(args) -> int:
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate, write_replay, write_report
-    from hrc_drake.cell.scenario import load_scenario
 
     # Output paths are checked before anything is built, so a bad one costs no simulation.
     if args.out:
         _check_writable_dir("--out", Path(args.out))
     if args.replay:
         _check_writable_file("--replay", Path(args.replay))
-    scenario = load_scenario(args.scenario)
+    scenario, scenario_path = _load_scenario(args.scenario)
     if args.seed is not None:
         scenario.seed = args.seed
     duration = args.duration if args.duration is not None else scenario.duration
     meshcat = None
     if args.meshcat or args.replay:
-        from pydrake.geometry import Meshcat, MeshcatParams
+        from hrc_drake.cell.run import local_meshcat
 
-        # localhost only: the live view and the replay's recorder are not for the network
-        meshcat = Meshcat(MeshcatParams(host="localhost"))
+        # localhost only: the live view and the replay's recorder are not for the network; a
+        # replay-only run's recorder serves nothing a person could open (no "listening" line)
+        meshcat = local_meshcat(quiet=not args.meshcat)
         if args.meshcat:
             print(f"Meshcat live view: {meshcat.web_url()}", flush=True)
     replay_fps = args.replay_fps
@@ -122,8 +244,8 @@ def _simulate(args) -> int:
         if replay_fps < args.replay_fps:
             print(f"replay: {duration:g} s at {args.replay_fps:g} fps would exceed {args.replay_max_frames} "
                   f"frames (--replay-max-frames); recording {replay_fps:.3g} fps", flush=True)
-    print(f"Building {args.scenario} (seed {scenario.seed}) ...", flush=True)
-    cell = build_cell(scenario, args.scenario, meshcat=meshcat, replay_fps=replay_fps)
+    print(f"Building {scenario_path} (seed {scenario.seed}) ...", flush=True)
+    cell = build_cell(scenario, scenario_path, meshcat=meshcat, replay_fps=replay_fps)
     realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)
     print(f"Simulating {duration:g} s (Ctrl-C stops and reports the time simulated) ...", flush=True)
     result = simulate(
@@ -162,12 +284,14 @@ def _simulate(args) -> int:
     iso = m.get("safety") or {}
     if "verdict" in iso:
         print(f"safety            {iso['verdict']}")
+    written = []
     if args.replay:
-        size = write_replay(cell, Path(args.replay))
-        print(f"replay            {args.replay} ({size / 1e6:.1f} MB)")
+        size = write_replay(cell, Path(args.replay), result)
+        print(f"replay            {args.replay} ({size / 1e6:.1f} MB): open it in a web browser")
+        written.append(Path(args.replay))
     if args.out:
-        paths = write_report(cell, result, Path(args.out))
-        print("report            " + ", ".join(str(p) for p in paths))
+        written += write_report(cell, result, Path(args.out))
+    _print_files(written)
     if result.interrupted:
         import signal
 
@@ -188,12 +312,10 @@ def _simulate(args) -> int:
 
 
 def _validate(args) -> int:
-    from hrc_drake.cell.scenario import load_scenario
-
-    scenario = load_scenario(args.scenario, check_reachability=True)
+    scenario, path = _load_scenario(args.scenario, check_reachability=True)
     n_robot_actions = sum(len(r.actions) for r in scenario.robots)
     print(
-        f"{args.scenario}: OK ({len(scenario.robots)} robot(s), {n_robot_actions} robot actions, "
+        f"{path}: OK ({len(scenario.robots)} robot(s), {n_robot_actions} robot actions, "
         f"{len(scenario.operator.actions)} operator actions, {len(scenario.flow.actions)} flow actions)"
     )
     return 0
@@ -277,6 +399,16 @@ def _workers(text: str) -> int:
     return value
 
 
+def _limit(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
 def _wait(text: str) -> float:
     value = _number(text)
     if not value >= 0:
@@ -285,20 +417,33 @@ def _wait(text: str) -> float:
 
 
 def _campaign(args) -> int:
+    import time
+
     from hrc_drake.campaign.engine import run_campaign
     from hrc_drake.campaign.spec import load_campaign
     from hrc_drake.campaign.store import check_output_dir
 
     out = Path(args.out)
     check_output_dir(out, create=False)  # before the scenarios are loaded, and nothing made yet
-    campaign = load_campaign(args.spec)
+    spec = _campaign_path(args.spec)
+    try:
+        campaign = load_campaign(spec)
+    except ScenarioError as err:
+        hinted = _wrong_kind_hint(err, "campaign")
+        if hinted is err:
+            raise
+        raise hinted from None
     where = args.address or (f"{args.workers} local worker process(es)" if args.workers else "this process")
     print(f"{campaign.name}: {campaign.run_count} runs ({len(campaign.scenarios)} scenario(s) x "
           f"{len(campaign.variants)} variant(s) x {len(campaign.seeds)} seed(s), "
           f"{campaign.duration:g} s each) on {where}", flush=True)
+    if args.limit is not None:
+        print(f"--limit {args.limit}: at most {args.limit} of the runs not yet done are run now; the same "
+              "command without --limit runs the rest", flush=True)
+    started = time.time()
     try:
         outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr,
-                               new_spec=args.new_spec, wait=args.wait)
+                               new_spec=args.new_spec, wait=args.wait, limit=args.limit)
     except KeyboardInterrupt as err:
         from hrc_drake.campaign.engine import quiet_interrupted_shutdown
         from hrc_drake.campaign.store import read_runs
@@ -317,8 +462,42 @@ def _campaign(args) -> int:
         return exit_code(err)
     print(f"{outcome.ran} run(s) now ({outcome.failed} failed), {outcome.skipped} done before, in "
           f"{outcome.wall_time:.1f} s")
+    left = outcome.total - outcome.skipped - outcome.ran
+    if left > 0:
+        print(f"{left} run(s) of {outcome.total} not run yet: run the same command without --limit for "
+              "the rest")
     _print_results(out)
+    _print_files(_written_since(out, started))
     return 0
+
+
+def _written_since(folder: Path, since: float) -> list[Path]:
+    """The files under `folder` changed since `since` (time.time()), sorted; a folder of many
+    (replays) is one line with its count. The campaign's lock and journals are not listed."""
+    out: list[Path] = []
+    for path in sorted(folder.iterdir()):
+        if path.name.startswith("."):
+            continue
+        if path.is_dir():
+            fresh = [p for p in path.rglob("*") if p.is_file() and p.stat().st_mtime >= since - 1.0]
+            if len(fresh) > 5:
+                out.append(Path(f"{path}{os.sep} ({len(fresh)} files)"))
+            else:
+                out.extend(sorted(fresh))
+        elif path.stat().st_mtime >= since - 1.0:
+            out.append(path)
+    return out
+
+
+def _campaign_path(name: str) -> str:
+    """`name`, or the campaign spec of that name shipped with the package (`_scenario_path`)."""
+    if _looks_like_a_path(name):
+        return name
+    found = example_path(name, campaign=True)
+    if found is None:
+        raise ScenarioError(name, "", "no such file, and no shipped example campaign of that name (examples: "
+                                      f"{', '.join(example_names(campaign=True)) or 'none installed'})")
+    return str(found)
 
 
 def _compare(args) -> int:
@@ -356,11 +535,16 @@ def _print_results(out: Path) -> None:
                 print(f"{path}:\n{table.to_string(index=False, float_format=lambda x: f'{x:.4g}')}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="hrc-drake", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
+def build_parser() -> argparse.ArgumentParser:
+    """The `hrc-drake` argument parser: its commands and their options."""
+    parser = argparse.ArgumentParser(
+        prog="hrc-drake", description=__doc__,
+        epilog="Start with: hrc-drake simulate torch_clock --out out/torch --replay out/torch.html "
+               "(a shipped example by name; `hrc-drake COMMAND --help` for a command's options)")
+    parser.add_argument("--version", action=_VersionAction, help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sim = sub.add_parser("simulate", help="simulate a scenario and report its metrics")
-    sim.add_argument("scenario", help="scenario YAML file")
+    sim.add_argument("scenario", help=SCENARIO_HELP)
     sim.add_argument(
         "--duration", type=_duration, default=None, help="simulated seconds (default: the scenario's)"
     )
@@ -383,17 +567,19 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="pace the run: 1 = wall-clock speed (default with --meshcat), 0 = as fast as possible",
     )
-    sim.add_argument("--out", default=None, help="folder for metrics.json, events.csv and gantt.png")
+    sim.add_argument("--out", default=None, help="folder for metrics.json, events.csv, gantt.png, safety.png "
+                                                 "(and collaboration.png with a predictor)")
     sim.set_defaults(func=_simulate)
     val = sub.add_parser(
         "validate", help="load and check a scenario (names, durations, flow, IK reachability)"
     )
-    val.add_argument("scenario")
+    val.add_argument("scenario", help=SCENARIO_HELP)
     val.set_defaults(func=_validate)
     camp = sub.add_parser(
         "campaign", help="run scenarios x variants x seeds on Dask; write runs.parquet, statistics, plots"
     )
-    camp.add_argument("spec", help="campaign YAML file (see diagrams/campaigns/)")
+    camp.add_argument("spec", help="campaign YAML file (see diagrams/campaigns/), or the name of a shipped "
+                                   "one (e.g. trackers)")
     camp.add_argument("--out", required=True, help="folder for runs.parquet, summary.csv, tests.csv, *.png; "
                                                    "rerun with the same folder to resume")
     camp.add_argument("--workers", type=_workers, default=2,
@@ -406,6 +592,9 @@ def main(argv: list[str] | None = None) -> int:
     camp.add_argument("--wait", nargs="?", type=_wait, const=math.inf, default=0.0, metavar="SECONDS",
                       help="another campaign is writing the folder: wait for it (at most SECONDS) instead "
                            "of refusing")
+    camp.add_argument("--limit", type=_limit, default=None, metavar="N",
+                      help="run at most N of the runs not yet done (try a spec on a few); the same command "
+                           "without --limit resumes the rest")
     camp.set_defaults(func=_campaign)
     imp = sub.add_parser("import", help="turn a real recording into a skeleton CSV placed in a cell "
                                         "(operator.recorded)")
@@ -445,7 +634,15 @@ def main(argv: list[str] | None = None) -> int:
     comp.add_argument("dirs", nargs="+", help="campaign output folders")
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
     comp.set_defaults(func=_compare)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command is None:  # bare `hrc-drake`: the help, as a usage error (exit 2)
+        parser.print_help()
+        return EXIT_BAD_INPUT
     from hrc_drake.interrupts import exit_code, sigterm_raises
 
     # a batch system's or `kill`'s SIGTERM saves what Ctrl-C saves

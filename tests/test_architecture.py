@@ -266,7 +266,9 @@ def test_pyproject_lists_every_subpackage_and_maps_the_models():
     """The explicit package list of pyproject.toml (needed to map models/ into the package) is complete."""
     config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     on_disk = {module_name(str(p.relative_to(REPO))) for p in REPO.glob(f"{PACKAGE}/**/__init__.py")}
-    assert set(config["packages"]) == on_disk | {f"{PACKAGE}.models"}
-    assert config["package-dir"] == {f"{PACKAGE}.models": "models"}
+    assert set(config["packages"]) == on_disk | {f"{PACKAGE}.models", f"{PACKAGE}.diagrams"}
+    assert config["package-dir"] == {f"{PACKAGE}.models": "models", f"{PACKAGE}.diagrams": "diagrams"}
     assert set(config["package-data"][f"{PACKAGE}.models"]) == {"*.urdf", "*.sdf"}
+    assert set(config["package-data"][f"{PACKAGE}.diagrams"]) == {"*.yaml", "campaigns/*.yaml"}
     assert (REPO / PACKAGE / "models").resolve() == (REPO / "models").resolve()  # source-tree runs
+    assert (REPO / PACKAGE / "diagrams").resolve() == (REPO / "diagrams").resolve()

@@ -276,3 +276,104 @@ def test_the_summary_flags_time_below_the_safety_distance(tmp_path, capsys):
     safety = json.loads((out_dir / "metrics.json").read_text())["safety"]
     assert safety["below"] and 0 < safety["time_below_s"] < 40
     assert f"BELOW the safety distance 0.1 m for {safety['time_below_s']:.1f} s" in line
+
+
+def test_version_prints_the_package_version(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith("hrc_drake 0.")
+
+
+def test_the_bare_command_prints_its_help_not_an_error(capsys):
+    assert main([]) == EXIT_BAD_INPUT  # a usage error, as argparse's, but with the whole help
+    captured = capsys.readouterr()
+    assert "usage: hrc-drake" in captured.out and "error" not in captured.out + captured.err
+    for command in ("simulate", "validate", "campaign", "import", "compare", "--version"):
+        assert command in captured.out
+
+
+def test_every_argument_of_every_command_has_help():
+    import argparse
+
+    from hrc_drake.cli import build_parser
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    missing = []
+    for name, command in [("hrc-drake", parser), *commands.choices.items()]:
+        for action in command._actions:
+            if not isinstance(action, argparse._SubParsersAction) and not action.help:
+                missing.append(f"{name} {action.dest}")
+    assert not missing, missing
+    assert {c.dest for c in commands._choices_actions} == set(commands.choices)  # each command has help
+    assert all(c.help for c in commands._choices_actions)
+
+
+@pytest.mark.parametrize("command", ["simulate", "validate"])
+def test_a_campaign_spec_given_for_a_scenario_gets_a_hint_naming_campaign(command, capsys):
+    spec = str(DIAGRAMS / "campaigns" / "trackers.yaml")
+    assert main([command, spec]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.splitlines()
+    assert "unknown key 'name'" in err[0]
+    assert len(err) == 2 and err[1].startswith("hint:") and f"hrc-drake campaign {spec} --out" in err[1]
+
+
+def test_a_scenario_given_to_campaign_gets_a_hint_naming_simulate(tmp_path, capsys):
+    assert main(["campaign", TORCH, "--out", str(tmp_path / "out")]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2 and err[1].startswith("hint:") and f"hrc-drake simulate {TORCH}" in err[1]
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_real_unknown_key_gets_no_hint(tmp_path, capsys):
+    path = tmp_path / "typo.yaml"
+    path.write_text((DIAGRAMS / "torch_clock.yaml").read_text().replace("seed:", "sead:", 1))
+    assert main(["validate", str(path)]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "unknown key 'sead'" in err and "hint" not in err
+
+
+def test_a_shipped_example_is_found_by_its_bare_name(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # not the repository: the name is not a path here
+    assert main(["validate", "torch_clock"]) == 0
+    out = capsys.readouterr().out
+    assert "torch_clock.yaml: OK" in out
+    assert main(["validate", "no_such_cell"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "no_such_cell: no such file" in err and "torch_clock" in err and "pcb_collab" in err
+    # a path is a path: no example is looked up for something that names a file
+    assert main(["validate", "torch_clock.yaml"]) == EXIT_BAD_INPUT
+    assert "no such file" in capsys.readouterr().err
+    (tmp_path / "torch_clock").write_text("seed: 1\nsead: 2\n")  # a file of that name wins
+    assert main(["validate", "torch_clock"]) == EXIT_BAD_INPUT
+    assert "unknown key 'sead'" in capsys.readouterr().err
+
+
+def test_simulate_lists_the_files_it_wrote(tmp_path, capsys):
+    out_dir = tmp_path / "out"
+    assert main(["simulate", TORCH, "--duration", "2", "--out", str(out_dir)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    at = lines.index("files written (4):")
+    listed = [line.strip() for line in lines[at + 1:]]
+    names = ("metrics.json", "events.csv", "gantt.png", "safety.png")
+    assert listed == [str(out_dir / name) for name in names]
+    assert all((out_dir / name).is_file() for name in names)
+
+
+def test_campaign_limit_runs_a_few_and_a_later_run_resumes_the_rest(tmp_path, capsys):
+    import pandas as pd
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(f"name: few\nduration: 2\nseeds: [1, 2, 3]\nscenarios: [{TORCH}]\n"
+                    "variants: {base: {}}\nmetrics: [mean_speed_override]\n")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--workers", "0", "--limit", "2"]) == 0
+    text = capsys.readouterr().out
+    assert "--limit 2: at most 2" in text and "1 run(s) of 3 not run yet" in text
+    assert sorted(pd.read_parquet(out / "runs.parquet")["seed"]) == [1, 2]
+    assert f"  {out / 'runs.parquet'}" in text.splitlines() and "files written" in text
+    assert main(["campaign", str(spec), "--out", str(out), "--workers", "0"]) == 0
+    text = capsys.readouterr().out
+    assert "1 run(s) now (0 failed), 2 done before" in text and "not run yet" not in text
+    assert sorted(pd.read_parquet(out / "runs.parquet")["seed"]) == [1, 2, 3]

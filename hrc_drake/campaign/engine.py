@@ -108,6 +108,7 @@ def run_campaign(
     client=None,
     new_spec: bool = False,
     wait: float = 0.0,
+    limit: int | None = None,
 ) -> CampaignOutcome:
     """Run the campaign's runs not yet in DIR; write the rows, replays, analysis.
 
@@ -116,8 +117,9 @@ def run_campaign(
     client: an existing `distributed.Client` to use (and leave open) instead of either.
     new_spec: move an earlier campaign's results in DIR aside (`store.archive_previous`) instead of
     refusing a spec whose runs differ from them. wait: seconds to wait for a folder another
-    campaign holds (`store.CampaignLock`). An interruption (Ctrl-C, SIGTERM) propagates after the
-    finished rows are saved; a run it cut short is not a row.
+    campaign holds (`store.CampaignLock`). limit: run at most this many of the runs not yet done
+    (in the spec's order; a later call without it runs the rest). An interruption (Ctrl-C,
+    SIGTERM) propagates after the finished rows are saved; a run it cut short is not a row.
     """
     out_dir = Path(out_dir)
     if workers < 0:
@@ -130,12 +132,13 @@ def run_campaign(
                 print(f"the earlier results are in {moved}", file=progress, flush=True)
         store = _environment(lambda: RunStore(out_dir), f"cannot read or update the table in {out_dir}")
         try:
-            return _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client)
+            return _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client, limit)
         finally:
             store.close()
 
 
-def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client) -> CampaignOutcome:
+def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, client, limit=None
+                ) -> CampaignOutcome:
     hashes = campaign.config_hashes()
     check_compatible(store.rows(), campaign.duration, hashes, out_dir)
     _environment(lambda: _write_description(out_dir, campaign), f"cannot write {out_dir / 'campaign.json'}")
@@ -149,10 +152,17 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
     skipped = total - remaining
     if progress is not None and skipped:
         print(f"resuming: {skipped} of {total} runs are done", file=progress, flush=True)
+    pending = (t for t in campaign.iter_tasks() if todo(t))
+    if limit is not None:
+        import itertools
+
+        if remaining > limit and progress is not None:
+            print(f"limit: {limit} of the {remaining} runs not yet done run now", file=progress, flush=True)
+        remaining = min(remaining, limit)
+        pending = itertools.islice(pending, limit)
     bar = Progress(remaining, progress, label=campaign.name)
     start = time.perf_counter()
     dashboard = ""
-    pending = (t for t in campaign.iter_tasks() if todo(t))
     interrupted = True
     try:
         if client is not None:

@@ -28,6 +28,17 @@ from hrc_drake.systems import declare_state, get_state, input_or, set_state
 #: a goal flashes this long (s) after the intention estimator understood it (Fig. 3.6)
 FLASH_TIME = 0.6
 
+#: the markers' colours (r, g, b, a), which the replay's legend names
+MEASURED_COLOR = (0.1, 0.4, 1.0, 1.0)
+ESTIMATED_COLOR = (1.0, 0.2, 0.2, 1.0)
+UNTRACKED_COLOR = (0.15, 0.15, 0.15, 1.0)
+WRONG_SURFACE_COLOR = (1.0, 0.1, 0.9, 0.7)
+SPREAD_COLOR = (1.0, 0.3, 0.3, 0.25)
+FLASH_COLOR = (1.0, 0.9, 0.1, 0.6)
+SWEPT_COLOR = (0.6, 0.2, 0.9, 0.18)
+MARKER_PART_COLOR = (0.95, 0.75, 0.1, 1.0)
+LAMP_COLORS = {"full": (0.1, 0.9, 0.1, 1.0), "slow": (1.0, 0.7, 0.0, 1.0), "stop": (0.9, 0.1, 0.1, 1.0)}
+
 
 @dataclass(frozen=True)
 class MarkerState(Immutable):
@@ -62,15 +73,8 @@ class ReplayMarkers(LeafSystem):
         #: whether the skeleton (measured and estimated points) is drawn
         self.show_skeleton = show_skeleton
         self._show_swept = show_swept
-        self._lamps = (
-            {
-                "full": Rgba(0.1, 0.9, 0.1, 1.0),
-                "slow": Rgba(1.0, 0.7, 0.0, 1.0),
-                "stop": Rgba(0.9, 0.1, 0.1, 1.0),
-            }
-            if scenario.robots
-            else {}
-        )
+        self._lamps = {name: Rgba(*c) for name, c in LAMP_COLORS.items()} if scenario.robots else {}
+        self._has_occluders = bool(scenario.layout.occluders)
         self._lamp_position = (
             np.asarray(scenario.robots[0].base.xyz, float) + [0.0, 0.0, 0.75] if scenario.robots else None
         )
@@ -100,22 +104,19 @@ class ReplayMarkers(LeafSystem):
             shown = min(b.capacity, 4)
             for k in range(shown):
                 path = f"/markers/parts/{b.name}/{k}"
-                meshcat.SetObject(path, MeshcatBox(0.035, 0.035, 0.035), Rgba(0.95, 0.75, 0.1, 1.0))
+                meshcat.SetObject(path, MeshcatBox(0.035, 0.035, 0.035), Rgba(*MARKER_PART_COLOR))
                 offset = np.array([0.0, (k - (shown - 1) / 2) * 0.045, 0.025])
                 meshcat.SetTransform(path, RigidTransform(np.asarray(b.position, float) + offset))
                 self._hide(path)
         # Skeleton markers cost ~2 kB per replay frame: only where a tracker makes them worth it.
         if self._show_skeleton:
-            for name, color in (
-                ("measured", Rgba(0.1, 0.4, 1.0, 1.0)),
-                ("estimated", Rgba(1.0, 0.2, 0.2, 1.0)),
-            ):
+            for name, color in (("measured", Rgba(*MEASURED_COLOR)), ("estimated", Rgba(*ESTIMATED_COLOR))):
                 for k in range(8):
                     meshcat.SetObject(f"/markers/skeleton/{name}/{k}", Sphere(0.025), color)
             # What a rendered camera's depth image did with each point (hidden until it has a frame).
             for name, radius, color in (
-                ("untracked", 0.022, Rgba(0.15, 0.15, 0.15, 1.0)),
-                ("wrong_surface", 0.032, Rgba(1.0, 0.1, 0.9, 0.7)),
+                ("untracked", 0.022, Rgba(*UNTRACKED_COLOR)),
+                ("wrong_surface", 0.032, Rgba(*WRONG_SURFACE_COLOR)),
             ):
                 for k in range(8):
                     path = f"/markers/skeleton/{name}/{k}"
@@ -124,18 +125,18 @@ class ReplayMarkers(LeafSystem):
             # The belief's spread around a lost point: a unit sphere scaled to 2 standard deviations.
             for k in range(8):
                 path = f"/markers/skeleton/spread/{k}"
-                meshcat.SetObject(path, Sphere(1.0), Rgba(1.0, 0.3, 0.3, 0.25))
+                meshcat.SetObject(path, Sphere(1.0), Rgba(*SPREAD_COLOR))
                 self._hide(path)
         for g in self._goals.values():
             path = f"/markers/flash/{g.name}"
-            meshcat.SetObject(path, Sphere(g.radius * 1.15), Rgba(1.0, 0.9, 0.1, 0.6))
+            meshcat.SetObject(path, Sphere(g.radius * 1.15), Rgba(*FLASH_COLOR))
             meshcat.SetTransform(path, RigidTransform(np.asarray(g.center, float)))
             self._hide(path)
         # Swept volumes (thesis 8.1): a unit cylinder per body part, scaled to each capsule's bounds.
         if self._show_swept:
             for k in range(6):
                 path = f"/markers/swept/{k}"
-                meshcat.SetObject(path, Cylinder(1.0, 1.0), Rgba(0.6, 0.2, 0.9, 0.18))
+                meshcat.SetObject(path, Cylinder(1.0, 1.0), Rgba(*SWEPT_COLOR))
                 self._hide(path)
         # A lamp above the robot: green at full speed, amber when slowed, red when stopped.
         for name, color in self._lamps.items():
@@ -144,6 +145,34 @@ class ReplayMarkers(LeafSystem):
             meshcat.SetTransform(path, RigidTransform(self._lamp_position))
             meshcat.SetProperty(path, "visible", name == "full")
         return EventStatus.Succeeded()
+
+    def legend(self) -> list[tuple[str, tuple]]:
+        """What the replay's colours mean, for its legend: (label, (r, g, b, a)) of the cell's
+        things (`cell.systems` colours) and of the markers this cell draws."""
+        from hrc_drake.cell.systems import BUFFER_COLOR, GOAL_COLOR, HUMAN_COLOR, OCCLUDER_COLOR
+
+        items = [("operator's body", tuple(HUMAN_COLOR)),
+                 ("goal regions (where the operator reaches)", tuple(GOAL_COLOR)),
+                 ("buffers", tuple(BUFFER_COLOR))]
+        if self._buffers:
+            items.append(("parts in a buffer", MARKER_PART_COLOR))
+        if self._has_occluders:
+            items.append(("occluders (hide the operator from the camera)", tuple(OCCLUDER_COLOR)))
+        if self._show_skeleton:
+            items += [("tracked points: measured by the camera", MEASURED_COLOR),
+                      ("tracked points: the tracker's estimate", ESTIMATED_COLOR),
+                      ("estimate's spread (2 std) where the camera lost a point", SPREAD_COLOR),
+                      ("point hidden in the depth image", UNTRACKED_COLOR),
+                      ("point measured on a wrong surface", WRONG_SURFACE_COLOR)]
+        if self._goals:
+            items.append(("goal flash: the robot understood the operator's goal", FLASH_COLOR))
+        if self._show_swept:
+            items.append(("swept volumes: where the operator may reach next", SWEPT_COLOR))
+        if self._lamps:
+            items += [("speed lamp: full speed", LAMP_COLORS["full"]),
+                      ("speed lamp: slowed", LAMP_COLORS["slow"]),
+                      ("speed lamp: stopped", LAMP_COLORS["stop"])]
+        return items
 
     def _hide(self, path: str) -> None:
         self.meshcat.SetProperty(path, "visible", False)
@@ -292,3 +321,73 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
         )
     builder.Connect(systems["speed_override"], markers.GetInputPort("speed_override"))
     return markers
+
+
+#: the overlay `add_overlay` puts into the page: the title box, the clock, the legend
+_OVERLAY = """
+<div id="hrc-overlay" style="position:fixed;left:8px;top:8px;z-index:10;max-width:46vw;
+     font:13px/1.35 system-ui,sans-serif;color:#111;background:rgba(255,255,255,0.82);
+     border-radius:6px;padding:6px 10px;pointer-events:none">
+  <div id="hrc-title" style="font-weight:600">{title}</div>
+  <div id="hrc-subtitle" style="font-size:12px">{subtitle}</div>
+  <div style="font-size:15px;font-weight:600;margin-top:2px">simulated time
+    <span id="hrc-clock">t = 0.0 s</span>{of_duration}</div>
+</div>
+<div id="hrc-legend" style="position:fixed;left:8px;bottom:8px;z-index:10;max-width:46vw;
+     font:12px/1.3 system-ui,sans-serif;color:#111;background:rgba(255,255,255,0.82);
+     border-radius:6px;padding:6px 10px;pointer-events:none">
+{legend}
+</div>
+<script>
+// The simulated clock: the animation's time is meshcat's `viewer.animator.time` (seconds of
+// the recording's clip, whose frames are the simulated time x the replay's fps).
+(function () {{
+  var clock = document.getElementById("hrc-clock");
+  var shown = null;
+  function tick() {{
+    var a = (typeof viewer !== "undefined" && viewer.animator) ? viewer.animator : null;
+    var t = a ? Number(a.time) || 0 : 0;
+    var text = "t = " + t.toFixed(1) + " s";
+    if (text !== shown) {{
+      clock.textContent = text;
+      shown = text;
+    }}
+    requestAnimationFrame(tick);
+  }}
+  requestAnimationFrame(tick);
+}})();
+</script>
+"""
+
+
+def _css_color(rgba) -> str:
+    r, g, b, a = (float(c) for c in rgba)
+    return f"rgba({round(255 * r)},{round(255 * g)},{round(255 * b)},{max(a, 0.35):.2f})"
+
+
+def add_overlay(html: str, name: str, description: str, seed: int, duration: float | None,
+                interrupted: bool = False, legend=()) -> str:
+    """`html` (meshcat's `StaticHtml()`) with an overlay a reader needs: the title (scenario
+    `name` and `description`, seed, simulated duration), the simulated time as the replay plays
+    (read from meshcat's animator) and a legend of `legend` ((label, rgba) pairs, as
+    `ReplayMarkers.legend`). The page's `<title>` names the scenario too."""
+    from html import escape
+
+    title = f"{name}: {description}" if description else name
+    parts = [f"seed {seed}"]
+    if duration is not None:
+        parts.append(f"{duration:g} s simulated" + (" (interrupted)" if interrupted else ""))
+    parts.append("drag to turn, scroll to zoom; Open Controls &gt; Animations to pause or scrub")
+    rows = "\n".join(
+        f'  <div class="hrc-legend-item"><span style="display:inline-block;width:11px;height:11px;'
+        f'border-radius:50%;margin-right:6px;vertical-align:-1px;border:1px solid #555;'
+        f'background:{_css_color(rgba)}"></span>{escape(label)}</div>'
+        for label, rgba in legend)
+    overlay = _OVERLAY.format(title=escape(title), subtitle=" &middot; ".join(parts), legend=rows,
+                              of_duration=f" of {duration:.1f} s" if duration is not None else "")
+    page_title = escape(f"{name} (seed {seed}) - hrc_drake replay")
+    html = html.replace("<title>Drake MeshCat</title>", f"<title>{page_title}</title>", 1)
+    at = html.rfind("</body>")
+    if at < 0:
+        raise ValueError("not a meshcat page: no </body>")
+    return html[:at] + overlay + html[at:]

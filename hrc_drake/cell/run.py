@@ -127,16 +127,45 @@ def _print_progress(progress, interactive: bool, simulator, world_system, world_
     )
 
 
-def local_meshcat():
-    """A Meshcat that serves localhost only: a replay's recorder, not a view for the network."""
+def local_meshcat(quiet: bool = True):
+    """A Meshcat that serves localhost only: a replay's recorder, not a view for the network.
+
+    quiet: it does not log "Meshcat listening for connections at http://localhost:PORT" (a
+    recorder's server shows nothing a person should open, and is gone when the run ends); the
+    live view (quiet False) logs it, and the caller prints its link."""
+    import logging
+
     from pydrake.geometry import Meshcat, MeshcatParams
 
-    return Meshcat(MeshcatParams(host="localhost"))
+    logger = logging.getLogger("drake")
+    level = logger.level
+    if quiet:
+        logger.setLevel(max(logging.WARNING, level))
+    try:
+        return Meshcat(MeshcatParams(host="localhost"))
+    finally:
+        logger.setLevel(level)
 
 
-def write_replay(cell: Cell, path: Path) -> int:
-    """Write the recorded run as one self-contained HTML file; returns its size in bytes."""
-    html = cell.meshcat.StaticHtml()
+def replay_html(cell: Cell, result: RunResult | None = None) -> str:
+    """The recorded run as one self-contained HTML page, with the overlay of `replay.overlay`:
+    a title (scenario, seed, duration), the simulated clock as it plays, the legend of the
+    markers' colours."""
+    from hrc_drake.cell.replay import add_overlay
+
+    scenario = cell.scenario
+    duration = result.simulated_time if result is not None else None
+    markers = cell.system("replay_markers") if cell.has_system("replay_markers") else None
+    legend = markers.legend() if markers is not None else []
+    name = Path(cell.scenario_path).stem if cell.scenario_path != "<scenario>" else "cell"
+    return add_overlay(cell.meshcat.StaticHtml(), name=name, description=scenario.description or "",
+                       seed=scenario.seed, duration=duration,
+                       interrupted=bool(result is not None and result.interrupted), legend=legend)
+
+
+def write_replay(cell: Cell, path: Path, result: RunResult | None = None) -> int:
+    """Write the recorded run as one self-contained HTML file (`replay_html`); returns its size in bytes."""
+    html = replay_html(cell, result)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(html)
