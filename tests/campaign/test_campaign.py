@@ -414,16 +414,29 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_pat
     # its own process group, which gets the signal as a terminal's Ctrl-C does (workers included)
     proc = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
-    try:
-        deadline = time.monotonic() + 90
-        while time.monotonic() < deadline and not (tmp_path / "out" / "campaign.json").exists():
-            time.sleep(0.5)
-        time.sleep(20.0)  # the workers are running cells now
+    sigint = 1 << (signal.SIGINT - 1)
+
+    def quiet_workers() -> list[int]:
+        """The workers, once both exist and ignore SIGINT (bit 2 of SigIgn: the plugin the
+        campaign registers after warming them up, just before it submits the runs); else []."""
         workers = _worker_processes(proc.pid)
-        assert len(workers) == 2
-        # the workers ignore SIGINT (bit 2 of SigIgn): whether one would print its traceback
-        # otherwise depends on when the main process closes it
-        assert all(_ignored_signals(pid) & (1 << (signal.SIGINT - 1)) for pid in workers)
+        try:
+            ready = len(workers) == 2 and all(_ignored_signals(pid) & sigint for pid in workers)
+        except (OSError, AssertionError):  # a worker that is still starting, or restarting
+            ready = False
+        return workers if ready else []
+
+    try:
+        # wait for the state the test is about, however slow the machine (a bound only against
+        # a hang: the test asserts what it sees, not how long it took)
+        deadline = time.monotonic() + 300
+        workers = quiet_workers()
+        while not workers and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.5)
+            workers = quiet_workers()
+        # whether a worker would print its traceback otherwise depends on when the main process
+        # closes it: both ignore SIGINT before it is sent
+        assert len(workers) == 2, f"the 2 workers never came up ignoring SIGINT (exit {proc.poll()})"
         os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=60)
     finally:
