@@ -211,6 +211,7 @@ class _Propagation:
         self.q = pad.copy()
         self.r = pad
         self.prior_fin, self.prior_zero = _split(prior)
+        self.possible: np.ndarray | None = None  # a possible assignment found by `_possible_assignment`
         self._totals()
 
     def _totals(self) -> None:
@@ -847,7 +848,6 @@ class FactorGraph:
         st = self._structure(frozenset(obs))
         prior, tables, const = self._reduced_tables(st, obs)
         bp = _Propagation(st, prior, tables, mode)
-        bp.possible = None  # a possible assignment found by the search (loopy graphs with zeros)
         if st.forest:
             bp.tree_passes(downward=downward)
             self.last_report = BPReport(mode, True, True, 1, 0.0)
