@@ -4,6 +4,11 @@ Fig. 7.11 net, use case a patterns 1 and 2 (7.5.1) and use case b patterns 1 and
 Scheduler A against Scheduler B) at event level, with the sweeps of their settings, and (not in
 --quick) use case c in the Drake cell (7.5.3, `bench_use_case_c.py`).
 
+The Monte Carlo arms: `monte_carlo` generates the trials as 7.3.1 has them (independent, the root
+drawn uniformly over every enabled controllable transition, waits of t_w); `monte_carlo+<variant>`
+adds a departure (`MC_VARIANTS`: wait_grid, stratified_crn, agent_roots; earlier = all three, the
+trials before issue 38), so each one's effect is measured side by side.
+
 Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
 `--only SECTION ...` runs some of the sections (latency, fig7_12, use_case_a, use_case_b,
 use_case_c).
@@ -122,7 +127,25 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max
     return out
 
 
+#: the Monte Carlo scheduler's departures from the trials of 7.3.1 (options of MonteCarloPolicy), as
+#: "+" suffixes of a Monte Carlo kind, e.g. "monte_carlo+wait_grid", "monte_carlo_T30+earlier"
+MC_VARIANTS = {
+    "wait_grid": {"wait_grid": True},  # waits end on the global t_w grid (the cell waits so too)
+    "stratified_crn": {"stratified_roots": True, "common_random_numbers": True},
+    "agent_roots": {"root_choices": "agent"},  # the root branches over the deciding robot's choices
+}
+#: all three: the trials as they were before issue 38 (bar the refilled delay pools)
+MC_VARIANTS["earlier"] = {k: v for variant in list(MC_VARIANTS.values()) for k, v in variant.items()}
+
+
 def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
+    if kind.startswith("monte_carlo") and "+" in kind:
+        base, *variants = kind.split("+")
+        options = {k: v for variant in variants for k, v in MC_VARIANTS[variant].items()}
+        policy = make_policy(base, net, seed, horizon, n_trials, programs)
+        return MonteCarloPolicy(net, n_trials=policy.n_trials, horizon=policy.horizon, random_state=seed,
+                                min_branch_samples=policy.min_branch_samples, rollout=policy.rollout,
+                                durations=policy.durations, **options)
     if kind == "best_scenario":
         return best_scenario_policy(net)
     if kind == "monte_carlo":
@@ -176,7 +199,8 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n
                 np.random.default_rng(1000 + seed),
                 n_cycles=n_cycles,
                 n_products=n_products,
-                max_time=50.0 * n_cycles * 60 if n_products is None else 600.0 * n_products,
+                # ~5x the slowest cycle seen; only a run that deadlocks reaches it
+                max_time=300.0 * n_cycles if n_products is None else 600.0 * n_products,
             )
             if n_products is None:
                 cycles.extend(run.cycle_times.tolist())
@@ -184,21 +208,25 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n
                 cycles.extend(np.diff(run.product_times).tolist())
             per_product.append(run.time_per_product)
             human_idle.append(run.idle[net.human_agent] / max(len(run.product_times), 1))
+        finite = np.isfinite(per_product)
         out[arm] = {
-            "cycle_median": float(np.median(cycles)),
-            "cycle_mean": float(np.mean(cycles)),
-            "cycle_p90": float(np.percentile(cycles, 90)),
-            "time_per_product": float(np.mean(per_product)),
-            "time_per_product_runs": [round(float(x), 3) for x in per_product],
+            "cycle_median": float(np.median(cycles)) if cycles else float("nan"),
+            "cycle_mean": float(np.mean(cycles)) if cycles else float("nan"),
+            "cycle_p90": float(np.percentile(cycles, 90)) if cycles else float("nan"),
+            # a run without a product (deadlocked) has no time per product: nan, and counted
+            "time_per_product": float(np.mean(per_product)) if finite.all() else float("nan"),
+            "time_per_product_runs": [round(float(x), 3) if np.isfinite(x) else None for x in per_product],
+            "runs_without_product": int((~finite).sum()),
             "human_idle_per_product": float(np.mean(human_idle)),
         }
         if n_products is not None:
             out[arm]["cycle_times"] = [round(float(x), 3) for x in cycles]
         print(
-            f"  {label:10s} {arm:21s} cycle median {out[arm]['cycle_median']:7.2f} s  mean "
+            f"  {label:10s} {arm:28s} cycle median {out[arm]['cycle_median']:7.2f} s  mean "
             f"{out[arm]['cycle_mean']:7.2f} s  p90 {out[arm]['cycle_p90']:7.2f} s  per product "
             f"{out[arm]['time_per_product']:6.2f} s  human idle/product "
-            f"{out[arm]['human_idle_per_product']:5.2f} s  ({time.perf_counter() - t0:.1f} s)",
+            f"{out[arm]['human_idle_per_product']:5.2f} s  runs without a product "
+            f"{out[arm]['runs_without_product']}  ({time.perf_counter() - t0:.1f} s)",
             flush=True,
         )
     return out
@@ -344,7 +372,8 @@ def sweep_checked_stock(quick: bool) -> dict:
 
 def sweep_min_branch_samples(quick: bool) -> dict:
     """Algorithm 4's rule (b) with branch pooling: trials every child of a controllable
-    branching needs (1 = as written) against the time per product on use case a."""
+    branching needs (1 = as written) against the time per product on use case a (waits on the
+    t_w grid)."""
     values = (1, 20) if quick else (1, 5, 10, 20, 40)
     runs, cycles = (2, 4) if quick else (10, 10)
     out = {}
@@ -355,8 +384,9 @@ def sweep_min_branch_samples(quick: bool) -> dict:
         for value in values:
             per_product = []
             for seed in range(runs):
+                # on the t_w grid: with waits of t_w use case a's arms never meet (0 products)
                 policy = MonteCarloPolicy(net, n_trials=100, horizon=15.0, random_state=seed,
-                                          min_branch_samples=value)
+                                          min_branch_samples=value, wait_grid=True)
                 run = simulate_cell(net, policy, np.random.default_rng(1000 + seed), n_cycles=cycles,
                                     max_time=50.0 * cycles * 60)
                 per_product.append(run.time_per_product)
@@ -443,7 +473,8 @@ def use_case_a_campaign(quick: bool) -> dict:
     """Use case a (7.5.1), patterns 1 and 2, and the sweeps of its best-scenario and Monte Carlo arms."""
     print(
         "Use case a (7.5.1), time per finished product (thesis, best-scenario scheduler of 7.2 vs "
-        "RR: 35.80 -> 27.63 s, 33.35 -> 30.10 s); Monte Carlo at T_sch = 15 s, also 30 s"
+        "RR: 35.80 -> 27.63 s, 33.35 -> 30.10 s); Monte Carlo at T_sch = 15 s, also 30 s; the "
+        "baselines wait on the t_w grid"
     )
     # the round robin of 7.5.1: fuse, check (pattern 1); fuse, fuse, check, check (pattern 2)
     programs = {1: {"yumi_left": ["fuse", "check"]}, 2: {"yumi_left": ["fuse", "fuse", "check", "check"]}}
@@ -453,7 +484,10 @@ def use_case_a_campaign(quick: bool) -> dict:
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
         runs, cycles = (2, 4) if quick else (20, 10)
-        kinds = ["best_scenario", "monte_carlo", "monte_carlo_T30", "monte_carlo_pooled", "round_robin"]
+        # the literal trials (monte_carlo) wait t_w: the arms, which wait apart, never meet for the
+        # two-arm check; the t_w grid lets them (T30 and pooling are measured on it)
+        kinds = ["best_scenario", "monte_carlo", *MC_VARIANT_ARMS, "monte_carlo_T30+wait_grid",
+                 "monte_carlo_pooled+wait_grid", "round_robin"]
         arms = campaign(net_a, kinds, runs, cycles, f"a, pat {pat}", horizon=15.0, programs=programs[pat])
         bs, rr = arms["best_scenario"]["time_per_product_runs"], arms["round_robin"]["time_per_product_runs"]
         p_value = float(mannwhitneyu(bs, rr, alternative="less").pvalue) if len(bs) > 1 else None
@@ -482,7 +516,9 @@ def use_case_b_campaign(quick: bool) -> dict:
     time between two successive products (Fig. 7.19). One-sided rank-sum p of A < B on the runs'
     times per product (as use case a) and on the pooled cycle times (as Fig. 7.19)."""
     runs = 2 if quick else 20
-    arms = {"A": "monte_carlo", "B": "monte_carlo_uniform_support", "RR": "round_robin"}
+    arms = {"A": "monte_carlo", "B": "monte_carlo_uniform_support", "RR": "round_robin",
+            **{f"A+{k[12:]}": k for k in MC_VARIANT_ARMS},
+            "B+earlier": "monte_carlo_uniform_support+earlier"}
     out = {"n_runs": runs, "n_products": 9, "n_trials": 100, "horizon": 30.0}
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_b(pat)
@@ -495,15 +531,31 @@ def use_case_b_campaign(quick: bool) -> dict:
                                      alternative="less").pvalue) if many else None)
         p_cycles = float(mannwhitneyu(a["cycle_times"], b["cycle_times"], alternative="less").pvalue)
         result["A_vs_B"] = {"mannwhitney_p_less": p_runs, "mannwhitney_p_less_cycles": p_cycles}
+        early_a, early_b = result["A+earlier"], result["B+earlier"]  # the same test on the earlier trials
+        p_runs_early = (float(mannwhitneyu(early_a["time_per_product_runs"], early_b["time_per_product_runs"],
+                                           alternative="less").pvalue) if many else None)
+        p_cycles_early = float(mannwhitneyu(early_a["cycle_times"], early_b["cycle_times"],
+                                            alternative="less").pvalue)
+        result["A_vs_B_earlier"] = {"mannwhitney_p_less": p_runs_early,
+                                    "mannwhitney_p_less_cycles": p_cycles_early}
         print(f"  b, pat {pat}: A {a['cycle_median']:.2f} s vs B {b['cycle_median']:.2f} s median cycle, "
               f"{a['time_per_product']:.2f} vs {b['time_per_product']:.2f} s per product; one-sided "
               f"rank-sum p (A < B) = {p_runs} (runs' time per product), {p_cycles:.3g} (cycles)", flush=True)
+        print(f"  b, pat {pat}, earlier trials: A {early_a['cycle_median']:.2f} s vs B "
+              f"{early_b['cycle_median']:.2f} s median cycle; p (A < B) = {p_runs_early} (runs), "
+              f"{p_cycles_early:.3g} (cycles)", flush=True)
         out[f"pattern{pat}"] = result
     if quick:
         return out
     out["sweep"] = sweep_use_case_b(quick)
     print("  Scheduler A around T_sch = 30 s (time per product, s): " + json.dumps(out["sweep"]), flush=True)
     return out
+
+
+#: the Monte Carlo arms beside the literal trials (monte_carlo): each departure alone, and all
+#: of them (the trials before issue 38)
+MC_VARIANT_ARMS = ["monte_carlo+wait_grid", "monte_carlo+stratified_crn", "monte_carlo+agent_roots",
+                   "monte_carlo+earlier"]
 
 
 SECTIONS = ("latency", "fig7_12", "use_case_a", "use_case_b", "use_case_c")
@@ -527,8 +579,9 @@ def main():
         net711 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
         runs, cycles = (3, 3) if quick else (20, 10)
         result["fig7_12"] = campaign(
-            net711, ["monte_carlo", "best_of_rollouts_plan", "random_enabled", "round_robin"], runs, cycles,
-            "Fig 7.11"
+            net711,
+            ["monte_carlo", *MC_VARIANT_ARMS, "best_of_rollouts_plan", "random_enabled", "round_robin"],
+            runs, cycles, "Fig 7.11"
         )
     if "use_case_a" in args.only:
         result["use_case_a"] = use_case_a_campaign(quick)
@@ -545,7 +598,18 @@ def main():
             print("Use case c (7.5.3) in the Drake cell (bench_use_case_c.py, 10 seeds)", flush=True)
             result["use_case_c"] = bench_use_case_c.main(["--seeds", "10", "--workers", "2"])["use_case_c"]
     result["load_average_1min_end"] = round(os.getloadavg()[0], 2)
-    print(json.dumps(result))
+    print(json.dumps(_strict(result)))
+
+
+def _strict(value):
+    """`value` with NaN and inf as null, so the last line is strict JSON."""
+    if isinstance(value, float):
+        return value if np.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_strict(v) for v in value]
+    return value
 
 
 if __name__ == "__main__":

@@ -2,7 +2,8 @@
 ground truth, with the true duration distributions. Uncontrollable transitions (the human's
 intentions and starts, every action's end, the end of a wait) race as in 6.2.1; the robots'
 controllable transitions fire only when the scheduler policy commands them, each time a robot
-is free (7.1, receding horizon). Robot waits end on global t_w ticks (`wait_tick_delay`).
+is free (7.1, receding horizon). A robot's wait lasts t_w (6.3.1) or, with the `wait_grid`
+variant, ends on the next global t_w tick (`montecarlo.wait_delay`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hrc_drake.distributions import sample_duration
-from hrc_drake.scheduling.montecarlo import wait_tick_delay
+from hrc_drake.scheduling.montecarlo import wait_delay
 from hrc_drake.scheduling.petri import PcTPN
 
 
@@ -54,12 +55,19 @@ def simulate_cell(
     n_products: int | None = None,
     max_time: float = 3600.0,
     learn: bool = True,
+    wait_grid: bool | None = None,
 ) -> CellRun:
     """Run the cell until `n_cycles` human pattern cycles, `n_products` products or `max_time`.
 
     policy: an object with ``decide(marking, agent, now, elapsed) -> transition`` and
     ``observe(transition, delay)`` (MonteCarloPolicy or a baseline).
+    wait_grid: how a robot's wait is executed: False, it lasts t_w (6.3.1); True, it ends on
+    the next multiple of t_w (the grid variant, on which robots that wait meet, as actions of
+    several arms need). None: the policy's own `wait_grid` (a `MonteCarloPolicy` models its
+    waits so), else True (the baselines, as before).
     """
+    if wait_grid is None:
+        wait_grid = bool(getattr(policy, "wait_grid", True))
     if not isinstance(rng, np.random.Generator):
         raise ValueError("simulate_cell: rng must be a numpy.random.Generator")
     if n_cycles is None and n_products is None and not np.isfinite(max_time):
@@ -109,7 +117,7 @@ def simulate_cell(
         en = net.enabled(m)
         for j in np.flatnonzero(en & unc & ~en_prev):
             if net.role[j] == "wait_end":
-                delay = float(wait_tick_delay(t, net.wait_quantum))
+                delay = float(wait_delay(t, net.wait_quantum, wait_grid))
             else:
                 delay = sample_duration(net.delays[j], rng)
             fire_at[j] = t + delay

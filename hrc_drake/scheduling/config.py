@@ -16,6 +16,8 @@ from hrc_drake.errors import check
 ROLLOUTS = ("uniform", "work_first")
 #: delay models of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.DURATION_MODELS)
 DURATION_MODELS = ("empirical", "uniform_support")
+#: roots of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.ROOT_CHOICES)
+ROOT_CHOICES = ("all_enabled", "agent")
 
 
 def _finite(value) -> bool:
@@ -150,9 +152,34 @@ class MonteCarloScheduler(_SchedulerCommon):
     #: the delay model of the trials: "empirical" (the last `window` observed delays, Scheduler A
     #: of 7.5.2) or "uniform_support" (uniform on [smallest, largest] observed delay, Scheduler B)
     durations: str = "empirical"
+    #: what the trials' root branches over: "all_enabled" (7.3.1: every enabled controllable
+    #: transition) or "agent" (a variant: only the deciding robot's choices)
+    root_choices: str = "all_enabled"
+    #: a variant: trial n takes root choice n mod R instead of a uniform draw (7.3.1)
+    stratified_roots: bool = False
+    #: a variant (needs stratified_roots): the R trials of a group share their delays and later
+    #: random choices (common random numbers) instead of being independent (7.3.1)
+    common_random_numbers: bool = False
+    #: a variant: a robot's wait ends on the next multiple of t_w (robots that wait meet on
+    #: common ticks, which actions of several arms need) instead of lasting t_w (6.3.1); the
+    #: trials and the cell both wait so
+    wait_grid: bool = False
 
     def validate(self, path: str) -> None:
         self._validate_common(path)
+        check(
+            self.root_choices in ROOT_CHOICES,
+            f"{path}.root_choices",
+            f"{self.root_choices!r} is not one of {ROOT_CHOICES}",
+        )
+        for name in ("stratified_roots", "common_random_numbers", "wait_grid"):
+            value = getattr(self, name)
+            check(isinstance(value, bool), f"{path}.{name}", f"{value!r} must be a bool")
+        check(
+            self.stratified_roots or not self.common_random_numbers,
+            f"{path}.common_random_numbers",
+            "needs stratified_roots: true (the trials of a group take the R root choices)",
+        )
         check(
             _integer(self.n_trials) and 1 <= self.n_trials <= 100_000,
             f"{path}.n_trials",

@@ -1,24 +1,29 @@
 """Monte Carlo receding-horizon scheduler on a pcTPN (thesis 7.3.1, Algorithm 4, 7.1).
 
-N trials are simulated in lockstep (one numpy step fires one transition in every trial):
-controllable conflicts are resolved uniformly at random, an uncontrollable conflict is won by
-the transition whose sampled unconditioned arrival time (eq. 6.4: enabling time + delay) comes
-first, and every trial stops at the horizon T_sch. Each trial's cost is
-C = c_R sum_i W_R,i + c_H W_H, the time-integral of the tokens in the cost places. The trials'
-transition sequences form the partial reachability tree; Algorithm 4 back-propagates the
-costs (union at uncontrollable branchings, the child with the lowest beta-percentile at
-controllable ones) and the root child with the lowest beta-percentile is fired now.
+N independent trials are simulated in lockstep (one numpy step fires one transition in every
+trial). Each starts with a controllable transition drawn uniformly among all those enabled at the
+root ("all simulations start with a controllable transition"); controllable conflicts are then
+resolved uniformly at random, an uncontrollable conflict is won by the transition whose sampled
+unconditioned arrival time (eq. 6.4: enabling time + delay) comes first, every delay is a fresh
+draw, a robot's wait lasts exactly the quantum t_w (6.3.1), and every trial stops at the horizon
+T_sch. Each trial's cost is C = c_R sum_i W_R,i + c_H W_H, the time-integral of the tokens in the
+cost places. The trials' transition sequences form the partial reachability tree; Algorithm 4
+back-propagates the costs (union at uncontrollable branchings, the child with the lowest
+beta-percentile at controllable ones) and, of the root children that command the deciding robot,
+the one with the lowest beta-percentile is fired now (our interface decides for one robot at a
+time; a root child of another free robot is that robot's to take when it decides).
 
-Two departures from a literal reading of 7.3.1, both measured on use case a (7.5.1):
-- the root choices are compared on common random numbers (the trials of one group share their
-  delays and later random choices), so their difference is not buried in the delays' spread;
-- `min_branch_samples` (default 1: Algorithm 4 as written) is an option, "branch pooling":
-  below the root, rule (b) then needs that many trials in every child, and thinner branchings
-  are united as uncontrollable ones. With one or two trials per child the lowest of the
-  children's percentiles is the luckiest sample, and a wait (a new decision every t_w)
-  collects more such minima than an action. On use case a (7.5.1, `bench_scheduling.py`, 20
-  runs) pooling at 20 gives 30.59 s per product against 32.70 s for the literal algorithm
-  (pattern 1) and 29.20 s against 29.92 s (pattern 2).
+Departures from 7.3.1, each an option named for what it is (all off by default):
+- `root_choices="agent"`: the root branches only over the deciding robot's choices;
+- `stratified_roots`: trial n takes root choice n mod R instead of a uniform draw;
+- `common_random_numbers` (with stratified roots): the R trials of a group share their delays and
+  later random choices, so root children are compared on the same futures;
+- `wait_grid`: a wait ends on the next multiple of t_w of absolute time (`wait_tick_delay`), so
+  waiting robots meet on common ticks, instead of lasting t_w;
+- `min_branch_samples` > 1, "branch pooling": below the root, rule (b) needs that many trials in
+  every child, and thinner branchings are united as uncontrollable ones (see `evaluate_costs`).
+The four first together are this module's earlier trials. The figures of each on use cases a and b
+are in `tools/bench_scheduling.py` (arms monte_carlo_<variant>).
 """
 
 from __future__ import annotations
@@ -35,15 +40,27 @@ from hrc_drake.scheduling.petri import PcTPN
 
 
 def wait_tick_delay(time, quantum: float):
-    """Delay of a robot's explicit wait started at `time`: it ends on the next multiple of the
-    quantum t_w (6.3.1), so robots that wait meet on common ticks (needed by actions that
-    take several arms) instead of drifting apart."""
+    """Delay of a robot's explicit wait started at `time` on the t_w grid (the `wait_grid`
+    variant; 6.3.1 gives a wait of exactly t_w): it ends on the next multiple of the quantum,
+    so robots that wait meet on common ticks (needed by actions that take several arms)
+    instead of drifting apart."""
     time = np.asarray(time, dtype=float)
     delay = quantum - np.mod(time, quantum)
     return np.where(delay < 1e-9 * quantum, quantum, delay)
 
 
+def wait_delay(time, quantum: float, grid: bool = False):
+    """Delay of a robot's explicit wait started at `time`: the quantum t_w (6.3.1), or with
+    `grid` the time to the next multiple of t_w (`wait_tick_delay`, a variant)."""
+    if grid:
+        return wait_tick_delay(time, quantum)
+    return np.full(np.shape(time), float(quantum)) if np.ndim(time) else float(quantum)
+
+
 ROLLOUTS = ("uniform", "work_first")
+#: which controllable transitions the trials' root branches over: "all_enabled" (7.3.1: every
+#: controllable transition enabled at the root) or "agent" (only the deciding robot's, a variant)
+ROOT_CHOICES = ("all_enabled", "agent")
 
 #: the delay models of the trials: "empirical" (`DurationModel`, the scheduler of 7.3, Scheduler A
 #: of 7.5.2) and "uniform_support" (`UniformSupportDurationModel`, Scheduler B of 7.5.2)
@@ -95,23 +112,32 @@ def simulate_trials(
     now: float = 0.0,
     rollout: str = "uniform",
     compiled: bool = True,
+    stratified_roots: bool = False,
+    common_random_numbers: bool = False,
+    wait_grid: bool = False,
 ) -> TrialBatch:
-    """Run `n_trials` Monte Carlo trajectories of the net from `marking` up to `horizon` s.
+    """Run `n_trials` independent Monte Carlo trajectories of the net from `marking` up to
+    `horizon` s (7.3.1, the trials of Algorithm 4).
 
-    root_choices: the controllable transitions the first firing is chosen from; trials are
-    split evenly among those enabled (stratified, so every root child gets samples).
+    root_choices: the controllable transitions the first firing is drawn from, uniformly among
+    those enabled (7.3.1 roots at every enabled controllable transition: pass them all).
     elapsed: (T,) seconds each currently enabled uncontrollable transition has already been
     enabled; its delay is then drawn conditioned on exceeding it (6.2.1).
-    now: the absolute time of the root; robot waits end on the global t_w ticks
-    (`wait_tick_delay`), as in the cell simulator.
     rollout: how controllable conflicts after the root are resolved. "uniform" (7.3.1): any
     enabled controllable transition with equal probability. "work_first": uniformly among the
     robots' actions and commitments, an explicit wait only when none is enabled.
     compiled: step the trials with `kernels.trial_step` (default) or with numpy operations on
     all trials at once (the reference; same draws, paths and costs).
+    Variants (departures from 7.3.1, off by default): stratified_roots: trial n takes root
+    choice n mod R, so every root child gets samples; common_random_numbers (needs
+    stratified_roots): the trials n // R of a group share their firing delays and the random
+    keys of their later controllable choices; wait_grid: a wait started at absolute time
+    `now` + t ends on the next multiple of t_w (`wait_tick_delay`) instead of lasting t_w.
     """
     if rollout not in ROLLOUTS:
         raise ValueError(f"simulate_trials: rollout must be one of {ROLLOUTS}, got {rollout!r}")
+    if common_random_numbers and not stratified_roots:
+        raise ValueError("simulate_trials: common_random_numbers needs stratified_roots (groups of R trials)")
     marking = np.asarray(marking, dtype=np.int64)
     if marking.shape != (net.n_places,) or np.any(marking < 0):
         raise ValueError(f"simulate_trials: marking must be ({net.n_places},) and >= 0")
@@ -130,21 +156,27 @@ def simulate_trials(
     human_w = np.where(is_human_place, net.cost, 0.0)
     robot_w = net.cost - human_w
     depth = _pool_depth(net, durations, horizon)
-    # Common random numbers: the root choices are compared on the same futures. Trial n belongs
-    # to group n // R (R root choices) and takes root choice n % R; the trials of a group share
-    # their firing delays and the random keys of their later controllable choices, so the
-    # difference between root children is not drowned by the spread of the delays.
-    n_groups = -(-n_trials // roots.size)
-    group = np.arange(n_trials) // roots.size
+    rows = np.arange(n_trials)
+    if common_random_numbers:
+        # trial n belongs to group n // R (R root choices) and takes root choice n % R; the trials
+        # of a group share their delays and the keys of their later controllable choices
+        n_groups = -(-n_trials // roots.size)
+        group = rows // roots.size
+    else:
+        n_groups, group = n_trials, rows
     pools = durations.sample_pools(rng, n_groups, depth)[group]
+    if stratified_roots:
+        first_j = roots[rows % roots.size]
+    else:
+        first_j = roots[rng.integers(0, roots.size, size=n_trials)]
     count = np.zeros((n_trials, n_tr), dtype=np.int64)
     fire_at = np.full((n_trials, n_tr), np.inf)
-    rows = np.arange(n_trials)
     is_wait_end = np.array([r == "wait_end" for r in net.role], dtype=bool)
     key_bonus = np.zeros(n_tr)
     if rollout == "work_first":
         key_bonus[net.controllable & np.array([r != "wait" for r in net.role])] = 1.0
-    quantum = getattr(net, "wait_quantum", 0.0)
+    # the trials read a wait's end from the grid when quantum > 0, else from its pool (t_w, fixed)
+    quantum = getattr(net, "wait_quantum", 0.0) if wait_grid else 0.0
 
     # Clocks of the transitions already enabled at the root, conditioned on their elapsed time.
     for j in np.flatnonzero(en0 & unc):
@@ -161,12 +193,11 @@ def simulate_trials(
     en_prev = np.broadcast_to(en0 & unc, (n_trials, n_tr)).copy()
 
     m = np.repeat(marking[None, :], n_trials, axis=0)
-    first_j = roots[rows % roots.size]
     m += inc_t[first_j]
     lockstep = _lockstep_compiled if compiled else _lockstep_numpy
     cols, cost_r, cost_h = lockstep(
         _Trials(net, m, pools, count, fire_at, en_prev, group, n_groups, key_bonus, is_wait_end, robot_w,
-                human_w, inc_t),
+                human_w, inc_t, durations),
         rng, horizon, now, quantum, max_steps,
     )
     return TrialBatch(np.stack([first_j] + cols, axis=1), cost_r + cost_h, cost_r, cost_h)
@@ -189,6 +220,23 @@ class _Trials:
     robot_w: np.ndarray  # (P,) cost weights of the robots' idle places
     human_w: np.ndarray  # (P,) and of the human's
     inc_t: np.ndarray  # (T, P) incidence, transposed
+    durations: DurationModel  # draws more delays when a transition has used its pool
+    random_delay: np.ndarray | None = None  # (T,) the transitions whose delays are random
+
+    def refill(self, rng: np.random.Generator) -> None:
+        """Fresh delays once a trial has used the whole pool of a transition with a random delay
+        (the pools grow by `depth` new draws per group), so no delay is used twice (a fixed one
+        may: it is the same value); called before every step, in the same order by both lockstep
+        forms."""
+        depth = self.pools.shape[2]
+        random = self.random_delay
+        if random is None:
+            random = self.random_delay = np.array(
+                [not (self.net.controllable[j] or self.durations.is_deterministic(j))
+                 for j in range(self.net.n_transitions)], dtype=bool)
+        if random.any() and self.count[:, random].max() >= depth:
+            more = self.durations.sample_pools(rng, self.n_groups, depth)[self.group]
+            self.pools = np.concatenate([self.pools, more], axis=2)
 
 
 def _no_horizon(max_steps: int) -> RuntimeError:
@@ -210,6 +258,7 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
     dt, fired = np.empty(n_trials), np.full(n_trials, -1, dtype=np.int64)
     cols = []
     for _ in range(max_steps):
+        trials.refill(rng)
         keys = rng.random((trials.n_groups, net.n_transitions))
         chosen, column = np.empty(n_trials, dtype=np.int64), np.empty(n_trials, dtype=np.int64)
         running = kernels.trial_step(
@@ -229,12 +278,11 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
 def _lockstep_numpy(trials: _Trials, rng, horizon, now, quantum, max_steps):
     """The trials' steps as numpy operations on all trials at once (the reference of the
     compiled form): returns the path columns after the root and the robot and human costs."""
-    net, m, pools, count = trials.net, trials.m, trials.pools, trials.count
+    net, m, count = trials.net, trials.m, trials.count
     fire_at, en_prev = trials.fire_at, trials.en_prev
     group, key_bonus, is_wait_end = trials.group, trials.key_bonus, trials.is_wait_end
     unc = ~net.controllable
     n_trials, n_tr = m.shape[0], net.n_transitions
-    depth = pools.shape[2]
     rows = np.arange(n_trials)
     t = np.zeros(n_trials)
     cost_r = np.zeros(n_trials)
@@ -242,12 +290,13 @@ def _lockstep_numpy(trials: _Trials, rng, horizon, now, quantum, max_steps):
     cols = []
     alive = np.ones(n_trials, dtype=bool)
     for _ in range(max_steps):
+        trials.refill(rng)
         en = net.enabled_batch(m)
         newly = en & unc & ~en_prev
         if newly.any():
             n_idx, j_idx = np.nonzero(newly)
-            k = count[n_idx, j_idx] % depth
-            delay = pools[n_idx, j_idx, k]
+            k = count[n_idx, j_idx] % trials.pools.shape[2]
+            delay = trials.pools[n_idx, j_idx, k]
             if quantum > 0 and is_wait_end[j_idx].any():
                 delay = np.where(is_wait_end[j_idx], wait_tick_delay(now + t[n_idx], quantum), delay)
             fire_at[n_idx, j_idx] = t[n_idx] + delay
@@ -396,7 +445,7 @@ def evaluate_cost_tree(node: CostNode, beta: float, is_root: bool = True):
 
 
 class MonteCarloPolicy:
-    """Receding-horizon Monte Carlo scheduler (7.1 + 7.3.1).
+    """Receding-horizon Monte Carlo scheduler (7.1 + 7.3.1, Algorithm 4).
 
     n_trials: N; horizon: T_sch (s); beta: percentile level of Algorithm 4 (0.5 = median).
     window, min_samples: the online duration model (`DurationModel`). learn: update it
@@ -405,6 +454,10 @@ class MonteCarloPolicy:
     durations: the delays the trials sample, a key of `DURATION_MODELS`: "empirical" (the
     observed delays, Scheduler A of use case b, 7.5.2) or "uniform_support" (uniform between
     the smallest and the largest observed delay, Scheduler B of 7.5.2).
+    root_choices, stratified_roots, common_random_numbers, wait_grid: how the trials are
+    generated; the defaults are 7.3.1's ("all_enabled", off, off, off), the others are the
+    variants of `simulate_trials`. `wait_grid` is also how the cell should execute this
+    policy's waits (`cellsim.simulate_cell` reads it), so the trials model the cell.
     """
 
     def __init__(
@@ -420,6 +473,10 @@ class MonteCarloPolicy:
         min_branch_samples: int = 1,
         rollout: str = "uniform",
         durations: str = "empirical",
+        root_choices: str = "all_enabled",
+        stratified_roots: bool = False,
+        common_random_numbers: bool = False,
+        wait_grid: bool = False,
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
@@ -439,18 +496,33 @@ class MonteCarloPolicy:
             raise ValueError(
                 f"MonteCarloPolicy: durations must be one of {tuple(DURATION_MODELS)}, got {durations!r}"
             )
+        if root_choices not in ROOT_CHOICES:
+            raise ValueError(
+                f"MonteCarloPolicy: root_choices must be one of {ROOT_CHOICES}, got {root_choices!r}"
+            )
+        if common_random_numbers and not stratified_roots:
+            raise ValueError("MonteCarloPolicy: common_random_numbers needs stratified_roots")
+        self.root_choices = root_choices
+        self.stratified_roots = bool(stratified_roots)
+        self.common_random_numbers = bool(common_random_numbers)
+        self.wait_grid = bool(wait_grid)
         self.durations = durations
         self.durations_ = DURATION_MODELS[durations](net, window=window, min_samples=min_samples)
         self.rng = np.random.default_rng(random_state)
         self.last_percentiles_: dict[str, float] = {}
 
     def decide(self, marking, agent: str, now: float = 0.0, elapsed=None) -> int:
-        """The controllable transition to fire now for robot `agent` (an action, a
-        commitment to a collaboration, or its wait)."""
+        """The controllable transition to fire now for robot `agent` (an action, a commitment
+        to a collaboration, or its wait): of the root children that command `agent`, the one
+        with the lowest beta-percentile (Algorithm 4; a uniform draw among the agent's choices
+        if no trial started with any of them)."""
         choices = self.net.agent_choices(marking, agent, "MonteCarloPolicy")
         if choices.size == 1:
             self.last_percentiles_ = {}
             return int(choices[0])
+        roots = choices
+        if self.root_choices == "all_enabled":
+            roots = np.flatnonzero(self.net.controllable & self.net.enabled(marking))
         batch = simulate_trials(
             self.net,
             marking,
@@ -458,16 +530,22 @@ class MonteCarloPolicy:
             self.rng,
             self.n_trials,
             self.horizon,
-            choices,
+            roots,
             elapsed,
             now=now,
             rollout=self.rollout,
+            stratified_roots=self.stratified_roots,
+            common_random_numbers=self.common_random_numbers,
+            wait_grid=self.wait_grid,
         )
-        best, percentiles = evaluate_costs(
+        _, percentiles = evaluate_costs(
             batch.paths, batch.costs, self.net.controllable, self.beta, self.min_branch_samples
         )
         self.last_percentiles_ = {self.net.transitions[j]: p for j, p in percentiles.items()}
-        return int(best)
+        mine = [int(j) for j in choices if int(j) in percentiles]
+        if not mine:
+            return int(self.rng.choice(choices))
+        return min(mine, key=lambda u: (percentiles[u], u))
 
     def clone(self) -> MonteCarloPolicy:
         """A copy that `decide` and `observe` may change without touching this one: its own

@@ -43,7 +43,7 @@ from hrc_drake.scheduling.config import (
     UniformScheduler,
 )
 from hrc_drake.scheduling.fuzzy_scheduler import FuzzyPolicy, UniformPolicy
-from hrc_drake.scheduling.montecarlo import MonteCarloPolicy, wait_tick_delay
+from hrc_drake.scheduling.montecarlo import MonteCarloPolicy, wait_delay
 from hrc_drake.scheduling.petri import PcTPN
 from hrc_drake.scheduling.tracker import NetTracker
 from hrc_drake.systems import Frozen, declare_state, get_state, input_or, set_state
@@ -69,6 +69,10 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             min_branch_samples=config.min_branch_samples,
             rollout=config.rollout,
             durations=config.durations,
+            root_choices=config.root_choices,
+            stratified_roots=config.stratified_roots,
+            common_random_numbers=config.common_random_numbers,
+            wait_grid=config.wait_grid,
         )
     if isinstance(config, FuzzyScheduler):  # UniformScheduler too
         kind = UniformPolicy if isinstance(config, UniformScheduler) else FuzzyPolicy
@@ -248,9 +252,11 @@ class Scheduler(LeafSystem):
                         agent=a,
                         action=action,
                         seq=len(commands) + 1,
-                        # waits end on the quantum's grid, as in the net (6.3.1): arms that
-                        # wait meet there and can start an action of both
-                        wait=float(wait_tick_delay(t, net.wait_quantum)) if action is None else 0.0,
+                        # a wait lasts t_w (6.3.1) as the policy's trials model it; with the
+                        # grid (the baselines, MonteCarloScheduler.wait_grid) it ends on the
+                        # next multiple of t_w, where arms that wait meet for an action of both
+                        wait=float(wait_delay(t, net.wait_quantum, getattr(core.policy, "wait_grid", True)))
+                        if action is None else 0.0,
                         give_up_after=self._patience[j],
                     )
                 )

@@ -19,7 +19,7 @@ from hrc_drake.scheduling.baselines import (
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import FlowError, compile_flow
 from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
-from hrc_drake.scheduling.montecarlo import DURATION_MODELS, ROLLOUTS, MonteCarloPolicy
+from hrc_drake.scheduling.montecarlo import DURATION_MODELS, ROLLOUTS, ROOT_CHOICES, MonteCarloPolicy
 
 duration = st.one_of(
     st.floats(0.5, 5.0).map(lambda d: Distribution("fixed", mean=d)),
@@ -74,7 +74,9 @@ def policies(kind, net, seed, draw):
         params = dict(n_trials=draw(st.sampled_from([6, 16])), horizon=draw(st.sampled_from([4.0, 8.0])),
                       min_branch_samples=draw(st.sampled_from([1, 4])),
                       rollout=draw(st.sampled_from(ROLLOUTS)),
-                      durations=draw(st.sampled_from(sorted(DURATION_MODELS))))
+                      durations=draw(st.sampled_from(sorted(DURATION_MODELS))),
+                      root_choices=draw(st.sampled_from(ROOT_CHOICES)), wait_grid=draw(st.booleans()))
+        params["stratified_roots"] = params["common_random_numbers"] = draw(st.booleans())
         return lambda: MonteCarloPolicy(net, random_state=seed, **params)
     if kind == "random_enabled":
         return lambda: RandomEnabledPolicy(net, random_state=seed)
@@ -106,11 +108,17 @@ class Checked:
         if self.kind != "montecarlo" and begins and is_deadlocked(net, marking):  # deadlock repair
             assert net.role[j] != "wait"
         if self.kind == "montecarlo" and self.policy.last_percentiles_:
-            # Algorithm 4: the enabled choice with the lowest beta-percentile of the costs
+            # Algorithm 4: of the agent's root children, the one with the lowest beta-percentile;
+            # the root children are enabled controllable transitions (the agent's, or any robot's)
             scores = self.policy.last_percentiles_
             names = {net.transitions[k] for k in net.agent_transitions(agent) if en[k]}
-            assert set(scores) == names and len(names) > 1
-            assert scores[net.transitions[j]] == min(scores.values())
+            roots = names if self.policy.root_choices == "agent" else {
+                net.transitions[k] for k in np.flatnonzero(net.controllable & en)}
+            assert set(scores) <= roots and len(names) > 1
+            if self.policy.stratified_roots and self.policy.n_trials >= len(roots):
+                assert set(scores) == roots
+            if set(scores) & names:
+                assert scores[net.transitions[j]] == min(scores[n] for n in names if n in scores)
             assert all(np.isfinite(v) and v >= 0 for v in scores.values())
         self.decisions.append((agent, int(j), float(now)))
         return j
