@@ -9,9 +9,11 @@ slowed while a hand is in their workspace (`tracker: !KalmanTracker {}`, the slo
 scheduler runs the same seeds (the operator's durations); a round-robin arm (the arms'
 programs in order) is a reference the thesis does not have.
 
-The runs go through the campaign API (`hrc_drake.campaign`): one campaign per experiment (its
-duration), a variant per scheduler (overrides of torch_clock.yaml's raw document: lists replace),
-the per-product samples from the `per_product` extra metrics (`campaign.extras`).
+The runs go through the campaign API (`hrc_drake.campaign`): Experiment B is the shipped campaign
+`diagrams/campaigns/use_case_c_schedulers.yaml` (its variants, seeds and duration), Experiment A
+the same variants with the torch-only overrides (lists replace) and 420 s; the per-product
+samples come from the `per_product` extra metrics (`campaign.extras`). The net has no resource
+for the robots' shared area (the thesis's footnote 7 to 7.5.3).
 
 Idle time: as Fig. 7.27, one sample per product, the operator's waiting time (blocked, from
 wait_begin to wait_end) within the interval from the previous product (or t = 0) to this one.
@@ -50,13 +52,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_use_case_b import _one_sided, add_campaign_arguments, run_campaigns  # noqa: E402
 
 from hrc_drake.campaign.spec import make_campaign  # noqa: E402
-from hrc_drake.cell.scenario import Tagged, _raw_document  # noqa: E402
+from hrc_drake.cell.scenario import _raw_document  # noqa: E402
 
 SCENARIO = ROOT / "diagrams" / "torch_clock.yaml"
-#: products per run (7.5.3) and the simulated time allowed for them (s)
+#: the shipped campaign of Experiment B (its variants are the arms)
+CAMPAIGN = ROOT / "diagrams" / "campaigns" / "use_case_c_schedulers.yaml"
+#: products per run (7.5.3) and the simulated time allowed for them (s; B's is the campaign's)
 EXPERIMENTS = {"A": (5, 420.0), "B": (10, 900.0)}
 TORCH_ONLY = {"R1", "H1", "L1", "H2", "R2", "H3"}
-ARMS = {"fuzzy": "FuzzyScheduler", "uniform": "UniformScheduler", "round_robin": "RoundRobinScheduler"}
 
 
 def experiment_overrides(experiment: str) -> dict:
@@ -77,22 +80,27 @@ def experiment_overrides(experiment: str) -> dict:
     }
 
 
+def shipped_variants() -> dict:
+    """The arms of the shipped campaign (variant name -> overrides, tags kept as `Tagged`)."""
+    return _raw_document(CAMPAIGN.read_text())["variants"]
+
+
 def scheduler_overrides(arm: str) -> dict:
-    """The arm's scheduler (T_sch 50 s, t_w 5 s) and the tracker that slows the robots."""
-    fields = {"wait_quantum": 5.0}
-    if arm != "round_robin":
-        fields["horizon"] = 50.0
-    return {"scheduler": Tagged(ARMS[arm], fields), "tracker": Tagged("KalmanTracker", {})}
+    """The arm's scheduler (T_sch 50 s, t_w 5 s) and the tracker that slows the robots, as the
+    shipped campaign has them."""
+    return copy.deepcopy(shipped_variants()[arm])
 
 
 def experiment_campaign(experiment: str, arms: list[str], seeds: int):
-    """Experiment A or B as a campaign: a variant per arm, seeds 100, 101, ..."""
-    _, duration = EXPERIMENTS[experiment]
+    """Experiment A or B as a campaign: the shipped campaign's variants (B: as shipped; A: with
+    the torch-only overrides), seeds 100, 101, ..."""
+    raw = _raw_document(CAMPAIGN.read_text())
+    duration = float(raw["duration"]) if experiment == "B" else EXPERIMENTS[experiment][1]
     base = experiment_overrides(experiment)
     document = {
         "name": f"use_case_c_{experiment}",
         "duration": duration,
-        "seeds": {"count": seeds, "first": 100},
+        "seeds": {"count": seeds, "first": raw["seeds"]["first"]},
         "scenarios": [str(SCENARIO)],
         "variants": {arm: {**base, **scheduler_overrides(arm)} for arm in arms},
         "metrics": ["mean_cycle_time", "agents.human.idle_time"],
@@ -107,7 +115,9 @@ def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out
     campaigns = [experiment_campaign(experiment, arms, seeds) for experiment in EXPERIMENTS]
     frames = run_campaigns(campaigns, workers, address, out)
     rows = []
-    for (experiment, (n_products, duration)), frame in zip(EXPERIMENTS.items(), frames, strict=True):
+    for campaign, (experiment, (n_products, _)), frame in zip(campaigns, EXPERIMENTS.items(), frames,
+                                                               strict=True):
+        duration = campaign.duration
         for run in frame.to_dict("records"):
             times = list(run["per_product.times"])[:n_products]
             rows.append({

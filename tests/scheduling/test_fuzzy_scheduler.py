@@ -451,13 +451,14 @@ def _torch_clock_net():
         ("H5", "human", ["clock_delivery"], ["clock_out"], normal(11.0, 2.0)),
     ]
     flow = Flow(actions=[FlowAction(n, [a], i, o, duration=d) for n, a, i, o, d in spec])
-    raw = ["front_feeder", "body_feeder", "battery_feeder", "dial_feeder", "hands_feeder", "glass_feeder",
-           "bottom_feeder"]
-    buffers = [Buffer(b, kind="raw") for b in raw]
-    buffers += [Buffer(b, kind="product") for b in ("torch_out", "clock_out")]
-    buffers += [Buffer(b, capacity=1) for b in ("station_A", "glass_frame", "clock_assembly", "torch_ready",
-                                                "clock_delivery", "torch_body")]
-    buffers += [Buffer(b, capacity=2) for b in ("torch_front", "dial", "batteries", "dial_hands")]
+    layout = [  # name, capacity (0: raw, -1: product), in torch_clock.yaml's order
+        ("front_feeder", 0), ("dial_feeder", 0), ("glass_feeder", 0), ("bottom_feeder", 0), ("station_A", 1),
+        ("glass_frame", 1), ("clock_assembly", 1), ("torch_front", 2), ("dial", 2), ("torch_ready", 1),
+        ("batteries", 2), ("clock_delivery", 1), ("torch_body", 1), ("dial_hands", 2), ("body_feeder", 0),
+        ("battery_feeder", 0), ("hands_feeder", 0), ("torch_out", -1), ("clock_out", -1),
+    ]
+    kinds = {0: {"kind": "raw"}, -1: {"kind": "product"}}
+    buffers = [Buffer(b, **kinds.get(c, {"capacity": c})) for b, c in layout]
     return compile_flow(flow, buffers, "human", ["H1", "H4", "H2", "H5", "H3"], ["yumi_right", "yumi_left"],
                         wait_quantum=5.0)
 
