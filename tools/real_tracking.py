@@ -352,14 +352,17 @@ def tracking_figures(sequences, synthetic, seed: int = 0, quick: bool = False, c
             others = {t: table[t]["rms_hidden_m"] for t in trackers if not t.startswith("pf")}
             lowest = all(table["pf"]["rms_hidden_m"] <= v for v in others.values())
             claim[f"pf_rms_lowest_{group}"] = bool(lowest)
-        log(f"  claim: pf coverage real {pf_real['coverage']:.3f} >= synthetic {pf_syn['coverage']:.3f}: "
-            f"{'holds' if claim['pf_coverage_real_ge_synthetic'] else 'FAILS'}")
         arm_real = figures["tracking_by_case"]["real"]["arm"]["pf"]["coverage"]
         arm_syn = figures["tracking_by_case"]["synthetic"]["arm"]["pf"]["coverage"]
+        # the real sequences lose only arm points (the panels); the synthetic operator also loses
+        # points behind the shelves ("other"): the like-for-like claim is on arm points
+        log(f"  all hidden points: pf coverage real {pf_real['coverage']:.3f}, synthetic "
+            f"{pf_syn['coverage']:.3f} (the synthetic figure also counts points behind the shelves)")
         if np.isfinite(arm_real) and np.isfinite(arm_syn):
             claim["pf_arm_coverage_real_ge_synthetic"] = bool(arm_real >= arm_syn)
-            log(f"  arm points only (cases 1-3 of 9.1.2): pf coverage real {arm_real:.3f}, synthetic "
-                f"{arm_syn:.3f}")
+            verdict = "holds" if claim["pf_arm_coverage_real_ge_synthetic"] else "FAILS"
+            log(f"  claim: pf coverage of hidden arm points (cases 1-3 of 9.1.2) real {arm_real:.3f} >= "
+                f"synthetic {arm_syn:.3f}: {verdict}")
     figures = _rounded(figures)
     figures["tracking_claim"] = claim
     figures["tracking_sequences"] = [
