@@ -300,18 +300,7 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
         if not any(len(values) for _, values, _ in data):
             continue
         stem = metric.replace(".", "_")
-        fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(data) + 2), 4))
-        drawn = [(k, values) for k, (_, values, _) in enumerate(data, start=1) if len(values)]
-        ax.boxplot([values for _, values in drawn], positions=[k for k, _ in drawn], showmeans=True)
-        for k, (_, _, note) in enumerate(data, start=1):
-            if note:
-                ax.text(k, 0.97, note, transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=8)
-        ax.set_xlim(0.5, len(data) + 0.5)
-        ax.set_xticks(range(1, len(data) + 1), [label for label, _, _ in data])
-        ax.set_ylabel(metric_label(metric))
-        ax.set_title(f"{title}: {metric}" if title else metric, fontsize=10)
-        ax.grid(axis="y", alpha=0.3)
-        fig.tight_layout()
+        fig = box_figure(data, metric, title)
         paths.append(Path(out_dir) / f"box_{stem}.png")
         fig.savefig(paths[-1], dpi=100)
         plt.close(fig)
@@ -337,6 +326,42 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
         fig.savefig(paths[-1], dpi=100)
         plt.close(fig)
     return paths
+
+
+def box_figure(data: list[tuple[str, np.ndarray, str]], metric: str, title: str = ""):
+    """The box plot of `metric`: a box per (label, values, note) group, a group without values
+    named by its note; the legend says which mark is which (the median line, the mean
+    triangle, the box's quartiles, the whiskers' reach, outliers)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    fig, ax = plt.subplots(figsize=(max(5.5, 1.2 * len(data) + 3.5), 4))
+    drawn = [(k, values) for k, (_, values, _) in enumerate(data, start=1) if len(values)]
+    parts = ax.boxplot([values for _, values in drawn], positions=[k for k, _ in drawn], showmeans=True)
+    for k, (_, _, note) in enumerate(data, start=1):
+        if note:
+            ax.text(k, 0.97, note, transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=8)
+    ax.set_xlim(0.5, len(data) + 0.5)
+    ax.set_xticks(range(1, len(data) + 1), [label for label, _, _ in data])
+    ax.set_ylabel(metric_label(metric))
+    ax.set_title(f"{title}: {metric}" if title else metric, fontsize=10)
+    ax.grid(axis="y", alpha=0.3)
+    # the legend's marks are copies of the plotted ones (their colour, marker, line)
+    median, mean = parts["medians"][0], parts["means"][0]
+    flier = parts["fliers"][0]
+    handles = [
+        Line2D([], [], color=median.get_color(), lw=median.get_linewidth(), label="median"),
+        Line2D([], [], ls="", marker=mean.get_marker(), markerfacecolor=mean.get_markerfacecolor(),
+               markeredgecolor=mean.get_markeredgecolor(), label="mean"),
+        Patch(facecolor="none", edgecolor=parts["boxes"][0].get_color(), label="box: quartiles (IQR)"),
+        Line2D([], [], color=parts["whiskers"][0].get_color(), label="whiskers: within 1.5 IQR"),
+        Line2D([], [], ls="", marker=flier.get_marker(), markerfacecolor=flier.get_markerfacecolor(),
+               markeredgecolor=flier.get_markeredgecolor(), label="outliers"),
+    ]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
+    fig.tight_layout()
+    return fig
 
 
 def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:

@@ -54,7 +54,7 @@ def run_task(task: RunTask) -> dict:
     _test_kill(task)
     try:
         from hrc_drake.cell.build import build_cell
-        from hrc_drake.cell.run import local_meshcat, simulate
+        from hrc_drake.cell.run import local_meshcat, replay_html, simulate
 
         scenario = copy.deepcopy(_scenario(task.scenario_path, task.config_hash, task.overrides))
         scenario.seed = task.seed
@@ -77,7 +77,7 @@ def run_task(task: RunTask) -> dict:
 
             row.update(extra_columns(task.extra_metrics, result, scenario))
         if task.replay:
-            html = cell.meshcat.StaticHtml()
+            html = replay_html(cell, result)  # with its title, clock and legend
     except Exception as err:  # noqa: BLE001 - a failed run is a row with its error, not a lost campaign
         row.update(status="failed", error=f"{type(err).__name__}: {err}")
     row["run_wall_time"] = round(time.perf_counter() - start, 4)

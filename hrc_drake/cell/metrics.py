@@ -303,8 +303,76 @@ def write_events_csv(path: Path, events, perceived_events=()) -> None:
             writer.writerow([f"{e.time:.3f}", _agent_of(e), e.action, e.kind, k, source, e.seq])
 
 
-def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], title: str = "") -> None:
-    """Gantt chart: one row per agent, a coloured bar per action, waits hatched (cf. thesis Fig. 7.15)."""
+#: the Gantt chart's palette: one colour per action of the scenario's action list, in that
+#: list's sorted order (tab20, then tab20b's)
+def _palette() -> list:
+    import matplotlib
+
+    return list(matplotlib.colormaps["tab20"].colors) + list(matplotlib.colormaps["tab20b"].colors)
+
+
+def action_colors(names) -> dict:
+    """A colour per action name, fixed by the set of `names` (e.g. a scenario's actions): the
+    sorted names take the palette in turn, so every run of a scenario (any seed, duration, or
+    actions that happened) draws an action in the same colour. A name outside `names` gets one
+    from a hash of its name (stable too)."""
+    return _ColorMap(sorted(set(names)))
+
+
+class _ColorMap(dict):
+    def __init__(self, names: list[str]):
+        palette = _palette()
+        super().__init__({name: palette[k % len(palette)] for k, name in enumerate(names)})
+        #: the key a bar too short for its name shows (the legend pairs it with the name)
+        self.keys_ = {name: str(k + 1) for k, name in enumerate(names)}
+
+    def __missing__(self, name: str):
+        import zlib
+
+        palette = _palette()
+        self[name] = palette[zlib.crc32(name.encode()) % len(palette)]
+        self.keys_[name] = str(len(self.keys_) + 1)
+        return self[name]
+
+
+def safety_line(safety: dict | None) -> str:
+    """The run's safety in one line (for the Gantt chart's title): the time below the safety
+    distance and the ISO/TS 15066 verdict, where the run has them."""
+    if not safety:
+        return "no safety distance or safety system"
+    parts = []
+    if "safety_distance" in safety:
+        distance = safety["safety_distance"]
+        parts.append(f"below the safety distance {distance:g} m for {safety['time_below_s']:.1f} s"
+                     if safety.get("below") else f"never below the safety distance {distance:g} m")
+    if safety.get("verdict"):
+        parts.append(str(safety["verdict"]))
+    return "; ".join(parts) or "no safety distance or safety system"
+
+
+def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], title: str = "",
+               action_names=(), safety: dict | None = None) -> None:
+    """`gantt_figure` saved as a PNG at `path`."""
+    import matplotlib.pyplot as plt
+
+    fig = gantt_figure(log, end_time, agents, title, action_names, safety)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+#: label size (pt) of the action names in the bars
+GANTT_LABEL_SIZE = 7
+
+
+def gantt_figure(log: MetricsLog, end_time: float, agents: list[str], title: str = "", action_names=(),
+                 safety: dict | None = None):
+    """Gantt chart (cf. thesis Fig. 7.15): one row per agent, a bar per action in its colour
+    (`action_colors` of `action_names`, the scenario's actions, so runs compare; the actions
+    that happened when none are given), waits hatched, the scheduler's decisions as triangles;
+    below, the human-robot distance against the safety distance and the speed override. The
+    title carries the safety verdict (`safety_line` of metrics.json's `safety`). A bar shows its
+    action's name where the name fits, else its key (the legend pairs keys and names), else
+    nothing: labels never run into each other."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -312,9 +380,11 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
     from matplotlib.patches import Patch
 
     spans = intervals(log.events, end_time)
-    actions = sorted({i.action for i in spans if i.kind == "work"})
-    cmap = plt.get_cmap("tab20")
-    colors = {a: cmap(k % 20) for k, a in enumerate(actions)}
+    happened = sorted({i.action for i in spans if i.kind == "work"})
+    colors = action_colors(action_names or happened)
+    actions = [a for a in sorted(colors) if a in happened] + [a for a in happened if a not in colors]
+    for a in actions:
+        colors[a]  # noqa: B018 - a name outside the list takes its colour (and key) now
     fig, (ax, ax2) = plt.subplots(
         2,
         1,
@@ -329,69 +399,122 @@ def plot_gantt(path: Path, log: MetricsLog, end_time: float, agents: list[str], 
     for i in spans:
         if i.agent in rows:
             bars.setdefault((rows[i.agent], i.kind, i.action), []).append((i.start, i.end - i.start))
-            if i.kind == "work" and i.end - i.start > 0.03 * end_time:
-                ax.text((i.start + i.end) / 2, rows[i.agent], i.action, ha="center", va="center", fontsize=7)
     for (row, kind, action), ranges in bars.items():
         if kind == "work":
             ax.broken_barh(ranges, (row - 0.3, 0.6), facecolors=colors[action], edgecolors="black",
-                           linewidths=0.3)
+                           linewidths=0.3, label=f"_bars {action}")
         else:
             ax.broken_barh(ranges, (row - 0.175, 0.35), facecolors="lightgrey", hatch="////",
-                           edgecolors="grey", linewidths=0.3)
+                           edgecolors="grey", linewidths=0.3, label="_waits")
     marks = _plot_decisions(ax, log.decisions, rows, colors)
     ax.set_yticks(range(len(agents)))
     ax.set_yticklabels(agents)
-    ax.invert_yaxis()
-    handles = [Patch(color=colors[a], label=a) for a in actions]
-    handles.append(Patch(facecolor="lightgrey", hatch="////", edgecolor="grey",
+    ax.set_ylim(len(agents) - 0.5, -0.6)  # rows top down, room for the decision marks
+    handles = [Patch(facecolor=colors[a], edgecolor="black", linewidth=0.3, label=f"{colors.keys_[a]}: {a}")
+               for a in actions]
+    handles.append(Patch(facecolor="lightgrey", hatch="////", edgecolor="grey", linewidth=0.3,
                          label="waiting (parts, partner)"))
     handles.extend(marks)
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7)
-    ax.set_title(title or "Agents' activities")
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+              handler_map=_tuple_handler())
+    ax.set_title(f"{title or 'Agents activities'}\n{safety_line(safety)}", fontsize=10)
+    safety_distance = (safety or {}).get("safety_distance", log.safety_distance)
     if log.times:
         d = np.array(log.distances, dtype=float)
-        ax2.plot(
-            log.times,
-            np.where(np.isfinite(d), d, np.nan),
-            color="tab:red",
-            lw=0.8,
-            label="min human-robot distance",
-        )
+        ax2.plot(log.times, np.where(np.isfinite(d), d, np.nan), color="tab:red", lw=0.8,
+                 label="min human-robot distance")
+        if safety_distance is not None and np.isfinite(safety_distance):
+            ax2.axhline(safety_distance, color="black", ls="--", lw=0.9,
+                        label=f"safety distance {safety_distance:g} m")
         ax2.set_ylabel("distance [m]")
         ax3 = ax2.twinx()
         ax3.plot(log.times, log.overrides, color="tab:blue", lw=0.8, label="speed override")
         ax3.set_ylim(-0.05, 1.05)
         ax3.set_ylabel("override")
-        ax2.legend(loc="upper left", fontsize=7)
-        ax3.legend(loc="upper right", fontsize=7)
+        # one legend beside the panel (inside, it hid the distances it names)
+        ax3.legend(handles=ax2.get_lines() + ax3.get_lines(), loc="upper left", bbox_to_anchor=(1.06, 1.0),
+                   fontsize=7)
     ax2.set_xlabel("time [s]")
     ax2.set_xlim(0, end_time)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _label_bars(fig, ax, [i for i in spans if i.agent in rows and i.kind == "work"], rows, colors)
+    return fig
+
+
+def _label_bars(fig, ax, spans: list[Interval], rows: dict[str, int], colors) -> None:
+    """Each bar's label: the action's name where it fits in the bar (with a margin), else its
+    key, else none. Widths are measured once per text in display pixels after the layout."""
+    renderer = fig.canvas.get_renderer()
+    widths: dict[str, float] = {}
+
+    def width(text: str) -> float:
+        if text not in widths:
+            probe = ax.text(0, 0, text, fontsize=GANTT_LABEL_SIZE)
+            widths[text] = probe.get_window_extent(renderer).width
+            probe.remove()
+        return widths[text]
+
+    x0, x1 = ax.get_xlim()
+    pixels_per_s = ax.get_window_extent(renderer).width / (x1 - x0)
+    margin = 4.0  # px
+    for i in spans:
+        room = (i.end - i.start) * pixels_per_s - margin
+        for text in (i.action, colors.keys_[i.action]):
+            if width(text) <= room:
+                ax.text((i.start + i.end) / 2, rows[i.agent], text, ha="center", va="center",
+                        fontsize=GANTT_LABEL_SIZE, gid="bar_label")
+                break
+
+
+def _tuple_handler() -> dict:
+    from matplotlib.legend_handler import HandlerTuple
+
+    return {tuple: HandlerTuple(ndivide=None, pad=0.0)}
+
+
+#: the scheduler's decision marks: size (scatter points^2) and edges, in the plot and its legend
+DECISION_SIZE, DECISION_WAIT_SIZE = 14, 9
 
 
 def _plot_decisions(ax, decisions, rows: dict[str, int], colors: dict) -> list:
     """The scheduler's decisions above each robot's row: a filled triangle in the colour of the
-    action it commanded, a hollow one for a wait quantum; returns their legend handles."""
+    action it commanded, a hollow one for a wait quantum; returns their legend handles, drawn
+    as the plot draws them (a start's handle shows the triangles of up to 3 actions' colours)."""
     from matplotlib.lines import Line2D
 
-    starts = [(c.time, rows[c.agent], colors.get(c.action, "black")) for c in decisions
+    starts = [(c.time, rows[c.agent], colors[c.action]) for c in decisions
               if c.agent in rows and c.action is not None]
     waits = [(c.time, rows[c.agent]) for c in decisions if c.agent in rows and c.action is None]
+    handles = []
     if starts:
         t, row, color = zip(*starts, strict=True)
-        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=14, c=list(color), edgecolors="black",
-                   linewidths=0.3, zorder=3)
+        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=DECISION_SIZE, c=list(color), edgecolors="black",
+                   linewidths=0.3, zorder=3, label="_decision starts")
+        shown = list(dict.fromkeys(color))[:3]
+        handles.append(tuple(
+            Line2D([], [], marker="v", ls="", markersize=np.sqrt(DECISION_SIZE), markerfacecolor=c,
+                   markeredgecolor="black", markeredgewidth=0.3) for c in shown))
     if waits:
         t, row = zip(*waits, strict=True)
-        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=9, facecolors="none", edgecolors="grey",
-                   linewidths=0.5, zorder=3)
-    if not decisions:
-        return []
-    return [Line2D([], [], marker="v", ls="", color="black", markersize=4, label="decision: start"),
-            Line2D([], [], marker="v", ls="", markerfacecolor="none", markeredgecolor="grey", markersize=4,
-                   label="decision: wait t_w")]
+        ax.scatter(t, np.asarray(row) - 0.42, marker="v", s=DECISION_WAIT_SIZE, facecolors="none",
+                   edgecolors="grey", linewidths=0.5, zorder=3, label="_decision waits")
+        handles.append(Line2D([], [], marker="v", ls="", markersize=np.sqrt(DECISION_WAIT_SIZE),
+                              markerfacecolor="none", markeredgecolor="grey", markeredgewidth=0.5))
+    labels = (["decision: start (the action's colour)"] if starts else []) + (
+        ["decision: wait t_w"] if waits else [])
+    return [_Labelled(h, label) for h, label in zip(handles, labels, strict=True)]
+
+
+class _Labelled(tuple):
+    """A legend handle with its label: a tuple of one handle or of several (HandlerTuple)."""
+
+    def __new__(cls, handle, label: str):
+        self = super().__new__(cls, handle if isinstance(handle, tuple) else (handle,))
+        self.label_ = label
+        return self
+
+    def get_label(self) -> str:
+        return self.label_
 
 
 def time_to_next(begins: list[float], times) -> np.ndarray:
@@ -407,17 +530,28 @@ def time_to_next(begins: list[float], times) -> np.ndarray:
 
 def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str, robot: str,
                        request_action: str, collaborative_actions=(), title: str = "") -> None:
+    """`collaboration_figure` saved as a PNG at `path`."""
+    import matplotlib.pyplot as plt
+
+    fig = collaboration_figure(log, end_time, human, robot, request_action, collaborative_actions, title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def collaboration_figure(log: MetricsLog, end_time: float, human: str, robot: str, request_action: str,
+                         collaborative_actions=(), title: str = ""):
     """Thesis Fig. 5.15: the activities of the human and of the robot (top: autonomous blue and
     red, `collaborative_actions` and the request green, waits hatched) and the predicted time to
     the next collaboration request, the band between the forecast's lowest and highest
-    percentile and its middle level, against the true time (bottom)."""
+    percentile and its middle level, against the true time (bottom); each panel has its legend."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
 
     spans = [i for i in intervals(log.events, end_time) if i.agent in (human, robot)]
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(12, 5.5), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(13, 5.5), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
     bars: dict[tuple[int, str, str], list[tuple[float, float]]] = {}  # one collection per row, kind, colour
     for row, agent in enumerate((human, robot)):
         for i in spans:
@@ -430,6 +564,15 @@ def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str,
                        alpha=0.35 if kind == "wait" else 0.9, edgecolors="k", linewidths=0.3)
     ax.set_yticks([0, 1], [human, robot])
     ax.set_title(title or "activities and the predicted time to collaboration")
+    ax.legend(handles=[Patch(facecolor="tab:blue", alpha=0.9, edgecolor="k", linewidth=0.3,
+                             label=f"{human}: autonomous actions"),
+                       Patch(facecolor="tab:red", alpha=0.9, edgecolor="k", linewidth=0.3,
+                             label=f"{robot}: autonomous actions"),
+                       Patch(facecolor="tab:green", alpha=0.9, edgecolor="k", linewidth=0.3,
+                             label=f"collaboration: '{request_action}' and the actions that assist it"),
+                       Patch(facecolor="lightgrey", alpha=0.35, hatch="//", edgecolor="k", linewidth=0.3,
+                             label="waiting (hatched, in the action's colour)")],
+              loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
     times = np.array([t for t, _ in log.forecasts], float)
     rows = []
     for _, forecast in log.forecasts:
@@ -451,10 +594,9 @@ def plot_collaboration(path: Path, log: MetricsLog, end_time: float, human: str,
     ax2.plot(grid, np.where(np.isfinite(truth), truth, np.nan), color="k", label="true")
     ax2.set_xlabel("time (s)")
     ax2.set_ylabel(f"time to '{request_action}' (s)")
-    ax2.legend(loc="upper right", fontsize=8)
+    ax2.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def robot_cycles(result, scenario) -> dict:

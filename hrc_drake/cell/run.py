@@ -186,6 +186,15 @@ def run_header(cell: Cell, result: RunResult) -> dict:
             "code_version": code_version()}
 
 
+def scenario_action_names(scenario) -> list[str]:
+    """Every action name a scenario's agents may perform (flow, robots', operator's): the key of
+    the Gantt chart's colours, the same in every run of the scenario."""
+    names = {a.name for a in scenario.flow.actions}
+    names.update(a.name for r in scenario.robots for a in r.actions)
+    names.update(a.name for a in scenario.operator.actions)
+    return sorted(names)
+
+
 def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     """metrics.json (headed by `run_header`), events.csv, gantt.png and safety.png (separation
     against S_p, contacts, worst ratio per body region) in `out_dir`; with a use case a robot and
@@ -201,7 +210,8 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     write_events_csv(events_path, result.log.events, result.log.perceived_events)
     gantt_path = out_dir / "gantt.png"
     title = cell.scenario.description or "cell"
-    plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title)
+    plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title,
+               action_names=scenario_action_names(cell.scenario), safety=result.metrics.get("safety"))
     paths = [metrics_path, events_path, gantt_path]
     trace, contacts = cell.safety_trace(result.context)
     paths.append(plot_safety(out_dir / "safety.png", trace, contacts, result.metrics.get("safety") or {},

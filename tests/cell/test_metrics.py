@@ -104,3 +104,156 @@ def test_robot_cycles_are_the_intervals_between_begins_of_the_first_program_acti
     assert out == {"times": [30.0, 40.0], "mean": 35.0, "count": 2}
     one = robot_cycles(SimpleNamespace(log=SimpleNamespace(events=events[:1])), scenario)
     assert one["count"] == 0 and one["times"] == [] and one["mean"] != one["mean"]  # NaN
+
+
+# --- the report's figures, read back from their matplotlib artists ---------------------------
+
+def _work_log(spans, decisions=()) -> MetricsLog:
+    """A log of (agent, action, start, end) work spans (robot events) and scheduler decisions."""
+    events = []
+    for k, (agent, action, start, end) in enumerate(spans):
+        events += [RobotEvent(start, agent, action, "begin", 2 * k + 1),
+                   RobotEvent(end, agent, action, "end", 2 * k + 2)]
+    return MetricsLog(events=events, decisions=list(decisions))
+
+
+def _bar_colors(ax) -> dict:
+    """Action -> the face colour of its bars (the figure labels each action's collection)."""
+    return {c.get_label().removeprefix("_bars "): tuple(c.get_facecolor()[0]) for c in ax.collections
+            if c.get_label().startswith("_bars ")}
+
+
+def _close(fig):
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_an_action_has_one_colour_in_every_run_of_a_scenario():
+    from matplotlib.colors import to_rgba
+
+    from hrc_drake.cell.metrics import action_colors, gantt_figure
+
+    names = ["R_pick_board", "R_place_board", "fill", "tape"]
+    one = gantt_figure(_work_log([("arm", "R_place_board", 0, 5), ("arm", "tape", 5, 9)]), 10.0, ["arm"],
+                       action_names=names)
+    # another run: other actions happened, in another order
+    two = gantt_figure(_work_log([("arm", "fill", 0, 3), ("arm", "R_pick_board", 3, 6),
+                                  ("arm", "R_place_board", 6, 9)]), 10.0, ["arm"], action_names=names)
+    first, second = _bar_colors(one.axes[0]), _bar_colors(two.axes[0])
+    assert first["R_place_board"] == second["R_place_board"] == to_rgba(action_colors(names)["R_place_board"])
+    assert len(set(first.values()) | set(second.values())) == 4  # four names, four colours
+    assert action_colors(reversed(names)) == action_colors(names)  # the set of names decides
+    _close(one), _close(two)
+
+
+def test_bar_labels_fit_their_bars_and_never_run_into_each_other():
+    from hrc_drake.cell.metrics import gantt_figure
+
+    # short picks and places back to back (the issue's "R_place_boardR_pick_board"), one long fill
+    spans = [("arm", "R_pick_board" if k % 2 else "R_place_board", 0.6 * k, 0.6 * (k + 1))
+             for k in range(100)]
+    spans += [("human", "fill", 0.0, 40.0), ("human", "tape", 40.0, 41.5)]
+    fig = gantt_figure(_work_log(spans), 120.0, ["human", "arm"],
+                       action_names=["R_pick_board", "R_place_board", "fill", "tape"])
+    ax = fig.axes[0]
+    renderer = fig.canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_gid() == "bar_label"]
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    for k, a in enumerate(boxes):
+        for b in boxes[k + 1:]:
+            assert not a.overlaps(b), "two labels overlap"
+    # each label lies inside its bar (in display x)
+    for text, box in zip(labels, boxes, strict=True):
+        x, row = text.get_position()
+        agent = ["human", "arm"][round(row)]
+        start, end = next((s, e) for who, _, s, e in spans if who == agent and s <= x <= e)
+        left, right = ax.transData.transform([(start, 0), (end, 0)])[:, 0]
+        assert left <= box.x0 and box.x1 <= right, text.get_text()
+    shown = [t.get_text() for t in labels]
+    assert "fill" in shown  # a long bar shows its name
+    assert "R_place_board" not in shown and "R_pick_board" not in shown  # 0.6 s bars: too short
+    keyed = {t for t in shown if t.isdigit()}
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    for key in keyed:  # a bar's key names its action in the legend
+        assert any(entry.startswith(f"{key}: ") for entry in legend)
+    assert {"1: R_pick_board", "2: R_place_board", "3: fill", "4: tape"} <= set(legend)
+    _close(fig)
+
+
+def test_the_distance_panel_draws_the_safety_distance_and_the_title_states_the_verdict():
+    from hrc_drake.cell.metrics import gantt_figure
+
+    log = _work_log([("arm", "pick", 0.0, 2.0)])
+    log.safety_distance = 0.1
+    for k, d in enumerate([0.4, 0.08, 0.3]):
+        log.record(0.5 * k, d, 1.0, {}, 0)
+    safety = {"safety_distance": 0.1, "time_below_s": 0.5, "below": True,
+              "verdict": "ISO/TS 15066 ssm: 0 violations"}
+    fig = gantt_figure(log, 2.0, ["arm"], title="cell", safety=safety)
+    top, distance = fig.axes[0], fig.axes[1]
+    lines = [line for line in distance.get_lines() if line.get_label().startswith("safety distance")]
+    assert len(lines) == 1 and set(lines[0].get_ydata()) == {0.1}
+    assert lines[0].get_label() == "safety distance 0.1 m"
+    legend = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()]
+    assert "safety distance 0.1 m" in legend and "min human-robot distance" in legend
+    verdict = "below the safety distance 0.1 m for 0.5 s; ISO/TS 15066 ssm: 0 violations"
+    assert top.get_title() == f"cell\n{verdict}"
+    _close(fig)
+    fig = gantt_figure(_work_log([("arm", "pick", 0.0, 2.0)]), 2.0, ["arm"], title="cell")
+    assert "no safety distance or safety system" in fig.axes[0].get_title()
+    _close(fig)
+
+
+def test_the_legend_draws_the_decision_marks_as_the_plot_does():
+    from matplotlib.colors import to_rgba
+    from matplotlib.lines import Line2D
+
+    from hrc_drake.cell.metrics import gantt_figure
+    from hrc_drake.messages import RobotCommand
+
+    decisions = [RobotCommand(0.0, "arm", "pick", 1), RobotCommand(2.0, "arm", None, 2, wait=1.0),
+                 RobotCommand(3.0, "arm", "place", 3)]
+    fig = gantt_figure(_work_log([("arm", "pick", 0.0, 2.0), ("arm", "place", 3.0, 5.0)], decisions), 6.0,
+                       ["arm"], action_names=["pick", "place"])
+    ax = fig.axes[0]
+    starts = next(c for c in ax.collections if c.get_label() == "_decision starts")
+    plotted = {tuple(c) for c in starts.get_facecolor()}
+    assert plotted == {to_rgba(c) for c in _bar_colors(ax).values()}  # the actions' colours
+    legend = ax.get_legend()
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert "decision: start (the action's colour)" in labels and "decision: wait t_w" in labels
+    # the marks the legend draws (a start's entry draws a triangle per colour)
+    marks = [line for line in legend.findobj(Line2D) if line.get_marker() == "v"]
+    filled = {to_rgba(m.get_markerfacecolor()) for m in marks if m.get_markerfacecolor() != "none"}
+    assert filled == plotted  # coloured as in the plot, not black
+    assert all(to_rgba(m.get_markeredgecolor()) == to_rgba("black") for m in marks
+               if m.get_markerfacecolor() != "none")
+    hollow = [m for m in marks if m.get_markerfacecolor() == "none"]
+    assert len(hollow) == 1 and to_rgba(hollow[0].get_markeredgecolor()) == to_rgba("grey")
+    waits = next(c for c in ax.collections if c.get_label() == "_decision waits")
+    assert to_rgba(waits.get_edgecolor()[0]) == to_rgba("grey") and waits.get_facecolor().size == 0
+    _close(fig)
+
+
+def test_the_collaboration_figure_names_its_colours():
+    from matplotlib.colors import to_rgba
+
+    from hrc_drake.cell.metrics import collaboration_figure
+
+    log = MetricsLog(events=[
+        HumanEvent(0.0, "insert", "begin", 1), HumanEvent(4.0, "insert", "end", 2),
+        HumanEvent(4.0, "enclosure", "begin", 3), HumanEvent(6.0, "enclosure", "end", 4),
+        RobotEvent(0.0, "arm", "check", "begin", 1), RobotEvent(4.0, "arm", "check", "end", 2),
+        RobotEvent(4.0, "arm", "place", "begin", 3), RobotEvent(6.0, "arm", "place", "end", 4)])
+    fig = collaboration_figure(log, 8.0, "human", "arm", "enclosure", ["place"])
+    top = fig.axes[0]
+    legend = top.get_legend()
+    assert legend is not None
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[:3] == ["human: autonomous actions", "arm: autonomous actions",
+                          "collaboration: 'enclosure' and the actions that assist it"]
+    plotted = {tuple(c.get_facecolor()[0][:3]) for c in top.collections}
+    for handle in legend.legend_handles[:3]:
+        assert tuple(to_rgba(handle.get_facecolor())[:3]) in plotted
+    _close(fig)
