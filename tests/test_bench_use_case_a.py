@@ -1,0 +1,30 @@
+"""tools/bench_use_case_a.py's sweep of the percentile p of Fig. 5.14 (5.4.1 never gives p)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_use_case_a", REPO / "tools" / "bench_use_case_a.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses resolve their annotations there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_percentile_sweep_spans_both_sides_of_the_median_and_every_arm_is_a_valid_scenario(bench):
+    levels = bench.SWEEP_PERCENTILES
+    assert min(levels) <= 0.1 and max(levels) >= 0.95 and sum(p < 0.5 for p in levels) >= 3
+    assert levels == sorted(set(levels))
+    for p in levels:
+        scenario = bench.arm_scenario(bench.Arm("predictive", percentile=p), seed=101)
+        # the robot reads t_p at p, and the predictor's forecast carries that level
+        assert scenario.scheduler.percentile == p and p in scenario.predictor.percentile_levels
