@@ -286,9 +286,11 @@ class FuzzyScheduler(_SchedulerCommon):
     min_samples: int = 3
     learn: bool = True
     #: guard on the tree's size: the first level past it is left out whole, so the tree then
-    #: reaches less far than T_sch (a full tree at 50 s on torch_clock has ~1e6 nodes); chosen
-    #: for the decision time: over caps 150-2400 the event-level idle per product stays within
-    #: 7.5-8.3 s while a decision takes 3-48 ms (bench_scheduling's sweep_fuzzy_max_nodes)
+    #: reaches less far than T_sch (counted in the policy's stats_, the first cut logged). On
+    #: torch_clock at T_sch = 50 s every tree is cut: merged, 300 nodes reach ~11 s (~70 ms),
+    #: 10,000 ~26 s (~2 s); the full tree is out of reach (bench_scheduling's fuzzy.reach).
+    #: Chosen for the decision time: over caps 150-2400 the event-level idle per product stays
+    #: within 7.5-8.3 s (bench_scheduling's sweep_fuzzy_max_nodes)
     max_nodes: int = 300
     #: time-grid points of the fuzzy sets of eq. 7.4-7.9 that are not triangles
     grid_points: int = 41
