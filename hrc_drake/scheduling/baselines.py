@@ -180,8 +180,11 @@ class BestOfRolloutsPlanPolicy(_Policy):
         super().__init__(net, random_state)
         durations = _MeanDurations(net)
         roots = np.flatnonzero(net.controllable & net.enabled(net.m0))
+        # the rollouts as they were before the trials of Algorithm 4 became literal (issue 38):
+        # stratified roots, shared keys, and waits on the t_w grid, as this policy's cell waits
         batch = simulate_trials(
-            net, net.m0, durations, self.rng, n_candidates, plan_horizon, roots, max_steps=100000
+            net, net.m0, durations, self.rng, n_candidates, plan_horizon, roots, max_steps=100000,
+            stratified_roots=True, common_random_numbers=True, wait_grid=True,
         )
         products = np.zeros(n_candidates)
         for n in range(n_candidates):
