@@ -30,6 +30,7 @@ assignments each take it a second or more to compile.
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -1091,9 +1092,31 @@ def tracking_gauss_newton(dims, q_lower, q_upper, target, visible, q0, iteration
                                   *_arrays(q0), int(iterations), float(regularization), float(step))
 
 
-def warm_up() -> float:
-    """Compile (or load from the disk cache) every kernel; returns the seconds it took."""
+def uncached_kernels() -> list[str]:
+    """Names of the kernels with no compiled form in numba's disk cache yet (a first run)."""
+    from numba.core.dispatcher import Dispatcher
+
+    missing = []
+    for name, value in globals().items():
+        if not isinstance(value, Dispatcher) or value.targetoptions.get("inline") == "always":
+            continue  # an inlined helper is compiled into its callers, never cached alone
+        try:
+            index = value._cache._cache_file._index_path
+        except AttributeError:  # another numba's cache layout: say nothing rather than guess
+            return []
+        if not os.path.exists(index):
+            missing.append(name)
+    return missing
+
+
+def warm_up(progress=None) -> float:
+    """Compile (or load from the disk cache) every kernel; returns the seconds it took. With
+    `progress` (a stream), say once that a first run compiles, and how long it took."""
     started = time.perf_counter()
+    missing = uncached_kernels() if progress is not None else []
+    if missing:
+        print(f"compiling {len(missing)} numba kernels (the first run on this machine only; cached on "
+              "disk afterwards) ...", file=progress, flush=True)
     one = np.zeros((1, 3))
     capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1))
     pair_closest_parameters(one, one + 1.0, one, one + 1.0, np.zeros(1, dtype=np.int64),
@@ -1127,4 +1150,7 @@ def warm_up() -> float:
                          np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
                          1.0, 1e-6)
     tracking_gauss_newton(dims, q - 1.0, q + 1.0, skeleton_points(dims, q).ravel(), visible, q, 1, 1e-3, 1e-5)
-    return time.perf_counter() - started
+    took = time.perf_counter() - started
+    if missing:
+        print(f"compiled in {took:.0f} s", file=progress, flush=True)
+    return took

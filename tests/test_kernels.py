@@ -304,3 +304,18 @@ def test_body_points_of_one_pose_are_the_float_forward_kinematics_bit_for_bit():
     body = BodyModel()
     for q in _random_poses(body, np.random.default_rng(17), 200):
         np.testing.assert_array_equal(body._points(q), body._points_single(q))
+
+
+def test_a_first_run_says_it_compiles_and_a_cached_one_says_nothing(monkeypatch):
+    import io
+
+    kernels.warm_up()
+    assert kernels.uncached_kernels() == []  # every kernel is on disk once warmed up
+    quiet = io.StringIO()
+    kernels.warm_up(progress=quiet)
+    assert quiet.getvalue() == ""
+    monkeypatch.setattr(kernels, "uncached_kernels", lambda: ["_capsule_clearances"])
+    told = io.StringIO()
+    kernels.warm_up(progress=told)
+    assert "compiling 1 numba kernels (the first run on this machine only" in told.getvalue()
+    assert "compiled in" in told.getvalue()

@@ -7,6 +7,7 @@ predictor / scheduler / motion systems, the metrics recorder and, when asked, Me
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -470,7 +471,7 @@ def build_cell(
     the caller makes, and compiles (or loads) the geometry kernels, so that a simulation does not.
     """
     keep_freed_memory()
-    kernels.warm_up()
+    kernels.warm_up(progress=sys.stderr)  # says so when a first run compiles
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
 
     def seed(k: int) -> int:
