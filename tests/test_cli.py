@@ -43,13 +43,18 @@ def test_the_replay_rate_is_lowered_to_the_frame_budget():
         replay_fps_within(10.0, 0.0)
 
 
-def test_a_long_replay_records_fewer_frames_and_says_so(tmp_path, capsys):
+def test_a_long_replay_records_fewer_frames_and_says_so(tmp_path, capfd):
     replay = tmp_path / "replay.html"
     args = ["simulate", TORCH, "--duration", "2", "--replay", str(replay), "--replay-max-frames", "10"]
     assert main(args) == 0
-    out = capsys.readouterr().out
+    captured = capfd.readouterr()
+    out = captured.out
     assert "would exceed 10 frames" in out and "recording 5 fps" in out
     assert replay.stat().st_size > 1e6
+    # a replay-only run serves nothing a person could open: no Meshcat server line
+    assert "listening for connections" not in out + captured.err and "http://" not in out
+    html = replay.read_text()
+    assert 'id="hrc-clock"' in html and 'id="hrc-legend"' in html and "torch_clock" in html
 
 
 def test_an_out_path_that_is_a_file_is_refused_before_the_run(tmp_path, capsys):

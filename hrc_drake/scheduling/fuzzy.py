@@ -74,8 +74,11 @@ class FuzzyNumber:
     def membership(self, x):
         """mu(x), eq. (D.5) (trapezoid: 1 on [b, c]); a float for a scalar x, else an array."""
         x = np.asarray(x, dtype=float)
-        rise = np.ones_like(x) if self.b == self.a else (x - self.a) / (self.b - self.a)
-        fall = np.ones_like(x) if self.d == self.c else (self.d - x) / (self.d - self.c)
+        # x clipped to the edge first: the ratio stays in [0, 1] (a far x over a subnormal edge
+        # width, e.g. <-5e-324, 0, 0, 1> at x = 0.5, overflowed to inf before the clip)
+        a, b, c, d = self.a, self.b, self.c, self.d
+        rise = np.ones_like(x) if b == a else (np.clip(x, a, b) - a) / (b - a)
+        fall = np.ones_like(x) if d == c else (d - np.clip(x, c, d)) / (d - c)
         mu = np.clip(np.minimum(rise, fall), 0.0, 1.0)
         mu = np.where((x < self.a) | (x > self.d), 0.0, mu)
         return float(mu) if mu.ndim == 0 else mu
