@@ -464,6 +464,8 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         "safety.standard",
         "safety.violations_total",
         "safety.time_below_sp_moving_s",
+        "safety.margin_m",
+        "safety.contact_margin",
         "safety.protective_stops",
         "safety.contact_count",
         "safety.verdict",

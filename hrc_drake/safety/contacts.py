@@ -28,6 +28,7 @@ import numpy as np
 from hrc_drake.messages import Immutable
 from hrc_drake.safety.limits import BODY_REGIONS, contact_peak, limit_ratio
 from hrc_drake.safety.rules import SafetyRules, pair_geometry, subset_pairs
+from hrc_drake.safety.ssm import protective_separation
 from hrc_drake.traces import AppendOnly, DecimatedTrace
 
 
@@ -88,6 +89,9 @@ class MonitorRun(Immutable):
     last_regions: tuple | None = None
     #: robot capsules (start, end) at the last sample, for the robot's velocities
     last_robot: tuple | None = None
+    #: the smallest clearance - S_p so far over the pairs SSM governs with the robot point
+    #: approaching (`ssm_margin`); inf before any
+    min_ssm_margin: float = math.inf
 
 
 class ContactAccountant:
@@ -140,6 +144,9 @@ class ContactAccountant:
             if len(touching) or open_pairs:
                 open_pairs = self._contacts(time, dt, subset_pairs(pairs, touching), pfl[touching],
                                             body_velocity, regions, open_pairs, effective_mass)
+        margin = run.min_ssm_margin
+        if rules.mode != "none" and distance.size:
+            margin = min(margin, self.ssm_margin(robot, robot_velocity, regions, distance, margin))
         closed = [c for key, c in run.open if key not in open_pairs]
         contacts = run.contacts.extend(replace(c, duration=time - c.time) for c in closed)
         min_distance = float(distance[nearest]) if nearest is not None else math.inf
@@ -147,7 +154,31 @@ class ContactAccountant:
         return MonitorRun(contacts, tuple(sorted(open_pairs.items())), trace, run.samples + 1,
                           run.time_below_sp_moving + (dt if below else 0.0), time,
                           (np.array(regions[0]), np.array(regions[1])),
-                          (np.array(robot[0]), np.array(robot[1])))
+                          (np.array(robot[0]), np.array(robot[1])), margin)
+
+    def ssm_margin(self, robot, robot_velocity, regions, distance, below: float = math.inf) -> float:
+        """min over the pairs SSM governs whose robot point approaches the body faster than
+        `moving_speed` of (true clearance - S_p at that approach speed), inf when there is none;
+        only what lies below `below` counts (the run's margin so far).
+
+        Exact over every pair (not only the screened ones): a pair's approach speed is at most its
+        capsule's fastest end point's v_max and S_p grows with the speed, so clearance - S_p(v_max)
+        bounds its margin from below, and only the pairs whose bound lies under `below` are
+        computed. Its sign agrees with `time_below_sp_moving`: negative exactly at the samples a
+        moving robot point was inside the S_p of a region SSM governs."""
+        rules = self.rules
+        v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
+                           np.linalg.norm(robot_velocity[1], axis=1))
+        reach = np.maximum(protective_separation(v_max, rules.separation),
+                           protective_separation(v_max, rules.body_separation))
+        k, r = np.nonzero(distance - reach[:, None] < below)
+        if not len(k):
+            return math.inf
+        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+        counted = ~rules.governed_by_pfl(pairs, regions[2]) & (pairs.approach > self.moving_speed)
+        if not counted.any():
+            return math.inf
+        return float(np.min((pairs.distance - rules.separations(pairs, pairs.approach))[counted]))
 
     def _contacts(self, time, dt, pairs, pfl, body_velocity, regions, open_pairs, effective_mass) -> dict:
         """The open contacts after this sample: new ones judged at their onset, old ones deepened."""
@@ -245,6 +276,7 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
             worst[c.region] = max(worst.get(c.region, 0.0), c.ratio)
     total = sum(violations.values())
     ratios = {name: worst.get(name, 0.0) for name in BODY_REGIONS}
+    finite = [v for v in worst.values() if math.isfinite(v)]
     return {
         "mode": mode,
         "standard": standard,
@@ -252,6 +284,8 @@ def summarize_safety(run: MonitorRun, mode: str, protective_stops: int, limits, 
         "violations": violations,
         "worst_ratio": {name: (round(v, 4) if math.isfinite(v) else None) for name, v in ratios.items()},
         "time_below_sp_moving_s": round(run.time_below_sp_moving, 3),
+        "margin_m": None if mode == "none" or not math.isfinite(run.min_ssm_margin) else run.min_ssm_margin,
+        "contact_margin": 1.0 - max(finite, default=0.0),
         "protective_stops": int(protective_stops),
         "contact_count": len(contacts),
         "contacts": [c.as_dict() for c in contacts],
