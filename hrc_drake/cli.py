@@ -489,6 +489,12 @@ def _written_since(folder: Path, since: float) -> list[Path]:
     return out
 
 
+def _search(args) -> int:
+    from hrc_drake.search.command import run_command
+
+    return run_command(args)
+
+
 def _campaign_path(name: str) -> str:
     """`name`, or the campaign spec of that name shipped with the package (`_scenario_path`)."""
     if _looks_like_a_path(name):
@@ -630,6 +636,16 @@ def build_parser() -> argparse.ArgumentParser:
                      help="with --cell: simulate that scenario for the recording's length and write its "
                           "self-contained HTML replay to this file")
     imp.set_defaults(func=_import)
+    srch = sub.add_parser("search", help="search a scenario's parameters with Optuna (falsify its safety, "
+                                         "optimise its cycle time); see docs/search.md")
+    srch.add_argument("spec", help="search YAML file (see diagrams/searches/), or the name of a shipped one")
+    srch.add_argument("--out", required=True, help="folder for results.parquet, runs.parquet, plots, "
+                                                   "report.json; rerun with the same folder to resume")
+    srch.add_argument("--workers", type=_workers, default=2,
+                      help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
+    srch.add_argument("--address", default=None,
+                      help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
+    srch.set_defaults(func=_search)
     comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
     comp.add_argument("dirs", nargs="+", help="campaign output folders")
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
