@@ -97,13 +97,15 @@ def test_compiled_trials_equal_the_numpy_trials_draw_for_draw():
                 continue
             durations = DurationModel(net)
             elapsed = np.where(~net.controllable, 0.4 * k, 0.0)  # clocks conditioned on elapsed time
-            for rollout in ("uniform", "work_first"):
+            # the literal trials, and the earlier ones (every variant of their generation)
+            earlier = {"stratified_roots": True, "common_random_numbers": True, "wait_grid": True}
+            for rollout, variant in (("uniform", {}), ("work_first", {}), ("uniform", earlier)):
                 runs = [simulate_trials(net, net.m0, durations, np.random.default_rng(5 + k), 40, 25.0, roots,
-                                        elapsed, now=0.7, rollout=rollout, compiled=compiled)
+                                        elapsed, now=0.7, rollout=rollout, compiled=compiled, **variant)
                         for compiled in (True, False)]
                 np.testing.assert_array_equal(runs[0].paths, runs[1].paths)
                 np.testing.assert_array_equal(runs[0].costs, runs[1].costs)
                 np.testing.assert_array_equal(runs[0].human_wait, runs[1].human_wait)
                 assert runs[0].paths.shape[1] > 3 and max(np.unique(c).size for c in runs[0].paths.T) > 2
                 checked += 1
-    assert checked >= 6
+    assert checked >= 9
