@@ -307,8 +307,12 @@ def verdict_line(mode: str, total: int, violations: dict, worst: dict, n_contact
         worst_text = "; no contact"
     if mode == "none":
         head = "NO SAFETY SYSTEM: ISO/TS 15066 not applied"
-        status = (f"{n_contacts} contacts, {total} over the standard's limits" if n_contacts
+        status = (f"{_count(n_contacts, 'contact')}, {total} over the standard's limits" if n_contacts
                   else "no contact")
         return f"{head}; {status}{worst_text if worst else ''}"
     status = "0 violations" if not total else f"{total} VIOLATIONS ({by_rule})"
-    return f"ISO/TS 15066 {mode}: {status}; {n_contacts} contacts{worst_text}"
+    return f"ISO/TS 15066 {mode}: {status}; {_count(n_contacts, 'contact')}{worst_text}"
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
