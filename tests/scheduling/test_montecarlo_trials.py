@@ -143,12 +143,13 @@ def test_the_config_names_the_variants_and_validates_them():
 
     net = _net(tc.fig_7_11, 3.0)
     literal = make_policy(net, MonteCarloScheduler(), seed=0)
-    assert (literal.root_choices, literal.stratified_roots, literal.common_random_numbers, literal.wait_grid) == (
-        "all_enabled", False, False, False)
+    def options(policy):
+        return policy.root_choices, policy.stratified_roots, policy.common_random_numbers, policy.wait_grid
+
+    assert options(literal) == ("all_enabled", False, False, False)
     earlier = make_policy(net, MonteCarloScheduler(root_choices="agent", stratified_roots=True,
                                                    common_random_numbers=True, wait_grid=True), seed=0)
-    assert (earlier.root_choices, earlier.stratified_roots, earlier.common_random_numbers, earlier.wait_grid) == (
-        "agent", True, True, True)
+    assert options(earlier) == ("agent", True, True, True)
     for bad, field in ((MonteCarloScheduler(root_choices="mine"), "s.root_choices"),
                        (MonteCarloScheduler(common_random_numbers=True), "s.common_random_numbers"),
                        (MonteCarloScheduler(wait_grid=1), "s.wait_grid")):
