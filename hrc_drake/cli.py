@@ -588,10 +588,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "one (e.g. trackers)")
     camp.add_argument("--out", required=True, help="folder for runs.parquet, summary.csv, tests.csv, *.png; "
                                                    "rerun with the same folder to resume")
-    camp.add_argument("--workers", type=_workers, default=2,
-                      help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
-    camp.add_argument("--address", default=None,
-                      help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
+    _add_cluster_arguments(camp)
     camp.add_argument("--new-spec", action="store_true",
                       help="the folder holds runs of another configuration: move them into a subfolder "
                            "(previous-<time>/) and start a new table, instead of refusing")
@@ -641,16 +638,21 @@ def build_parser() -> argparse.ArgumentParser:
     srch.add_argument("spec", help="search YAML file (see diagrams/searches/), or the name of a shipped one")
     srch.add_argument("--out", required=True, help="folder for results.parquet, runs.parquet, plots, "
                                                    "report.json; rerun with the same folder to resume")
-    srch.add_argument("--workers", type=_workers, default=2,
-                      help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
-    srch.add_argument("--address", default=None,
-                      help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
+    _add_cluster_arguments(srch)
     srch.set_defaults(func=_search)
     comp = sub.add_parser("compare", help="redraw and compare finished campaigns (their runs.parquet)")
     comp.add_argument("dirs", nargs="+", help="campaign output folders")
     comp.add_argument("--out", default=None, help="folder for the comparison (default: the one campaign's)")
     comp.set_defaults(func=_compare)
     return parser
+
+
+def _add_cluster_arguments(parser) -> None:
+    """--workers and --address, the same for every command that runs on Dask."""
+    parser.add_argument("--workers", type=_workers, default=2,
+                        help="worker processes of the embedded Dask cluster (default 2; 0: in this process)")
+    parser.add_argument("--address", default=None,
+                        help="an existing Dask scheduler (tcp://HOST:PORT) instead of the embedded cluster")
 
 
 def main(argv: list[str] | None = None) -> int:
