@@ -30,7 +30,7 @@ from hrc_drake.campaign.worker import KEY_COLUMNS, flatten_metrics
 from hrc_drake.cell.scenario import dump_raw
 from hrc_drake.errors import ScenarioError
 from hrc_drake.search import params as P
-from hrc_drake.search.spec import CmaEs, Random, Search, SearchParameter
+from hrc_drake.search.spec import CmaEs, Random, Search, SearchParameter, random_search_seed
 
 CANDIDATES_FILE = "candidates.jsonl"
 RESULTS_FILE = "results.parquet"
@@ -95,7 +95,10 @@ def apply_values(search: Search, values: dict) -> dict:
 
 
 def shown(value) -> object:
-    """A parameter value for a table cell: numbers as they are, an order as 'a b c', else its YAML."""
+    """A parameter value for a table cell: numbers and text as they are, an order as 'a b c', else
+    its YAML."""
+    if isinstance(value, str):
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         if isinstance(value, list) and all(isinstance(v, str) for v in value):
             return " ".join(value)
@@ -106,7 +109,9 @@ def shown(value) -> object:
 def make_sampler(optimizer, search: Search, random: bool = False):
     import optuna
 
-    if random or isinstance(optimizer, Random):
+    if random:
+        return optuna.samplers.RandomSampler(seed=random_search_seed(optimizer.seed))
+    if isinstance(optimizer, Random):
         return optuna.samplers.RandomSampler(seed=optimizer.seed)
     if isinstance(optimizer, CmaEs):
         return optuna.samplers.CmaEsSampler(

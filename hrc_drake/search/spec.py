@@ -257,7 +257,18 @@ class Search:
             "constraints": [str(c) for c in self.constraints],
             "optimizer": {"kind": type(self.optimizer).__name__, **dataclasses.asdict(self.optimizer)},
             "compare_random": self.compare_random,
+            "random_seed": random_search_seed(self.optimizer.seed) if self.compare_random else None,
         }
+
+
+def random_search_seed(seed: int) -> int:
+    """The seed of the random search run beside an optimiser seeded `seed`: drawn from
+    `numpy.random.SeedSequence([seed, 1])`, so it differs from the optimiser's (a TPE's startup
+    candidates are random draws from its own seed: with one seed both searches would start with
+    the same candidates) and from the optimiser of any other seed."""
+    import numpy as np
+
+    return int(np.random.SeedSequence([int(seed), 1]).generate_state(1)[0])
 
 
 def load_search(path: str | Path) -> Search:
