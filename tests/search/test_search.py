@@ -265,3 +265,66 @@ def test_failed_runs_are_failed_candidates_not_a_lost_search(tmp_path):
     failed = results[results["param.x"] > 1.8]
     assert len(failed) and (failed["status"] == "failed").all() and failed["objective"].map(math.isnan).all()
     assert "boom" in failed["error"].iloc[0]
+
+
+RANGES = """
+name: ranges
+scenario: SCENARIO
+duration: 30
+seeds: [1]
+budget: 24
+batch: 4
+optimizer: OPTIMIZER
+objective: {metric: mean_cycle_time, direction: minimize}
+parameters:
+  - !Float {name: bring, path: "operator.actions[bring].duration.mean", low: 1.6, high: 4.0, log: true}
+  - !Float {name: tape, path: "operator.actions[tape].duration.mean", low: 3.0, high: 8.0, step: 0.5}
+  - !Int {name: filled, path: "layout.buffers[filled_box].capacity", low: 1, high: 4}
+  - !Int {name: station, path: "layout.buffers[human_station].capacity", low: 1, high: 7, step: 2}
+  - !Choice
+    name: safety
+    path: safety
+    choices:
+      - !SpeedSeparationMonitoring {position_uncertainty: camera}
+      - !PowerForceLimiting {position_uncertainty: camera}
+      - !NoSafety {}
+  - !Permutation {name: order, path: operator.pattern}
+"""
+
+
+@pytest.mark.parametrize(
+    "optimizer", ["!TPE {seed: 1, n_startup_trials: 4}", "!CmaEs {seed: 1}", "!Random {seed: 1}"]
+)
+def test_every_candidate_is_in_its_ranges_and_written_exactly(tmp_path, optimizer):
+    """Each sampler's candidates: floats within [low, high] (on the step's grid), integers on their
+    step, one of the choices, orders that keep the flow; and the scenario loaded with a candidate's
+    values holds exactly those values at their paths."""
+    search = load_search(write_spec(tmp_path, RANGES.replace("OPTIMIZER", optimizer)))
+    seen = []
+
+    def record(values, seed):
+        seen.append(values)
+        return {"mean_cycle_time": values["bring"] + values["tape"] - values["filled"]}
+
+    results = run_search(search, tmp_path / "out", evaluator=FunctionEvaluator(record), progress=None).results
+    assert len(seen) == 24 and set(results["status"]) == {"ok"}
+    pairs = next(p for p in search.parameters if p.name == "order").precedence
+    safeties = set()
+    for values in seen:
+        assert 1.6 <= values["bring"] <= 4.0 and 3.0 <= values["tape"] <= 8.0
+        assert (values["tape"] - 3.0) / 0.5 == pytest.approx(round((values["tape"] - 3.0) / 0.5))
+        assert type(values["filled"]) is int and 1 <= values["filled"] <= 4
+        assert values["station"] in (1, 3, 5, 7)
+        assert sorted(values["order"]) == sorted(search.document["operator"]["pattern"])
+        assert P.respects(values["order"], pairs)
+        safeties.add(values["safety"].tag)
+        scenario = _load_text(COEXISTENCE, dump_raw(apply_values(search, values)))
+        actions = {a.name: a for a in scenario.operator.actions}
+        assert actions["bring"].duration.mean == values["bring"]
+        assert actions["tape"].duration.mean == values["tape"]
+        buffers = {b.name: b for b in scenario.layout.buffers}
+        assert buffers["filled_box"].capacity == values["filled"]
+        assert buffers["human_station"].capacity == values["station"]
+        assert type(scenario.safety).__name__ == values["safety"].tag
+        assert scenario.operator.pattern == values["order"]
+    assert safeties <= {"SpeedSeparationMonitoring", "PowerForceLimiting", "NoSafety"} and len(safeties) >= 2
