@@ -120,6 +120,18 @@ def reach_bounded(start, end, radius, point_uncertainty, cap: float, upper_arm: 
     return start, end, radius, per_capsule
 
 
+def lost_capsules(point_uncertainty, cap: float) -> np.ndarray:
+    """(6,) whether each body capsule is a reachable set in `reach_bounded` (a lost arm point)."""
+    u = np.asarray(point_uncertainty, dtype=float)
+    lost = np.zeros(len(BODY_CAPSULES), dtype=bool)
+    for (shoulder, elbow, wrist), (upper, fore) in ARM_CHAINS:
+        if u[elbow] > cap and u[shoulder] <= cap:
+            lost[upper] = lost[fore] = True
+        elif u[wrist] > cap and u[elbow] <= cap:
+            lost[fore] = True
+    return lost
+
+
 @dataclass(frozen=True)
 class FixedBox:
     """An axis-aligned fixed surface of the cell (the table, a fixture, an occluder): centre, size."""
@@ -149,3 +161,24 @@ def clamped(points, directions, radius, boxes, margin: float = 0.02) -> np.ndarr
     t_near = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(t_a, t_b)).max(axis=2)
     t_far = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(t_a, t_b)).min(axis=2)
     return np.any((t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0), axis=1)
+
+
+
+
+
+def surface_clearances(start, end, radius, boxes, samples: int = 17) -> np.ndarray:
+    """(K,) a lower bound on the clearance between each capsule (start, end (K, 3), radius (K,))
+    and the nearest fixed box: the distance of `samples` points along the axis, less half their
+    spacing (distance to a box is 1-Lipschitz along the axis), less the radius; inf without boxes."""
+    start, end = np.atleast_2d(np.asarray(start, dtype=float)), np.atleast_2d(np.asarray(end, dtype=float))
+    if not boxes:
+        return np.full(len(start), np.inf)
+    lower = np.array([np.subtract(b.center, np.multiply(b.size, 0.5)) for b in boxes])
+    upper = np.array([np.add(b.center, np.multiply(b.size, 0.5)) for b in boxes])
+    t = np.linspace(0.0, 1.0, samples)
+    points = start[:, None, :] + t[None, :, None] * (end - start)[:, None, :]  # (K, S, 3)
+    outside = (np.maximum(lower[None, None] - points[:, :, None], 0.0)
+               + np.maximum(points[:, :, None] - upper[None, None], 0.0))  # (K, S, B, 3)
+    nearest = np.linalg.norm(outside, axis=3).min(axis=(1, 2))
+    spacing = np.linalg.norm(end - start, axis=1) / (samples - 1)
+    return nearest - 0.5 * spacing - np.asarray(radius, dtype=float)

@@ -30,7 +30,7 @@ from hrc_drake.safety.config import (
     mode_name,
 )
 from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
-from hrc_drake.safety.regions import FixedBox, clamped
+from hrc_drake.safety.regions import FixedBox, clamped, surface_clearances
 from hrc_drake.safety.ssm import SeparationParameters, permissible_speed, protective_separation
 
 #: Override of a pair with no constraint.
@@ -146,25 +146,39 @@ class SafetyRules:
         gaps = np.linalg.norm(points[:, None, :] - self.zone_centers[None], axis=2)
         return np.any(gaps <= self.zone_radii[None], axis=1)
 
-    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None) -> np.ndarray:
+    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None, lost=None) -> np.ndarray:
         """(N,) whether each pair is under PFL (else SSM); in a hybrid mode only where the pair's
         contact would be, the middle of its closest points, lies in a collaborative zone. With the
         regions' radii, a part clamped against a fixed surface is under SSM: the simulated robot
         is position-controlled, without the force sensing that would stop it within the
-        F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all."""
+        F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all
+        (`clamped`; `lost` as there)."""
         pfl = self.pfl_region[pairs.r]
         if self.hybrid and np.any(pfl):
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
         if region_radius is not None and self.fixed_boxes and np.any(pfl):
             at = np.nonzero(pfl)[0]
-            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius)
+            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost)
         return pfl
 
-    def clamped(self, pairs: PairGeometry, region_radius) -> np.ndarray:
-        """(N,) whether the body part of each pair is clamped against a fixed surface."""
+    def clamped(self, pairs: PairGeometry, region_radius, lost=None) -> np.ndarray:
+        """(N,) whether the body part of each pair is clamped against a fixed surface.
+
+        lost: (lost_radius (R,), robot_clearance (K,)): a region's own radius where its capsule
+        is a reachable set (the estimate lost an arm point, `regions.reach_bounded`), NaN
+        elsewhere, and each robot capsule's clearance to the fixed surfaces
+        (`regions.surface_clearances`). A lost part may lie anywhere in its set, so also between
+        the robot and a surface: it counts as clamped wherever the robot capsule passes within
+        the part's diameter plus the margin of a surface."""
         margin = self.config.clamp_margin if self.pfl else 0.02
         radius = np.asarray(region_radius)[pairs.r]
-        return clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, margin)
+        out = clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, margin)
+        if lost is not None:
+            lost_radius, robot_clearance = lost
+            own = np.asarray(lost_radius, dtype=float)[pairs.r]
+            gap = 2.0 * np.nan_to_num(own) + margin
+            out |= np.isfinite(own) & (np.asarray(robot_clearance)[pairs.k] <= gap)
+        return out
 
     def robot_masses(self, pairs: PairGeometry, effective_mass) -> np.ndarray:
         """m_R (N,) of each pair: the plant's along u (`effective_mass(k, points, u)`, vectorised over
@@ -202,13 +216,15 @@ class SafetyRules:
         return distance, k, r
 
     def override(self, robot, robot_velocity, regions, z_d, effective_mass=None, covered_time: float = 0.0,
-                 clamped_until=None, now: float = 0.0):
+                 clamped_until=None, now: float = 0.0, lost_radius=None):
         """(override in [0, 1], binding pair or None) that keeps every pair within its rule.
 
         robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
         at full speed); z_d (R,): Z_d of each region; effective_mass(k, points, u): m_R of the
         plant, vectorised over pairs. clamped_until (K, R), updated in place: the time until which
-        each pair counts as clamped (`clamp_hold` after it was last judged so); now: the time.
+        each pair counts as clamped (`clamp_hold` after it was last judged so); now: the time;
+        lost_radius (R,): a region's own radius where its capsule is a reachable set, NaN
+        elsewhere (`clamped`).
         The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest override."""
         if self.mode == "none":
             return FREE, None
@@ -217,7 +233,10 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
-        governed = self.governed_by_pfl(pairs, regions[2])
+        lost = None
+        if lost_radius is not None and self.fixed_boxes and np.isfinite(lost_radius).any():
+            lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
+        governed = self.governed_by_pfl(pairs, regions[2], lost)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
@@ -226,7 +245,10 @@ class SafetyRules:
             held = governed & (clamped_until[k, r] > now)
             governed, clamped = governed & ~held, clamped | held
         rule = np.where(governed, "pfl", "ssm")
-        moving = approach > np.where(clamped, 1e-9, self.moving_speed)
+        # ... but a lost part's clamp is a possibility, not a sighting: there the robot's own
+        # start from rest (its path's first mm/s) is not yet an approach
+        seen = np.ones(len(k), dtype=bool) if lost is None else ~np.isfinite(lost[0][r])
+        moving = approach > np.where(clamped & seen, 1e-9, self.moving_speed)
         z = np.asarray(z_d)[r]
         v_ssm = self.ssm_speeds(pairs, z, covered_time)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)

@@ -26,6 +26,7 @@ from hrc_drake.safety.regions import (
     HEAD,
     THORAX,
     RegionCapsules,
+    lost_capsules,
     reach_bounded,
 )
 from hrc_drake.safety.rules import SafetyRules, decelerated_override
@@ -174,7 +175,9 @@ class HumanRegions:
         self.lost_speed = config.human_speed if config.human_speed > 0 else 2.0
 
     def __call__(self, estimate: SkeletonEstimate, unseen_for=None, head_offset=None):
-        """(region capsules, z_d (R,)), or None while some region's points were never seen.
+        """(region capsules, z_d (R,), lost_radius (R,)), or None while some region's points were
+        never seen; lost_radius: a region's own radius where its capsule is a reachable set (a lost
+        arm point), NaN elsewhere (`SafetyRules.clamped`).
 
         unseen_for: (8,) s since each point was last measured (camera source: a point the camera
         lost is held where it was last seen, and may have moved v_h x that time since).
@@ -198,7 +201,8 @@ class HumanRegions:
         start, end, radius = self.body.capsules_from_points(points)
         config = self.config
         if config.position_uncertainty == "fixed":
-            return self.cutter.cut(start, end, radius), np.full(len(self.cutter), config.fixed_uncertainty)
+            z_d = np.full(len(self.cutter), config.fixed_uncertainty)
+            return self.cutter.cut(start, end, radius), z_d, np.full(len(self.cutter), np.nan)
         if config.position_uncertainty == "tracker":
             uncertainty = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
         else:  # camera
@@ -209,12 +213,14 @@ class HumanRegions:
                     moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
                 uncertainty = uncertainty + moved
         uncertainty = np.where(np.isnan(uncertainty), np.inf, uncertainty)
+        own_radius = self.cutter.cut(start, end, radius)[2]
+        lost = self.cutter.region_uncertainty(lost_capsules(uncertainty, config.max_uncertainty)) > 0.5
         start, end, radius, per_capsule = reach_bounded(
             start, end, radius, uncertainty, config.max_uncertainty, self.body.upper_arm,
             self.body.forearm + self.body.hand_length)
         regions = self.cutter.cut(start, end, radius)
         z_d = self.cutter.region_uncertainty(per_capsule)
-        return regions, z_d
+        return regions, z_d, np.where(lost, own_radius, np.nan)
 
 
 def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
@@ -285,7 +291,7 @@ class SafetyController(LeafSystem):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
             return 0.0, math.nan, math.nan, 0.0
-        regions, z_d = human
+        regions, z_d, lost_radius = human
         covered = 0.0
         if self.swept and self._swept_volumes.HasValue(context):
             swept = self._swept_volumes.Eval(context)
@@ -295,7 +301,7 @@ class SafetyController(LeafSystem):
         self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
         robot, velocity = self.dynamics.capsules()
         command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
-                                               covered, clamped_until, context.get_time())
+                                               covered, clamped_until, context.get_time(), lost_radius)
         fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
                             np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
         if binding is None:

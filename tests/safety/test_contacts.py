@@ -229,3 +229,36 @@ def test_a_pair_judged_clamped_stays_clamped_for_the_hold_time():
     assert free > 0.0 and rule == "pfl"
     # without the memory, the lifted estimate is free at once
     assert rules.override(robot_at(1.25), (velocity, velocity), lifted, z_d, mass)[0] > 0.0
+
+
+def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
+    """A lost right wrist: its forearm and hand are a reachable set around the elbow. A robot
+    capsule sweeping 3 cm over the table inside that set might press the hand onto the table, so
+    the pair is clamped (SSM: stop); the same set of a seen hand, unclamped, is free under PFL
+    (the sweep is slower than the hand's PFL speed). Before, the lost hand counted as free."""
+    table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95
+    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    start, end = np.full((len(CUTTER), 3), 9.0), np.full((len(CUTTER), 3), 9.0)
+    radius = np.full(len(CUTTER), 0.05)
+    lost = [INDEX["right_lower_arm"], INDEX["right_hand"]]
+    start[lost] = end[lost] = [0.0, 0.6, 1.2]  # a sphere around the elbow
+    radius[lost] = 0.05 + 0.45
+    robot = (np.array([[0.0, 0.2, 1.01]]), np.array([[0.0, 0.3, 1.01]]), np.array([0.03]))
+    velocity = np.array([[0.0, 0.5, 0.0]])  # sideways, toward the operator
+    z_d = np.full(len(CUTTER), 0.03)
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    lost_radius = np.full(len(CUTTER), np.nan)
+    assert rules.override(robot, (velocity, velocity), (start, end, radius), z_d, mass,
+                          lost_radius=lost_radius)[0] == 1.0
+    lost_radius[lost] = 0.05
+    override, (pairs, n, rule, _) = rules.override(robot, (velocity, velocity), (start, end, radius), z_d,
+                                                   mass, lost_radius=lost_radius)
+    assert override == 0.0 and rule == "ssm"
+    # 20 cm above the table the robot cannot press it there: free again
+    high = (robot[0] + [0.0, 0.0, 0.2], robot[1] + [0.0, 0.0, 0.2], robot[2])
+    assert rules.override(high, (velocity, velocity), (start, end, radius), z_d, mass,
+                          lost_radius=lost_radius)[0] == 1.0
+    # a robot at rest on its path (its first mm/s) is not yet approaching a lost hand
+    creep = velocity * 0.002
+    assert rules.override(robot, (creep, creep), (start, end, radius), z_d, mass,
+                          lost_radius=lost_radius)[0] == 1.0

@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from hrc_drake.human.body import HAND_FRACTION, BodyModel
-from hrc_drake.safety.regions import FixedBox, RegionCapsules, clamped, reach_bounded
+from hrc_drake.safety.regions import (
+    FixedBox,
+    RegionCapsules,
+    clamped,
+    lost_capsules,
+    reach_bounded,
+    surface_clearances,
+)
 
 TABLE = FixedBox((0.45, 0.0, 0.73), (0.9, 1.6, 0.04))  # top surface at z = 0.75
 
@@ -139,3 +146,30 @@ def test_the_pair_closest_points_kernel_matches_the_numpy_reference():
     # the same closest points (the parameters of a point-like or parallel pair may differ)
     assert np.allclose(a0[k] + st[:, :1] * (a1[k] - a0[k]), a0[k] + s[:, None] * (a1[k] - a0[k]), atol=1e-9)
     assert np.allclose(b0[r] + st[:, 1:] * (b1[r] - b0[r]), b0[r] + t[:, None] * (b1[r] - b0[r]), atol=1e-9)
+
+
+def test_surface_clearances_bound_the_capsule_s_clearance_from_below():
+    rng = np.random.default_rng(5)
+    start = rng.uniform([-0.5, -0.5, 0.8], [0.5, 0.5, 1.3], size=(40, 3))
+    end = start + rng.normal(scale=0.2, size=(40, 3))
+    radius = rng.uniform(0.02, 0.06, size=40)
+    bound = surface_clearances(start, end, radius, (TABLE,))
+    t = np.linspace(0.0, 1.0, 2001)
+    points = start[:, None] + t[None, :, None] * (end - start)[:, None]
+    lower = np.subtract(TABLE.center, np.multiply(TABLE.size, 0.5))
+    upper = np.add(TABLE.center, np.multiply(TABLE.size, 0.5))
+    outside = np.maximum(lower - points, 0.0) + np.maximum(points - upper, 0.0)
+    fine = np.linalg.norm(outside, axis=2).min(axis=1) - radius
+    spacing = np.linalg.norm(end - start, axis=1) / 16
+    assert np.all(bound <= fine + 1e-12)
+    assert np.all(bound >= fine - 0.5 * spacing - 1e-12)
+    assert np.all(np.isinf(surface_clearances(start, end, radius, ())))
+
+
+def test_only_a_lost_arm_point_s_capsules_are_reachable_sets():
+    uncertainty = np.full(8, 0.03)
+    assert not lost_capsules(uncertainty, 0.3).any()
+    uncertainty[7] = np.inf  # right wrist: the right forearm
+    assert lost_capsules(uncertainty, 0.3).tolist() == [False, False, False, False, False, True]
+    uncertainty[4] = 0.5  # left elbow: the whole left arm
+    assert lost_capsules(uncertainty, 0.3).tolist() == [False, False, True, False, True, True]
