@@ -1,13 +1,18 @@
-"""The compiled kernels against their numpy references (hrc_drake/kernels.py)."""
+"""The compiled kernels against their numpy references (hrc_drake/kernels.py and each subpackage's
+_kernels.py), and how they compile (lazily, per group, saying so once on a first run)."""
 
 import numpy as np
 import pytest
 
 from hrc_drake import kernels
+from hrc_drake.human import _kernels as human_kernels
 from hrc_drake.human.body import BodyModel
 from hrc_drake.human.camera import DepthCameraModel
+from hrc_drake.intention import _kernels as intention_kernels
+from hrc_drake.motion import _kernels as motion_kernels
 from hrc_drake.motion import reactive
 from hrc_drake.motion.geometry import segment_segment_closest
+from hrc_drake.perception import _kernels as perception_kernels
 
 
 def _random_capsules(rng, count):
@@ -75,10 +80,10 @@ def test_skeleton_points_and_jacobian_equal_the_body_model_and_its_numpy_jacobia
     dims = reactive._kernel_dims(body)
     rng = np.random.default_rng(3)
     for q in _random_poses(body, rng, 6):
-        np.testing.assert_allclose(kernels.skeleton_points(dims, q), body.points(q), atol=1e-14)
+        np.testing.assert_allclose(human_kernels.skeleton_points(dims, q), body.points(q), atol=1e-14)
         visible = rng.random(8) > 0.3
         visible[:3] = True
-        model, jacobian = kernels.skeleton_jacobian(dims, q, visible, 1e-5)
+        model, jacobian = motion_kernels.skeleton_jacobian(dims, q, visible, 1e-5)
         ref_model, ref_jacobian = reactive._points_and_jacobian(body, q, visible)
         np.testing.assert_allclose(model, ref_model, atol=1e-14)
         np.testing.assert_allclose(jacobian, ref_jacobian, atol=1e-9)
@@ -94,8 +99,8 @@ def test_tracking_gauss_newton_equals_the_numpy_steps_and_a_moved_body_keeps_the
         visible = rng.random(8) > 0.2
         target = points[visible].ravel()
         ref_q, ref_rms = reactive._tracking_gauss_newton(body, target, visible, q0, 4, 1e-3)
-        q, rms = kernels.tracking_gauss_newton(dims, body.q_lower, body.q_upper, target, visible, q0, 4, 1e-3,
-                                               1e-5)
+        limits = (body.q_lower, body.q_upper)
+        q, rms = motion_kernels.tracking_gauss_newton(dims, *limits, target, visible, q0, 4, 1e-3, 1e-5)
         np.testing.assert_allclose(q, ref_q, atol=1e-9)
         assert rms == pytest.approx(ref_rms, rel=1e-9, abs=1e-12)
 
@@ -118,7 +123,7 @@ def test_bounding_capsule_equals_its_numpy_form(monkeypatch):
     for points in (rng.normal(size=(3, 300)) * [[0.4], [0.1], [0.05]], rng.normal(size=(3, 2000)),
                    np.zeros((3, 5)) + [[0.1], [0.2], [0.3]]):  # a single point: the ball branch
         offsets = rng.uniform(-0.1, 0.1, size=(4, 3))
-        got = kernels.bounding_capsule(points, offsets, 3)
+        got = motion_kernels.bounding_capsule(points, offsets, 3)
         ref = reactive._bounding_capsule(points, offsets, 3)
         ends = np.array([got[0], got[1]])
         if np.abs(ends[0] - ref[0]).max() > 1e-9:  # an eigenvector of the other sign: ends swapped
@@ -132,7 +137,7 @@ def test_bounding_capsule_equals_its_numpy_form(monkeypatch):
     for q in _random_poses(body, rng, 4):
         delta_plus, delta_minus = rng.uniform(0.0, 0.4, 12), rng.uniform(0.0, 0.4, 12)
         boxes.append((q, delta_plus, delta_minus, builder.build(q, delta_plus, delta_minus)))
-    monkeypatch.setattr(kernels, "bounding_capsule", reactive._bounding_capsule)
+    monkeypatch.setattr(motion_kernels, "bounding_capsule", reactive._bounding_capsule)
     for q, delta_plus, delta_minus, (start, end, radius) in boxes:
         ref_start, ref_end, ref_radius = builder.build(q, delta_plus, delta_minus)
         np.testing.assert_allclose(radius, ref_radius, rtol=1e-12)
@@ -185,7 +190,7 @@ def test_window_velocity_equals_the_numpy_least_squares_line():
         wrists = wrists + rng.normal(scale=0.005, size=wrists.shape)
         wrists[rng.random((8, 2)) < 0.25 * (trial % 3)] = np.nan  # none, some or many samples missing
         expected_v, expected_moving = least_squares_velocity(times, wrists, 0.15, significance=3.5)
-        got_v, got_moving = kernels.window_velocity(times, wrists, 0.15, 5, 3.5)
+        got_v, got_moving = intention_kernels.window_velocity(times, wrists, 0.15, 5, 3.5)
         np.testing.assert_allclose(got_v, expected_v, rtol=1e-12, atol=1e-12)
         np.testing.assert_array_equal(got_moving, expected_moving)
         cases += int(expected_moving.sum())
@@ -213,8 +218,9 @@ def test_goal_log_likelihoods_equal_the_numpy_features_and_mixture_density():
         for density, columns, use_gaze in ((model.gmm4d, _PHI, True), (model.gmm2d, _PSI, False)):
             expected = goal_log_likelihoods_numpy(points, velocity, moving, gaze, samples, density, use_gaze)
             wrists = points[[L_WRIST, R_WRIST]]
-            got = kernels.goal_log_likelihoods(wrists, velocity, moving, points[HEAD], gaze, samples, columns,
-                                               *density.kernel_arrays(), NEUTRAL_ANGLE, AT_GOAL)
+            got = intention_kernels.goal_log_likelihoods(wrists, velocity, moving, points[HEAD], gaze,
+                                                         samples, columns, *density.kernel_arrays(),
+                                                         NEUTRAL_ANGLE, AT_GOAL)
             assert got.shape == (2, 4)
             np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-10)
 
@@ -265,7 +271,8 @@ def test_kalman_gate_equals_the_numpy_mahalanobis_distance():
     nu = y[rows] - kf.x_[rows, :3]
     s = kf.P_[rows, :3, :3] + 0.02**2 * np.eye(3)
     expected = np.einsum("pi,pi->p", nu, np.linalg.solve(s, nu[:, :, None])[:, :, 0])
-    np.testing.assert_allclose(kernels.kalman_gate(kf.x_, kf.P_, y, rows, 0.02**2), expected, rtol=1e-12)
+    got = perception_kernels.kalman_gate(kf.x_, kf.P_, y, rows, 0.02**2)
+    np.testing.assert_allclose(got, expected, rtol=1e-12)
 
 
 def test_position_samples_equal_mean_plus_the_cholesky_factor_times_the_draws():
@@ -275,12 +282,12 @@ def test_position_samples_equal_mean_plus_the_cholesky_factor_times_the_draws():
     z = rng.standard_normal((3, 40, 3))
     chol = np.linalg.cholesky(kf.P_[rows, :3, :3])
     expected = kf.x_[rows, None, :3] + z @ np.swapaxes(chol, 1, 2)
-    got = kernels.position_samples(kf.x_, kf.P_, rows, z)
+    got = perception_kernels.position_samples(kf.x_, kf.P_, rows, z)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
     singular = kf.P_.copy()
     singular[1, :3, :3] = 0.0
     with pytest.raises(ValueError, match="positive definite"):
-        kernels.position_samples(kf.x_, singular, rows, z)
+        perception_kernels.position_samples(kf.x_, singular, rows, z)
 
 
 def test_bayes_rows_equal_the_numpy_bayes_update():
@@ -296,7 +303,7 @@ def test_bayes_rows_equal_the_numpy_bayes_update():
         switch = rng.uniform(0.0, 0.5, size=3)
         active = rng.random(3) > 0.2
         expected = bayes_update(prior, log_lik, switch, active)
-        got = kernels.bayes_rows(prior, log_lik, switch, active, _LOG_LIKELIHOOD_FLOOR)
+        got = intention_kernels.bayes_rows(prior, log_lik, switch, active, _LOG_LIKELIHOOD_FLOOR)
         np.testing.assert_allclose(got, expected, rtol=1e-14, atol=1e-300)
 
 
@@ -306,16 +313,42 @@ def test_body_points_of_one_pose_are_the_float_forward_kinematics_bit_for_bit():
         np.testing.assert_array_equal(body._points(q), body._points_single(q))
 
 
-def test_a_first_run_says_it_compiles_and_a_cached_one_says_nothing(monkeypatch):
-    import io
+#: two kernels of the intention group and the prediction group's, each called twice
+_FIRST_RUN = """
+import numpy as np
+from hrc_drake.intention import _kernels as intention
+from hrc_drake.prediction import _kernels as prediction
+for _ in range(2):
+    intention.window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
+    intention.bayes_rows(np.full((2, 2), 0.5), np.zeros((2, 2)), np.zeros(2), np.ones(2, dtype=bool), -30.0)
+    prediction.merged_end_mass(np.zeros(1), np.zeros(1), np.zeros(1), np.ones((1, 1)), np.ones((1, 2)),
+                               np.ones((1, 2)), np.ones(1))
+"""
 
-    kernels.warm_up()
-    assert kernels.uncached_kernels() == []  # every kernel is on disk once warmed up
-    quiet = io.StringIO()
-    kernels.warm_up(progress=quiet)
-    assert quiet.getvalue() == ""
-    monkeypatch.setattr(kernels, "uncached_kernels", lambda: ["_capsule_clearances"])
-    told = io.StringIO()
-    kernels.warm_up(progress=told)
-    assert "compiling 1 numba kernels (the first run on this machine only" in told.getvalue()
-    assert "compiled in" in told.getvalue()
+
+def test_a_first_run_names_each_group_it_compiles_once_and_a_cached_run_says_nothing(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+
+    def stderr() -> str:
+        return subprocess.run([sys.executable, "-c", _FIRST_RUN], env=env, capture_output=True, text=True,
+                              check=True, timeout=120).stderr
+
+    first = stderr()
+    intention_line = "compiling kernels for the intention estimator (first run only) ..."
+    assert first.count(intention_line) == 1, first
+    assert first.count("compiling kernels for the waiting-time predictor (first run only) ...") == 1, first
+    assert first.count("compiling kernels") == 2, first  # no other group: those were not called
+    assert "compiling" not in stderr()  # the disk cache has them now
+
+
+def test_each_group_is_registered_and_warms_up():
+    import importlib
+
+    for name, (module, description) in kernels.GROUPS.items():
+        assert callable(importlib.import_module(module)._warm_up), name
+        assert description.startswith("the "), name
+    assert kernels.warm_up(["prediction"]) < 60.0

@@ -1,4 +1,5 @@
-"""`hrc-drake --help` and `hrc-drake validate` import only what they use (no timing asserted)."""
+"""`import hrc_drake`, `hrc-drake --help` and `hrc-drake validate` import only what they use (no timing
+asserted)."""
 
 import json
 import os
@@ -40,3 +41,12 @@ def test_validate_loads_no_scikit_learn_scipy_stats_or_optimize():
     assert result["code"] == 0
     assert "pydrake" in result["loaded"]  # the typed YAML loader and IK
     assert not {"sklearn", "scipy.stats", "scipy.optimize", "matplotlib"} & set(result["loaded"])
+
+
+def test_import_hrc_drake_loads_neither_drake_nor_numba_nor_scipy_nor_pandas():
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    code = ("import json, sys, hrc_drake; print(json.dumps(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'pydrake', 'numba', 'scipy', 'pandas', 'sklearn', 'matplotlib'})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=REPO,
+                         check=True)
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == []

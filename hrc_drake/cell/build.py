@@ -7,7 +7,6 @@ predictor / scheduler / motion systems, the metrics recorder and, when asked, Me
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,7 +18,6 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, MatrixGain
 from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
-from hrc_drake import kernels
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell import plugins
 from hrc_drake.cell.replay import add_replay_markers
@@ -468,10 +466,10 @@ def build_cell(
     """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay).
 
     Also keeps freed heap memory in the process (`allocator.keep_freed_memory`), for simulators
-    the caller makes, and compiles (or loads) the geometry kernels, so that a simulation does not.
+    the caller makes. The numba kernels compile (or load from the disk cache) when a system first
+    calls them (`hrc_drake.kernels`): only those of the cell's systems.
     """
     keep_freed_memory()
-    kernels.warm_up(progress=sys.stderr)  # says so when a first run compiles
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
 
     def seed(k: int) -> int:

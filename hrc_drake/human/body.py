@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from hrc_drake import kernels
+from hrc_drake.human import _kernels
 from hrc_drake.messages import (
     HEAD,
     L_ELBOW,
@@ -232,7 +232,7 @@ class BodyModel:
             # `_points_single` compiled (~3 us instead of ~50 us; tested equal)
             dims = np.array([self.hip_height, self.torso, self.neck, 0.5 * self.shoulder_width,
                              self.upper_arm, self.forearm])
-            return kernels.skeleton_points(dims, q)
+            return _kernels.skeleton_points(dims, q)
         # closed-form products of the elementary rotations of the module docstring: a handful
         # of elementwise numpy calls on both arms at once instead of 3x3 matrix products
         c, s = np.cos(q), np.sin(q)

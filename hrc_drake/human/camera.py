@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from hrc_drake.kernels import hidden_points
+from hrc_drake.human._kernels import hidden_points
 from hrc_drake.messages import HEAD, DepthFrame, SkeletonFrame
 
 #: half-angle of the view cone around the camera axis (rad)
@@ -227,7 +227,7 @@ class DepthCameraModel:
 
         capsules: optional (start (K, 3), end (K, 3), radius (K,)), e.g. the robot links.
         The same as `is_occluded(points, capsules) | ~in_view(points)`, one compiled loop
-        (`kernels.hidden_points`: per point the view cone, then the boxes, then the capsules).
+        (`_kernels.hidden_points`: per point the view cone, then the boxes, then the capsules).
         """
         pts = np.asarray(points, dtype=float)
         if pts.shape[-1] != 3:

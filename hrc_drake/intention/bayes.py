@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hrc_drake import kernels
+from hrc_drake.intention import _kernels
 from hrc_drake.intention.features import (
     AT_GOAL,
     NEUTRAL_ANGLE,
@@ -42,7 +42,7 @@ _PSI = np.array(PSI_COLUMNS)
 
 def goal_log_likelihoods_numpy(points, velocity, moving, gaze, samples, density, use_gaze: bool):
     """log L (2, G) of eq. (3.12) in numpy: the log of the mean over the sampled centres (G, Np, 3)
-    of the GMM density of Phi (or Psi without gaze). The reference of `kernels.goal_log_likelihoods`."""
+    of the GMM density of Phi (or Psi without gaze). The reference of `_kernels.goal_log_likelihoods`."""
     phi = skeleton_features(points, velocity, moving, gaze, samples)  # (2, G, Np, 4)
     per_sample = density.log_density(phi if use_gaze else phi[..., list(PSI_COLUMNS)])
     top = np.max(per_sample, axis=-1, keepdims=True)
@@ -267,7 +267,7 @@ class GoalIntentionEstimator:
             )
             density, columns = (self.model.gmm4d, _PHI) if use_gaze else (self.model.gmm2d, _PSI)
             # `goal_log_likelihoods_numpy`, compiled: one call instead of ~40 numpy calls a frame
-            log_lik = kernels.goal_log_likelihoods(wrists, velocity, moving, points[HEAD], gaze, samples,
+            log_lik = _kernels.goal_log_likelihoods(wrists, velocity, moving, points[HEAD], gaze, samples,
                                                    columns, *density.kernel_arrays(), NEUTRAL_ANGLE, AT_GOAL)
             log_lik = self.evidence_weight * log_lik
         log_lik = np.where(active[:, None], log_lik, np.nan)
@@ -333,7 +333,7 @@ class GoalIntentionEstimator:
         restart = active & (time - self._last_motion >= self.restart_after)
         switch = np.where(restart, max(self.restart_switch, self.switch_probability), self.switch_probability)
         # `bayes_update` of the two rows, compiled (its numpy form is the reference)
-        self.probabilities_ = kernels.bayes_rows(self.probabilities_, log_lik, switch, active,
+        self.probabilities_ = _kernels.bayes_rows(self.probabilities_, log_lik, switch, active,
                                                  _LOG_LIKELIHOOD_FLOOR)
         self._last_motion = np.where(active, time, self._last_motion)
         self.last_active_ = active

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hrc_drake import kernels
+from hrc_drake.intention import _kernels
 from hrc_drake.messages import HEAD, L_WRIST, R_WRIST
 
 #: Columns of Phi (GMM4d) and the columns of Phi that form Psi (GMM2d).
@@ -170,7 +170,7 @@ class WristVelocityEstimator:
         self._times = np.concatenate([self._times[1:], [float(time)]])
         self._wrists = np.concatenate([self._wrists[1:], wrists[None]])
         # `least_squares_velocity` of this one window, compiled (its numpy form is the reference)
-        return kernels.window_velocity(self._times, self._wrists, self.min_speed, self.window // 2 + 1,
+        return _kernels.window_velocity(self._times, self._wrists, self.min_speed, self.window // 2 + 1,
                                        self.significance)
 
 

@@ -72,7 +72,7 @@ class GaussianMixtureDensity:
 
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(precision Cholesky factors (K, D, D), projected means (K, D), log normalisers (K,)):
-        what `log_density` evaluates, for `kernels.goal_log_likelihoods`."""
+        what `log_density` evaluates, for `_kernels.goal_log_likelihoods`."""
         return self._precision_chol, self._mean_proj, self._log_norm
 
     @property

@@ -23,8 +23,8 @@ import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 from threadpoolctl import ThreadpoolController
 
-from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
+from hrc_drake.motion import _kernels
 from hrc_drake.rng import clone_generator
 
 N_DOF = 12
@@ -424,7 +424,7 @@ class GPMotionModel:
             return self._rollouts(history, int(steps), int(n_trials), rng)
 
     def _rollouts(self, history, steps, n_trials, rng):
-        """The trials of `sample_rollouts`, compiled (`kernels.gp_rollouts`): the same normal
+        """The trials of `sample_rollouts`, compiled (`_kernels.gp_rollouts`): the same normal
         draws in the same order as `_rollouts_numpy`, the reference."""
         positions = np.empty((n_trials, steps, self.n_dof))
         for bucket in self.buckets_:
@@ -432,7 +432,7 @@ class GPMotionModel:
             n_groups, size = joints.shape
             past = history[:, joints, :].transpose(1, 0, 2, 3).reshape(n_groups, self.order, 3 * size)
             noise = rng.standard_normal((steps, n_groups, n_trials, 3 * size))
-            states = kernels.gp_rollouts(past, noise, bucket)  # (M, G, T, 3 s)
+            states = _kernels.gp_rollouts(past, noise, bucket)  # (M, G, T, 3 s)
             q = states.reshape(steps, n_groups, n_trials, size, 3)[..., 0]  # (M, G, T, s)
             positions[:, :, joints.reshape(-1)] = q.transpose(2, 0, 1, 3).reshape(n_trials, steps, -1)
         return positions

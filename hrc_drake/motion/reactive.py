@@ -21,9 +21,9 @@ import time as _time
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from hrc_drake import kernels
 from hrc_drake.human.body import BodyModel
 from hrc_drake.messages import SweptVolumes, shallow_copy
+from hrc_drake.motion import _kernels
 from hrc_drake.motion.gp import MODEL_GROUPS, GPMotionModel
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, rts_smoothed_means
 from hrc_drake.rng import clone_generator
@@ -212,7 +212,7 @@ class SweptVolumeBuilder:
     through the chain (only the joints a capsule depends on), the forearm's down to the vertices
     of their hull, before yaw and flexion turn them; the base translation box is the hull of its
     four corners. One capsule bounds each body capsule's points (`_bounding_capsule`, compiled as
-    `kernels.bounding_capsule`), plus its body radius and `margin`: the union holds every
+    `_kernels.bounding_capsule`), plus its body radius and `margin`: the union holds every
     instance of every body capsule on the joint box. (Bounding a forearm's points in 2-4 groups
     split by yaw cells, one capsule each, moved the worst-case frontier from rest by under 3 cm
     and grew the union's volume by 8-15%.)
@@ -312,7 +312,7 @@ class SweptVolumeBuilder:
             # (3, T * n): every torso-frame point under every turn
             points = (local @ columns).reshape(len(local), -1, 3).transpose(2, 1, 0).reshape(3, -1)
             stride = 1 + points.shape[1] // 1000
-            start[k], end[k], radius[k] = kernels.bounding_capsule(points, offsets, stride)
+            start[k], end[k], radius[k] = _kernels.bounding_capsule(points, offsets, stride)
         centre = np.array([low[0] + hx, low[1] + hy, self._hip_height])
         return start + centre, end + centre, radius + self._radius + self.margin
 
@@ -453,7 +453,7 @@ def _jacobian(body, q, visible) -> np.ndarray:
     dims = _kernel_dims(body)
     if dims is None:
         return _points_and_jacobian(body, q, visible)[1]
-    return kernels.skeleton_jacobian(dims, q, visible, _JACOBIAN_STEP)[1]
+    return _kernels.skeleton_jacobian(dims, q, visible, _JACOBIAN_STEP)[1]
 
 
 def _visible(points) -> np.ndarray:
@@ -501,7 +501,7 @@ def tracking_inverse(body, points, q0, iterations: int = 4, regularization: floa
     if dims is None:
         q, rms = _tracking_gauss_newton(body, target, visible, q0, int(iterations), regularization)
     else:
-        q, rms = kernels.tracking_gauss_newton(dims, body.q_lower, body.q_upper, target, visible, q0,
+        q, rms = _kernels.tracking_gauss_newton(dims, body.q_lower, body.q_upper, target, visible, q0,
                                                int(iterations), regularization, _JACOBIAN_STEP)
     if rms > tolerance:
         return body.inverse(points, q0=q0)
@@ -510,7 +510,7 @@ def tracking_inverse(body, points, q0, iterations: int = 4, regularization: floa
 
 def _tracking_gauss_newton(body, target, visible, q0, iterations: int, regularization: float):
     """The damped Gauss-Newton steps of `tracking_inverse` in numpy, for any body model (the
-    reference of `kernels.tracking_gauss_newton`): q and the rms point residual at it."""
+    reference of `_kernels.tracking_gauss_newton`): q and the rms point residual at it."""
     q = q0.copy()
     damping = regularization**2 * np.eye(12)
     for _ in range(iterations):

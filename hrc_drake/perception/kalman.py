@@ -25,8 +25,8 @@ from math import factorial
 
 import numpy as np
 
-from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
+from hrc_drake.perception import _kernels
 
 
 class ChainOfIntegrators:
@@ -203,8 +203,8 @@ class KalmanFilter:
 
     def predict(self, steps: int = 1) -> None:
         """Time update (open loop): x <- A x, P <- A P A^T + W, `steps` times (compiled:
-        `kernels.kalman_predict`; `_predict_numpy` is its reference)."""
-        self.x_, self.P_ = kernels.kalman_predict(self.x_, self.P_, self.model.A, self.model.W, int(steps))
+        `_kernels.kalman_predict`; `_predict_numpy` is its reference)."""
+        self.x_, self.P_ = _kernels.kalman_predict(self.x_, self.P_, self.model.A, self.model.W, int(steps))
 
     def _predict_numpy(self, steps: int = 1) -> None:
         a, w = self.model.A, self.model.W
@@ -218,13 +218,13 @@ class KalmanFilter:
         y: (T, dim) measurements; rows with NaN, inf or a component beyond MAX_MEASUREMENT, or
         with mask False, are missing.
         A track's first valid measurement initializes it (position = y, derivatives 0).
-        Compiled (`kernels.kalman_update`); `_update_numpy` is its reference.
+        Compiled (`_kernels.kalman_update`); `_update_numpy` is its reference.
         """
         y, mask = self._checked(y, mask)
         # the kernel writes the tracks in place: they must be C-ordered float64 / bool arrays
         self.x_, self.P_ = (np.ascontiguousarray(a, dtype=float) for a in (self.x_, self.P_))
         self.initialized_ = np.ascontiguousarray(self.initialized_, dtype=bool)
-        kernels.kalman_update(self.x_, self.P_, self.initialized_, y, mask, self._initial_cov,
+        _kernels.kalman_update(self.x_, self.P_, self.initialized_, y, mask, self._initial_cov,
                               self.measurement_std**2, MAX_MEASUREMENT)
 
     def _update_numpy(self, y, mask=None) -> None:
@@ -359,10 +359,10 @@ class KalmanFilter:
 
 def rts_smoothed_means(model: ChainOfIntegrators, means, covs) -> np.ndarray:
     """The smoothed means phi_{k|K} of `rts_smooth` (eq. 8.6) without its covariances, by the
-    compiled `kernels.rts_means`: means (K, ..., S), covs (K, ..., S, S)."""
+    compiled `_kernels.rts_means`: means (K, ..., S), covs (K, ..., S, S)."""
     means, covs = _check_window(model, means, covs)
     s = model.state_size
-    flat = kernels.rts_means(model.A, model.W, means.reshape(len(means), -1, s),
+    flat = _kernels.rts_means(model.A, model.W, means.reshape(len(means), -1, s),
                              covs.reshape(len(covs), -1, s, s))
     return flat.reshape(means.shape)
 

@@ -61,8 +61,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from hrc_drake import kernels
 from hrc_drake.messages import SKELETON_PARENTS, shallow_copy
+from hrc_drake.perception import _kernels
 from hrc_drake.perception.kalman import ChainOfIntegrators, KalmanFilter, valid_measurements
 from hrc_drake.rng import clone_generator
 
@@ -245,14 +245,14 @@ class SkeletonParticleFilter:
 
     def summaries(self, center, size) -> tuple[np.ndarray, np.ndarray]:
         """(`spread()`, `fraction_in_box(center, size)`) in one compiled pass
-        (`kernels.cloud_summaries`; those two numpy methods are its reference)."""
+        (`_kernels.cloud_summaries`; those two numpy methods are its reference)."""
         center = np.asarray(center, dtype=float)
         half = 0.5 * np.asarray(size, dtype=float)
         if center.shape != (3,) or half.shape != (3,):
             raise ValueError(f"SkeletonParticleFilter.summaries: center and size must be (3,), got "
                              f"{center.shape}, {half.shape}")
         kf = self._kf
-        return kernels.cloud_summaries(self.particles_, self._posterior_only, kf.x_, kf.P_, center, half)
+        return _kernels.cloud_summaries(self.particles_, self._posterior_only, kf.x_, kf.P_, center, half)
 
     def spread(self) -> np.ndarray:
         """(P,) isotropic standard deviation sqrt(trace(cov) / 3) of each point's particles (of
@@ -588,7 +588,7 @@ class SkeletonParticleFilter:
         if len(upd_seen):
             d = 3
             # nu^T S^-1 nu of the innovations nu, S = C P C^T + R (compiled: ~10 numpy calls)
-            d2 = kernels.kalman_gate(kf.x_, kf.P_, points, upd_seen, self.measurement_std**2)
+            d2 = _kernels.kalman_gate(kf.x_, kf.P_, points, upd_seen, self.measurement_std**2)
             lost = (d2 > self.gate**2) & kf.initialized_[upd_seen]
             if np.any(lost):
                 # Measurement far from the prediction: restart the track at the measurement.
@@ -602,7 +602,7 @@ class SkeletonParticleFilter:
             k = self.seen_samples or self.n_particles
             z = self.rng.standard_normal((len(upd_seen), k, d))
             # m + L z, L the Cholesky factor of the position covariance (compiled: ~8 numpy calls)
-            self.particles_[upd_seen, :k, :d] = kernels.position_samples(kf.x_, kf.P_, upd_seen, z)
+            self.particles_[upd_seen, :k, :d] = _kernels.position_samples(kf.x_, kf.P_, upd_seen, z)
             self.means_[upd_seen] = kf.x_[upd_seen, :d]
         posterior_only = np.zeros(self.n_points, dtype=bool)  # a new array: clones share the old
         if self.seen_samples is not None:

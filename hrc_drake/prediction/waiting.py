@@ -14,7 +14,7 @@ come from one batched model call (`_predict_many`), cached per context while the
 unchanged; nodes with the same recent context and the same set of actions already seen are
 merged (their futures are equal and (5.37) is linear); the merging and the convolution of
 the start-time pmfs of a level with the duration pmfs are one compiled direct convolution over
-each pmf's support (`kernels.merged_end_mass`; `distributions(compiled=False)` is the numpy
+each pmf's support (`_kernels.merged_end_mass`; `distributions(compiled=False)` is the numpy
 reference, by FFT).
 """
 
@@ -26,8 +26,8 @@ from collections.abc import Hashable, Mapping, Sequence
 import numpy as np
 from scipy import fft as sp_fft
 
-from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
+from hrc_drake.prediction import _kernels
 
 from .base import SequenceModel, recent
 
@@ -235,7 +235,7 @@ class WaitingTimePredictor:
             stops expanding a node once every target occurred on its branch.
         Returns times (G,) and cdf (m, G) over `model.classes_`. An empty history means no
         running action: the next action starts now with the model's marginal probabilities.
-        compiled: merge and convolve each level in one kernel (`kernels.merged_end_mass`, a
+        compiled: merge and convolve each level in one kernel (`_kernels.merged_end_mass`, a
             direct convolution); False: numpy's reduceat and FFT convolution (the reference;
             the two agree to FFT round-off, ~1e-16).
         """
@@ -315,7 +315,7 @@ class WaitingTimePredictor:
             first = order[starts]
             # a child ends at its start + its duration (convolution, truncated at the horizon)
             if compiled:
-                parents_mass = kernels.merged_end_mass(starts, parent_idx, child_action, probs, parents_mass,
+                parents_mass = _kernels.merged_end_mass(starts, parent_idx, child_action, probs, parents_mass,
                                                        duration_pmfs, supports)
             else:
                 weighted = np.add.reduceat(

@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hrc_drake import kernels
 from hrc_drake.messages import shallow_copy
+from hrc_drake.scheduling import _kernels
 from hrc_drake.scheduling.learning import DurationModel, UniformSupportDurationModel
 from hrc_drake.scheduling.petri import PcTPN
 
@@ -126,7 +126,7 @@ def simulate_trials(
     rollout: how controllable conflicts after the root are resolved. "uniform" (7.3.1): any
     enabled controllable transition with equal probability. "work_first": uniformly among the
     robots' actions and commitments, an explicit wait only when none is enabled.
-    compiled: step the trials with `kernels.trial_step` (default) or with numpy operations on
+    compiled: step the trials with `_kernels.trial_step` (default) or with numpy operations on
     all trials at once (the reference; same draws, paths and costs).
     Variants (departures from 7.3.1, off by default): stratified_roots: trial n takes root
     choice n mod R, so every root child gets samples; common_random_numbers (needs
@@ -247,7 +247,7 @@ def _no_horizon(max_steps: int) -> RuntimeError:
 
 
 def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
-    """The trials' steps by `kernels.trial_step`, one call per step; the same draws, choices and
+    """The trials' steps by `_kernels.trial_step`, one call per step; the same draws, choices and
     costs as `_lockstep_numpy` (the costs are summed by the same numpy products)."""
     net = trials.net
     n_trials = trials.m.shape[0]
@@ -261,7 +261,7 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
         trials.refill(rng)
         keys = rng.random((trials.n_groups, net.n_transitions))
         chosen, column = np.empty(n_trials, dtype=np.int64), np.empty(n_trials, dtype=np.int64)
-        running = kernels.trial_step(
+        running = _kernels.trial_step(
             trials.m, net.arcs(), fired, unc, controllable, trials.is_wait_end, trials.pools, trials.count,
             trials.fire_at, trials.en_prev, t, alive, keys, trials.group, trials.key_bonus, float(horizon),
             float(now), float(quantum), dt, chosen, column,

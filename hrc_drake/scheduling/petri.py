@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hrc_drake import kernels
 from hrc_drake.distributions import Distribution, validate_distribution
+from hrc_drake.scheduling import _kernels
 
 #: transition roles produced by the flow compiler
 ROLES = ("begin", "end", "wait", "wait_end", "intent", "commit", "giveup", "other")
@@ -113,10 +113,10 @@ class PcTPN:
         return missing == 0
 
     def arcs(self) -> tuple[np.ndarray, ...]:
-        """The arcs by transition in CSR form (`kernels.petri_arcs`), computed once: the net's
+        """The arcs by transition in CSR form (`_kernels.petri_arcs`), computed once: the net's
         Pre and incidence never change."""
         if not hasattr(self, "_arcs"):
-            self._arcs = kernels.petri_arcs(self.pre, self.incidence)
+            self._arcs = _kernels.petri_arcs(self.pre, self.incidence)
         return self._arcs
 
     def fire(self, marking, transition) -> np.ndarray:
