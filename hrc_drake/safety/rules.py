@@ -224,7 +224,7 @@ class SafetyRules:
         plant, vectorised over pairs. clamped_until (K, R), updated in place: the time until which
         each pair counts as clamped (`clamp_hold` after it was last judged so); now: the time;
         lost_radius (R,): a region's own radius where its capsule is a reachable set, NaN
-        elsewhere (`clamped`).
+        elsewhere (`clamped`, with the config's `lost_parts_clamped`).
         The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest override."""
         if self.mode == "none":
             return FREE, None
@@ -234,7 +234,8 @@ class SafetyRules:
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         approach = pairs.approach
         lost = None
-        if lost_radius is not None and self.fixed_boxes and np.isfinite(lost_radius).any():
+        if (lost_radius is not None and self.pfl and self.config.lost_parts_clamped and self.fixed_boxes
+                and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
         governed = self.governed_by_pfl(pairs, regions[2], lost)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping

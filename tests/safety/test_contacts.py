@@ -235,9 +235,11 @@ def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     """A lost right wrist: its forearm and hand are a reachable set around the elbow. A robot
     capsule sweeping 3 cm over the table inside that set might press the hand onto the table, so
     the pair is clamped (SSM: stop); the same set of a seen hand, unclamped, is free under PFL
-    (the sweep is slower than the hand's PFL speed). Before, the lost hand counted as free."""
+    (the sweep is slower than the hand's PFL speed). Without `lost_parts_clamped` (the default) the
+    lost hand counts as free."""
     table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95
-    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    rules = SafetyRules(PowerForceLimiting(lost_parts_clamped=True), LIMITS, CUTTER.regions,
+                        fixed_boxes=(table,))
     start, end = np.full((len(CUTTER), 3), 9.0), np.full((len(CUTTER), 3), 9.0)
     radius = np.full(len(CUTTER), 0.05)
     lost = [INDEX["right_lower_arm"], INDEX["right_hand"]]
@@ -258,6 +260,9 @@ def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     high = (robot[0] + [0.0, 0.0, 0.2], robot[1] + [0.0, 0.0, 0.2], robot[2])
     assert rules.override(high, (velocity, velocity), (start, end, radius), z_d, mass,
                           lost_radius=lost_radius)[0] == 1.0
+    off = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    assert off.override(robot, (velocity, velocity), (start, end, radius), z_d, mass,
+                        lost_radius=lost_radius)[0] == 1.0
     # a robot at rest on its path (its first mm/s) is not yet approaching a lost hand
     creep = velocity * 0.002
     assert rules.override(robot, (creep, creep), (start, end, radius), z_d, mass,
