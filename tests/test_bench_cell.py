@@ -73,6 +73,15 @@ def test_figures_json_keys_and_table(bench):
     assert "torch_clock" in bench.format_table(names, current, None)
 
 
+def test_startup_figures_keep_each_group_and_the_first_run_and_prefix_the_baseline(bench):
+    current = {"import_s": 0.012345, "kernel_compile_s.motion": 3.21234, "first_run_s.torch_clock": 7.0}
+    startup = {"current": current, "baseline": {"import_s": 0.5}}
+    fig = bench.startup_figures(startup, 1.0, 2.0)
+    assert fig == {"import_s": 0.0123, "kernel_compile_s.motion": 3.2123, "first_run_s.torch_clock": 7.0,
+                   "baseline_import_s": 0.5, "load_average_1min": {"start": 1.0, "end": 2.0}}
+    json.dumps(fig)
+
+
 def test_collected_instructions_reads_the_callgrind_report(bench):
     report = ("==12== Events    : Ir\n==12== Collected : 1680278510\n==12==\n"
               "==12== I   refs:      1,680,278,510\n")

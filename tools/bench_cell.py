@@ -33,11 +33,18 @@ Keys `instructions_g_<name>` (10^9 instructions), `baseline_instructions_g_<name
 A scenario the baseline tree does not have (e.g. diagrams/full_pipeline.yaml, the cell with
 every stage on) is measured there with the current tree's file, when the baseline code can load
 it. Start-up of each tree is timed too, as the median of 7 fresh interpreters: `help_s`, the
-wall time of `python -m hrc_drake.cli --help`; `import_s`, the time to import what a simulation
-needs (scenario loader, builder, simulate), measured inside the interpreter; `interpreter_s`,
-`python -c pass` (the floor of both on this machine); `kernel_compile_s` and `kernel_load_s`, the
-seconds `hrc_drake.kernels.warm_up()` takes to compile the numba kernels into an empty cache and
-to load them from it (every cell calls it once when it is built).
+wall time of `python -m hrc_drake.cli --help`; `import_s`, the wall time of `python -c "import
+hrc_drake"` minus that of `python -c pass`; `cell_import_s`, the time to import what a
+simulation needs (scenario loader, builder, simulate), measured inside the interpreter;
+`interpreter_s`, `python -c pass` (the floor on this machine). Then the numba kernels, each
+figure from empty caches (NUMBA_CACHE_DIR a new temporary folder): `kernel_compile_s` and
+`kernel_load_s`, the seconds `hrc_drake.kernels.warm_up()` takes to compile every kernel and to
+load them all from the cache; `kernel_compile_s.<group>` (geometry, human, motion, perception,
+intention, prediction, scheduling: `kernels.GROUPS`), one group's compile time in its own
+interpreter, callees of other files included (a cell compiles only the groups its systems call,
+when first called); and `first_run_s.torch_clock`, the wall time of `python -m hrc_drake.cli
+simulate diagrams/torch_clock.yaml --duration 20` with an empty cache: a fresh machine's first
+run, interpreter to report. The timed simulations warm the kernels up before their clock starts.
 
 The goal of issue 18 is every `rtf_<name>` >= 50 (CPU-based) except the rendered-camera cells,
 whose cost is reported separately, and `help_s` <= 0.1: `below_goal` lists the cells that miss.
@@ -49,17 +56,19 @@ Prints progress lines, a table, then as its last line one JSON object with the f
 scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name>`,
 `baseline_rtf_wall_<name>`, `cpu_change_percent_<name>`, `products_<name>`,
 `min_distance_<name>` (and their `baseline_` twins: results must agree up to seed noise), and
-`help_s`, `import_s`, `interpreter_s`, `kernel_compile_s`, `kernel_load_s`, `baseline_help_s`,
-`baseline_import_s`.
+`help_s`, `import_s`, `cell_import_s`, `interpreter_s`, `kernel_compile_s`, `kernel_load_s`,
+`kernel_compile_s.<group>`, `first_run_s.torch_clock` (and their `baseline_` twins).
 
 Usage:
     PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N] [--only NAME ...]
                                              [--baseline REV | --no-baseline] [--instructions S]
-                                             [--profile]
+                                             [--profile] [--startup-only]
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
 A full run (120 s, 3 repeats, 12 cells, two trees, --profile) took 18 minutes on 2 cores (2026-12-04).
+--startup-only: the start-up figures alone, of the current tree (and of --baseline REV when
+given), then the JSON line: about 2 minutes per tree on 2 cores.
 """
 
 from __future__ import annotations
@@ -94,6 +103,11 @@ from hrc_drake.cell.run import simulate
 path, duration, probe = sys.argv[1], float(sys.argv[2]), sys.argv[3] == "1"
 scenario = load_scenario(path)
 cell = build_cell(scenario, path)
+try:  # kernels compile (or load) when first called: do it here, outside the timed run
+    from hrc_drake import kernels
+    kernels.warm_up()
+except ImportError:  # a tree without kernels
+    pass
 wall0, cpu0 = time.perf_counter(), time.process_time()
 result = simulate(cell, duration, progress=None)
 wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
@@ -175,8 +189,13 @@ start = time.perf_counter()
 from hrc_drake.cell.scenario import load_scenario
 from hrc_drake.cell.build import build_cell
 from hrc_drake.cell.run import simulate
-print(json.dumps({"import_s": time.perf_counter() - start}))
+print(json.dumps({"cell_import_s": time.perf_counter() - start}))
 """
+
+#: the first run on a machine: `hrc-drake simulate` of this cell for this many simulated seconds,
+#: with an empty numba cache (`first_run_s.<cell>`)
+FIRST_RUN_SCENARIO = "torch_clock"
+FIRST_RUN_DURATION = 20.0
 
 #: fresh interpreters per start-up figure
 STARTUP_REPEATS = 7
@@ -255,9 +274,8 @@ def figures_json(
         if base is not None:
             out[f"baseline_products_{name}"] = base["products"]
             out[f"baseline_min_distance_{name}"] = round(base["min_distance"], 4)
-    for label, prefix in (("current", ""), ("baseline", "baseline_")):
-        for key, value in ((startup or {}).get(label) or {}).items():
-            out[prefix + key] = round(value, 4)
+    if startup:
+        out.update(startup_figures(startup, load_start, load_end))
     out["below_goal"] = [n for n in names if not is_rendered(n) and current[n]["rtf_cpu"] < GOAL_RTF]
     out["goal_rtf"] = GOAL_RTF
     out["goal_help_s"] = GOAL_HELP_S
@@ -315,10 +333,12 @@ def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) ->
     return last_json_line(proc.stdout)
 
 
-def startup_times(tree: Path) -> dict:
+def startup_times(tree: Path, first_run: bool = True) -> dict:
     """Medians over STARTUP_REPEATS fresh interpreters of `tree`'s code: `help_s` (wall of
-    `python -m hrc_drake.cli --help`), `import_s` (inside the interpreter, see IMPORT_CODE) and
-    `interpreter_s` (wall of `python -c pass`)."""
+    `python -m hrc_drake.cli --help`), `import_s` (wall of `python -c "import hrc_drake"` minus
+    that of `python -c pass`), `cell_import_s` (inside the interpreter, see IMPORT_CODE) and
+    `interpreter_s` (wall of `python -c pass`); then the kernels' compile and load times
+    (`kernel_times`) and, with `first_run`, `first_run_s.<cell>` (`first_run_time`)."""
     env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
 
     def wall(cmd: list[str]) -> float:
@@ -334,34 +354,87 @@ def startup_times(tree: Path) -> dict:
                               capture_output=True, text=True)
         if proc.returncode != 0:
             raise RuntimeError(f"import of the cell modules in {tree} failed: {proc.stderr[-500:]}")
-        return last_json_line(proc.stdout)["import_s"]
+        return last_json_line(proc.stdout)["cell_import_s"]
 
-    help_s, import_s, interpreter_s = [], [], []
-    for _ in range(STARTUP_REPEATS):  # interleaved, so that load hits the three alike
+    help_s, package_s, cell_import_s, interpreter_s = [], [], [], []
+    for _ in range(STARTUP_REPEATS):  # interleaved, so that load hits them alike
         help_s.append(wall([sys.executable, "-m", "hrc_drake.cli", "--help"]))
-        import_s.append(imported())
+        package_s.append(wall([sys.executable, "-c", "import hrc_drake"]))
+        cell_import_s.append(imported())
         interpreter_s.append(wall([sys.executable, "-c", "pass"]))
-    return {"help_s": median(help_s), "import_s": median(import_s), "interpreter_s": median(interpreter_s),
-            **kernel_times(tree, env)}
+    out = {"help_s": median(help_s), "import_s": median(package_s) - median(interpreter_s),
+           "cell_import_s": median(cell_import_s), "interpreter_s": median(interpreter_s),
+           **kernel_times(tree, env)}
+    if first_run:
+        out.update(first_run_time(tree, env))
+    return out
 
 
-KERNEL_CODE = ("import json; from hrc_drake import kernels; "
-               "print(json.dumps({'warm_up_s': kernels.warm_up()}))")
+# Run in a fresh interpreter: compile (or load) the kernel groups named in argv (all without).
+KERNEL_CODE = r"""
+import json, sys
+from hrc_drake import kernels
+groups = sys.argv[1:]
+print(json.dumps({"warm_up_s": kernels.warm_up(groups) if groups else kernels.warm_up()}))
+"""
 
 
 def kernel_times(tree: Path, env: dict) -> dict:
-    """`kernel_compile_s`: `kernels.warm_up()` with an empty numba cache (a fresh machine's first
-    cell); `kernel_load_s`: the same again, loading what it cached. {} for a tree without kernels."""
+    """`kernel_compile_s`: `kernels.warm_up()` of every kernel with an empty numba cache (all
+    the kernels a fresh machine could compile); `kernel_load_s`: the same again, loading what
+    it cached; `kernel_compile_s.<group>` (trees with `kernels.GROUPS`): one group's kernels from
+    its own empty cache in its own interpreter, the kernels of other files it calls included
+    (a cell compiles only the groups its systems use). {} for a tree without kernels."""
     if not (tree / "hrc_drake" / "kernels.py").exists():
         return {}
+
+    def warm_up(cache: str, groups: list[str]) -> float:
+        proc = subprocess.run([sys.executable, "-c", KERNEL_CODE, *groups], cwd=tree,
+                              env=dict(env, NUMBA_CACHE_DIR=cache), capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise RuntimeError(f"kernels.warm_up({groups}) in {tree} failed: {proc.stderr[-500:]}")
+        return last_json_line(proc.stdout)["warm_up_s"]
+
     out = {}
     with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
-        for key in ("kernel_compile_s", "kernel_load_s"):
-            proc = subprocess.run([sys.executable, "-c", KERNEL_CODE], cwd=tree,
-                                  env=dict(env, NUMBA_CACHE_DIR=cache), capture_output=True, text=True)
-            if proc.returncode != 0:
-                raise RuntimeError(f"kernels.warm_up() in {tree} failed: {proc.stderr[-500:]}")
-            out[key] = last_json_line(proc.stdout)["warm_up_s"]
+        out["kernel_compile_s"] = warm_up(cache, [])
+        out["kernel_load_s"] = warm_up(cache, [])
+    proc = subprocess.run([sys.executable, "-c", "import json; from hrc_drake import kernels; "
+                           "print(json.dumps(list(getattr(kernels, 'GROUPS', {}))))"],
+                          cwd=tree, env=env, capture_output=True, text=True)
+    for group in last_json_line(proc.stdout) if proc.returncode == 0 else []:
+        with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
+            out[f"kernel_compile_s.{group}"] = warm_up(cache, [group])
+    return out
+
+
+def first_run_time(tree: Path, env: dict) -> dict:
+    """`first_run_s.<cell>`: wall seconds of `python -m hrc_drake.cli simulate <cell> --duration
+    FIRST_RUN_DURATION` with NUMBA_CACHE_DIR an empty folder, what a first run on a fresh machine
+    takes (interpreter, imports, build, kernel compilation, simulation). {} when the tree's CLI
+    cannot run it."""
+    scenario = tree / "diagrams" / f"{FIRST_RUN_SCENARIO}.yaml"
+    with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
+        start = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "hrc_drake.cli", "simulate", str(scenario), "--duration",
+                               f"{FIRST_RUN_DURATION:g}"], cwd=tree, env=dict(env, NUMBA_CACHE_DIR=cache),
+                              capture_output=True, text=True)
+        elapsed = time.perf_counter() - start
+    if proc.returncode != 0:
+        print(f"  first run of {FIRST_RUN_SCENARIO} in {tree} failed (exit {proc.returncode}): "
+              f"{proc.stderr.strip().splitlines()[-1:]}", flush=True)
+        return {}
+    return {f"first_run_s.{FIRST_RUN_SCENARIO}": elapsed}
+
+
+def startup_figures(startup: dict[str, dict], load_start: float, load_end: float) -> dict:
+    """The last line's figures of a `--startup-only` run: the start-up keys of each tree
+    (`baseline_` before the baseline's), rounded, and the load average."""
+    out: dict = {}
+    for label, prefix in (("current", ""), ("baseline", "baseline_")):
+        for key, value in (startup.get(label) or {}).items():
+            out[prefix + key] = round(value, 4)
+    out["load_average_1min"] = {"start": round(load_start, 2), "end": round(load_end, 2)}
     return out
 
 
@@ -490,6 +563,27 @@ def _sigterm(signum, frame):
     raise SystemExit(128 + signum)
 
 
+def startup_only(rev: str | None) -> None:
+    """`--startup-only`: the start-up figures of the current tree (and of `rev`), a short report,
+    then one JSON line."""
+    load_start = os.getloadavg()[0]
+    t_start = time.perf_counter()
+    print(f"bench_cell --startup-only: current tree{f' and baseline {rev}' if rev else ''}, "
+          f"load average {load_start:.2f}", flush=True)
+    startup = {}
+    with contextlib.ExitStack() as stack:
+        trees = {"current": REPO}
+        if rev is not None:
+            trees["baseline"] = stack.enter_context(baseline_tree(rev))
+        for label, tree in trees.items():
+            startup[label] = startup_times(tree)
+            for key, value in startup[label].items():
+                print(f"  {label:8s} {key:32s} {value:8.3f} s", flush=True)
+    load_end = os.getloadavg()[0]
+    print(f"total {time.perf_counter() - t_start:.0f} s, load average {load_start:.2f} -> {load_end:.2f}")
+    print(json.dumps(startup_figures(startup, load_start, load_end)))
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -497,7 +591,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--quick", action="store_true", help="20 s of simulated time, 1 repeat")
     parser.add_argument("--duration", type=float, default=None, help="simulated s per run (default 120)")
     parser.add_argument("--repeats", type=int, default=None, help="runs per scenario and tree (default 3)")
-    parser.add_argument("--baseline", default=DEFAULT_BASELINE, help="baseline git revision")
+    parser.add_argument("--baseline", default=None,
+                        help=f"baseline git revision (default {DEFAULT_BASELINE}; none with --startup-only)")
     parser.add_argument("--no-baseline", action="store_true", help="measure the current code only")
     parser.add_argument("--instructions", type=float, default=0.0, metavar="S",
                         help="also count instructions in AdvanceTo over S simulated s (valgrind)")
@@ -505,6 +600,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="measure only these scenarios of diagrams/ (names without .yaml)")
     parser.add_argument("--profile", action="store_true",
                         help="also profile the slowest cell (current code, cProfile)")
+    parser.add_argument("--startup-only", action="store_true",
+                        help="measure only the start-up figures (import_s, first_run_s.*, "
+                             "kernel_compile_s.*) of the current code (and of --baseline REV when given "
+                             "with it): ~2 minutes")
     args = parser.parse_args(argv)
     duration = args.duration or (20.0 if args.quick else 120.0)
     repeats = args.repeats or (1 if args.quick else 3)
@@ -515,6 +614,9 @@ def main(argv: list[str] | None = None) -> None:
     if args.instructions and shutil.which("valgrind") is None:
         parser.error("--instructions needs valgrind on PATH (apt-get install valgrind)")
     signal.signal(signal.SIGTERM, _sigterm)
+    if args.startup_only:
+        startup_only(None if args.no_baseline else args.baseline)
+        return
 
     names = sorted(p.stem for p in (REPO / "diagrams").glob("*.yaml"))
     if not names:
@@ -526,7 +628,7 @@ def main(argv: list[str] | None = None) -> None:
         names = [n for n in names if n in args.only]
     load_start = os.getloadavg()[0]
     t_start = time.perf_counter()
-    rev = None if args.no_baseline else args.baseline
+    rev = None if args.no_baseline else (args.baseline or DEFAULT_BASELINE)
     print(
         f"bench_cell: {len(names)} scenarios {names}, {duration:g} s simulated, {repeats} repeat(s), "
         f"baseline {rev or 'none'}, load average {load_start:.2f}",
@@ -592,7 +694,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"Realtime factors (simulated s / median s, {repeats} run(s) of {duration:g} s), kinematic robots")
     print(format_table(names, current, baseline))
     for label, times in startup.items():
-        print(f"start-up ({label}): --help {times['help_s']:.3f} s, cell imports {times['import_s']:.3f} s, "
+        print(f"start-up ({label}): --help {times['help_s']:.3f} s, "
+              f"import hrc_drake {times['import_s']:.3f} s, cell imports {times['cell_import_s']:.3f} s, "
               f"bare interpreter {times['interpreter_s']:.3f} s (goal: --help <= {GOAL_HELP_S:g} s)")
     by_copy, by_clone = largest_states(states)
     print()
