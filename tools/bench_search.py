@@ -20,7 +20,9 @@ falsify.<cell>.worst_margin.optimizer / .random (median over the repeats),
 falsify.<cell>.worst_margin_per_repeat.optimizer / .random, falsify.<cell>.worst_margin.p_less
 (one-sided Mann-Whitney U, TPE lower), falsify.<cell>.runs_to_first_violation.optimizer / .random
 (median over the repeats; a repeat with none counts as never; null when half or more found none),
-falsify.<cell>.runs_to_first_violation_per_repeat.optimizer / .random, falsify.<cell>.worst (the
+falsify.<cell>.runs_to_first_violation_per_repeat.optimizer / .random (a margin below 0: a contact
+the person made counts too), falsify.<cell>.runs_to_first_mode_violation_per_repeat.optimizer /
+.random (a contact the mode holds against the robot, `safety.violations_total` > 0), falsify.<cell>.worst (the
 worst candidate over every repeat: its search, margin and parameters), optimise.<cell>.cycle_s.best
 (fresh seeds), .shipped, optimise.<cell>.violations.best / .shipped (fresh seeds),
 optimise.<cell>.best_scenario_simulates, optimise.<cell>.best (its parameters) / .shipped_values,
@@ -126,9 +128,9 @@ def falsify(name: str, repeats: int, changes: dict, evaluator, tmp: Path, figure
     from scipy.stats import mannwhitneyu
 
     from hrc_drake.search.engine import run_search
-    from hrc_drake.search.report import finish_search, runs_to_first_violation
+    from hrc_drake.search.report import finish_search, is_mode_violation, runs_to_first_violation
 
-    per = {"optimizer": {"worst": [], "first": []}, "random": {"worst": [], "first": []}}
+    per = {label: {"worst": [], "first": [], "mode": []} for label in ("optimizer", "random")}
     worst = None
     cell = None
     candidate_ms = []
@@ -149,6 +151,7 @@ def falsify(name: str, repeats: int, changes: dict, evaluator, tmp: Path, figure
             value = float(part["objective"].min()) if len(part) else math.nan
             per[label]["worst"].append(value)
             per[label]["first"].append(runs_to_first_violation(results, search, label))
+            per[label]["mode"].append(runs_to_first_violation(results, search, label, is_mode_violation))
             if len(part) and (worst is None or value < worst["margin"]):
                 row = part.loc[part["objective"].idxmin()]
                 worst = {
@@ -179,6 +182,7 @@ def falsify(name: str, repeats: int, changes: dict, evaluator, tmp: Path, figure
     for label in ("optimizer", "random"):
         figures[f"{key}.runs_to_first_violation.{label}"] = _median_runs(per[label]["first"])
         figures[f"{key}.runs_to_first_violation_per_repeat.{label}"] = per[label]["first"]
+        figures[f"{key}.runs_to_first_mode_violation_per_repeat.{label}"] = per[label]["mode"]
     figures[f"{key}.repeats"] = repeats
     figures[f"{key}.budget"] = search.budget
     figures[f"{key}.objective"] = search.objective.metric

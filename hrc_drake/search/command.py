@@ -88,10 +88,12 @@ def run_command(args) -> int:
     report = json.loads((out / REPORT_FILE).read_text())
     for label, figures in report["searches"].items():
         first = figures["runs_to_first_violation"]
+        mode = figures.get("runs_to_first_mode_violation")
         print(
             f"{label}: best {search.objective.metric} {figures['best']} "
             f"({figures['top'][0]['variant'] if figures['top'] else 'none'}); runs to the first violation: "
-            f"{first if first is not None else 'none'}"
+            f"{first if first is not None else 'none'} (of the mode, held against the robot: "
+            f"{mode if mode is not None else 'none'})"
         )
     if "worst_replay" in report:
         print(f"worst candidate replayed: {report['worst_replay']}")

@@ -30,10 +30,19 @@ def is_violation(row, search) -> bool:
     return bool(row.get("metric.safety.violations_total", 0) > 0 or (margin and worst_margin < 0))
 
 
-def runs_to_first_violation(results, search, label: str):
+def is_mode_violation(row) -> bool:
+    """A candidate with a contact its safety mode holds against the robot on some seed
+    (`safety.violations_total` > 0). Narrower than `is_violation`: a margin also counts contacts
+    the person made (walking into a still robot), which the mode does not."""
+    return bool(row.get("metric.safety.violations_total", 0) > 0)
+
+
+def runs_to_first_violation(results, search, label: str, test=None):
+    """Runs spent by search `label` up to its first candidate that `test` (`is_violation`) flags."""
+    test = test or (lambda row: is_violation(row, search))
     part = results[(results["search"] == label)].sort_values("number")
     for _, row in part.iterrows():
-        if row["status"] == "ok" and is_violation(row, search):
+        if row["status"] == "ok" and test(row):
             return int(row["runs"])
     return None
 
@@ -81,6 +90,9 @@ def finish_search(search, out_dir: Path, outcome, evaluator, progress) -> dict:
             "candidates": int((results["search"] == label).sum()),
             "best": _plain(top["objective"].iloc[0]) if not top.empty else None,
             "runs_to_first_violation": runs_to_first_violation(results, search, label),
+            "runs_to_first_mode_violation": runs_to_first_violation(
+                results, search, label, is_mode_violation
+            ),
             "top": _candidates(top, search),
         }
     plots.plot_history(results, search, out_dir / "history.png")

@@ -139,3 +139,25 @@ def test_search_by_name_on_the_command_line(tmp_path, capsys, monkeypatch):
     assert main(["search", "no_such_search", "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
     assert "falsify_coexistence" in capsys.readouterr().err
     assert Path(search_path("optimise_pcb_ic")).is_file()
+
+
+def test_a_margin_below_zero_is_told_apart_from_a_violation_of_the_mode(tmp_path):
+    """report.json: runs to the first margin below 0 (a contact the person made counts) and to the
+    first contact the mode holds against the robot (`safety.violations_total` > 0)."""
+    path = SEARCHES / "falsify_pcb_ic.yaml"
+    search = make_search({**_read_raw(path), "budget": 12, "batch": 4}, path)
+
+    def cell(values, seed):
+        margin = values["stand_x"] - 0.95  # below 0 standing closer than 0.95 m
+        return {"safety": {"contact_margin": margin, "violations_total": int(values["stand_x"] < 0.88)}}
+
+    search_and_report(search, tmp_path / "out", evaluator=FunctionEvaluator(cell), progress=None)
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    results = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    for label, figures in report["searches"].items():
+        part = results[results["search"] == label].sort_values("number")
+        below = part[part["param.stand_x"] < 0.95]["runs"]
+        mode = part[part["param.stand_x"] < 0.88]["runs"]
+        assert figures["runs_to_first_violation"] == (int(below.iloc[0]) if len(below) else None)
+        assert figures["runs_to_first_mode_violation"] == (int(mode.iloc[0]) if len(mode) else None)
+    assert "worst_replay" not in report  # no simulation to replay
