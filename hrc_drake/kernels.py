@@ -27,9 +27,9 @@ compile.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import math
-import os
 import sys
 import time
 
@@ -213,10 +213,11 @@ class _FirstRunNotice(event.Listener):
 event.register("numba:compile", _FirstRunNotice())
 
 
-def _file_stamp(path: str) -> tuple[float, int]:
-    """What numba stamps a cached kernel with: its file's modification time and size."""
-    st = os.stat(path)
-    return st.st_mtime, st.st_size
+def _file_stamp(path: str) -> bytes:
+    """The SHA-256 of a file's source (numba 0.68 stamps a cached kernel with its own file's so):
+    a checkout that leaves the text alone keeps the cache."""
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).digest()
 
 
 def register_group(namespace: dict, *dependencies) -> None:

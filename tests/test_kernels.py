@@ -352,3 +352,13 @@ def test_each_group_is_registered_and_warms_up():
         assert callable(importlib.import_module(module)._warm_up), name
         assert description.startswith("the "), name
     assert kernels.warm_up(["prediction"]) < 60.0
+
+
+def test_a_kernel_calling_another_file_s_kernels_is_stamped_with_that_file_too():
+    """numba stamps a cached kernel with its own file only: editing `_skeleton_points` or
+    `_solve_pivoting` must make the motion group's cache stale, as it compiled them in."""
+    stamp = motion_kernels._tracking_gauss_newton._cache._cache_file._source_stamp
+    assert stamp[1:] == (kernels._file_stamp(kernels.__file__), kernels._file_stamp(human_kernels.__file__))
+    perception_stamp = perception_kernels._kalman_update._cache._cache_file._source_stamp
+    assert perception_stamp[1:] == (kernels._file_stamp(kernels.__file__),)
+    assert not isinstance(intention_kernels._bayes_rows._cache._cache_file._source_stamp, tuple)  # no callee
