@@ -112,7 +112,7 @@ class _VersionAction(argparse.Action):
 
 
 #: the top-level keys only a campaign spec has (a scenario has none of them)
-CAMPAIGN_ONLY_KEYS = frozenset({"name", "scenarios", "variants", "seeds", "expect", "extra_metrics",
+CAMPAIGN_ONLY_KEYS = frozenset({"name", "scenarios", "variants", "seeds", "expect", "extra_metrics", "pooled",
                                 "replays", "replay_fps"})
 
 
@@ -533,7 +533,7 @@ def _print_results(out: Path) -> None:
         if path.is_file():
             table = pd.read_csv(path)
             if name == "tests.csv":
-                table = table[table["test"] == "wilcoxon_signed_rank"]
+                table = table[table["test"].isin(("wilcoxon_signed_rank", "rank_sum_pooled"))]
             if table.empty:
                 print(f"{path}: no rows (no finished run with values to summarise or test)")
                 continue

@@ -94,12 +94,7 @@ def summary_table(runs, metrics: list[str], seed: int = 0):
             values = _values(ok_rows, metric)
             row = {"scenario": scenario, "variant": variant, "metric": metric, "n": len(values)}
             row["note"] = group_note(len(ok_rows), len(values))
-            if len(values):
-                q1, median, q3 = np.percentile(values, [25, 50, 75])
-                low, high = bootstrap_ci(values, rng)
-                row.update(median=median, q1=q1, q3=q3, iqr=q3 - q1, mean=float(values.mean()))
-                row.update(ci95_low=low, ci95_high=high)
-            rows.append(row)
+            rows.append(row | _statistics(values, rng))
     return pd.DataFrame(
         rows,
         columns=[
@@ -117,6 +112,16 @@ def summary_table(runs, metrics: list[str], seed: int = 0):
             "note",
         ],
     )
+
+
+def _statistics(values, rng) -> dict:
+    """Median, quartiles, IQR, mean and its bootstrap CI of `values` (empty without values)."""
+    if not len(values):
+        return {}
+    q1, median, q3 = np.percentile(values, [25, 50, 75])
+    low, high = bootstrap_ci(values, rng)
+    return {"median": median, "q1": q1, "q3": q3, "iqr": q3 - q1, "mean": float(values.mean()),
+            "ci95_low": low, "ci95_high": high}
 
 
 def _alternative(variant_a: str, variant_b: str, metric: str, expect: list[dict]) -> tuple[str, str]:
@@ -271,8 +276,8 @@ def _paired_note(a, b) -> str:
 def metric_label(metric: str) -> str:
     """An axis label: the metric's name with its unit where the name tells it (times in s,
     distances in m; fractions, counts and others have none)."""
-    last = metric.rsplit(".", 1)[-1]
-    if last.endswith(("_time", "_s", "_times")) or last in ("mean_cycle_time", "wall_time"):
+    last = metric.split("[", 1)[0].rsplit(".", 1)[-1]  # a pooled metric ends in [:k]
+    if last.endswith(("_time", "_s", "_times", "_wait")) or last in ("mean_cycle_time", "wall_time"):
         return f"{metric} (s)"
     if "distance" in last or last.endswith("_m"):
         return f"{metric} (m)"
@@ -364,6 +369,83 @@ def box_figure(data: list[tuple[str, np.ndarray, str]], metric: str, title: str 
     return fig
 
 
+def pooled_values(ok_rows, metric: str, first: int = 0) -> np.ndarray:
+    """The list values of `metric` in `ok_rows` (the first `first` of each run, 0: all), pooled;
+    a run without the column's list (NaN, None) adds nothing."""
+    pooled = []
+    if metric in ok_rows:
+        for value in ok_rows[metric]:
+            if value is None or (np.ndim(value) == 0 and not isinstance(value, (list, tuple))):
+                continue
+            values = np.asarray(value, dtype=float).reshape(-1)
+            pooled.append(values[:first] if first else values)
+    out = np.concatenate(pooled) if pooled else np.zeros(0)
+    return out[np.isfinite(out)]
+
+
+def pooled_tables(runs, pooled: list[dict], expect: list[dict], seed: int = 0):
+    """(summary rows, tests rows) of the pooled samples (`spec.PooledSamples`): per group the
+    statistics of `summary_table` over the pooled values (n counts samples, not runs), and per two
+    variants of a scenario a rank-sum test of the pooled samples ("rank_sum_pooled"; samples of one
+    run are not independent, as the thesis's test on per-product waits also takes them)."""
+    import pandas as pd
+
+    from hrc_drake.campaign.spec import PooledSamples
+
+    rng = np.random.default_rng(seed)
+    summary, tests = [], []
+    for item in pooled:
+        sample = PooledSamples(**item)
+        label = sample.label
+        groups = {key: (ok_rows, pooled_values(ok_rows, sample.metric, sample.first))
+                  for key, ok_rows in _groups(runs)}
+        for (scenario, variant), (ok_rows, values) in groups.items():
+            summary.append({"scenario": scenario, "variant": variant, "metric": label, "n": len(values),
+                            "note": group_note(len(ok_rows), len(values)), **_statistics(values, rng)})
+        for scenario in sorted({key[0] for key in groups}):
+            variants = sorted(v for s, v in groups if s == scenario)
+            for first, second in itertools.combinations(variants, 2):
+                (a_rows, a), (b_rows, b) = groups[(scenario, first)], groups[(scenario, second)]
+                alternative, claim = _alternative(first, second, sample.metric, expect)
+                notes = [f"{side}: {note}" for side, rows, values in (("a", a_rows, a), ("b", b_rows, b))
+                         if (note := group_note(len(rows), len(values)))]
+                u, p, r = rank_sum_test(a, b, alternative)
+                tests.append({"scenario": scenario, "variant": "", "compared": "variant", "metric": label,
+                              "a": first, "b": second, "test": "rank_sum_pooled", "alternative": alternative,
+                              "claim": claim, "n_a": len(a), "n_b": len(b),
+                              "median_a": float(np.median(a)) if len(a) else math.nan,
+                              "median_b": float(np.median(b)) if len(b) else math.nan,
+                              "statistic": u, "p": p, "effect_size": r,
+                              "note": f"skipped ({'; '.join(notes)})" if notes else ""})
+    return pd.DataFrame(summary), pd.DataFrame(tests)
+
+
+def plot_pooled(runs, pooled: list[dict], out_dir: Path, title: str = "") -> list[Path]:
+    """A box plot per pooled metric, a box per group (as thesis Fig. 7.27)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from hrc_drake.campaign.spec import PooledSamples
+
+    paths = []
+    several = runs["scenario"].nunique() > 1 if len(runs) else False
+    for item in pooled:
+        sample = PooledSamples(**item)
+        data = []
+        for (s, v), ok_rows in _groups(runs):
+            values = pooled_values(ok_rows, sample.metric, sample.first)
+            data.append((f"{s}\n{v}" if several else str(v), values, group_note(len(ok_rows), len(values))))
+        if not any(len(values) for _, values, _ in data):
+            continue
+        fig = box_figure(data, sample.label, title)
+        paths.append(Path(out_dir) / f"box_{sample.metric.replace('.', '_')}_pooled.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths
+
+
 def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:
     """summary.csv, tests.csv and the plots of `runs` in `out_dir`; returns their paths. Without
     ok rows the two tables are still written (only their groups, or empty), so no stale ones stay."""
@@ -375,10 +457,17 @@ def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:
     metrics = metric_columns(runs, description.get("metrics", []))
     summary = summary_table(runs, metrics)
     tests = tests_table(runs, metrics, description.get("expect", []))
+    pooled = description.get("pooled", [])
+    if pooled:
+        pooled_summary, pooled_tests = pooled_tables(runs, pooled, description.get("expect", []))
+        summary = pd.concat([summary, pooled_summary.reindex(columns=summary.columns)], ignore_index=True)
+        tests = pd.concat([tests, pooled_tests.reindex(columns=tests.columns)], ignore_index=True)
     summary_path, tests_path = out_dir / "summary.csv", out_dir / "tests.csv"
     summary.to_csv(summary_path, index=False, float_format="%.6g")
     tests.to_csv(tests_path, index=False, float_format="%.6g")
-    return [summary_path, tests_path, *plot_metrics(runs, metrics, out_dir, description.get("name", ""))]
+    title = description.get("name", "")
+    return [summary_path, tests_path, *plot_metrics(runs, metrics, out_dir, title),
+            *plot_pooled(runs, pooled, out_dir, title)]
 
 
 def compare_campaigns(dirs: list[Path], out_dir: Path) -> list[Path]:

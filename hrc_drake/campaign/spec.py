@@ -74,6 +74,21 @@ class Expectation:
 
 
 @dataclass
+class PooledSamples:
+    """Per-run samples pooled over a group's runs and tested as one sample (the thesis's tests on
+    per-product waits, 7.5.3): `metric` a list-valued extra column (`per_product.operator_wait`),
+    the first `first` values of each run (0: all of them)."""
+
+    metric: str = ""
+    first: int = 0
+
+    @property
+    def label(self) -> str:
+        """The name of the pooled metric in summary.csv and tests.csv (`metric[:first]`)."""
+        return f"{self.metric}[:{self.first or ''}]"
+
+
+@dataclass
 class ReplayRequest:
     """One run whose meshcat replay is written to DIR/replays/ (a run is recorded only when asked)."""
 
@@ -102,6 +117,8 @@ class CampaignFile:
     replay_fps: float = 10.0
     #: extra columns per run (`campaign.extras`): registered names or `module:function` paths
     extra_metrics: list[str] = field(default_factory=list)
+    #: list-valued extra columns pooled over each group's runs and tested as one sample
+    pooled: list[PooledSamples] = field(default_factory=list)
 
 
 HAND_READ = ("variants", "seeds")
@@ -155,6 +172,8 @@ class Campaign:
     metric_names: dict[str, list[str]] = field(default_factory=dict)
     #: extra-metrics functions run after every run (`campaign.extras`)
     extra_metrics: list[str] = field(default_factory=list)
+    #: list-valued extra columns pooled over each group's runs (`PooledSamples`)
+    pooled: list[PooledSamples] = field(default_factory=list)
 
     @property
     def run_count(self) -> int:
@@ -205,6 +224,7 @@ class Campaign:
             "metrics": self.metrics,
             "expect": [dataclasses.asdict(e) for e in self.expect],
             "extra_metrics": self.extra_metrics,
+            "pooled": [dataclasses.asdict(x) for x in self.pooled],
         }
 
 
@@ -295,6 +315,16 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
             raise ScenarioError(
                 path, f"metrics[{k}]", f"unknown metric '{pattern}' (known: {', '.join(known)})"
             )
+    for k, sample in enumerate(spec.pooled):
+        extra = sample.metric.split(".", 1)[0]
+        if extra not in spec.extra_metrics or "." not in sample.metric:
+            raise ScenarioError(
+                path, f"pooled[{k}].metric",
+                f"'{sample.metric}' is not a column of the campaign's extra_metrics {spec.extra_metrics} "
+                f"(e.g. per_product.operator_wait with extra_metrics: [per_product])")
+        if isinstance(sample.first, bool) or not isinstance(sample.first, int) or sample.first < 0:
+            raise ScenarioError(path, f"pooled[{k}].first", f"must be an integer >= 0, got {sample.first!r}")
+    pooled_names = [x.metric for x in spec.pooled]
     for k, claim in enumerate(spec.expect):
         for key in ("better", "than"):
             if getattr(claim, key) not in variants:
@@ -306,7 +336,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
         if claim.better == claim.than:
             raise ScenarioError(path, f"expect[{k}]", f"a variant cannot beat itself ('{claim.better}')")
         for j, pattern in enumerate(claim.metrics):
-            if not any(fnmatch.fnmatch(m, pattern) for m in expand_metrics(metrics, known)):
+            if not any(fnmatch.fnmatch(m, pattern) for m in expand_metrics(metrics, known) + pooled_names):
                 raise ScenarioError(
                     path,
                     f"expect[{k}].metrics[{j}]",
@@ -344,6 +374,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
         replay_fps=spec.replay_fps,
         metric_names=metric_names,
         extra_metrics=list(spec.extra_metrics),
+        pooled=list(spec.pooled),
     )
 
 

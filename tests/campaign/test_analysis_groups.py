@@ -146,3 +146,31 @@ def test_compare_of_two_campaigns_where_one_has_an_all_nan_group(tmp_path, panel
     assert (cycle["a"] == "long/rr").all() and (cycle["note"] == "skipped (b: all NaN)").all()
     assert tmp_path / "out" / "box_mean_cycle_time.png" in paths
     assert "all NaN" in panel_texts
+
+
+def test_pooled_per_run_samples_are_tested_as_one_sample_per_variant(tmp_path):
+    """`pooled`: the first k values of a list column of every run, pooled per group, tested with a
+    one-sided rank sum where the campaign expects a winner (the thesis's test of 7.5.3)."""
+    from scipy.stats import mannwhitneyu
+
+    waits = {"fuzzy": [[1.0, 2.0, 9.0], [0.5, 1.5], None],
+             "uniform": [[3.0, 4.0, 0.1], [5.0, 2.5, 7.0], [6.0]]}
+    rows = _rows({("cell", v): [20.0] * len(w) for v, w in waits.items()})
+    rows["per_product.operator_wait"] = [w for v in waits for w in waits[v]]
+    rows.loc[rows["per_product.operator_wait"].isna(), "status"] = "failed"
+    description = {"name": "pooled", "metrics": ["mean_cycle_time"], "extra_metrics": ["per_product"],
+                   "pooled": [{"metric": "per_product.operator_wait", "first": 2}],
+                   "expect": [{"better": "fuzzy", "than": "uniform",
+                               "metrics": ["per_product.operator_wait"]}]}
+    paths = analyze_campaign(rows, description, tmp_path)
+    tests = _read(tmp_path / "tests.csv")
+    pooled = tests[tests["test"] == "rank_sum_pooled"]
+    assert len(pooled) == 1
+    row = pooled.iloc[0]
+    fuzzy, uniform = [1.0, 2.0, 0.5, 1.5], [3.0, 4.0, 5.0, 2.5, 6.0]  # the first 2 of each ok run
+    assert row["metric"] == "per_product.operator_wait[:2]" and (row["a"], row["b"]) == ("fuzzy", "uniform")
+    assert row["alternative"] == "less" and (row["n_a"], row["n_b"]) == (4, 5)
+    assert row["p"] == pytest.approx(mannwhitneyu(fuzzy, uniform, alternative="less").pvalue)
+    summary = _read(tmp_path / "summary.csv")
+    assert _summary_row(summary, "cell", "uniform", "per_product.operator_wait[:2]")["median"] == 4.0
+    assert tmp_path / "box_per_product_operator_wait_pooled.png" in paths

@@ -242,6 +242,11 @@ def test_an_unreachable_address_is_a_clear_error_not_a_hang(tmp_path):
         (("name: small", "name: small\ncolour: red"), "colour", "unknown key"),
         (("name: small", "name: small\nextra_metrics: [nope]"), "extra_metrics[0]", "unknown extra metrics"),
         (("name: small", "name: small\nextra_metrics: [os:nope]"), "extra_metrics[0]", "cannot import"),
+        (("name: small", "name: small\npooled: [{metric: per_product.operator_wait}]"), "pooled[0].metric",
+         "not a column of the campaign's extra_metrics"),
+        (("name: small",
+          "name: small\nextra_metrics: [per_product]\npooled: [{metric: per_product.times, first: -1}]"),
+         "pooled[0].first", "integer >= 0"),
     ],
 )
 def test_a_bad_spec_names_the_file_the_field_and_the_reason(tmp_path, capsys, change, field, reason):
