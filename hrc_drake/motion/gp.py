@@ -134,6 +134,13 @@ def log_marginal_likelihood(log_theta, gram, sq_dist, y) -> tuple[float, np.ndar
 
     gram: (N, N) X X^T; sq_dist: (N, N) squared distances; y: (N, m) targets.
     """
+    value, gradient, _ = _log_marginal_likelihood(log_theta, gram, sq_dist, y)
+    return value, gradient
+
+
+def _log_marginal_likelihood(log_theta, gram, sq_dist, y):
+    """`log_marginal_likelihood` and the factorisation it made: (k, chol, alpha, K^-1), with k
+    the factored matrix K + (theta4 + 1e-8) I, or None when K is not positive definite."""
     theta1, theta2, theta3, theta4 = np.exp(log_theta)
     n, m = y.shape
     rbf = np.exp(-0.5 * theta2 * sq_dist)
@@ -142,37 +149,60 @@ def log_marginal_likelihood(log_theta, gram, sq_dist, y) -> tuple[float, np.ndar
     try:
         chol = _cholesky_lower(k)
     except np.linalg.LinAlgError:
-        return -1e25, np.zeros(4)
+        return -1e25, np.zeros(4), None
     alpha = _cholesky_solve(chol, y)
     value = -0.5 * np.sum(y * alpha) - m * np.log(np.diag(chol)).sum() - 0.5 * n * m * np.log(2 * np.pi)
-    inner = alpha @ alpha.T - m * _cholesky_inverse(chol)
+    k_inv = _cholesky_inverse(chol)
+    inner = alpha @ alpha.T - m * k_inv
     gradient = 0.5 * np.array([
         np.sum(inner * gram) * theta1,
         np.sum(inner * rbf * sq_dist) * (-0.5 * theta2 * theta3),
         np.sum(inner * rbf) * theta3,
         np.trace(inner) * theta4,
     ])
-    return value, gradient
+    return value, gradient, (k, chol, alpha, k_inv)
 
 
 def fit_hyperparameters(x, y, initial_theta, max_iter: int = 15) -> np.ndarray:
     """Hyperparameters of (8.7) maximising (E.16) by L-BFGS-B in log space, from initial_theta."""
+    return _fit_hyperparameters(x, y, initial_theta, max_iter)[0]
+
+
+def _fit_hyperparameters(x, y, initial_theta, max_iter: int = 15):
+    """`fit_hyperparameters` and the factorisation (k, chol, alpha, K^-1) of its last objective
+    evaluation (None without one), which is usually the one at the optimum: `_factor` reuses it."""
     gram = x @ x.T
     sq_norm = np.einsum("ij,ij->i", x, x)
     sq_dist = np.maximum(sq_norm[:, None] + sq_norm[None, :] - 2.0 * gram, 0.0)
     start = np.log(np.clip(initial_theta, THETA_BOUNDS[:, 0], THETA_BOUNDS[:, 1]))
     if max_iter <= 0:
-        return np.exp(start)
+        return np.exp(start), None
+    last = [None]
 
     def objective(log_theta):
-        value, gradient = log_marginal_likelihood(log_theta, gram, sq_dist, y)
+        value, gradient, last[0] = _log_marginal_likelihood(log_theta, gram, sq_dist, y)
         return -value, -gradient
 
     from scipy.optimize import minimize
 
     result = minimize(objective, start, method="L-BFGS-B", jac=True, bounds=np.log(THETA_BOUNDS),
                       options={"maxiter": int(max_iter)})
-    return np.exp(result.x)
+    return np.exp(result.x), last[0]
+
+
+def _factor(xs, ys, theta, last=None):
+    """(alpha, K^-1) of the GP on standardised xs (N, D), ys (N, m) with hyperparameters theta:
+    K = (8.7)(xs, xs) + (theta4 + 1e-8) I by `kernel_8_7`, factored by potrf. `last`, the
+    factorisation of the hyperparameter fit's last evaluation (`_fit_hyperparameters`), is reused
+    when its matrix is bit for bit this K (its alpha and K^-1 are then the same bits too); else
+    K is factored afresh, the reference (the fit builds K from its own squared norms, so the
+    bits differ in ~6% of the refits of box_pcb_coexistence)."""
+    k = kernel_8_7(xs, xs, theta)
+    k[np.diag_indices(len(xs))] += theta[3] + 1e-8
+    if last is not None and np.array_equal(k, last[0]):
+        return last[2], last[3]
+    chol = _cholesky_lower(k)
+    return _cholesky_solve(chol, ys), _cholesky_inverse(chol)
 
 
 def _derivative_scale(values: np.ndarray) -> np.ndarray:
@@ -345,15 +375,11 @@ class GPMotionModel:
                 y_std[i] = _derivative_scale(y)
                 xs = (x - x_mean[i]) / x_std[i]
                 ys = (y - y_mean[i]) / y_std[i]
+                last = None
                 if optimise:
-                    self.theta_[g] = fit_hyperparameters(xs, ys, self.theta_[g], self.max_iter)
-                theta = self.theta_[g]
-                k = kernel_8_7(xs, xs, theta)
-                k[np.diag_indices(n)] += theta[3] + 1e-8
-                chol = _cholesky_lower(k)
+                    self.theta_[g], last = _fit_hyperparameters(xs, ys, self.theta_[g], self.max_iter)
                 x_train[i] = xs
-                alpha[i] = _cholesky_solve(chol, ys)
-                k_inv[i] = _cholesky_inverse(chol)
+                alpha[i], k_inv[i] = _factor(xs, ys, self.theta_[g], last)
             self.buckets_.append({
                 "members": members, "joints": np.array([self.groups[g] for g in members]),
                 "x_train": x_train, "x_train_sq": (x_train**2).sum(-1), "alpha": alpha, "k_inv": k_inv,
