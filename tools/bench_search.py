@@ -28,8 +28,8 @@ worst candidate over every repeat: its search, margin and parameters), optimise.
 optimise.<cell>.best_scenario_simulates, optimise.<cell>.best (its parameters) / .shipped_values,
 overhead_per_candidate_ms, overhead_pct_of_candidate (of the mean candidate's runs, falsify_pcb_ic).
 
-    python tools/bench_search.py --quick      # under 5 minutes on 2 cores
-    python tools/bench_search.py --workers 2  # the full bench (about 30-40 minutes on 2 cores)
+    python tools/bench_search.py --quick      # under 5 minutes on 2 cores (2.7-4.3 min measured)
+    python tools/bench_search.py --workers 2  # the full bench (51 min on 2 cores shared with other jobs)
 """
 
 from __future__ import annotations
