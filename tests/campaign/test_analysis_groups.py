@@ -50,7 +50,7 @@ def panel_texts(monkeypatch) -> list[str]:
 
 def _read(path: Path) -> pd.DataFrame:
     """summary.csv or tests.csv, an empty note as ""."""
-    return pd.read_csv(path).fillna({"note": ""})
+    return pd.read_csv(path, dtype={"note": str}).fillna({"note": ""})
 
 
 def _summary_row(summary: pd.DataFrame, scenario: str, variant: str, metric: str = "mean_cycle_time"):
