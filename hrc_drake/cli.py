@@ -116,6 +116,19 @@ CAMPAIGN_ONLY_KEYS = frozenset({"name", "scenarios", "variants", "seeds", "expec
                                 "replays", "replay_fps"})
 
 
+#: top-level keys of a search spec that neither a scenario nor a campaign spec has
+SEARCH_ONLY_KEYS = ("parameters", "budget")
+
+
+def _has_top_level_key(file, keys) -> bool:
+    """Whether the YAML text of `file` has one of `keys` at its top level (a line `key:`)."""
+    try:
+        lines = Path(file).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError, TypeError):
+        return False
+    return any(line.split(":", 1)[0] in keys for line in lines if ":" in line and not line[:1].isspace())
+
+
 def _wrong_kind_hint(err: ScenarioError, expected: str) -> ScenarioError:
     """`err` with a hint naming the right command when the file is of the other kind: a
     campaign spec given to simulate / validate (`expected` "scenario"), a scenario given to
@@ -123,7 +136,11 @@ def _wrong_kind_hint(err: ScenarioError, expected: str) -> ScenarioError:
     key = err.field
     if "unknown key" not in err.reason or not key or any(c in key for c in ".["):
         return err
-    if expected == "scenario" and key in CAMPAIGN_ONLY_KEYS:
+    spec_key = expected == "scenario" and key in CAMPAIGN_ONLY_KEYS
+    if spec_key and _has_top_level_key(err.file, SEARCH_ONLY_KEYS):
+        hint = (f"{err.file} looks like a search spec (it has 'parameters' or 'budget'): run it with "
+                f"`hrc-drake search {err.file} --out FOLDER`")
+    elif spec_key:
         hint = (f"{err.file} looks like a campaign spec (it has '{key}'): run it with "
                 f"`hrc-drake campaign {err.file} --out FOLDER`")
     elif expected == "campaign":

@@ -324,6 +324,14 @@ def test_a_campaign_spec_given_for_a_scenario_gets_a_hint_naming_campaign(comman
     assert len(err) == 2 and err[1].startswith("hint:") and f"hrc-drake campaign {spec} --out" in err[1]
 
 
+@pytest.mark.parametrize("command", ["simulate", "validate"])
+def test_a_search_spec_given_for_a_scenario_gets_a_hint_naming_search(command, capsys):
+    spec = str(DIAGRAMS / "searches" / "optimise_pcb_ic.yaml")
+    assert main([command, spec]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2 and err[1].startswith("hint:") and f"hrc-drake search {spec} --out" in err[1]
+
+
 def test_a_scenario_given_to_campaign_gets_a_hint_naming_simulate(tmp_path, capsys):
     assert main(["campaign", TORCH, "--out", str(tmp_path / "out")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err.splitlines()
