@@ -47,7 +47,7 @@ GROUPS: dict[str, tuple[str, str]] = {
     "human": ("hrc_drake.human._kernels", "the camera and the body model"),
     "motion": ("hrc_drake.motion._kernels", "the human motion predictor"),
     "perception": ("hrc_drake.perception._kernels", "the Kalman trackers and the particle filter"),
-    "intention": ("hrc_drake.intention._kernels", "the intention estimator"),
+    "intention": ("hrc_drake.intention._kernels", "the intention estimator and the action segmenter"),
     "prediction": ("hrc_drake.prediction._kernels", "the waiting-time predictor"),
     "scheduling": ("hrc_drake.scheduling._kernels", "the Monte Carlo scheduler"),
 }

@@ -338,7 +338,8 @@ def test_a_first_run_names_each_group_it_compiles_once_and_a_cached_run_says_not
                               check=True, timeout=120).stderr
 
     first = stderr()
-    intention_line = "compiling kernels for the intention estimator (first run only) ..."
+    intention_line = ("compiling kernels for the intention estimator and the action segmenter "
+                      "(first run only) ...")
     assert first.count(intention_line) == 1, first
     assert first.count("compiling kernels for the waiting-time predictor (first run only) ...") == 1, first
     assert first.count("compiling kernels") == 2, first  # no other group: those were not called

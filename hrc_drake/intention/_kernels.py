@@ -1,7 +1,9 @@
 """Compiled kernels (numba) of the intention estimator (Ch. 3, `intention.features`,
 `intention.bayes`): the least-squares wrist velocity of a window, the features Phi and GMM
-densities of eq. (3.12) and the Bayes step (3.2). Their numpy forms stay the reference the tests
-compare against (tests/test_kernels.py). Compiled when first called, cached on disk
+densities of eq. (3.12) and the Bayes step (3.2); and of the action segmenter (Ch. 4,
+`intention.segmentation`): max-product on the hidden chain of order 1 (App. C.0.1). Their numpy
+forms stay the reference the tests compare against (tests/test_kernels.py,
+tests/intention/test_segmentation_chain.py). Compiled when first called, cached on disk
 (`hrc_drake.kernels`, group "intention").
 """
 
@@ -169,6 +171,29 @@ def _bayes_rows(prior, log_likelihood, switch, active, floor):
     return out
 
 
+@njit(cache=True)
+def _chain_max_log_energy(unary, pair):
+    """max over y of sum_k unary[k, y_k] + sum_{k >= 1} pair[y_k, y_k-1]: max-product on a chain
+    (App. C.0.1, eq. (C.22)) in the log domain, forward messages only (the value, not the argmax)."""
+    n_links, n_values = unary.shape
+    best = unary[0].copy()
+    step = np.empty(n_values)
+    for k in range(1, n_links):
+        for a in range(n_values):
+            top = -np.inf
+            for b in range(n_values):
+                value = best[b] + pair[a, b]
+                if value > top:
+                    top = value
+            step[a] = top + unary[k, a]
+        best[:] = step
+    top = -np.inf
+    for a in range(n_values):
+        if best[a] > top:
+            top = best[a]
+    return top
+
+
 def window_velocity(times, positions, min_speed: float, min_samples: int,
                     significance: float) -> tuple[np.ndarray, np.ndarray]:
     """`_window_velocity`: (velocity (P, 3), moving (P,)) of one window times (K,), positions (K, P, 3)."""
@@ -199,6 +224,12 @@ def bayes_rows(prior, log_likelihood, switch, active, floor: float) -> np.ndarra
                        float(floor))
 
 
+def chain_max_log_energy(unary, pair) -> float:
+    """`_chain_max_log_energy`: unary (K, m) log potentials, pair (m, m) the log potential of
+    (Y_k, Y_k-1); -inf when every assignment is impossible."""
+    return float(_chain_max_log_energy(*_arrays(unary, pair)))
+
+
 def _warm_up() -> None:
     """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
     window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
@@ -206,6 +237,7 @@ def _warm_up() -> None:
     goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3), np.ones(3),
                          np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
                          1.0, 1e-6)
+    chain_max_log_energy(np.zeros((2, 2)), np.zeros((2, 2)))
 
 
 kernels.register_group(globals())

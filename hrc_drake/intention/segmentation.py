@@ -50,6 +50,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.special import gammaln
 
+from hrc_drake.intention import _kernels
 from hrc_drake.intention.config import OBSERVATION_POTENTIALS  # how Phi_OjY is made, counts first
 from hrc_drake.intention.factor_graph import FactorGraph, FitReport
 from hrc_drake.messages import L_WRIST, R_WRIST, SKELETON_POINTS
@@ -548,6 +549,23 @@ class WindowProblem:
             self.model, [c.log_unary for c in chain], chain_pairs(len(chain), self.model.order)
         )
 
+    def map_log_energy(self, chain: list[ChainLink]) -> float:
+        """log E(Ô, Y_MAP | rho) of eq. (4.5): with order 1 the chain is a tree and its exact
+        max-product value is the compiled forward pass (`_kernels.chain_max_log_energy`, equal to
+        the graph's within float rounding, tests/intention/test_segmentation_chain.py); otherwise,
+        or when a potential is not finite, the energy of the graph's MAP (`graph_map_log_energy`)."""
+        if self.model.order == 1:
+            unary = np.array([c.log_unary for c in chain])
+            value = _kernels.chain_max_log_energy(unary, self.model.w_seq * self.model.phi_seq[0])
+            if np.isfinite(value):
+                return value
+        return self.graph_map_log_energy(chain)
+
+    def graph_map_log_energy(self, chain: list[ChainLink]) -> float:
+        """log E of the MAP assignment of the chain's FactorGraph (App. C.0.1): the reference."""
+        graph = self.graph(chain)
+        return graph.log_energy(graph.map())
+
     def log_fitness(self, rho) -> float:
         """log of eq. (4.5): log E(Ô, Y_MAP | rho) - log sup E + log P(rho) (4.6); sup E is the product
         of the maxima of all potentials (the messages' too), Y_MAP by max-product on the graph."""
@@ -555,8 +573,7 @@ class WindowProblem:
         key = tuple(int(c) for c in counts)
         if key not in self._cache:
             chain = self.links(counts)
-            graph = self.graph(chain)
-            log_energy = graph.log_energy(graph.map())
+            log_energy = self.map_log_energy(chain)
             pairs = chain_pairs(len(chain), self.model.order)
             log_sup = sum(c.log_sup for c in chain) + sum(self._sequence_sup[lag - 1] for _, _, lag in pairs)
             prior = poisson_log_prior(len(counts), self.prior_rate, self.n_windows)
