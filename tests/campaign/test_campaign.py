@@ -416,9 +416,12 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_pat
     spec = _spec(tmp_path, long_runs)
     command = [sys.executable, "-m", "hrc_drake.cli", "campaign", str(spec), "--out", str(tmp_path / "out"),
                "--workers", "2"]
-    # its own process group, which gets the signal as a terminal's Ctrl-C does (workers included)
+    # its own process group, which gets the signal as a terminal's Ctrl-C does (workers included);
+    # SIGINT handled as at a terminal also when this test runs in the background of a shell
+    # without job control (which starts it with SIGINT ignored, and Python keeps that)
     proc = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     sigint = 1 << (signal.SIGINT - 1)
 
     def quiet_workers() -> list[int]:

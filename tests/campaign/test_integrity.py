@@ -74,7 +74,17 @@ def _sigterm_after(command: list[str], line: str, delay: float = 0.0) -> int:
 # ---------------------------------------------------------------- interrupts and signals (1, 8, 11)
 
 
-def test_ctrl_c_in_an_in_process_campaign_stops_it_and_keeps_no_cut_short_run(tmp_path, capsys, monkeypatch):
+@pytest.fixture
+def sigint_as_at_a_terminal():
+    """Ctrl-C raises KeyboardInterrupt in this process also when pytest runs in the background of
+    a shell without job control (which starts it with SIGINT ignored; the run then keeps it so)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_in_an_in_process_campaign_stops_it_and_keeps_no_cut_short_run(tmp_path, capsys, monkeypatch,
+                                                                              sigint_as_at_a_terminal):
     """Item 1: the run Ctrl-C cuts short is not stored as ok; the campaign stops with 130 and
     the next run of the command runs it again."""
     import hrc_drake.cell.run as cell_run
@@ -115,7 +125,8 @@ def test_an_interrupt_before_any_run_finished_says_nothing_was_saved(tmp_path, c
     assert "before any run finished: nothing was saved" in err and "runs.parquet" not in err
 
 
-def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(monkeypatch):
+def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(monkeypatch,
+                                                                               sigint_as_at_a_terminal):
     """Item 8: numba turns a KeyboardInterrupt raised inside a kernel into `SystemError: ...
     returned a result with an exception set`. The kernel here raises it the way numba does when
     the signal's handler raises; the run must still end with its partial results."""
