@@ -24,12 +24,15 @@ falsify.<cell>.runs_to_first_violation_per_repeat.optimizer / .random (a margin 
 the person made counts too), falsify.<cell>.runs_to_first_mode_violation_per_repeat.optimizer /
 .random (a contact the mode holds against the robot, `safety.violations_total` > 0), falsify.<cell>.worst (the
 worst candidate over every repeat: its search, margin and parameters), optimise.<cell>.cycle_s.best
-(fresh seeds), .shipped, optimise.<cell>.violations.best / .shipped (fresh seeds),
+(fresh seeds), .shipped, .differences (best - shipped per fresh seed), .wilcoxon_p (one-sided
+signed-rank, best shorter), optimise.<cell>.violations.best / .shipped (fresh seeds),
 optimise.<cell>.best_scenario_simulates, optimise.<cell>.best (its parameters) / .shipped_values,
-overhead_per_candidate_ms, overhead_pct_of_candidate (of the mean candidate's runs, falsify_pcb_ic).
+overhead_per_candidate_ms, overhead_pct_of_candidate (of the mean candidate's runs, falsify_pcb_ic),
+sections (`--only falsify|optimise` runs one).
 
     python tools/bench_search.py --quick      # under 5 minutes on 2 cores (2.7-4.3 min measured)
     python tools/bench_search.py --workers 2  # the full bench (51 min on 2 cores shared with other jobs)
+    python tools/bench_search.py --only optimise
 """
 
 from __future__ import annotations
@@ -218,6 +221,9 @@ def optimise(changes: dict, evaluator, tmp: Path, figures: dict, log) -> None:
         figures[f"{key}.violations.{label}"] = _plain(metrics.get("safety.violations_total"))
         figures[f"{key}.products.{label}"] = _plain(metrics.get("products_finished"))
     figures[f"{key}.fresh_seeds"] = best.get("fresh_seeds")
+    paired = best.get("paired") or {}
+    figures[f"{key}.cycle_s.differences"] = paired.get("differences")
+    figures[f"{key}.cycle_s.wilcoxon_p"] = paired.get("wilcoxon_p")
     top = (report["searches"].get("optimizer") or {}).get("top") or []
     figures[f"{key}.best"] = (
         {"variant": top[0]["variant"], "search_objective": top[0]["objective"], **top[0]["parameters"]}
@@ -246,6 +252,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--only", choices=("falsify", "optimise"), default=None,
+                        help="run one of the two sections (the overhead share then has no candidate run)")
     args = parser.parse_args(argv)
     from hrc_drake.campaign.engine import ClusterClient
     from hrc_drake.search.engine import CampaignEvaluator
@@ -257,15 +265,19 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp, ClusterClient(None, args.workers) as client:
         evaluator = CampaignEvaluator(client)
         timing = {}
-        for name, modes in FALSIFY.items():
-            repeats, changes = modes[mode]
-            timing[name] = falsify(name, repeats, dict(changes), evaluator, Path(tmp), figures, log)
-        optimise(dict(OPTIMISE[mode]), evaluator, Path(tmp), figures, log)
+        if args.only in (None, "falsify"):
+            for name, modes in FALSIFY.items():
+                repeats, changes = modes[mode]
+                timing[name] = falsify(name, repeats, dict(changes), evaluator, Path(tmp), figures, log)
+        if args.only in (None, "optimise"):
+            optimise(dict(OPTIMISE[mode]), evaluator, Path(tmp), figures, log)
     overhead = overhead_ms()
     figures["overhead_per_candidate_ms"] = round(overhead, 2)
-    candidate_ms = timing["falsify_pcb_ic"]["candidate_ms"]
-    figures["candidate_run_ms"] = round(candidate_ms, 1)
-    figures["overhead_pct_of_candidate"] = round(100 * overhead / candidate_ms, 3)
+    if "falsify_pcb_ic" in timing:
+        candidate_ms = timing["falsify_pcb_ic"]["candidate_ms"]
+        figures["candidate_run_ms"] = round(candidate_ms, 1)
+        figures["overhead_pct_of_candidate"] = round(100 * overhead / candidate_ms, 3)
+    figures["sections"] = args.only or "all"
     figures["wall_s"] = round(time.perf_counter() - start, 1)
     figures["mode"] = mode
     for key, value in figures.items():

@@ -99,9 +99,21 @@ def run_command(args) -> int:
         print(f"worst candidate replayed: {report['worst_replay']}")
     if "best_scenario" in report:
         best = report["best_scenario"]
-        print(
-            f"best scenario: {best['file']}; over fresh seeds {search.objective.metric} "
-            f"{best['best_fresh']['objective']} against the shipped {best['shipped_fresh']['objective']}"
-        )
+        print(f"best scenario: {best['file']}; over {len(best['fresh_seeds'])} fresh seeds "
+              f"{search.objective.metric} {_rounded(best['best_fresh']['objective'])} against the shipped "
+              f"{_rounded(best['shipped_fresh']['objective'])}; {_paired_verdict(best.get('paired') or {})}")
     print(f"{len(outcome.results)} candidate(s) in {out / 'results.parquet'}; plots and report.json in {out}")
     return 0
+
+
+def _rounded(value) -> str:
+    return "n/a" if value is None else f"{value:.4g}"
+
+
+def _paired_verdict(paired: dict) -> str:
+    """One phrase on the seed-by-seed comparison of the best and the shipped scenario."""
+    differences, p = paired.get("differences") or [], paired.get("wilcoxon_p")
+    if p is None:
+        return f"no paired test ({len(differences)} pair(s) with a difference)"
+    better = "better" if p < 0.05 else "not significantly better"
+    return f"{better} seed by seed (one-sided Wilcoxon p = {p:.3g} over {len(differences)} pairs)"

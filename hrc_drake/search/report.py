@@ -253,7 +253,31 @@ def _optimise_outputs(search, out_dir: Path, row, evaluator, progress) -> dict:
                 if k in (search.objective.metric, "safety.violations_total", "products_finished")
             },
         }
+    out["paired"] = paired_fresh(search, rows, seeds)
     return out
+
+
+def paired_fresh(search, rows, seeds) -> dict:
+    """The best and the shipped scenario seed by seed over the fresh seeds: the objective of each,
+    their differences (best - shipped) and the one-sided Wilcoxon signed-rank p that the best is
+    better (lower when minimising); None with fewer than 2 pairs or no difference."""
+    from scipy.stats import wilcoxon
+
+    metric = search.objective.metric
+    value = {(r["variant"], int(r["seed"])): r.get(metric) for r in rows if r.get("status", "ok") == "ok"}
+    pairs = [(value.get(("best_fresh", seed)), value.get(("shipped_fresh", seed))) for seed in seeds]
+    pairs = [(b, s) for b, s in pairs if _finite(b) and _finite(s)]
+    differences = [float(b) - float(s) for b, s in pairs]
+    p = None
+    if len(differences) >= 2 and any(d != 0.0 for d in differences):
+        alternative = "less" if search.objective.direction == "minimize" else "greater"
+        p = float(wilcoxon(differences, alternative=alternative).pvalue)
+    return {"best": [_plain(b) for b, _ in pairs], "shipped": [_plain(s) for _, s in pairs],
+            "differences": [_plain(d) for d in differences], "wilcoxon_p": p}
+
+
+def _finite(value) -> bool:
+    return value is not None and isinstance(value, (int, float)) and math.isfinite(value)
 
 
 def _shipped_values(search) -> dict:

@@ -116,6 +116,9 @@ def test_the_optimise_preset_writes_a_best_scenario_that_simulate_runs_as_it_is(
     assert best["fresh_seeds"] == fresh and seen[-6:] == fresh * 2 and not set(seen[:-6]) & set(fresh)
     assert best["best_fresh"]["feasible"] and best["best_fresh"]["metrics"]["safety.violations_total"] == 0
     assert best["best_fresh"]["objective"] < best["shipped_fresh"]["objective"]
+    paired = best["paired"]  # seed by seed: 3 pairs, each better, the exact one-sided p of 3 signs
+    assert len(paired["differences"]) == 3 and all(d < 0 for d in paired["differences"])
+    assert paired["wilcoxon_p"] == pytest.approx(1 / 8)
     results = pd.read_parquet(tmp_path / "out" / "results.parquet")
     row = results[results["variant"] == best["variant"]].iloc[0]
     assert row["feasible"] and row["param.tray_y"] <= -0.3
@@ -161,3 +164,23 @@ def test_a_margin_below_zero_is_told_apart_from_a_violation_of_the_mode(tmp_path
         assert figures["runs_to_first_violation"] == (int(below.iloc[0]) if len(below) else None)
         assert figures["runs_to_first_mode_violation"] == (int(mode.iloc[0]) if len(mode) else None)
     assert "worst_replay" not in report  # no simulation to replay
+
+
+def test_the_paired_fresh_comparison_needs_pairs_with_a_difference():
+    from types import SimpleNamespace
+
+    from hrc_drake.search.command import _paired_verdict
+    from hrc_drake.search.report import paired_fresh
+
+    search = SimpleNamespace(objective=SimpleNamespace(metric="mean_cycle_time", direction="minimize"))
+    rows = [{"variant": v, "seed": s, "mean_cycle_time": 30.0} for v in ("best_fresh", "shipped_fresh")
+            for s in (1, 2, 3)]
+    same = paired_fresh(search, rows, [1, 2, 3])
+    assert same["differences"] == [0.0, 0.0, 0.0] and same["wilcoxon_p"] is None
+    assert _paired_verdict(same).startswith("no paired test")
+    rows[0]["mean_cycle_time"], rows[1]["mean_cycle_time"] = 29.0, float("nan")  # seed 2 has no pair
+    worse = paired_fresh(search, rows + [{"variant": "best_fresh", "seed": 4, "mean_cycle_time": 1.0}],
+                         [1, 2, 3])
+    assert worse["differences"] == [-1.0, 0.0] and worse["wilcoxon_p"] is not None
+    search.objective.direction = "maximize"
+    assert paired_fresh(search, rows, [1, 3])["wilcoxon_p"] > 0.5  # lower is worse when maximising
