@@ -179,8 +179,8 @@ def test_the_paired_fresh_comparison_needs_pairs_with_a_difference():
     assert same["differences"] == [0.0, 0.0, 0.0] and same["wilcoxon_p"] is None
     assert _paired_verdict(same).startswith("no paired test")
     rows[0]["mean_cycle_time"], rows[1]["mean_cycle_time"] = 29.0, float("nan")  # seed 2 has no pair
-    worse = paired_fresh(search, rows + [{"variant": "best_fresh", "seed": 4, "mean_cycle_time": 1.0}],
+    partial = paired_fresh(search, rows + [{"variant": "best_fresh", "seed": 4, "mean_cycle_time": 1.0}],
                          [1, 2, 3])
-    assert worse["differences"] == [-1.0, 0.0] and worse["wilcoxon_p"] is not None
+    assert partial["differences"] == [-1.0, 0.0] and partial["wilcoxon_p"] is not None
     search.objective.direction = "maximize"
     assert paired_fresh(search, rows, [1, 3])["wilcoxon_p"] > 0.5  # lower is worse when maximising
