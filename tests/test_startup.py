@@ -50,3 +50,11 @@ def test_import_hrc_drake_loads_neither_drake_nor_numba_nor_scipy_nor_pandas():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=REPO,
                          check=True)
     assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+
+
+def test_simulating_torch_clock_without_reports_loads_no_scikit_learn_scipy_stats_or_plots():
+    """The default cell's run imports neither the proactive planner's GPDM (scikit-learn) nor
+    scipy.stats (0.6 s each of a first run) nor matplotlib: modules it never calls."""
+    result = _run("simulate", str(REPO / "diagrams" / "torch_clock.yaml"), "--duration", "2")
+    assert result["code"] == 0
+    assert not {"sklearn", "scipy.stats", "matplotlib"} & set(result["loaded"]), result

@@ -300,13 +300,14 @@ def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_por
     robot arm's chain (its base pose), the nominal path from `start_pose` to the action's last
     pose, the table as the fixed obstacle; the paths go to the task executor."""
     from hrc_drake.motion.config import ProactivePlanner
-    from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path, table_box
-    from hrc_drake.motion.systems import ProactivePlannerSystem
-    from hrc_drake.robots.chain import SerialChain
 
     config = scenario.proactive_planner
     if not isinstance(config, ProactivePlanner):
         return
+    # only now: the planner's modules import scikit-learn and the GPDM (0.5 s of a first run)
+    from hrc_drake.motion.proactive import ProactivePlannerCore, nominal_path, table_box
+    from hrc_drake.motion.systems import ProactivePlannerSystem
+    from hrc_drake.robots.chain import SerialChain
     robot, action = next((r, a) for r in scenario.robots for a in r.actions if a.name == config.robot_action)
     agent = next(arm.agent for arm in robot.arms if arm.arm == action.arm)
     chain = SerialChain.from_model(robot.model, action.arm, base_pose=(robot.base.xyz, robot.base.rpy))

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.spatial import cKDTree
-from scipy.stats import chi2
 
 #: Probability mass of the Kalman filter's ellipsoid region.
 REGION_MASS = 0.95
@@ -31,6 +30,8 @@ VOLUME_SAMPLES = 4000
 
 def ellipsoid_threshold(mass: float = REGION_MASS, dim: int = 3) -> float:
     """Squared Mahalanobis radius of the Gaussian region holding `mass`: chi2_dim^-1(mass)."""
+    from scipy.stats import chi2  # here: scipy.stats takes 0.6 s to import, and most cells never call this
+
     if not 0.0 < mass < 1.0:
         raise ValueError(f"ellipsoid_threshold: mass must be in (0, 1), got {mass!r}")
     return float(chi2.ppf(mass, dim))

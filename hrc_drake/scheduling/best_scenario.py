@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import lognorm
 
 from hrc_drake.distributions import Distribution
 from hrc_drake.messages import Forecast, shallow_copy
@@ -49,6 +48,8 @@ def delay_support(dist: Distribution) -> tuple[float, float]:
     if kind == "lognormal":
         if dist.std == 0:
             return float(dist.mean), float(dist.mean)
+        from scipy.stats import lognorm  # here: scipy.stats takes 0.6 s to import; few nets have one
+
         s2 = math.log1p((dist.std / dist.mean) ** 2)
         frozen = lognorm(s=math.sqrt(s2), scale=dist.mean / math.sqrt(1.0 + (dist.std / dist.mean) ** 2))
         return float(frozen.ppf(0.00135)), float(frozen.ppf(0.99865))

@@ -60,7 +60,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.stats import truncnorm
 
 from hrc_drake.distributions import Distribution, duration_cdf, mean_duration, validate_distribution
 from hrc_drake.messages import shallow_copy
@@ -113,6 +112,8 @@ def _distribution_std(dist: Distribution) -> float:
     if kind == "normal":
         if dist.std == 0:
             return 0.0
+        from scipy.stats import truncnorm  # here: scipy.stats takes 0.6 s to import (first runs)
+
         lower = (dist.low - dist.mean) / dist.std
         return float(truncnorm.std(lower, np.inf, loc=dist.mean, scale=dist.std))
     if kind == "uniform":
