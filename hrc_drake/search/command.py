@@ -113,7 +113,9 @@ def _rounded(value) -> str:
 def _paired_verdict(paired: dict) -> str:
     """One phrase on the seed-by-seed comparison of the best and the shipped scenario."""
     differences, p = paired.get("differences") or [], paired.get("wilcoxon_p")
+    if p is None and len(differences) < 2:
+        return f"no paired test ({len(differences)} fresh seed(s) with a figure for both)"
     if p is None:
-        return f"no paired test ({len(differences)} pair(s) with a difference)"
+        return "no paired test (the same figure on every fresh seed)"
     better = "better" if p < 0.05 else "not significantly better"
     return f"{better} seed by seed (one-sided Wilcoxon p = {p:.3g} over {len(differences)} pairs)"
