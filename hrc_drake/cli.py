@@ -116,17 +116,21 @@ CAMPAIGN_ONLY_KEYS = frozenset({"name", "scenarios", "variants", "seeds", "expec
                                 "replays", "replay_fps"})
 
 
-#: top-level keys of a search spec that neither a scenario nor a campaign spec has
-SEARCH_ONLY_KEYS = ("parameters", "budget")
+def _search_only_key(file) -> str | None:
+    """The first top-level key of the YAML text of `file` (a line `key:`) that only a search spec
+    has (`hrc_drake.search.spec.KNOWN_KEYS` less the campaign's and the scenario's), or None."""
+    import dataclasses
 
+    from hrc_drake.cell.schema import Scenario
+    from hrc_drake.search.spec import KNOWN_KEYS
 
-def _has_top_level_key(file, keys) -> bool:
-    """Whether the YAML text of `file` has one of `keys` at its top level (a line `key:`)."""
+    search_only = set(KNOWN_KEYS) - CAMPAIGN_ONLY_KEYS - {f.name for f in dataclasses.fields(Scenario)}
     try:
         lines = Path(file).read_text(encoding="utf-8").splitlines()
     except (OSError, UnicodeDecodeError, TypeError):
-        return False
-    return any(line.split(":", 1)[0] in keys for line in lines if ":" in line and not line[:1].isspace())
+        return None
+    keys = (line.split(":", 1)[0] for line in lines if ":" in line and not line[:1].isspace())
+    return next((key for key in keys if key in search_only), None)
 
 
 def _wrong_kind_hint(err: ScenarioError, expected: str) -> ScenarioError:
@@ -136,11 +140,11 @@ def _wrong_kind_hint(err: ScenarioError, expected: str) -> ScenarioError:
     key = err.field
     if "unknown key" not in err.reason or not key or any(c in key for c in ".["):
         return err
-    spec_key = expected == "scenario" and key in CAMPAIGN_ONLY_KEYS
-    if spec_key and _has_top_level_key(err.file, SEARCH_ONLY_KEYS):
-        hint = (f"{err.file} looks like a search spec (it has 'parameters' or 'budget'): run it with "
+    search_key = _search_only_key(err.file) if expected == "scenario" and key in CAMPAIGN_ONLY_KEYS else None
+    if search_key:
+        hint = (f"{err.file} looks like a search spec (it has '{search_key}'): run it with "
                 f"`hrc-drake search {err.file} --out FOLDER`")
-    elif spec_key:
+    elif expected == "scenario" and key in CAMPAIGN_ONLY_KEYS:
         hint = (f"{err.file} looks like a campaign spec (it has '{key}'): run it with "
                 f"`hrc-drake campaign {err.file} --out FOLDER`")
     elif expected == "campaign":

@@ -521,6 +521,8 @@ class WindowProblem:
         )
         self.prior_rate = float(rate)
         self._cache: dict[tuple[int, ...], float] = {}
+        # log Psi^1_YY (Y_k, Y_k-1) of the order-1 chain, shared by every hypothesis of the window
+        self._pair_log = model.w_seq * model.phi_seq[0] if model.order == 1 else None
 
     def links(self, counts) -> list[ChainLink]:
         """The chain of hypothesis `counts`: copies of the survivors, the last one extended by the
@@ -554,9 +556,9 @@ class WindowProblem:
         max-product value is the compiled forward pass (`_kernels.chain_max_log_energy`, equal to
         the graph's within float rounding, tests/intention/test_segmentation_chain.py); otherwise,
         or when a potential is not finite, the energy of the graph's MAP (`graph_map_log_energy`)."""
-        if self.model.order == 1:
+        if self._pair_log is not None:
             unary = np.array([c.log_unary for c in chain])
-            value = _kernels.chain_max_log_energy(unary, self.model.w_seq * self.model.phi_seq[0])
+            value = _kernels.chain_max_log_energy(unary, self._pair_log)
             if np.isfinite(value):
                 return value
         return self.graph_map_log_energy(chain)

@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import os
 from pathlib import Path
 
 from hrc_drake.campaign.spec import RunTask, _config_hash
 from hrc_drake.cell.scenario import dump_raw
 from hrc_drake.search import plots
-from hrc_drake.search.engine import Job, apply_values, best_candidates, score
+from hrc_drake.search.engine import Job, _number, apply_values, best_candidates, score
 
 REPORT_FILE = "report.json"
 BEST_SCENARIO_FILE = "best_scenario.yaml"
@@ -264,21 +263,18 @@ def paired_fresh(search, rows, seeds) -> dict:
     better (lower when minimising); None with fewer than 2 pairs or no difference."""
     from scipy.stats import wilcoxon
 
-    metric = search.objective.metric
-    value = {(r["variant"], int(r["seed"])): r.get(metric) for r in rows if r.get("status", "ok") == "ok"}
-    pairs = [(value.get(("best_fresh", seed)), value.get(("shipped_fresh", seed))) for seed in seeds]
-    pairs = [(b, s) for b, s in pairs if _finite(b) and _finite(s)]
-    differences = [float(b) - float(s) for b, s in pairs]
+    metric = search.objective.metric  # as `score` reads it: ok runs, a number or nan
+    value = {(r["variant"], int(r["seed"])): _number(r.get(metric)) for r in rows if r.get("status") == "ok"}
+    pairs = [(value.get(("best_fresh", seed), math.nan), value.get(("shipped_fresh", seed), math.nan))
+             for seed in seeds]
+    pairs = [(b, s) for b, s in pairs if math.isfinite(b) and math.isfinite(s)]
+    differences = [b - s for b, s in pairs]
     p = None
     if len(differences) >= 2 and any(d != 0.0 for d in differences):
         alternative = "less" if search.objective.direction == "minimize" else "greater"
         p = float(wilcoxon(differences, alternative=alternative).pvalue)
     return {"best": [_plain(b) for b, _ in pairs], "shipped": [_plain(s) for _, s in pairs],
             "differences": [_plain(d) for d in differences], "wilcoxon_p": p}
-
-
-def _finite(value) -> bool:
-    return isinstance(value, numbers.Real) and math.isfinite(value)
 
 
 def _shipped_values(search) -> dict:

@@ -173,16 +173,16 @@ def test_the_paired_fresh_comparison_needs_pairs_with_a_difference():
     from hrc_drake.search.report import paired_fresh
 
     search = SimpleNamespace(objective=SimpleNamespace(metric="mean_cycle_time", direction="minimize"))
-    rows = [{"variant": v, "seed": s, "mean_cycle_time": 30.0} for v in ("best_fresh", "shipped_fresh")
-            for s in (1, 2, 3)]
+    rows = [{"variant": v, "seed": s, "status": "ok", "mean_cycle_time": 30.0}
+            for v in ("best_fresh", "shipped_fresh") for s in (1, 2, 3)]
     same = paired_fresh(search, rows, [1, 2, 3])
     assert same["differences"] == [0.0, 0.0, 0.0] and same["wilcoxon_p"] is None
     assert _paired_verdict(same) == "no paired test (the same figure on every fresh seed)"
     one = paired_fresh(search, rows, [1])
     assert _paired_verdict(one) == "no paired test (1 fresh seed(s) with a figure for both)"
     rows[0]["mean_cycle_time"], rows[1]["mean_cycle_time"] = 29.0, float("nan")  # seed 2 has no pair
-    partial = paired_fresh(search, rows + [{"variant": "best_fresh", "seed": 4, "mean_cycle_time": 1.0}],
-                         [1, 2, 3])
+    unpaired = {"variant": "best_fresh", "seed": 4, "status": "ok", "mean_cycle_time": 1.0}
+    partial = paired_fresh(search, rows + [unpaired], [1, 2, 3])
     assert partial["differences"] == [-1.0, 0.0] and partial["wilcoxon_p"] is not None
     search.objective.direction = "maximize"
     assert paired_fresh(search, rows, [1, 3])["wilcoxon_p"] > 0.5  # lower is worse when maximising
