@@ -1,8 +1,8 @@
 """Compiled kernels (numba): the shared primitives, and how every group of kernels compiles.
 
 Each subpackage keeps the numba forms of its own algorithms beside them, in a private
-`_kernels.py` (`human`, `motion`, `perception`, `intention`, `prediction`, `scheduling`: see
-`GROUPS`): per-frame geometry and per-step models that numpy runs as many calls on tiny arrays,
+`_kernels.py` (`human`, `motion`, `perception`, `intention`, `prediction`, `scheduling`,
+`safety`: see `GROUPS`): per-frame geometry and per-step models that numpy runs as many calls on tiny arrays,
 written as loops (DESIGN.md, performance rules). This module holds what several of them use:
 Ericson's clamped closest points of two segments (Real-Time Collision Detection, 5.1.9) as
 `motion.geometry` states it, the clearances of capsule pairs (the recorder, the speed scaler,
@@ -50,6 +50,7 @@ GROUPS: dict[str, tuple[str, str]] = {
     "intention": ("hrc_drake.intention._kernels", "the intention estimator and the action segmenter"),
     "prediction": ("hrc_drake.prediction._kernels", "the waiting-time predictor"),
     "scheduling": ("hrc_drake.scheduling._kernels", "the Monte Carlo scheduler"),
+    "safety": ("hrc_drake.safety._kernels", "the ISO/TS 15066 safety rules"),
 }
 
 

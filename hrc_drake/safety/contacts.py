@@ -131,7 +131,7 @@ class ContactAccountant:
                 keys = sorted(set(zip(k.tolist(), r.tolist(), strict=True)) | set(open_pairs))
                 k = np.array([a for a, _ in keys], dtype=int)
                 r = np.array([b for _, b in keys], dtype=int)
-            pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+            pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r], rules.compiled)
             pfl = rules.governed_by_pfl(pairs, regions[2])
             sp = rules.separations(pairs, pairs.approach)
             moving = pairs.approach > self.moving_speed
@@ -174,7 +174,7 @@ class ContactAccountant:
         k, r = np.nonzero(distance - reach[:, None] < below)
         if not len(k):
             return math.inf
-        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r], rules.compiled)
         counted = ~rules.governed_by_pfl(pairs, regions[2]) & (pairs.approach > self.moving_speed)
         if not counted.any():
             return math.inf

@@ -12,6 +12,9 @@ the pairs of its PFL regions under PFL while the robot point is inside a collabo
 
 Only the robot's motion toward the region is limited: a robot point moving away or sideways keeps
 its speed (ISO/TS 15066 takes v_r toward the operator), so a stopped robot may retreat.
+
+The controller and the monitor run the compiled forms (`safety._kernels`, the same operations in
+the same order); `SafetyRules(..., compiled=False)` runs the numpy forms, their reference.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from hrc_drake.kernels import capsule_clearances, pair_closest_parameters
+from hrc_drake.safety import _kernels
 from hrc_drake.safety.config import (
     LIMB_REGIONS,
     NO_CONTACT_REGIONS,
@@ -55,12 +59,19 @@ class PairGeometry:
     t: np.ndarray
 
 
-def pair_geometry(robot, robot_velocity, regions, k, r, distance) -> PairGeometry:
+def pair_geometry(robot, robot_velocity, regions, k, r, distance, compiled: bool = True) -> PairGeometry:
     """Closest points, directions and robot approach speeds of the pairs (k, r).
 
     robot: (start, end, radius) of K capsules; robot_velocity: (v_start, v_end) (K, 3) each, the
     velocities of the capsules' end points (a rigid link's point velocity is affine along the
-    segment, so the closest point's is the interpolation); regions: (start, end, radius) (R)."""
+    segment, so the closest point's is the interpolation); regions: (start, end, radius) (R).
+    compiled: by `_kernels._pair_geometry` (False: numpy, the reference)."""
+    if compiled:
+        k = np.ascontiguousarray(k, dtype=np.int64)
+        r = np.ascontiguousarray(r, dtype=np.int64)
+        t, surface, on_body, direction, velocity, approach = _kernels.pair_geometry(robot, robot_velocity,
+                                                                                    regions, k, r)
+        return PairGeometry(k, r, distance, surface, on_body, direction, velocity, approach, t)
     r_start, r_end, r_radius = robot
     h_start, h_end, _ = regions
     s, t = pair_closest_parameters(r_start, r_end, h_start, h_end, k, r).T
@@ -84,12 +95,14 @@ class SafetyRules:
     regions: the ISO region name of each region capsule (`RegionCapsules.regions`); zones:
     (centers (Z, 3), radii (Z,)) of the collaborative zones (hybrid); fixed_boxes: the cell's
     fixed surfaces (`FixedBox`) for clamping; arm_masses: M of the arm of each robot capsule (K,)
-    for the "iso" robot mass.
+    for the "iso" robot mass; compiled: the kernels of `safety._kernels` (False: numpy, the
+    reference they are tested against).
     """
 
     def __init__(self, config, limits: LimitsTable | None, regions: tuple[str, ...], zones=None,
-                 fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None):
+                 fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None, compiled: bool = True):
         self.config = config
+        self.compiled = bool(compiled)
         self.mode = mode_name(config)
         self.regions = tuple(regions)
         if isinstance(config, NoSafety):
@@ -121,6 +134,15 @@ class SafetyRules:
         self.zone_centers = np.asarray(centers, dtype=float).reshape(-1, 3)
         self.zone_radii = np.asarray(radii, dtype=float).reshape(-1)
         self.fixed_boxes = tuple(fixed_boxes)
+        self._box_lower = np.array([np.subtract(b.center, np.multiply(b.size, 0.5)) for b in self.fixed_boxes],
+                                   dtype=float).reshape(-1, 3)
+        self._box_upper = np.array([np.add(b.center, np.multiply(b.size, 0.5)) for b in self.fixed_boxes],
+                                   dtype=float).reshape(-1, 3)
+        #: the clamping test's margin behind a part (`clamped`)
+        self.clamp_margin = config.clamp_margin if self.pfl else 0.02
+        self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
+                                       p.human_speed]) for p in (self.separation, self.body_separation))
+        self._pieces: dict = {}
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None
@@ -137,6 +159,17 @@ class SafetyRules:
                 floor = np.minimum(floor, table["pressure"] * self.contact_area
                                    / np.sqrt(table["mass"] * table["k"]))
             self._pfl_floor = floor
+        else:
+            self._pfl_floor = np.full(len(self.regions), np.inf)
+
+    def _pieces_of(self, covered_time: float):
+        """The ISO 13855 pieces (P, 4) of the limbs' and the body's S_p (`_kernels`), by H."""
+        pieces = self._pieces.get(covered_time)
+        if pieces is None:
+            pieces = tuple(np.array(p._pieces(covered_time), dtype=float).reshape(-1, 4)
+                           for p in (self.separation, self.body_separation))
+            self._pieces[covered_time] = pieces
+        return pieces
 
     def in_zone(self, points) -> np.ndarray:
         """(N,) whether each point lies in a collaborative zone."""
@@ -153,6 +186,8 @@ class SafetyRules:
         is position-controlled, without the force sensing that would stop it within the
         F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all
         (`clamped`; `lost` as there)."""
+        if self.compiled and lost is None:
+            return self._governed(pairs, region_radius)[1]
         pfl = self.pfl_region[pairs.r]
         if self.hybrid and np.any(pfl):
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
@@ -160,6 +195,14 @@ class SafetyRules:
             at = np.nonzero(pfl)[0]
             pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost)
         return pfl
+
+    def _governed(self, pairs: PairGeometry, region_radius=None):
+        """(PFL's region in a zone (N,), governed by PFL (N,)) by `_kernels._governed_by_pfl`."""
+        clamping = region_radius is not None and bool(self.fixed_boxes)
+        radius = _kernels._arrays(region_radius)[0] if clamping else self._pfl_floor
+        return _kernels._governed_by_pfl(pairs.r, self.pfl_region, self.hybrid, self.zone_centers, self.zone_radii,
+                                         pairs.robot_point, pairs.body_point, pairs.direction, radius, clamping,
+                                         self._box_lower, self._box_upper, self.clamp_margin)
 
     def clamped(self, pairs: PairGeometry, region_radius, lost=None) -> np.ndarray:
         """(N,) whether the body part of each pair is clamped against a fixed surface.
@@ -206,6 +249,8 @@ class SafetyRules:
     def screen(self, robot, robot_velocity, regions, z_d, covered_time: float = 0.0):
         """Candidate pairs: clearances (K, R) and the pairs nearer than S_p at the fastest point of
         the robot capsule (a bound: the end points are a link segment's fastest points)."""
+        if self.compiled:
+            return _kernels.screen(robot, robot_velocity, regions, z_d, *self._params, covered_time)
         distance = capsule_clearances(*robot, *regions)
         v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
                            np.linalg.norm(robot_velocity[1], axis=1))
@@ -228,10 +273,14 @@ class SafetyRules:
         The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest override."""
         if self.mode == "none":
             return FREE, None
+        if self.compiled and not (lost_radius is not None and self.pfl and self.config.lost_parts_clamped
+                                  and self.fixed_boxes and np.isfinite(lost_radius).any()):
+            return self._override_compiled(robot, robot_velocity, regions, z_d, effective_mass, covered_time,
+                                           clamped_until, now)
         distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
         if not len(k):
             return FREE, None
-        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r], self.compiled)
         approach = pairs.approach
         lost = None
         if (lost_radius is not None and self.pfl and self.config.lost_parts_clamped and self.fixed_boxes
@@ -277,6 +326,41 @@ class SafetyRules:
                                     covered_time)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
+    def _override_compiled(self, robot, robot_velocity, regions, z_d, effective_mass, covered_time,
+                           clamped_until, now):
+        """`override` by the kernels (no lost parts judged clamped): the same decisions in the same
+        order, the robot masses of the PFL pairs left after the floor and the skip from the plant."""
+        z_d = _kernels._arrays(z_d)[0]
+        distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
+        if not len(k):
+            return FREE, None
+        pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
+        zone, governed = self._governed(pairs, regions[2])
+        clamped = zone & ~governed
+        if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
+                and clamped_until.flags.carray):
+            _kernels._hold_clamps(k, r, governed, clamped, clamped_until, float(now), float(self.config.clamp_hold))
+        elif clamped_until is not None and self.pfl and self.fixed_boxes:
+            clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
+            held = governed & (clamped_until[k, r] > now)
+            governed, clamped = governed & ~held, clamped | held
+        limb_pieces, body_pieces = self._pieces_of(float(covered_time))
+        limbs, body = self._params
+        scale, needs_mass = _kernels._ssm_scales(r, pairs.distance, pairs.approach, governed, clamped, z_d,
+                                                 self.body_region, limbs, limb_pieces, body, body_pieces,
+                                                 float(self.moving_speed), self._pfl_floor)
+        if needs_mass.any():
+            sub = np.nonzero(needs_mass)[0]
+            picked = subset_pairs(pairs, sub)
+            masses = self.robot_masses(picked, effective_mass)
+            v_pfl = self.pfl_speeds(picked, masses, np.zeros(len(sub), dtype=bool))  # free: transient
+            scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / pairs.approach[sub], FREE))
+        n = int(np.argmin(scale))
+        j = int(r[n])
+        sp = _kernels._protective_separation(float(pairs.approach[n]), body if self.body_region[j] else limbs,
+                                             float(z_d[j]), float(covered_time))
+        return float(scale[n]), (pairs, n, "pfl" if governed[n] else "ssm", sp)
+
     def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0) -> np.ndarray:
         """The permissible speeds (N,) of SSM at each pair's separation (head and torso at their v_h)."""
         limbs = permissible_speed(pairs.distance, self.separation, z_d, covered_time)
@@ -285,6 +369,13 @@ class SafetyRules:
 
     def separations(self, pairs: PairGeometry, speed, z_d=0.0, covered_time: float = 0.0) -> np.ndarray:
         """S_p (N,) of each pair for robot points approaching at `speed` (head and torso at their v_h)."""
+        if self.compiled:
+            size = len(pairs.r)
+            speed, z_d = (np.asarray(x, dtype=float) for x in (speed, z_d))
+            speed, z_d = _kernels._arrays(*(x if x.shape == (size,) else np.broadcast_to(x, size)
+                                            for x in (speed, z_d)))
+            return _kernels._separations(pairs.r, speed, self.body_region, *self._params, z_d,
+                                         float(covered_time))
         limbs = protective_separation(speed, self.separation, z_d, covered_time)
         body = protective_separation(speed, self.body_separation, z_d, covered_time)
         return np.where(self.body_region[pairs.r], body, limbs)

@@ -171,6 +171,10 @@ class HumanRegions:
         self.config = config
         self.camera_noise = float(camera_noise)
         self._region_points = [list(CAPSULE_POINTS[BODY_CAPSULES[c.capsule]]) for c in self.cutter.cuts]
+        self._needed_points = np.unique(np.concatenate(self._region_points))
+        # each body capsule's first and last skeleton point: its uncertainty is their larger one
+        self._capsule_first = np.array([CAPSULE_POINTS[name][0] for name in BODY_CAPSULES])
+        self._capsule_last = np.array([CAPSULE_POINTS[name][-1] for name in BODY_CAPSULES])
         # a lost point may have moved at the human's speed since it was last seen (the limbs' v_h)
         self.lost_speed = config.human_speed if config.human_speed > 0 else 2.0
 
@@ -195,8 +199,7 @@ class HumanRegions:
         if head_carried:
             points = points.copy()
             points[HEAD] = points[THORAX] + head_offset
-        finite = np.isfinite(points).all(axis=1)
-        if not all(finite[idx].all() for idx in self._region_points):
+        if not np.isfinite(points[self._needed_points]).all():
             return None
         start, end, radius = self.body.capsules_from_points(points)
         config = self.config
@@ -213,6 +216,10 @@ class HumanRegions:
                     moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
                 uncertainty = uncertainty + moved
         uncertainty = np.where(np.isnan(uncertainty), np.inf, uncertainty)
+        if (uncertainty <= config.max_uncertainty).all():  # nothing lost: `reach_bounded` keeps the capsules
+            per_capsule = np.maximum(uncertainty[self._capsule_first], uncertainty[self._capsule_last])
+            return (self.cutter.cut(start, end, radius), self.cutter.region_uncertainty(per_capsule),
+                    np.full(len(self.cutter), np.nan))
         own_radius = self.cutter.cut(start, end, radius)[2]
         lost = self.cutter.region_uncertainty(lost_capsules(uncertainty, config.max_uncertainty)) > 0.5
         start, end, radius, per_capsule = reach_bounded(

@@ -1,0 +1,288 @@
+"""Compiled kernels (numba) of the ISO/TS 15066 safety rules (`safety.ssm`, `safety.rules`,
+`safety.regions`): the screen of the (robot capsule, body region) pairs against S_p, their
+closest points and approach speeds, which rule governs them (collaborative zones, clamping
+against the fixed boxes), S_p of eq. (1)-(2) and its permissible speed, and the speed override
+of the SSM pairs. The safety controller and the contact monitor run them at 30 Hz, each call on
+a few dozen pairs, where numpy spent its time on some eighty calls' argument handling.
+
+The numpy forms stay the reference (`SafetyRules(..., compiled=False)`), tested equal pair for
+pair (tests/safety/test_compiled_rules.py); the order of every floating-point operation is
+theirs. Compiled when first called, cached on disk (`hrc_drake.kernels`, group "safety").
+
+A separation parameter set is the array (T_r, a, C, Z_r, v_h) of `SeparationParameters`; its
+pieces (P, 4) are (K, constant, v_low, v_high) of `SeparationParameters._pieces`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from hrc_drake import kernels
+from hrc_drake.kernels import _arrays, _capsule_clearances, _closest_on_segments
+
+_FAST, _SLOW, _SWITCH = 2.0, 1.6, 0.5  # ISO 13855 (safety.ssm)
+
+
+@njit(cache=True, inline="always")
+def _norm3(x, y, z):
+    return math.sqrt(x * x + y * y + z * z)
+
+
+@njit(cache=True)
+def _protective_separation(speed, params, z_d, covered_time):
+    """S_p (m) of eq. (1)-(2) for one robot point approaching at `speed` (`ssm.protective_separation`)."""
+    t_r, a, intrusion, uncertainty, human_speed = params[0], params[1], params[2], params[3], params[4]
+    speed = max(speed, 0.0)
+    s_s = speed * speed / (2.0 * a)
+    t_s = speed / a
+    time = t_r + t_s
+    if covered_time > 0:
+        human = (human_speed if human_speed > 0 else _FAST) * max(time - covered_time, 0.0)
+    elif human_speed > 0:
+        human = human_speed * time
+    else:
+        fast = _FAST * time
+        human = fast if fast <= _SWITCH else max(_SLOW * time, _SWITCH)
+    return human + speed * t_r + s_s + intrusion + z_d + uncertainty
+
+
+@njit(cache=True)
+def _permissible_speed(distance, params, pieces, z_d):
+    """The largest v_r with S_p(v_r) <= distance, per ISO 13855 piece (`ssm.permissible_speed`)."""
+    t_r, a = params[0], params[1]
+    d = distance - (params[2] + params[3] + z_d)
+    best = 0.0
+    for p in range(pieces.shape[0]):
+        k, constant, low, high = pieces[p, 0], pieces[p, 1], pieces[p, 2], pieces[p, 3]
+        if high <= low:
+            continue
+        b = k / a + t_r
+        c = k * t_r + constant - d
+        root = a * (math.sqrt(max(b * b - 2.0 * c / a, 0.0)) - b)
+        if root >= low - 1e-12 and root <= high + 1e-12 and c <= 0:
+            best = max(best, root)
+    if math.isinf(d) and d > 0:
+        return math.inf
+    return best
+
+
+@njit(cache=True)
+def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, z_d, limbs, body,
+            covered_time):
+    """Clearances (K, R) and the candidate pairs (k, r), row-major: nearer than S_p at the capsule's
+    fastest end point plus the region's Z_d (`SafetyRules.screen`)."""
+    distance = _capsule_clearances(r_start, r_end, r_radius, h_start, h_end, h_radius)
+    n_robot, n_region = distance.shape
+    reach = np.empty(n_robot)
+    for i in range(n_robot):
+        v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
+                    _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
+        reach[i] = max(_protective_separation(v_max, limbs, 0.0, covered_time),
+                       _protective_separation(v_max, body, 0.0, covered_time))
+    count = 0
+    for i in range(n_robot):
+        for j in range(n_region):
+            if distance[i, j] < reach[i] + z_d[j]:
+                count += 1
+    k = np.empty(count, dtype=np.int64)
+    r = np.empty(count, dtype=np.int64)
+    n = 0
+    for i in range(n_robot):
+        for j in range(n_region):
+            if distance[i, j] < reach[i] + z_d[j]:
+                k[n], r[n] = i, j
+                n += 1
+    return distance, k, r
+
+
+@njit(cache=True)
+def _pair_geometry(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, k, r):
+    """Closest points of the pairs (k, r) (`rules.pair_geometry`): t (N,), the robot's surface point,
+    the body point, the unit direction robot -> body, the robot point's velocity (N, 3 each) and
+    its approach speed (N,)."""
+    size = k.shape[0]
+    t_out = np.empty(size)
+    surface = np.empty((size, 3))
+    on_body = np.empty((size, 3))
+    direction = np.empty((size, 3))
+    velocity = np.empty((size, 3))
+    approach = np.empty(size)
+    for n in range(size):
+        i, j = k[n], r[n]
+        d1x, d1y, d1z = r_end[i, 0] - r_start[i, 0], r_end[i, 1] - r_start[i, 1], r_end[i, 2] - r_start[i, 2]
+        d2x, d2y, d2z = h_end[j, 0] - h_start[j, 0], h_end[j, 1] - h_start[j, 1], h_end[j, 2] - h_start[j, 2]
+        rx, ry, rz = r_start[i, 0] - h_start[j, 0], r_start[i, 1] - h_start[j, 1], r_start[i, 2] - h_start[j, 2]
+        s, t = _closest_on_segments(d1x * d1x + d1y * d1y + d1z * d1z, d1x * d2x + d1y * d2y + d1z * d2z,
+                                    d1x * rx + d1y * ry + d1z * rz, d2x * d2x + d2y * d2y + d2z * d2z,
+                                    d2x * rx + d2y * ry + d2z * rz)
+        t_out[n] = t
+        robot_x = r_start[i, 0] + s * (r_end[i, 0] - r_start[i, 0])
+        robot_y = r_start[i, 1] + s * (r_end[i, 1] - r_start[i, 1])
+        robot_z = r_start[i, 2] + s * (r_end[i, 2] - r_start[i, 2])
+        for c in range(3):
+            on_body[n, c] = h_start[j, c] + t * (h_end[j, c] - h_start[j, c])
+            velocity[n, c] = v_start[i, c] + s * (v_end[i, c] - v_start[i, c])
+        gx, gy, gz = on_body[n, 0] - robot_x, on_body[n, 1] - robot_y, on_body[n, 2] - robot_z
+        norm = _norm3(gx, gy, gz)
+        if norm > 1e-9:
+            scale = max(norm, 1e-12)
+            direction[n, 0], direction[n, 1], direction[n, 2] = gx / scale, gy / scale, gz / scale
+        else:  # axes that cross (deep contact): along the robot point's own motion
+            scale = max(_norm3(velocity[n, 0], velocity[n, 1], velocity[n, 2]), 1e-12)
+            for c in range(3):
+                direction[n, c] = velocity[n, c] / scale
+        approach[n] = (velocity[n, 0] * direction[n, 0] + velocity[n, 1] * direction[n, 1]
+                       + velocity[n, 2] * direction[n, 2])
+        surface[n, 0] = robot_x + r_radius[i] * direction[n, 0]
+        surface[n, 1] = robot_y + r_radius[i] * direction[n, 1]
+        surface[n, 2] = robot_z + r_radius[i] * direction[n, 2]
+    return t_out, surface, on_body, direction, velocity, approach
+
+
+@njit(cache=True, inline="always")
+def _clamped_one(point, direction, reach, lower, upper):
+    """Whether a part at `point` pushed `reach` m along `direction` meets a fixed box (the slab
+    test of `regions.clamped`)."""
+    for b in range(lower.shape[0]):
+        t_near, t_far = -math.inf, math.inf
+        for c in range(3):
+            start = point[c]
+            delta = (start + direction[c] * reach) - start
+            if abs(delta) < 1e-12:
+                inside = start >= lower[b, c] and start <= upper[b, c]
+                near, far = (-math.inf, math.inf) if inside else (math.inf, -math.inf)
+            else:
+                t_a, t_b = (lower[b, c] - start) / delta, (upper[b, c] - start) / delta
+                near, far = min(t_a, t_b), max(t_a, t_b)
+            t_near, t_far = max(t_near, near), min(t_far, far)
+        if t_near <= t_far and t_far >= 0.0 and t_near <= 1.0:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, on_body, direction,
+                     region_radius, use_clamping, lower, upper, margin):
+    """(zone PFL (N,), governed (N,)): the pairs whose region PFL governs in a collaborative zone
+    (hybrid: where the middle of the closest points lies in one), and of those the ones whose
+    part no fixed box clamps (`SafetyRules.governed_by_pfl`)."""
+    size = r.shape[0]
+    zone = np.empty(size, dtype=np.bool_)
+    governed = np.empty(size, dtype=np.bool_)
+    for n in range(size):
+        pfl = pfl_region[r[n]]
+        if pfl and hybrid:
+            pfl = False
+            for z in range(zone_radii.shape[0]):
+                gx = 0.5 * (surface[n, 0] + on_body[n, 0]) - zone_centers[z, 0]
+                gy = 0.5 * (surface[n, 1] + on_body[n, 1]) - zone_centers[z, 1]
+                gz = 0.5 * (surface[n, 2] + on_body[n, 2]) - zone_centers[z, 2]
+                if _norm3(gx, gy, gz) <= zone_radii[z]:
+                    pfl = True
+                    break
+        zone[n] = pfl
+        if pfl and use_clamping:
+            pfl = not _clamped_one(on_body[n], direction[n], region_radius[r[n]] + margin, lower, upper)
+        governed[n] = pfl
+    return zone, governed
+
+
+@njit(cache=True)
+def _hold_clamps(k, r, governed, clamped, clamped_until, now, hold):
+    """A clamped pair counts as clamped until now + hold; a governed pair still in its hold is clamped
+    (`SafetyRules.override`, `clamp_hold`): governed and clamped (N,) and clamped_until (K, R) in place."""
+    for n in range(k.shape[0]):
+        if clamped[n]:
+            clamped_until[k[n], r[n]] = now + hold
+    for n in range(k.shape[0]):
+        if governed[n] and clamped_until[k[n], r[n]] > now:
+            governed[n] = False
+            clamped[n] = True
+
+
+@njit(cache=True)
+def _separations(r, speed, body_region, limbs, body, z_d, covered_time):
+    """S_p (N,) of each pair at `speed` (N,), head and torso at their own v_h (`SafetyRules.separations`)."""
+    out = np.empty(r.shape[0])
+    for n in range(r.shape[0]):
+        out[n] = _protective_separation(speed[n], body if body_region[r[n]] else limbs, z_d[n], covered_time)
+    return out
+
+
+@njit(cache=True)
+def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limbs, limb_pieces, body,
+                body_pieces, moving_speed, pfl_floor):
+    """The override of every pair by SSM (PFL pairs start from it), and the PFL pairs that still need
+    their robot mass (`SafetyRules.override` up to the masses): (scale (N,), needs mass (N,))."""
+    size = r.shape[0]
+    scale = np.empty(size)
+    moving = np.empty(size, dtype=np.bool_)
+    any_pfl = False
+    for n in range(size):
+        moving[n] = approach[n] > (1e-9 if clamped[n] else moving_speed)
+        if moving[n]:
+            j = r[n]
+            if body_region[j]:
+                v_ssm = _permissible_speed(distance[n], body, body_pieces, z_d[j])
+            else:
+                v_ssm = _permissible_speed(distance[n], limbs, limb_pieces, z_d[j])
+            scale[n] = min(v_ssm / max(approach[n], 1e-12), 1.0)
+        else:
+            scale[n] = 1.0
+        if governed[n] and moving[n] and scale[n] < 1.0:
+            any_pfl = True
+    needs_mass = np.zeros(size, dtype=np.bool_)
+    if not any_pfl:
+        return scale, needs_mass
+    ssm_min = 1.0
+    for n in range(size):
+        if not governed[n]:
+            ssm_min = min(ssm_min, scale[n])
+    for n in range(size):
+        if not governed[n]:
+            continue
+        floor = pfl_floor[r[n]]
+        pfl = moving[n] and scale[n] < 1.0 and approach[n] > floor
+        if approach[n] <= floor:
+            scale[n] = 1.0
+        if pfl:
+            # a PFL pair's override is at least max(SSM's, floor / approach): one whose bound is
+            # no smaller than the smallest override of the SSM pairs cannot set the minimum
+            bound = max(scale[n], floor / max(approach[n], 1e-12))
+            if bound >= ssm_min:
+                scale[n] = min(bound, 1.0)
+            else:
+                needs_mass[n] = True
+    return scale, needs_mass
+
+
+def screen(robot, robot_velocity, regions, z_d, limbs, body, covered_time):
+    """`_screen` on any array-likes: (distance (K, R), k, r)."""
+    return _screen(*_arrays(*robot, *robot_velocity, *regions, z_d), limbs, body, float(covered_time))
+
+
+def pair_geometry(robot, robot_velocity, regions, k, r):
+    """`_pair_geometry` on any array-likes (k, r int64 arrays)."""
+    return _pair_geometry(*_arrays(*robot, *robot_velocity, regions[0], regions[1]), k, r)
+
+
+def _warm_up() -> None:
+    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
+    one, params = np.zeros((1, 3)), np.array([0.1, 5.0, 0.05, 0.01, 0.0])
+    pieces = np.array([[2.0, 0.0, 0.0, np.inf]])
+    capsules = (one, one + 1.0, np.ones(1))
+    distance, k, r = screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0)
+    t, surface, on_body, direction, velocity, approach = pair_geometry(capsules, (one, one), capsules, k, r)
+    flags = np.ones(1, dtype=np.bool_)
+    _governed_by_pfl(r, flags, True, one, np.ones(1), surface, on_body, direction, np.ones(1), True,
+                     one, one + 1.0, 0.02)
+    _hold_clamps(k, r, flags[r].copy(), ~flags[r], np.zeros((1, 1)), 0.0, 0.5)
+    _separations(r, approach, flags, params, params, np.zeros(len(r)), 0.0)
+    _ssm_scales(r, distance[k, r], approach, flags[r], ~flags[r], np.zeros(1), flags, params, pieces, params,
+                pieces, 0.01, np.ones(1))
+
+
+kernels.register_group(globals(), kernels)
