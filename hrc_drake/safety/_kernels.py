@@ -99,6 +99,32 @@ def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, 
 
 
 @njit(cache=True)
+def _margin_candidates(distance, v_start, v_end, limbs, body, below):
+    """The pairs (k, r), row-major, whose clearance less S_p at their capsule's fastest end point
+    lies below `below` (`ContactAccountant.ssm_margin`)."""
+    n_robot, n_region = distance.shape
+    bound = np.empty((n_robot, n_region))
+    count = 0
+    for i in range(n_robot):
+        v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
+                    _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
+        reach = max(_protective_separation(v_max, limbs, 0.0, 0.0), _protective_separation(v_max, body, 0.0, 0.0))
+        for j in range(n_region):
+            bound[i, j] = distance[i, j] - reach
+            if bound[i, j] < below:
+                count += 1
+    k = np.empty(count, dtype=np.int64)
+    r = np.empty(count, dtype=np.int64)
+    n = 0
+    for i in range(n_robot):
+        for j in range(n_region):
+            if bound[i, j] < below:
+                k[n], r[n] = i, j
+                n += 1
+    return k, r
+
+
+@njit(cache=True)
 def _pair_geometry(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, k, r):
     """Closest points of the pairs (k, r) (`rules.pair_geometry`): t (N,), the robot's surface point,
     the body point, the unit direction robot -> body, the robot point's velocity (N, 3 each) and
@@ -279,6 +305,7 @@ def _warm_up() -> None:
     flags = np.ones(1, dtype=np.bool_)
     _governed_by_pfl(r, flags, True, one, np.ones(1), surface, on_body, direction, np.ones(1), True,
                      one, one + 1.0, 0.02)
+    _margin_candidates(distance, one, one, params, params, np.inf)
     _hold_clamps(k, r, flags[r].copy(), ~flags[r], np.zeros((1, 1)), 0.0, 0.5)
     _separations(r, approach, flags, params, params, np.zeros(len(r)), 0.0)
     _ssm_scales(r, distance[k, r], approach, flags[r], ~flags[r], np.zeros(1), flags, params, pieces, params,

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hrc_drake.messages import Immutable
+from hrc_drake.safety import _kernels
 from hrc_drake.safety.limits import BODY_REGIONS, contact_peak, limit_ratio
 from hrc_drake.safety.rules import SafetyRules, pair_geometry, subset_pairs
 from hrc_drake.safety.ssm import protective_separation
@@ -167,11 +168,15 @@ class ContactAccountant:
         computed. Its sign agrees with `time_below_sp_moving`: negative exactly at the samples a
         moving robot point was inside the S_p of a region SSM governs."""
         rules = self.rules
-        v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
-                           np.linalg.norm(robot_velocity[1], axis=1))
-        reach = np.maximum(protective_separation(v_max, rules.separation),
-                           protective_separation(v_max, rules.body_separation))
-        k, r = np.nonzero(distance - reach[:, None] < below)
+        if rules.compiled:
+            k, r = _kernels._margin_candidates(distance, *_kernels._arrays(*robot_velocity), *rules._params,
+                                               float(below))
+        else:
+            v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
+                               np.linalg.norm(robot_velocity[1], axis=1))
+            reach = np.maximum(protective_separation(v_max, rules.separation),
+                               protective_separation(v_max, rules.body_separation))
+            k, r = np.nonzero(distance - reach[:, None] < below)
         if not len(k):
             return math.inf
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r], rules.compiled)
