@@ -65,8 +65,10 @@ class RobotPointDynamics:
 
     kinematics: `robots.models.RobotCapsuleKinematics` of the plant. Holds a scratch plant context,
     fully overwritten by `set_state` before each use (as `cell.systems.RobotCapsules`); what it
-    derives from one state (poses, each body's operational-space inverse inertia) is kept until
-    the next `set_state`.
+    derives from the positions (capsules, each body's operational-space inverse inertia) is kept
+    until `set_state` is given other positions, what it derives from the velocities until other
+    velocities: the safety controller and the contact monitor share one, and read the same
+    positions at most of their samples.
     """
 
     def __init__(self, plant, kinematics):
@@ -90,39 +92,53 @@ class RobotPointDynamics:
         self._origins = None
         self._inverse_inertia: dict = {}
         self._mass_factor = None
+        self._q = self._v = None
+        self._robot = self._ends = self._moved = None
 
     @property
     def num_velocities(self) -> int:
         return self._nv
 
-    def set_state(self, q, v) -> None:
-        """Positions (the first nq entries of `q`) and velocities (nv) of the plant."""
-        self.plant.SetPositions(self._context, np.asarray(q, dtype=float)[: self._nq])
-        self.plant.SetVelocities(self._context, np.asarray(v, dtype=float)[: self._nv])
-        self._origins = None
-        self._inverse_inertia = {}
-        self._mass_factor = None
+    def set_state(self, q, v=None) -> None:
+        """Positions (the first nq entries of `q`) and velocities (nv; None: as they were) of the plant."""
+        q = np.asarray(q, dtype=float)[: self._nq]
+        if self._q is None or not np.array_equal(q, self._q):
+            self.plant.SetPositions(self._context, q)
+            self._q = q.copy()
+            self._origins = self._robot = self._ends = self._moved = None
+            self._inverse_inertia = {}
+            self._mass_factor = None
+        if v is None:
+            return
+        v = np.asarray(v, dtype=float)[: self._nv]
+        if self._v is None or not np.array_equal(v, self._v):
+            self.plant.SetVelocities(self._context, v)
+            self._v = v.copy()
+            self._moved = None
 
     def capsules(self, velocities: bool = True):
         """((start, end, radius), (v_start, v_end)): world capsules (K) and their end points'
         velocities (K, 3), v = v_B + w_B x (p - p_B) from each body's spatial velocity (with
         `velocities` False, only the capsules and None: the velocity kinematics is not run)."""
-        poses = self._poses_port.Eval(self._context)
-        X = np.array([poses[i].GetAsMatrix4() for i in self._unique_list])
-        if self._gather is not None:
-            X = X[self._gather]
-        R, p = X[:, :3, :3], X[:, :3, 3]
-        self._origins = p
-        ends = np.einsum("kij,skj->ski", R, self._local) + p  # (2, K, 3): starts and ends
-        robot = (ends[0], ends[1], self.radius.copy())
+        if self._robot is None:
+            poses = self._poses_port.Eval(self._context)
+            X = np.array([poses[i].GetAsMatrix4() for i in self._unique_list])
+            if self._gather is not None:
+                X = X[self._gather]
+            R, p = X[:, :3, :3], X[:, :3, 3]
+            self._origins = p
+            self._ends = np.einsum("kij,skj->ski", R, self._local) + p  # (2, K, 3): starts and ends
+            self._robot = (self._ends[0], self._ends[1], self.radius)
+        robot = (*self._robot[:2], self.radius.copy())
         if not velocities:
             return robot, None
-        spatial = self._velocities_port.Eval(self._context)
-        V = np.array([spatial[i].get_coeffs() for i in self._unique_list])
-        if self._gather is not None:
-            V = V[self._gather]
-        moved = V[:, 3:] + _cross(V[:, :3], ends - p)  # (2, K, 3)
-        return robot, (moved[0], moved[1])
+        if self._moved is None:
+            spatial = self._velocities_port.Eval(self._context)
+            V = np.array([spatial[i].get_coeffs() for i in self._unique_list])
+            if self._gather is not None:
+                V = V[self._gather]
+            self._moved = V[:, 3:] + _cross(V[:, :3], self._ends - self._origins)  # (2, K, 3)
+        return robot, (self._moved[0], self._moved[1])
 
     def _body_inverse_inertia(self, k: int) -> np.ndarray:
         """J M^-1 J^T (6, 6) at the origin of capsule k's body, J its spatial Jacobian ([w; v])."""
@@ -385,7 +401,6 @@ class SafetyMonitor(LeafSystem):
         self.standard = standard
         self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
-        self._zero_velocities = np.zeros(dynamics.num_velocities)
         self._entry = self.DeclareCacheEntry(
             "monitor run", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
                                          calc=lambda *_: None), {self.nothing_ticket()})
@@ -409,7 +424,7 @@ class SafetyMonitor(LeafSystem):
             return EventStatus.DidNothing()
         regions = self.cutter.cut(start, end, radius)
         # positions only: the robot's velocities are its capsules' motion since the last sample
-        self.dynamics.set_state(self._positions.Eval(context), self._zero_velocities)
+        self.dynamics.set_state(self._positions.Eval(context))
         robot, _ = self.dynamics.capsules(velocities=False)
         recording.run = self.accountant.step(recording.run, time, robot, None, regions,
                                              self.dynamics.effective_mass)
@@ -444,10 +459,11 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses)
     input_size = positions.size()
     controller = None
+    # one for both systems: they read the same positions at most samples (`RobotPointDynamics`)
+    dynamics = RobotPointDynamics(plant, kinematics)
     if not isinstance(config, NoSafety):
         controller = builder.AddSystem(SafetyController(
-            rules, RobotPointDynamics(plant, kinematics), HumanRegions(body_model, config, camera_noise),
-            input_size))
+            rules, dynamics, HumanRegions(body_model, config, camera_noise), input_size))
         controller.set_name("safety_controller")
         builder.Connect(positions, controller.GetInputPort("positions"))
         builder.Connect(velocities_full, controller.GetInputPort("velocities_full"))
@@ -458,7 +474,7 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
             builder.Connect(swept_volumes, controller.GetInputPort("swept_volumes"))
     moving = config.moving_speed if not isinstance(config, NoSafety) else 0.01
     accountant = ContactAccountant(rules, limits, kinematics.names, RegionCapsules().names, moving)
-    monitor = builder.AddSystem(SafetyMonitor(accountant, RobotPointDynamics(plant, kinematics), input_size,
+    monitor = builder.AddSystem(SafetyMonitor(accountant, dynamics, input_size,
                                               monitor_period, mode_name(config), limits.source))
     monitor.set_name("safety_monitor")
     builder.Connect(human_capsules, monitor.GetInputPort("human_capsules"))

@@ -69,3 +69,32 @@ def test_the_cached_body_form_equals_the_point_jacobian_form():
     s1, c1, s12, c12 = np.sin(q[0]), np.cos(q[0]), np.sin(q.sum()), np.cos(q.sum())
     j2 = np.array([[-L1 * s1 - L2 * s12, -L2 * s12], [L1 * c1 + L2 * c12, L2 * c12]])
     assert np.allclose(v_end[0][:2], j2 @ v)
+
+
+def test_shared_dynamics_keep_only_what_the_state_leaves_unchanged():
+    """The controller and the monitor share one `RobotPointDynamics`: what it keeps between
+    `set_state` calls (capsules for the same positions, velocities for the same velocities, masses)
+    equals a fresh one's, through repeated, changed and velocity-less (`v` None) states."""
+    plant, _ = two_link_arm(L1, L2, M1, M2)
+    kinematics = two_link_kinematics(plant, L2)
+    shared = RobotPointDynamics(plant, kinematics)
+    rng = np.random.default_rng(8)
+    q, v = rng.uniform(-2, 2, 2), rng.normal(size=2)
+    u = np.array([[0.6, 0.8, 0.0]])
+    for step in range(40):
+        if rng.random() < 0.4:
+            q = rng.uniform(-2, 2, 2)
+        if rng.random() < 0.4:
+            v = rng.normal(size=2)
+        positions_only = rng.random() < 0.3
+        shared.set_state(q, None if positions_only else v)
+        fresh = RobotPointDynamics(plant, kinematics)
+        fresh.set_state(q, v)
+        got, want = shared.capsules(velocities=not positions_only), fresh.capsules(velocities=not positions_only)
+        for x, y in zip(got[0], want[0], strict=True):
+            np.testing.assert_array_equal(x, y)
+        if not positions_only:
+            for x, y in zip(got[1], want[1], strict=True):
+                np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(shared.effective_mass([0], got[0][1][:1], u),
+                                      fresh.effective_mass([0], want[0][1][:1], u))
