@@ -2,13 +2,13 @@
 
 Each subpackage keeps the numba forms of its own algorithms beside them, in a private
 `_kernels.py` (`human`, `motion`, `perception`, `intention`, `prediction`, `scheduling`,
-`safety`: see `GROUPS`): per-frame geometry and per-step models that numpy runs as many calls on tiny arrays,
-written as loops (DESIGN.md, performance rules). This module holds what several of them use:
-Ericson's clamped closest points of two segments (Real-Time Collision Detection, 5.1.9) as
-`motion.geometry` states it, the clearances of capsule pairs (the recorder, the speed scaler,
-the safety controller), the closest-point parameters of the safety controller's robot-body
-pairs, Gaussian elimination with partial pivoting, and `_arrays`, the argument conversion every
-wrapper uses. Their numpy forms stay the reference the tests compare against
+`safety`: see `GROUPS`): per-frame geometry and per-step models that numpy runs as many calls
+on tiny arrays, written as loops (DESIGN.md, performance rules). This module holds what several
+of them use: Ericson's clamped closest points of two segments (Real-Time Collision Detection,
+5.1.9) as `motion.geometry` states it, the clearances of capsule pairs (the recorder, the speed
+scaler, the safety rules), the closest-point parameters of capsule pairs (the safety rules'
+numpy reference), Gaussian elimination with partial pivoting, and `_arrays`, the argument
+conversion every wrapper uses. Their numpy forms stay the reference the tests compare against
 (tests/test_kernels.py).
 
 Compilation: a kernel compiles when it is first called (numba's lazy compile), so a cell

@@ -40,7 +40,7 @@ simulation needs (scenario loader, builder, simulate), measured inside the inter
 figure from empty caches (NUMBA_CACHE_DIR a new temporary folder): `kernel_compile_s` and
 `kernel_load_s`, the seconds `hrc_drake.kernels.warm_up()` takes to compile every kernel and to
 load them all from the cache; `kernel_compile_s.<group>` (geometry, human, motion, perception,
-intention, prediction, scheduling: `kernels.GROUPS`), one group's compile time in its own
+intention, prediction, scheduling, safety: `kernels.GROUPS`), one group's compile time in its own
 interpreter, callees of other files included (a cell compiles only the groups its systems call,
 when first called); and `first_run_s.torch_clock`, the wall time of `python -m hrc_drake.cli
 simulate diagrams/torch_clock.yaml --duration 20` with an empty cache: a fresh machine's first

@@ -108,7 +108,8 @@ def _margin_candidates(distance, v_start, v_end, limbs, body, below):
     for i in range(n_robot):
         v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
                     _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
-        reach = max(_protective_separation(v_max, limbs, 0.0, 0.0), _protective_separation(v_max, body, 0.0, 0.0))
+        reach = max(_protective_separation(v_max, limbs, 0.0, 0.0),
+                    _protective_separation(v_max, body, 0.0, 0.0))
         for j in range(n_region):
             bound[i, j] = distance[i, j] - reach
             if bound[i, j] < below:
@@ -140,7 +141,8 @@ def _pair_geometry(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, k, 
         i, j = k[n], r[n]
         d1x, d1y, d1z = r_end[i, 0] - r_start[i, 0], r_end[i, 1] - r_start[i, 1], r_end[i, 2] - r_start[i, 2]
         d2x, d2y, d2z = h_end[j, 0] - h_start[j, 0], h_end[j, 1] - h_start[j, 1], h_end[j, 2] - h_start[j, 2]
-        rx, ry, rz = r_start[i, 0] - h_start[j, 0], r_start[i, 1] - h_start[j, 1], r_start[i, 2] - h_start[j, 2]
+        rx, ry = r_start[i, 0] - h_start[j, 0], r_start[i, 1] - h_start[j, 1]
+        rz = r_start[i, 2] - h_start[j, 2]
         s, t = _closest_on_segments(d1x * d1x + d1y * d1y + d1z * d1z, d1x * d2x + d1y * d2y + d1z * d2z,
                                     d1x * rx + d1y * ry + d1z * rz, d2x * d2x + d2y * d2y + d2z * d2z,
                                     d2x * rx + d2y * ry + d2z * rz)

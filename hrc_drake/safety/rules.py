@@ -134,10 +134,9 @@ class SafetyRules:
         self.zone_centers = np.asarray(centers, dtype=float).reshape(-1, 3)
         self.zone_radii = np.asarray(radii, dtype=float).reshape(-1)
         self.fixed_boxes = tuple(fixed_boxes)
-        self._box_lower = np.array([np.subtract(b.center, np.multiply(b.size, 0.5)) for b in self.fixed_boxes],
-                                   dtype=float).reshape(-1, 3)
-        self._box_upper = np.array([np.add(b.center, np.multiply(b.size, 0.5)) for b in self.fixed_boxes],
-                                   dtype=float).reshape(-1, 3)
+        centers = np.array([b.center for b in self.fixed_boxes], dtype=float).reshape(-1, 3)
+        halves = np.array([np.multiply(b.size, 0.5) for b in self.fixed_boxes], dtype=float).reshape(-1, 3)
+        self._box_lower, self._box_upper = centers - halves, centers + halves
         #: the clamping test's margin behind a part (`clamped`)
         self.clamp_margin = config.clamp_margin if self.pfl else 0.02
         self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
@@ -200,9 +199,10 @@ class SafetyRules:
         """(PFL's region in a zone (N,), governed by PFL (N,)) by `_kernels._governed_by_pfl`."""
         clamping = region_radius is not None and bool(self.fixed_boxes)
         radius = _kernels._arrays(region_radius)[0] if clamping else self._pfl_floor
-        return _kernels._governed_by_pfl(pairs.r, self.pfl_region, self.hybrid, self.zone_centers, self.zone_radii,
-                                         pairs.robot_point, pairs.body_point, pairs.direction, radius, clamping,
-                                         self._box_lower, self._box_upper, self.clamp_margin)
+        return _kernels._governed_by_pfl(
+            pairs.r, self.pfl_region, self.hybrid, self.zone_centers, self.zone_radii, pairs.robot_point,
+            pairs.body_point, pairs.direction, radius, clamping, self._box_lower, self._box_upper,
+            self.clamp_margin)
 
     def clamped(self, pairs: PairGeometry, region_radius, lost=None) -> np.ndarray:
         """(N,) whether the body part of each pair is clamped against a fixed surface.
@@ -339,7 +339,8 @@ class SafetyRules:
         clamped = zone & ~governed
         if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
-            _kernels._hold_clamps(k, r, governed, clamped, clamped_until, float(now), float(self.config.clamp_hold))
+            _kernels._hold_clamps(k, r, governed, clamped, clamped_until, float(now),
+                                  float(self.config.clamp_hold))
         elif clamped_until is not None and self.pfl and self.fixed_boxes:
             clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
             held = governed & (clamped_until[k, r] > now)

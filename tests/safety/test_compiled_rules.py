@@ -85,7 +85,8 @@ def test_screen_geometry_rules_and_separations_equal_numpy(name):
             continue
         compared += len(k)
         pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r])
-        assert_same_pairs(pairs, pair_geometry(robot, velocity, regions, k, r, distance[k, r], compiled=False))
+        numpy_pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r], compiled=False)
+        assert_same_pairs(pairs, numpy_pairs)
         for radius in (None, regions[2]):
             np.testing.assert_array_equal(compiled.governed_by_pfl(pairs, radius),
                                           reference.governed_by_pfl(pairs, radius))

@@ -81,7 +81,7 @@ def test_shared_dynamics_keep_only_what_the_state_leaves_unchanged():
     rng = np.random.default_rng(8)
     q, v = rng.uniform(-2, 2, 2), rng.normal(size=2)
     u = np.array([[0.6, 0.8, 0.0]])
-    for step in range(40):
+    for _ in range(40):
         if rng.random() < 0.4:
             q = rng.uniform(-2, 2, 2)
         if rng.random() < 0.4:
@@ -90,7 +90,8 @@ def test_shared_dynamics_keep_only_what_the_state_leaves_unchanged():
         shared.set_state(q, None if positions_only else v)
         fresh = RobotPointDynamics(plant, kinematics)
         fresh.set_state(q, v)
-        got, want = shared.capsules(velocities=not positions_only), fresh.capsules(velocities=not positions_only)
+        got = shared.capsules(velocities=not positions_only)
+        want = fresh.capsules(velocities=not positions_only)
         for x, y in zip(got[0], want[0], strict=True):
             np.testing.assert_array_equal(x, y)
         if not positions_only:
