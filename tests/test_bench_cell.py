@@ -111,10 +111,15 @@ def test_a_scenario_new_since_the_baseline_is_reported_on_the_current_code_only(
     assert "pcb_ic" in bench.format_table(names, current, baseline)
 
 
-def test_the_goal_leaves_out_the_rendered_cells_and_counts_cpu_time(bench):
-    names = ["fast", "slow", "pcb_occlusion_rendered"]
+def test_each_cell_has_its_goal_of_issue_41_in_cpu_time(bench):
+    """>= 50x CPU, >= 20x with a GP motion predictor, >= 10x with the rendered camera."""
+    names = ["fast", "slow", "gp", "gp_slow", "pcb_occlusion_rendered"]
+    gp = dict(run(1.0, 0.8), gp_predictor=True)  # 25x CPU
+    gp_slow = dict(run(1.0, 1.2), gp_predictor=True)  # 16.7x CPU
     current = {"fast": bench.summarize_runs([run(1.0, 0.1)], 20.0),        # 200x CPU
                "slow": bench.summarize_runs([run(0.1, 1.0)], 20.0),        # 200x wall, 20x CPU
-               "pcb_occlusion_rendered": bench.summarize_runs([run(2.0, 2.0)], 20.0)}
+               "gp": bench.summarize_runs([gp], 20.0), "gp_slow": bench.summarize_runs([gp_slow], 20.0),
+               "pcb_occlusion_rendered": bench.summarize_runs([run(2.0, 2.0)], 20.0)}  # 10x
     fig = bench.figures_json(names, current, None, [], 20.0, 1, None, 1.0, 1.0)
-    assert fig["below_goal"] == ["slow"]
+    assert fig["below_goal"] == ["slow", "gp_slow"]
+    assert [fig[f"goal_rtf_{n}"] for n in names] == [50.0, 50.0, 20.0, 20.0, 10.0]
