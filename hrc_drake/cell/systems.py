@@ -297,7 +297,8 @@ class RobotCapsules(LeafSystem):
 
     Input "positions" (n >= nq; the first nq entries are the plant's positions).
     Output "capsules": `messages.Capsules`. Stateless: the plant context on the system is
-    scratch space, fully overwritten before each use.
+    scratch space, fully overwritten before each use; the last positions and their capsules
+    (immutable) are kept, and given again while the positions stay the same (a robot at rest).
     """
 
     def __init__(self, plant, kinematics, input_size: int):
@@ -306,12 +307,16 @@ class RobotCapsules(LeafSystem):
         self.kinematics = kinematics
         self._plant_context = plant.CreateDefaultContext()
         self._nq = plant.num_positions()
+        self._last: tuple[np.ndarray, Capsules] | None = None
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(no_capsules()), self._calc)
 
     def _calc(self, context, output):
-        self.plant.SetPositions(self._plant_context, self._positions.Eval(context)[: self._nq])
-        output.set_value(Capsules(*self.kinematics.capsules(self._plant_context)))
+        q = self._positions.Eval(context)[: self._nq]
+        if self._last is None or not np.array_equal(q, self._last[0]):
+            self.plant.SetPositions(self._plant_context, q)
+            self._last = (np.array(q), Capsules(*self.kinematics.capsules(self._plant_context)))
+        output.set_value(self._last[1])
 
 
 class CellWorldSystem(LeafSystem):

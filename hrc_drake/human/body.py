@@ -344,6 +344,10 @@ class BodyModel:
         thorax -> head; forearms are extended beyond the wrist by a hand length.
         """
         pts = np.asarray(points, dtype=float).reshape(8, 3)
+        return self._capsules_from_points_floats(pts)  # 10 us, the numpy form 26 us
+
+    def _capsules_from_points_numpy(self, pts):
+        """`capsules_from_points` in numpy: the reference of `_capsules_from_points_floats`."""
         up = np.array([0.0, 0.0, 1.0])
         neck = pts[HEAD] - pts[THORAX]
         neck_dir = neck / max(np.linalg.norm(neck), 1e-9)
@@ -355,6 +359,26 @@ class BodyModel:
         end = np.stack(
             [pts[THORAX], pts[HEAD] + 0.06 * neck_dir, pts[L_ELBOW], pts[R_ELBOW], hands[0], hands[1]]
         )
+        return start, end, self.capsule_radius.copy()
+
+    def _capsules_from_points_floats(self, pts):
+        """`capsules_from_points` with float arithmetic, the numpy form's operations in its order
+        (the neck's length by numpy's norm, as there)."""
+        rows = pts.tolist()
+        thorax, head = rows[THORAX], rows[HEAD]
+        neck = [head[c] - thorax[c] for c in range(3)]
+        scale = max(float(np.linalg.norm(pts[HEAD] - pts[THORAX])), 1e-9)
+        neck_dir = [x / scale for x in neck]
+        hands = []
+        for elbow, wrist in ((rows[L_ELBOW], rows[L_WRIST]), (rows[R_ELBOW], rows[R_WRIST])):
+            fore = [wrist[c] - elbow[c] for c in range(3)]
+            length = max(math.sqrt(fore[0] * fore[0] + fore[1] * fore[1] + fore[2] * fore[2]), 1e-9)
+            hands.append([wrist[c] + self.hand_length * (fore[c] / length) for c in range(3)])
+        hip = [thorax[0] - self.torso * 0.0, thorax[1] - self.torso * 0.0, thorax[2] - self.torso * 1.0]
+        start = np.array([hip, [head[c] - 0.06 * neck_dir[c] for c in range(3)], rows[L_SHOULDER],
+                          rows[R_SHOULDER], rows[L_ELBOW], rows[R_ELBOW]])
+        end = np.array([thorax, [head[c] + 0.06 * neck_dir[c] for c in range(3)], rows[L_ELBOW],
+                        rows[R_ELBOW], hands[0], hands[1]])
         return start, end, self.capsule_radius.copy()
 
     # ------------------------------------------------------------------ inverse kinematics

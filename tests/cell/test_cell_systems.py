@@ -109,3 +109,28 @@ def test_the_recorder_thins_its_samples_but_not_its_figures():
     full = summarize(log, 5.0, ["human"], {})
     assert full["mean_speed_override"] == 1.0
     assert full["min_human_robot_distance"] == round(min(log.distances), 4)
+
+
+def test_robot_capsules_given_again_while_the_positions_stay_the_same():
+    """RobotCapsules keeps the last positions' capsules: the same value while they stay, a fresh
+    computation's as soon as they change (two contexts taking turns)."""
+    from tests.cell.system_examples import _irb140, robot_capsules
+
+    example = robot_capsules()
+    system = example.system
+    plant, kinematics = _irb140()
+    scratch = plant.CreateDefaultContext()
+    contexts = [new_context(example, example.inputs_a), new_context(example, example.inputs_b)]
+    port = system.get_output_port()
+    seen = []
+    for turn in (0, 1, 1, 0, 0, 1):
+        value = port.Eval(contexts[turn])
+        q = system.get_input_port().Eval(contexts[turn])[: plant.num_positions()]
+        plant.SetPositions(scratch, q)
+        for x, y in zip(value, kinematics.capsules(scratch), strict=True):
+            np.testing.assert_array_equal(x, y)
+        seen.append(value)
+    outputs = [AbstractValue.Make(seen[0]) for _ in range(2)]
+    for output in outputs:
+        system._calc(contexts[0], output)
+    assert outputs[0].get_value() is outputs[1].get_value()  # unchanged positions: the kept value

@@ -201,3 +201,24 @@ def test_regions_of_an_estimate_with_nothing_lost_are_reach_bounded_s(source):
         np.testing.assert_array_equal(got_z, CUTTER.region_uncertainty(per_capsule))
         assert np.isnan(got_lost).all()
     assert fast > 10
+
+
+def test_body_capsules_from_points_by_floats_equal_the_numpy_form():
+    """BodyModel.capsules_from_points (float arithmetic) against its numpy form, bit for bit,
+    also with coinciding and non-finite points."""
+    from hrc_drake.human.body import BodyModel
+
+    body = BodyModel()
+    rng = np.random.default_rng(4)
+    base = body.points(body.rest_q((0.9, 0.0), np.pi))
+    for trial in range(300):
+        points = base + rng.normal(0.0, 0.2, (8, 3))
+        if trial % 10 == 1:
+            points[6] = points[4]  # a wrist on its elbow
+        if trial % 10 == 2:
+            points[1] = points[0]  # the head on the thorax
+        if trial % 10 == 3:
+            points[rng.integers(8)] = np.nan
+        floats, numpy_form = body.capsules_from_points(points), body._capsules_from_points_numpy(points)
+        for x, y in zip(floats, numpy_form, strict=True):
+            np.testing.assert_array_equal(x, y)
