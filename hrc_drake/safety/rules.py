@@ -141,7 +141,7 @@ class SafetyRules:
         self.clamp_margin = config.clamp_margin if self.pfl else 0.02
         self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
                                        p.human_speed]) for p in (self.separation, self.body_separation))
-        self._pieces: dict = {}
+        self._pieces_by_covered_time: dict = {}
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None
@@ -163,11 +163,11 @@ class SafetyRules:
 
     def _pieces_of(self, covered_time: float):
         """The ISO 13855 pieces (P, 4) of the limbs' and the body's S_p (`_kernels`), by H."""
-        pieces = self._pieces.get(covered_time)
+        pieces = self._pieces_by_covered_time.get(covered_time)
         if pieces is None:
             pieces = tuple(np.array(p._pieces(covered_time), dtype=float).reshape(-1, 4)
                            for p in (self.separation, self.body_separation))
-            self._pieces[covered_time] = pieces
+            self._pieces_by_covered_time[covered_time] = pieces
         return pieces
 
     def in_zone(self, points) -> np.ndarray:
