@@ -123,3 +123,10 @@ def test_each_cell_has_its_goal_of_issue_41_in_cpu_time(bench):
     fig = bench.figures_json(names, current, None, [], 20.0, 1, None, 1.0, 1.0)
     assert fig["below_goal"] == ["slow", "gp_slow"]
     assert [fig[f"goal_rtf_{n}"] for n in names] == [50.0, 50.0, 20.0, 20.0, 10.0]
+
+
+def test_breakdown_shares_name_the_largest_systems_the_others_and_drake(bench):
+    run = {"total_s": 10.0, "systems_s": {"a": 1.0, "b": 4.0, "c": 0.5, "d": 2.0}}
+    shares = bench.breakdown_shares(run, top=2)
+    assert list(shares) == ["b", "d", "other systems", "drake and glue"]
+    assert shares == {"b": 40.0, "d": 20.0, "other systems": 15.0, "drake and glue": 25.0}

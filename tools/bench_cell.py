@@ -50,7 +50,11 @@ The goals (issue 41) are `rtf_<name>` >= 50 (CPU-based) for a cell without a GP 
 >= 20 for one with it (a system "human_motion_predictor"), >= 10 for a rendered-camera cell, and
 `help_s` <= 0.1: `goal_rtf_<name>` gives each cell's, `below_goal` lists the cells that miss.
 `--profile` runs cProfile on every cell below its goal (current code, the same duration) and
-prints its 25 largest functions by own time and by cumulative time.
+prints its 25 largest functions by own time and by cumulative time. `--breakdown` runs every cell
+once more with each system's callbacks (output calculations, periodic events) timed, leaving out
+the callbacks they call in turn, and gives `breakdown_<name>`: the largest systems' shares of the
+run's CPU time (%), "other systems", and "drake and glue" (the simulator loop, the plant's
+kinematics, Python between callbacks).
 
 Prints progress lines, a table, then as its last line one JSON object with the figures: per
 scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name>`,
@@ -62,7 +66,7 @@ scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name
 Usage:
     PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N] [--only NAME ...]
                                              [--baseline REV | --no-baseline] [--instructions S]
-                                             [--profile] [--startup-only]
+                                             [--profile] [--breakdown] [--startup-only]
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
@@ -472,6 +476,94 @@ def profile_cell(scenario: Path, duration: float) -> str:
     return proc.stdout
 
 
+# Run in a fresh interpreter of the current code: the CPU seconds of each system's own callbacks.
+# Every output calculation and periodic event a LeafSystem declares is wrapped (before the cell is
+# built) with a timer that leaves out the callbacks it calls in turn (a port it evaluates), so
+# each second is counted once, by the system whose Python code ran; the rest of the run is
+# Drake's own work (the simulator loop, the plant's kinematics) and Python glue between them.
+BREAKDOWN_CODE = r"""
+import json, sys, time, warnings
+warnings.simplefilter("ignore")
+from pydrake.systems.framework import LeafSystem
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cell.build import build_cell  # pydrake's own modules first: they extend LeafSystem
+from hrc_drake.cell.run import simulate
+from hrc_drake import kernels
+own, calls, stack, systems = {}, {}, [], {}
+process_time = time.process_time
+
+
+def timed(system, fn):
+    key = id(system)
+    systems[key] = system
+
+    def inner(*args):
+        start = process_time()
+        stack.append(0.0)
+        try:
+            return fn(*args)
+        finally:
+            elapsed = process_time() - start
+            nested = stack.pop()
+            own[key] = own.get(key, 0.0) + elapsed - nested
+            calls[key] = calls.get(key, 0) + 1
+            if stack:
+                stack[-1] += elapsed
+    return inner
+
+
+def wrap(method, at):
+    original = getattr(LeafSystem, method)
+
+    def declare(self, *args, **kwargs):
+        args = list(args)
+        if len(args) > at and callable(args[at]):
+            args[at] = timed(self, args[at])
+        return original(self, *args, **kwargs)
+    setattr(LeafSystem, method, declare)
+
+
+for method in ("DeclareAbstractOutputPort", "DeclareVectorOutputPort", "DeclarePeriodicPublishEvent",
+               "DeclarePeriodicUnrestrictedUpdateEvent", "DeclarePeriodicDiscreteUpdateEvent"):
+    wrap(method, 2)
+
+path, duration = sys.argv[1], float(sys.argv[2])
+cell = build_cell(load_scenario(path), path)
+kernels.warm_up()
+own.clear(); calls.clear()
+start = process_time()
+simulate(cell, duration, progress=None)
+total = process_time() - start
+by_name = {}
+for key, seconds in own.items():
+    name = systems[key].get_name()
+    by_name[name] = by_name.get(name, 0.0) + seconds
+print(json.dumps({"total_s": total, "systems_s": by_name}))
+"""
+
+
+def breakdown_cell(scenario: Path, duration: float) -> dict:
+    """{"total_s": CPU s of the run, "systems_s": {system: CPU s of its own callbacks}} of one run of
+    `scenario` (current code; `BREAKDOWN_CODE`)."""
+    env = dict(os.environ, PYTHONPATH=str(REPO), PYTHONWARNINGS="ignore")
+    proc = subprocess.run([sys.executable, "-c", BREAKDOWN_CODE, str(scenario), repr(duration)],
+                          cwd=REPO, env=env, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"breakdown of {scenario} failed (exit {proc.returncode}): {proc.stderr[-800:]}")
+    return last_json_line(proc.stdout)
+
+
+def breakdown_shares(breakdown: dict, top: int = 6) -> dict[str, float]:
+    """The `top` systems' shares of the run's CPU time (%), largest first, then "other systems" and
+    "drake and glue" (the time no system's callback ran)."""
+    total = breakdown["total_s"]
+    systems = sorted(breakdown["systems_s"].items(), key=lambda item: -item[1])
+    shares = {name: round(100.0 * seconds / total, 1) for name, seconds in systems[:top]}
+    shares["other systems"] = round(100.0 * sum(s for _, s in systems[top:]) / total, 1)
+    shares["drake and glue"] = round(100.0 * (total - sum(s for _, s in systems)) / total, 1)
+    return shares
+
+
 def is_rendered(name: str) -> bool:
     """A cell with the rendered depth camera (its cost is reported apart from issue 18's goal)."""
     return name.endswith("_rendered")
@@ -611,6 +703,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="measure only these scenarios of diagrams/ (names without .yaml)")
     parser.add_argument("--profile", action="store_true",
                         help="also profile every cell below its goal (current code, cProfile)")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="also give each cell's CPU time by system (current code, one more run each)")
     parser.add_argument("--startup-only", action="store_true",
                         help="measure only the start-up figures (import_s, first_run_s.*, "
                              "kernel_compile_s.*) of the current code (and of --baseline REV when given "
@@ -740,6 +834,14 @@ def main(argv: list[str] | None = None) -> None:
                   "(cProfile adds its own overhead):")
             print(profile_cell(REPO / "diagrams" / f"{name}.yaml", duration), flush=True)
         figures["profiled"] = figures["below_goal"]
+    if args.breakdown:
+        print()
+        print(f"CPU time by system (own callbacks; current code, one run of {duration:g} s each):")
+        for name in names:
+            shares = breakdown_shares(breakdown_cell(REPO / "diagrams" / f"{name}.yaml", duration))
+            figures[f"breakdown_{name}"] = shares
+            print(f"  {name:22s} " + ", ".join(f"{system} {share:.1f} %" for system, share in shares.items()),
+                  flush=True)
     if counts is not None:
         print()
         print(f"Instructions in Simulator::AdvanceTo over {args.instructions:g} simulated s "
