@@ -130,12 +130,12 @@ def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(m
     """Item 8: numba turns a KeyboardInterrupt raised inside a kernel into `SystemError: ...
     returned a result with an exception set`. The kernel here raises it the way numba does when
     the signal's handler raises; the run must still end with its partial results."""
-    import hrc_drake.safety.rules as rules
+    import hrc_drake.safety._kernels as safety_kernels
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
     from hrc_drake.cell.scenario import load_scenario
 
-    real_kernel = rules.capsule_clearances
+    real_kernel = safety_kernels.screen
     calls = [0]
 
     def kernel_hit_by_ctrl_c(*args):
@@ -147,11 +147,11 @@ def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(m
             time.sleep(0)  # the handler of a pending signal runs here, as after numba's call
         except KeyboardInterrupt as err:
             raise SystemError(
-                "CPUDispatcher(<function capsule_clearances>) returned a result with an exception set"
+                "CPUDispatcher(<function _screen>) returned a result with an exception set"
             ) from err
         return result
 
-    monkeypatch.setattr(rules, "capsule_clearances", kernel_hit_by_ctrl_c)
+    monkeypatch.setattr(safety_kernels, "screen", kernel_hit_by_ctrl_c)
     cell = build_cell(load_scenario(TORCH), TORCH)
     result = simulate(cell, 60.0, progress=None)
     assert calls[0] >= 200 and result.interrupted and result.stopped_by == signal.SIGINT
