@@ -373,8 +373,9 @@ class SafetyRules:
         if self.compiled:
             size = len(pairs.r)
             speed, z_d = (np.asarray(x, dtype=float) for x in (speed, z_d))
-            speed, z_d = _kernels._arrays(*(x if x.shape == (size,) else np.broadcast_to(x, size)
-                                            for x in (speed, z_d)))
+            # a number for every pair: np.full (1 us), not a read-only broadcast view (10 us + a copy)
+            speed, z_d = _kernels._arrays(*(x if x.shape == (size,) else np.full(size, x) if x.ndim == 0
+                                            else np.broadcast_to(x, size) for x in (speed, z_d)))
             return _kernels._separations(pairs.r, speed, self.body_region, *self._params, z_d,
                                          float(covered_time))
         limbs = protective_separation(speed, self.separation, z_d, covered_time)
