@@ -121,7 +121,9 @@ out = {
     "products": result.metrics["products_finished"],
     "min_distance": result.metrics["min_human_robot_distance"],
     "robot_modes": [str(getattr(r, "mode", "?")) for r in scenario.robots],
-    "gp_predictor": any(s.get_name() == "human_motion_predictor" for s in cell.diagram.GetSystems()),
+    # a baseline tree's cell may not expose its diagram: then no GP predictor is known
+    "gp_predictor": any(s.get_name() == "human_motion_predictor"
+                        for s in getattr(getattr(cell, "diagram", None), "GetSystems", list)()),
 }
 
 
@@ -489,7 +491,7 @@ from hrc_drake.cell.scenario import load_scenario
 from hrc_drake.cell.build import build_cell  # pydrake's own modules first: they extend LeafSystem
 from hrc_drake.cell.run import simulate
 from hrc_drake import kernels
-own, calls, stack, systems = {}, {}, [], {}
+own, stack, systems = {}, [], {}
 process_time = time.process_time
 
 
@@ -506,7 +508,6 @@ def timed(system, fn):
             elapsed = process_time() - start
             nested = stack.pop()
             own[key] = own.get(key, 0.0) + elapsed - nested
-            calls[key] = calls.get(key, 0) + 1
             if stack:
                 stack[-1] += elapsed
     return inner
@@ -530,7 +531,7 @@ for method in ("DeclareAbstractOutputPort", "DeclareVectorOutputPort", "DeclareP
 path, duration = sys.argv[1], float(sys.argv[2])
 cell = build_cell(load_scenario(path), path)
 kernels.warm_up()
-own.clear(); calls.clear()
+own.clear()
 start = process_time()
 simulate(cell, duration, progress=None)
 total = process_time() - start
@@ -565,7 +566,7 @@ def breakdown_shares(breakdown: dict, top: int = 6) -> dict[str, float]:
 
 
 def is_rendered(name: str) -> bool:
-    """A cell with the rendered depth camera (its cost is reported apart from issue 18's goal)."""
+    """A cell with the rendered depth camera (its goal is `GOAL_RTF_RENDERED`)."""
     return name.endswith("_rendered")
 
 
