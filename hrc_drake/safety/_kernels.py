@@ -69,32 +69,47 @@ def _permissible_speed(distance, params, pieces, z_d):
     return best
 
 
+@njit(cache=True, inline="always")
+def _reach(v_start, v_end, i, limbs, body, covered_time):
+    """S_p at the fastest end point of robot capsule i (a link segment's fastest points), the larger
+    of the limbs' and the body's."""
+    v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
+                _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
+    return max(_protective_separation(v_max, limbs, 0.0, covered_time),
+               _protective_separation(v_max, body, 0.0, covered_time))
+
+
+@njit(cache=True, inline="always")
+def _pairs_of(mask):
+    """The (k, r) indices of the true entries of a (K, R) mask, row-major (as np.nonzero)."""
+    count = 0
+    for i in range(mask.shape[0]):
+        for j in range(mask.shape[1]):
+            if mask[i, j]:
+                count += 1
+    k = np.empty(count, dtype=np.int64)
+    r = np.empty(count, dtype=np.int64)
+    n = 0
+    for i in range(mask.shape[0]):
+        for j in range(mask.shape[1]):
+            if mask[i, j]:
+                k[n], r[n] = i, j
+                n += 1
+    return k, r
+
+
 @njit(cache=True)
 def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, z_d, limbs, body,
             covered_time):
     """Clearances (K, R) and the candidate pairs (k, r), row-major: nearer than S_p at the capsule's
     fastest end point plus the region's Z_d (`SafetyRules.screen`)."""
     distance = _capsule_clearances(r_start, r_end, r_radius, h_start, h_end, h_radius)
-    n_robot, n_region = distance.shape
-    reach = np.empty(n_robot)
-    for i in range(n_robot):
-        v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
-                    _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
-        reach[i] = max(_protective_separation(v_max, limbs, 0.0, covered_time),
-                       _protective_separation(v_max, body, 0.0, covered_time))
-    count = 0
-    for i in range(n_robot):
-        for j in range(n_region):
-            if distance[i, j] < reach[i] + z_d[j]:
-                count += 1
-    k = np.empty(count, dtype=np.int64)
-    r = np.empty(count, dtype=np.int64)
-    n = 0
-    for i in range(n_robot):
-        for j in range(n_region):
-            if distance[i, j] < reach[i] + z_d[j]:
-                k[n], r[n] = i, j
-                n += 1
+    near = np.empty(distance.shape, dtype=np.bool_)
+    for i in range(distance.shape[0]):
+        reach = _reach(v_start, v_end, i, limbs, body, covered_time)
+        for j in range(distance.shape[1]):
+            near[i, j] = distance[i, j] < reach + z_d[j]
+    k, r = _pairs_of(near)
     return distance, k, r
 
 
@@ -102,27 +117,12 @@ def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, 
 def _margin_candidates(distance, v_start, v_end, limbs, body, below):
     """The pairs (k, r), row-major, whose clearance less S_p at their capsule's fastest end point
     lies below `below` (`ContactAccountant.ssm_margin`)."""
-    n_robot, n_region = distance.shape
-    bound = np.empty((n_robot, n_region))
-    count = 0
-    for i in range(n_robot):
-        v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
-                    _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
-        reach = max(_protective_separation(v_max, limbs, 0.0, 0.0),
-                    _protective_separation(v_max, body, 0.0, 0.0))
-        for j in range(n_region):
-            bound[i, j] = distance[i, j] - reach
-            if bound[i, j] < below:
-                count += 1
-    k = np.empty(count, dtype=np.int64)
-    r = np.empty(count, dtype=np.int64)
-    n = 0
-    for i in range(n_robot):
-        for j in range(n_region):
-            if bound[i, j] < below:
-                k[n], r[n] = i, j
-                n += 1
-    return k, r
+    counted = np.empty(distance.shape, dtype=np.bool_)
+    for i in range(distance.shape[0]):
+        reach = _reach(v_start, v_end, i, limbs, body, 0.0)
+        for j in range(distance.shape[1]):
+            counted[i, j] = distance[i, j] - reach < below
+    return _pairs_of(counted)
 
 
 @njit(cache=True)
