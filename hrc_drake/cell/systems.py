@@ -292,13 +292,27 @@ def register_scene(scene_graph, scenario: Scenario):
     return source_id
 
 
+class _KeptCapsules:
+    """RobotCapsules' cache value: the last positions and their capsules (both replaced, never
+    changed in place, so a copy of the Context shares them and goes on independently)."""
+
+    __slots__ = ("positions", "capsules")
+
+    def __init__(self, positions=None, capsules=None):
+        self.positions, self.capsules = positions, capsules
+
+    def __deepcopy__(self, memo):
+        return _KeptCapsules(self.positions, self.capsules)
+
+
 class RobotCapsules(LeafSystem):
     """World capsules of every robot link, from the plant positions.
 
     Input "positions" (n >= nq; the first nq entries are the plant's positions).
     Output "capsules": `messages.Capsules`. Stateless: the plant context on the system is
-    scratch space, fully overwritten before each use; the last positions and their capsules
-    (immutable) are kept, and given again while the positions stay the same (a robot at rest).
+    scratch space, fully overwritten before each use; a cache entry of the Context keeps the
+    last positions and their capsules (immutable), given again while the positions stay the
+    same (a robot at rest).
     """
 
     def __init__(self, plant, kinematics, input_size: int):
@@ -307,16 +321,22 @@ class RobotCapsules(LeafSystem):
         self.kinematics = kinematics
         self._plant_context = plant.CreateDefaultContext()
         self._nq = plant.num_positions()
-        self._last: tuple[np.ndarray, Capsules] | None = None
         self._positions = self.DeclareVectorInputPort("positions", input_size)
+        self._kept = self.DeclareCacheEntry(
+            "last capsules",
+            ValueProducer(allocate=lambda: AbstractValue.Make(_KeptCapsules()), calc=lambda *_: None),
+            {self.nothing_ticket()},
+        )
         self.DeclareAbstractOutputPort("capsules", lambda: AbstractValue.Make(no_capsules()), self._calc)
 
     def _calc(self, context, output):
         q = self._positions.Eval(context)[: self._nq]
-        if self._last is None or not np.array_equal(q, self._last[0]):
+        kept = self._kept.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
+        if kept.positions is None or not np.array_equal(q, kept.positions):
             self.plant.SetPositions(self._plant_context, q)
-            self._last = (np.array(q), Capsules(*self.kinematics.capsules(self._plant_context)))
-        output.set_value(self._last[1])
+            kept.positions = np.array(q)
+            kept.capsules = Capsules(*self.kinematics.capsules(self._plant_context))
+        output.set_value(kept.capsules)
 
 
 class CellWorldSystem(LeafSystem):
