@@ -186,8 +186,8 @@ class HumanRegions:
         self.cutter = RegionCapsules()
         self.config = config
         self.camera_noise = float(camera_noise)
-        self._region_points = [list(CAPSULE_POINTS[BODY_CAPSULES[c.capsule]]) for c in self.cutter.cuts]
-        self._needed_points = np.unique(np.concatenate(self._region_points))
+        # the skeleton points some region's capsule is placed by: all must be finite
+        self._needed_points = np.unique([p for name in BODY_CAPSULES for p in CAPSULE_POINTS[name]])
         # each body capsule's first and last skeleton point: its uncertainty is their larger one
         self._capsule_first = np.array([CAPSULE_POINTS[name][0] for name in BODY_CAPSULES])
         self._capsule_last = np.array([CAPSULE_POINTS[name][-1] for name in BODY_CAPSULES])
