@@ -238,8 +238,8 @@ def _print_files(paths) -> None:
 
 
 def _simulate(args) -> int:
-    from hrc_drake.cell.build import build_cell
-    from hrc_drake.cell.run import simulate, write_replay, write_report
+    from hrc_drake.cell.build import kernel_groups
+    from hrc_drake.kernels import compile_ahead
 
     # Output paths are checked before anything is built, so a bad one costs no simulation.
     if args.out:
@@ -249,6 +249,15 @@ def _simulate(args) -> int:
     scenario, scenario_path = _load_scenario(args.scenario)
     if args.seed is not None:
         scenario.seed = args.seed
+    # a first run compiles the cell's kernels in other processes while this one builds
+    with compile_ahead(kernel_groups(scenario)) as ahead:
+        return _build_and_simulate(args, scenario, scenario_path, ahead)
+
+
+def _build_and_simulate(args, scenario, scenario_path, ahead) -> int:
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.run import simulate, write_replay, write_report
+
     duration = args.duration if args.duration is not None else scenario.duration
     meshcat = None
     if args.meshcat or args.replay:
@@ -268,6 +277,7 @@ def _simulate(args) -> int:
     print(f"Building {scenario_path} (seed {scenario.seed}) ...", flush=True)
     cell = build_cell(scenario, scenario_path, meshcat=meshcat, replay_fps=replay_fps)
     realtime_rate = args.realtime_rate if args.realtime_rate is not None else (1.0 if args.meshcat else 0.0)
+    ahead.wait()
     print(f"Simulating {duration:g} s (Ctrl-C stops and reports the time simulated) ...", flush=True)
     result = simulate(
         cell, duration, progress=sys.stderr, record=bool(args.replay), realtime_rate=realtime_rate

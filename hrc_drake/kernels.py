@@ -20,9 +20,13 @@ kernels for the particle filter (first run only) ..."; a numba "numba:compile" e
 adds the files of the kernels it calls from another module (these primitives, the skeleton) to
 the stamp: editing a primitive recompiles its callers. `warm_up()` compiles or loads the groups
 named (all by default), for the tests and `tools/bench_cell.py`, which reports how long each
-group takes to compile from an empty cache. Small products and reductions are written as loops:
-numba's ndarray.min/max, np.linalg.solve and slice assignments each take it a second or more to
-compile.
+group takes to compile from an empty cache. `hrc-drake simulate` compiles a first run's groups
+ahead (`compile_ahead`, the groups of `cell.build.kernel_groups`): one background process per
+CPU while the cell builds, sharing the groups' warm-up calls by claiming each in a temporary
+folder, so that the run loads them from the cache instead of compiling one after another.
+
+Small products and reductions are written as loops: numba's ndarray.min/max, np.linalg.solve
+and slice assignments each take it a second or more to compile.
 """
 
 from __future__ import annotations
@@ -30,8 +34,12 @@ from __future__ import annotations
 import hashlib
 import importlib
 import math
+import os
+import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -211,7 +219,8 @@ class _FirstRunNotice(event.Listener):
         self._depth -= 1
 
 
-event.register("numba:compile", _FirstRunNotice())
+_NOTICE = _FirstRunNotice()
+event.register("numba:compile", _NOTICE)
 
 
 def _file_stamp(path: str) -> bytes:
@@ -243,19 +252,144 @@ def register_group(namespace: dict, *dependencies) -> None:
             cache_file._source_stamp = (cache_file._source_stamp, *extra)
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`warm_up`)."""
-    one = np.zeros((1, 3))
-    capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1))
-    pair_closest_parameters(one, one + 1.0, one, one + 1.0, np.zeros(1, dtype=np.int64),
-                            np.zeros(1, dtype=np.int64))
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own (`warm_up`)."""
+    one, index = np.zeros((1, 3)), np.zeros(1, dtype=np.int64)
+    return [lambda: capsule_clearances(one, one + 1.0, np.ones(1), one, one + 1.0, np.ones(1)),
+            lambda: pair_closest_parameters(one, one + 1.0, one, one + 1.0, index, index),
+            lambda: _solve_pivoting(np.eye(2), np.ones((2, 1)))]
 
 
-def warm_up(groups=None) -> float:
+def warm_up(groups=None, start: float = 0.0, claims: str | None = None) -> float:
     """Compile (or load from the disk cache) every kernel of `groups` (names of `GROUPS`; all by
     default) and return the seconds it took. A cell needs none of this (each kernel compiles
-    when first called): it is for the tests and the benchmarks."""
+    when first called): it is for the tests, the benchmarks and `compile_ahead`, whose processes
+    go round the same calls from different `start`s (a fraction of the way through them) and
+    make only the calls they claim first in the folder `claims` (one empty file per call)."""
     started = time.perf_counter()
-    for name in GROUPS if groups is None else groups:
-        importlib.import_module(GROUPS[name][0])._warm_up()
+    steps = [(f"{name}.{k}", step) for name in (GROUPS if groups is None else groups)
+             for k, step in enumerate(importlib.import_module(GROUPS[name][0])._warm_up_steps())]
+    first = int(start * len(steps)) % max(len(steps), 1)
+    for key, step in steps[first:] + steps[:first]:
+        if claims is not None:
+            try:
+                os.close(os.open(os.path.join(claims, key), os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            except FileExistsError:  # another process compiles it
+                continue
+        step()
     return time.perf_counter() - started
+
+
+def _group_kernels(name: str) -> list:
+    """The numba dispatchers a group's module defines (not those it imports from another) that
+    compile on their own: an inline="always" one only ever compiles into its callers."""
+    from numba.core.dispatcher import Dispatcher
+
+    module_name = GROUPS[name][0]
+    module = importlib.import_module(module_name)
+    return [value for value in vars(module).values()
+            if isinstance(value, Dispatcher) and getattr(value.py_func, "__module__", None) == module_name
+            and value.targetoptions.get("inline") != "always"]
+
+
+def uncached_groups(groups) -> list[str]:
+    """The names of `groups` with a kernel that has no up-to-date compiled form in numba's disk
+    cache (its index is missing, or stamped with another source or numba), in the given order.
+    A group whose kernels have no disk cache at all is left out: compiling it elsewhere would
+    not help."""
+    unknown = [name for name in groups if name not in GROUPS]
+    if unknown:
+        raise ValueError(f"unknown kernel group(s) {unknown}: the groups are {sorted(GROUPS)}")
+    out = []
+    for name in groups:
+        for kernel in _group_kernels(name):
+            cache_file = getattr(getattr(kernel, "_cache", None), "_cache_file", None)
+            if cache_file is None:  # numba's NullCache (no cache=True) or another layout
+                continue
+            if not cache_file._load_index():
+                out.append(name)
+                break
+    return out
+
+
+# Run by each background process of `compile_ahead`: argv = start, claims folder, groups.
+_AHEAD_CODE = ("import sys; from hrc_drake import kernels; "
+               "kernels.warm_up(sys.argv[3:], float(sys.argv[1]), sys.argv[2])")
+
+
+class KernelsAhead:
+    """The background processes of `compile_ahead`. `wait()` before the first kernel runs;
+    `stop()` (or leaving a `with` block) ends those still running."""
+
+    def __init__(self, groups: list[str] = (), processes: list[tuple[subprocess.Popen, object]] = (),
+                 claims: tempfile.TemporaryDirectory | None = None):
+        self.groups = list(groups)  # the groups compiling in the background
+        self._processes = list(processes)
+        self._claims = claims
+
+    def wait(self) -> float:
+        """Wait for every process; return the seconds waited. What a process that failed left
+        undone compiles when first used (as without `compile_ahead`), and stderr says so."""
+        started = time.perf_counter()
+        for process, log in self._processes:
+            code = process.wait()
+            if code != 0:
+                log.seek(0)
+                lines = log.read().decode(errors="replace").strip().splitlines()
+                why = f": {lines[-1]}" if lines else ""
+                print(f"a process compiling kernels ahead failed (exit {code}{why}); what it left undone "
+                      "compiles when first used", file=sys.stderr, flush=True)
+                _NOTICE._told.difference_update(GROUPS[name][0] for name in self.groups)
+        self._close()
+        return time.perf_counter() - started
+
+    def stop(self) -> None:
+        """End the processes still running (the caller failed or was interrupted)."""
+        for process, _ in self._processes:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+        self._close()
+
+    def _close(self) -> None:
+        for _, log in self._processes:
+            log.close()
+        self._processes = []
+        if self._claims is not None:
+            self._claims.cleanup()
+            self._claims = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
+
+
+def compile_ahead(groups, processes: int | None = None) -> KernelsAhead:
+    """Compile the kernel groups of `groups` that the disk cache lacks (`uncached_groups`) in
+    background processes while the caller goes on building a cell; after `wait()` its kernels
+    load from the cache instead of compiling one after another on first use. The `processes`
+    (default: the CPU count) go round all the groups' `warm_up` calls from starts spread
+    evenly, each making the calls no other has claimed. Says so once on stderr. Changes no
+    result: a kernel compiled here is the one the caller would compile."""
+    todo = uncached_groups(list(groups))
+    if not todo:
+        return KernelsAhead()
+    count = max(1, processes or os.cpu_count() or 1)
+    claims = tempfile.TemporaryDirectory(prefix="hrc_drake_kernels_")
+    # the children import this very package, wherever the caller found it
+    package_root = str(Path(__file__).resolve().parent.parent)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [package_root, *filter(None, [os.environ.get("PYTHONPATH")])]))
+    started = []
+    for k in range(count):
+        log = tempfile.TemporaryFile()
+        process = subprocess.Popen([sys.executable, "-c", _AHEAD_CODE, repr(k / count), claims.name, *todo],
+                                   env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=log)
+        started.append((process, log))
+    descriptions = ", ".join(GROUPS[name][1] for name in todo)
+    print(f"compiling kernels for {descriptions} (first run only, {count} background "
+          f"process{'es' if count > 1 else ''}) ...", file=sys.stderr, flush=True)
+    _NOTICE._told.update(GROUPS[name][0] for name in todo)
+    return KernelsAhead(todo, started, claims)

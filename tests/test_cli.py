@@ -390,3 +390,30 @@ def test_campaign_limit_runs_a_few_and_a_later_run_resumes_the_rest(tmp_path, ca
     text = capsys.readouterr().out
     assert "1 run(s) now (0 failed), 2 done before" in text and "not run yet" not in text
     assert sorted(pd.read_parquet(out / "runs.parquet")["seed"]) == [1, 2, 3]
+
+
+def test_simulate_compiles_the_cell_s_kernel_groups_ahead_and_waits_before_the_run(monkeypatch, capsys):
+    from hrc_drake import kernels
+    from hrc_drake.cell import run
+
+    calls = []
+
+    class Ahead(kernels.KernelsAhead):
+        def wait(self):
+            calls.append("wait")
+            return 0.0
+
+    def compile_ahead(groups, processes=None):
+        calls.append(list(groups))
+        return Ahead()
+
+    real_simulate = run.simulate
+
+    def simulate(*args, **kwargs):
+        calls.append("simulate")
+        return real_simulate(*args, **kwargs)
+
+    monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
+    monkeypatch.setattr(run, "simulate", simulate)
+    assert main(["simulate", TORCH, "--duration", "1"]) == 0
+    assert calls == [["geometry", "human", "safety"], "wait", "simulate"]

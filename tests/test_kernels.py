@@ -346,13 +346,99 @@ def test_a_first_run_names_each_group_it_compiles_once_and_a_cached_run_says_not
     assert "compiling" not in stderr()  # the disk cache has them now
 
 
-def test_each_group_is_registered_and_warms_up():
+def test_each_group_is_registered_and_its_warm_up_steps_cache_every_kernel_it_compiles():
     import importlib
 
     for name, (module, description) in kernels.GROUPS.items():
-        assert callable(importlib.import_module(module)._warm_up), name
+        assert callable(importlib.import_module(module)._warm_up_steps), name
         assert description.startswith("the "), name
+        kernels.warm_up([name])
+        assert kernels.uncached_groups([name]) == [], name  # every kernel of its own has a cache index
     assert kernels.warm_up(["prediction"]) < 60.0
+    with pytest.raises(ValueError, match="unknown kernel group.*'safty'.*the groups are"):
+        kernels.uncached_groups(["safty"])
+
+
+def test_warm_up_makes_only_the_calls_it_claims_first_from_its_start(tmp_path, monkeypatch):
+    from hrc_drake.prediction import _kernels as prediction_kernels
+
+    made = []
+    steps = [lambda k=k: made.append(k) for k in range(4)]
+    monkeypatch.setattr(prediction_kernels, "_warm_up_steps", lambda: steps)
+    kernels.warm_up(["prediction"], start=0.5)
+    assert made == [2, 3, 0, 1]
+    made.clear()
+    (tmp_path / "prediction.3").touch()  # another process has it
+    kernels.warm_up(["prediction"], start=0.5, claims=str(tmp_path))
+    assert made == [2, 0, 1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"prediction.{k}" for k in range(4)]
+
+
+_AHEAD = """
+import json, sys
+from numba.core import event
+from hrc_drake import kernels
+
+groups = ["prediction", "scheduling"]
+before = kernels.uncached_groups(groups)
+ahead = kernels.compile_ahead(groups, processes=2)
+ahead.wait()
+compiled = []
+
+class Listener(event.Listener):
+    def on_start(self, ev):
+        compiled.append(ev.data["dispatcher"].py_func.__name__)
+
+    def on_end(self, ev):
+        pass
+
+event.register("numba:compile", Listener())
+kernels.warm_up(groups)
+print(json.dumps({"before": before, "after": kernels.uncached_groups(groups), "compiled_here": compiled,
+                  "again": kernels.compile_ahead(groups).groups}))
+"""
+
+
+def test_compile_ahead_fills_the_disk_cache_so_that_the_caller_only_loads(tmp_path):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    proc = subprocess.run([sys.executable, "-c", _AHEAD], env=env, capture_output=True, text=True, check=True,
+                          timeout=300)
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["before"] == ["prediction", "scheduling"]
+    assert out["after"] == []
+    assert out["compiled_here"] == []  # loaded from what the background processes cached
+    assert out["again"] == []  # nothing left to compile: no process started
+    notice = ("compiling kernels for the waiting-time predictor, the Monte Carlo scheduler "
+              "(first run only, 2 background processes) ...")
+    assert proc.stderr.count(notice) == 1, proc.stderr
+    assert proc.stderr.count("compiling") == 1, proc.stderr  # the caller compiled nothing itself
+
+
+def test_a_failed_background_process_is_reported_and_its_work_left_to_first_use(monkeypatch, capsys):
+    monkeypatch.setattr(kernels, "uncached_groups", lambda groups: list(groups))
+    monkeypatch.setattr(kernels, "_AHEAD_CODE", "import sys; sys.exit('no compiler here')")
+    ahead = kernels.compile_ahead(["prediction"], processes=1)
+    assert ahead.groups == ["prediction"]
+    assert ahead.wait() >= 0.0
+    err = capsys.readouterr().err
+    assert "a process compiling kernels ahead failed (exit 1: no compiler here); what it left undone " \
+           "compiles when first used" in err, err
+    assert "hrc_drake.prediction._kernels" not in kernels._NOTICE._told  # first use says so again
+    assert kernels.warm_up(["prediction"]) < 60.0
+
+
+def test_stopping_compile_ahead_ends_its_processes(monkeypatch):
+    monkeypatch.setattr(kernels, "uncached_groups", lambda groups: list(groups))
+    monkeypatch.setattr(kernels, "_AHEAD_CODE", "import time; time.sleep(60)")
+    with kernels.compile_ahead(["prediction"], processes=2) as ahead:
+        processes = [process for process, _ in ahead._processes]
+        assert len(processes) == 2
+    assert all(process.poll() is not None for process in processes)
 
 
 def test_a_kernel_calling_another_file_s_kernels_is_stamped_with_that_file_too():
@@ -363,3 +449,36 @@ def test_a_kernel_calling_another_file_s_kernels_is_stamped_with_that_file_too()
     perception_stamp = perception_kernels._kalman_update._cache._cache_file._source_stamp
     assert perception_stamp[1:] == (kernels._file_stamp(kernels.__file__),)
     assert not isinstance(intention_kernels._bayes_rows._cache._cache_file._source_stamp, tuple)  # no callee
+
+
+_GROUPS_USED = """
+import importlib, json, sys, warnings
+warnings.simplefilter("ignore")
+from hrc_drake import kernels
+from hrc_drake.cell.build import build_cell
+from hrc_drake.cell.run import simulate
+from hrc_drake.cell.scenario import load_scenario
+
+path = sys.argv[1]
+simulate(build_cell(load_scenario(path), path), 20.0, progress=None)
+print(json.dumps([name for name in kernels.GROUPS if any(k.overloads for k in kernels._group_kernels(name))]))
+"""
+
+
+@pytest.mark.parametrize("cell", ["torch_clock", "torch_segmentation", "full_pipeline"])
+def test_the_groups_compiled_ahead_for_a_cell_are_those_its_run_calls(cell):
+    """`cell.build.kernel_groups` against the groups whose kernels a 20 s run of the cell loaded
+    (in a fresh interpreter: this one has loaded them all)."""
+    import json
+    import subprocess
+    import sys
+
+    from hrc_drake.cell.build import kernel_groups
+    from hrc_drake.cell.scenario import load_scenario
+    from tests.conftest import DIAGRAMS
+
+    path = str(DIAGRAMS / f"{cell}.yaml")
+    proc = subprocess.run([sys.executable, "-c", _GROUPS_USED, path], capture_output=True, text=True,
+                          check=True, timeout=600)
+    used = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert sorted(kernel_groups(load_scenario(path))) == sorted(used)

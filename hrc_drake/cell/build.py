@@ -351,6 +351,32 @@ def _perceives(scenario: Scenario) -> bool:
     )
 
 
+def kernel_groups(scenario: Scenario) -> list[str]:
+    """The kernel groups (`hrc_drake.kernels.GROUPS`) the cell of `scenario` runs, for
+    `kernels.compile_ahead`: the capsule geometry and the body model always, and each optional
+    system's own (a motion model tracks the skeleton with the Kalman model of `perception`; the
+    waiting times of every activity predictor are `prediction`'s; of the schedulers, those that
+    roll out Monte Carlo trials use `scheduling`'s)."""
+    from hrc_drake.intention.config import GmmBayesIntention, SegmenterActionDetector
+    from hrc_drake.motion.config import WorstCaseMotionModel
+    from hrc_drake.perception.config import KalmanTracker, ParticleFilterTracker
+    from hrc_drake.prediction.config import NoPredictor
+    from hrc_drake.safety.config import NoSafety
+    from hrc_drake.scheduling.config import BestOfRolloutsPlanScheduler, MonteCarloScheduler
+
+    wanted = {
+        "perception": isinstance(scenario.tracker, ParticleFilterTracker | KalmanTracker)
+        or isinstance(scenario.motion_model, WorstCaseMotionModel),
+        "motion": isinstance(scenario.motion_model, WorstCaseMotionModel),
+        "intention": isinstance(scenario.intention, GmmBayesIntention)
+        or isinstance(scenario.action_detector, SegmenterActionDetector),
+        "prediction": not isinstance(scenario.predictor, NoPredictor),
+        "scheduling": isinstance(scenario.scheduler, MonteCarloScheduler | BestOfRolloutsPlanScheduler),
+        "safety": not isinstance(scenario.safety, NoSafety),
+    }
+    return ["geometry", "human", *(name for name, used in wanted.items() if used)]
+
+
 def _add_world(builder, scenario: Scenario, operator_source, executor):
     """The truth (`CellWorldSystem`): arbitrates the agents' requests, tells them the answers."""
     world = CellWorld(scenario.layout.buffers, scenario.flow.actions, scenario.flow.resources)

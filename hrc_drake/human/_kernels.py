@@ -135,11 +135,13 @@ def skeleton_points(dims, q) -> np.ndarray:
     return out
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own
+    (`kernels.warm_up`)."""
     one = np.zeros((1, 3))
-    hidden_points(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.5, one + 1.0, one, one, one, one, np.ones(1))
-    skeleton_points(np.ones(6), np.zeros(12))
+    return [lambda: hidden_points(np.zeros(3), np.array([1.0, 0.0, 0.0]), 0.5, one + 1.0, one, one, one, one,
+                                  np.ones(1)),
+            lambda: skeleton_points(np.ones(6), np.zeros(12))]
 
 
 kernels.register_group(globals(), kernels)

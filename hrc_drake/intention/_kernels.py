@@ -230,14 +230,18 @@ def chain_max_log_energy(unary, pair) -> float:
     return float(_chain_max_log_energy(*_arrays(unary, pair)))
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
-    window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0)
-    bayes_rows(np.full((2, 2), 0.5), np.zeros((2, 2)), np.zeros(2), np.ones(2, dtype=bool), -30.0)
-    goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3), np.ones(3),
-                         np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None], np.zeros((1, 2)), np.zeros(1),
-                         1.0, 1e-6)
-    chain_max_log_energy(np.zeros((2, 2)), np.zeros((2, 2)))
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own
+    (`kernels.warm_up`)."""
+    return [
+        lambda: window_velocity(np.arange(3.0), np.zeros((3, 2, 3)), 0.1, 2, 3.0),
+        lambda: bayes_rows(np.full((2, 2), 0.5), np.zeros((2, 2)), np.zeros(2), np.ones(2, dtype=bool),
+                           -30.0),
+        lambda: goal_log_likelihoods(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2, dtype=bool), np.zeros(3),
+                                     np.ones(3), np.ones((1, 1, 3)), np.array([0, 3]), np.eye(2)[None],
+                                     np.zeros((1, 2)), np.zeros(1), 1.0, 1e-6),
+        lambda: chain_max_log_energy(np.zeros((2, 2)), np.zeros((2, 2))),
+    ]
 
 
 kernels.register_group(globals())

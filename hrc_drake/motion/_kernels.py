@@ -17,7 +17,7 @@ from numba import njit
 
 from hrc_drake import kernels
 from hrc_drake.human import _kernels as human_kernels
-from hrc_drake.human._kernels import _skeleton_points, skeleton_points
+from hrc_drake.human._kernels import _skeleton_points
 from hrc_drake.kernels import _arrays, _solve_pivoting
 
 
@@ -264,16 +264,19 @@ def tracking_gauss_newton(dims, q_lower, q_upper, target, visible, q0, iteration
                                   *_arrays(q0), int(iterations), float(regularization), float(step))
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
-    bounding_capsule(np.eye(3), np.zeros((1, 3)))
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own
+    (`kernels.warm_up`)."""
     bucket = {"x_train": np.ones((1, 2, 3)), "x_train_sq": np.ones((1, 2)), "alpha": np.ones((1, 2, 3)),
               "k_inv": np.eye(2)[None], "theta": np.ones((1, 4)), "x_mean": np.zeros((1, 3)),
               "x_std": np.ones((1, 3)), "y_mean": np.zeros((1, 3)), "y_std": np.ones((1, 3))}
-    gp_rollouts(np.zeros((1, 1, 3)), np.zeros((2, 1, 2, 3)), bucket)
     dims, q, visible = np.ones(6), np.zeros(12), np.ones(8, dtype=bool)
-    skeleton_jacobian(dims, q, visible, 1e-5)
-    tracking_gauss_newton(dims, q - 1.0, q + 1.0, skeleton_points(dims, q).ravel(), visible, q, 1, 1e-3, 1e-5)
+    return [
+        lambda: bounding_capsule(np.eye(3), np.zeros((1, 3))),
+        lambda: gp_rollouts(np.zeros((1, 1, 3)), np.zeros((2, 1, 2, 3)), bucket),
+        lambda: skeleton_jacobian(dims, q, visible, 1e-5),
+        lambda: tracking_gauss_newton(dims, q - 1.0, q + 1.0, np.zeros(24), visible, q, 1, 1e-3, 1e-5),
+    ]
 
 
 kernels.register_group(globals(), kernels, human_kernels)

@@ -272,16 +272,23 @@ def cloud_summaries(particles, posterior_only, kf_x, kf_p, center, half) -> tupl
                             *_arrays(kf_x, kf_p, center, half))
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
-    rts_means(np.eye(3), np.eye(3), np.zeros((2, 1, 3)), np.tile(np.eye(3), (2, 1, 1, 1)))
-    x, p, flags = np.zeros((1, 6)), np.eye(6)[None].copy(), np.zeros(1, dtype=bool)
-    x, p = kalman_predict(x, p, np.eye(6), np.eye(6), 1)
-    kalman_update(x, p, flags, np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6)
-    kalman_gate(x, p, np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1e-4)
-    position_samples(x, p, np.zeros(1, dtype=np.int64), np.zeros((1, 2, 3)))
-    cloud_summaries(np.zeros((2, 3, 6)), np.array([True, False]), np.zeros((2, 6)),
-                    np.tile(np.eye(6), (2, 1, 1)), np.zeros(3), np.ones(3))
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own
+    (`kernels.warm_up`)."""
+    flags = np.zeros(1, dtype=bool)
+
+    def state():  # each call its own, as kalman_update writes into them
+        return np.zeros((1, 6)), np.eye(6)[None].copy()
+
+    return [
+        lambda: rts_means(np.eye(3), np.eye(3), np.zeros((2, 1, 3)), np.tile(np.eye(3), (2, 1, 1, 1))),
+        lambda: kalman_predict(*state(), np.eye(6), np.eye(6), 1),
+        lambda: kalman_update(*state(), flags.copy(), np.zeros((1, 3)), ~flags, np.eye(6), 1e-4, 1e6),
+        lambda: kalman_gate(*state(), np.zeros((1, 3)), np.zeros(1, dtype=np.int64), 1e-4),
+        lambda: position_samples(*state(), np.zeros(1, dtype=np.int64), np.zeros((1, 2, 3))),
+        lambda: cloud_summaries(np.zeros((2, 3, 6)), np.array([True, False]), np.zeros((2, 6)),
+                                np.tile(np.eye(6), (2, 1, 1)), np.zeros(3), np.ones(3)),
+    ]
 
 
 kernels.register_group(globals(), kernels)

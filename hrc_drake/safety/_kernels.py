@@ -297,21 +297,25 @@ def pair_geometry(robot, robot_velocity, regions, k, r):
     return _pair_geometry(*_arrays(*robot, *robot_velocity, regions[0], regions[1]), k, r)
 
 
-def _warm_up() -> None:
-    """Compile (or load) every kernel here on tiny inputs (`kernels.warm_up`)."""
+def _warm_up_steps() -> list:
+    """Calls that compile (or load) every kernel here on tiny inputs, each on its own
+    (`kernels.warm_up`): one robot capsule, one body region, one pair."""
     one, params = np.zeros((1, 3)), np.array([0.1, 5.0, 0.05, 0.01, 0.0])
     pieces = np.array([[2.0, 0.0, 0.0, np.inf]])
     capsules = (one, one + 1.0, np.ones(1))
-    distance, k, r = screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0)
-    t, surface, on_body, direction, velocity, approach = pair_geometry(capsules, (one, one), capsules, k, r)
+    pair, distance, approach = np.zeros(1, dtype=np.int64), np.zeros((1, 1)), np.zeros(1)
     flags = np.ones(1, dtype=np.bool_)
-    _governed_by_pfl(r, flags, True, one, np.ones(1), surface, on_body, direction, np.ones(1), True,
-                     one, one + 1.0, 0.02)
-    _margin_candidates(distance, one, one, params, params, np.inf)
-    _hold_clamps(k, r, flags[r].copy(), ~flags[r], np.zeros((1, 1)), 0.0, 0.5)
-    _separations(r, approach, flags, params, params, np.zeros(len(r)), 0.0)
-    _ssm_scales(r, distance[k, r], approach, flags[r], ~flags[r], np.zeros(1), flags, params, pieces, params,
-                pieces, 0.01, np.ones(1))
+    return [
+        lambda: screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0),
+        lambda: pair_geometry(capsules, (one, one), capsules, pair, pair),
+        lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), True, one,
+                                 one + 1.0, 0.02),
+        lambda: _margin_candidates(distance, one, one, params, params, np.inf),
+        lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
+        lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0),
+        lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,
+                            pieces, params, pieces, 0.01, np.ones(1)),
+    ]
 
 
 kernels.register_group(globals(), kernels)

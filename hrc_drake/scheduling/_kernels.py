@@ -98,13 +98,18 @@ def trial_step(m, arcs, fired, unc, controllable, is_wait_end, pools, count, fir
                        alive, keys, group, key_bonus, horizon, now, quantum, dt, chosen, column)
 
 
-def _warm_up() -> None:
-    """Compile (or load) the kernel here on tiny inputs (`kernels.warm_up`)."""
-    ints, flags, reals = np.zeros(1, dtype=np.int64), np.ones(1, dtype=bool), np.zeros(1)
-    marking, arcs = np.ones((1, 1), dtype=np.int64), petri_arcs(np.ones((1, 1)), np.zeros((1, 1)))
-    trial_step(marking, arcs, ints - 1, flags, ~flags, ~flags, np.ones((1, 1, 1)), marking - 1,
-               np.full((1, 1), np.inf), np.zeros((1, 1), dtype=bool), reals.copy(), flags.copy(),
-               np.zeros((1, 1)), ints, reals, 1.0, 0.0, 0.0, reals.copy(), ints.copy(), ints.copy())
+def _warm_up_steps() -> list:
+    """The calls that compile (or load) the kernels here on tiny inputs (`kernels.warm_up`): the
+    trial step needs the arcs' compiled form, so one step."""
+
+    def step():
+        ints, flags, reals = np.zeros(1, dtype=np.int64), np.ones(1, dtype=bool), np.zeros(1)
+        marking, arcs = np.ones((1, 1), dtype=np.int64), petri_arcs(np.ones((1, 1)), np.zeros((1, 1)))
+        trial_step(marking, arcs, ints - 1, flags, ~flags, ~flags, np.ones((1, 1, 1)), marking - 1,
+                   np.full((1, 1), np.inf), np.zeros((1, 1), dtype=bool), reals.copy(), flags.copy(),
+                   np.zeros((1, 1)), ints, reals, 1.0, 0.0, 0.0, reals.copy(), ints.copy(), ints.copy())
+
+    return [step]
 
 
 kernels.register_group(globals())
