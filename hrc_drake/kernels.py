@@ -304,9 +304,10 @@ def uncached_groups(groups) -> list[str]:
     for name in groups:
         for kernel in _group_kernels(name):
             cache_file = getattr(getattr(kernel, "_cache", None), "_cache_file", None)
-            if cache_file is None:  # numba's NullCache (no cache=True) or another layout
+            load_index = getattr(cache_file, "_load_index", None)
+            if load_index is None:  # numba's NullCache (no cache=True), or another numba's layout
                 continue
-            if not cache_file._load_index():
+            if not load_index():
                 out.append(name)
                 break
     return out
@@ -376,7 +377,8 @@ def compile_ahead(groups, processes: int | None = None) -> KernelsAhead:
     todo = uncached_groups(list(groups))
     if not todo:
         return KernelsAhead()
-    count = max(1, processes or os.cpu_count() or 1)
+    calls = sum(len(importlib.import_module(GROUPS[name][0])._warm_up_steps()) for name in todo)
+    count = min(max(1, processes or os.cpu_count() or 1), calls)
     claims = tempfile.TemporaryDirectory(prefix="hrc_drake_kernels_")
     # the children import this very package, wherever the caller found it
     package_root = str(Path(__file__).resolve().parent.parent)

@@ -435,10 +435,13 @@ def test_a_failed_background_process_is_reported_and_its_work_left_to_first_use(
 def test_stopping_compile_ahead_ends_its_processes(monkeypatch):
     monkeypatch.setattr(kernels, "uncached_groups", lambda groups: list(groups))
     monkeypatch.setattr(kernels, "_AHEAD_CODE", "import time; time.sleep(60)")
-    with kernels.compile_ahead(["prediction"], processes=2) as ahead:
+    with kernels.compile_ahead(["safety"], processes=2) as ahead:
         processes = [process for process, _ in ahead._processes]
         assert len(processes) == 2
     assert all(process.poll() is not None for process in processes)
+    # no more processes than warm-up calls: the waiting-time predictor's one kernel takes one
+    with kernels.compile_ahead(["prediction"], processes=4) as ahead:
+        assert len(ahead._processes) == 1
 
 
 def test_a_kernel_calling_another_file_s_kernels_is_stamped_with_that_file_too():
