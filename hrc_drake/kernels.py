@@ -23,7 +23,8 @@ named (all by default), for the tests and `tools/bench_cell.py`, which reports h
 group takes to compile from an empty cache. `hrc-drake simulate` compiles a first run's groups
 ahead (`compile_ahead`, the groups of `cell.build.kernel_groups`): one background process per
 CPU while the cell builds, sharing the groups' warm-up calls by claiming each in a temporary
-folder, so that the run loads them from the cache instead of compiling one after another.
+folder, so that the run loads them from the cache instead of compiling one after another
+(`campaign` and `search` the same, once for all their local workers).
 
 Small products and reductions are written as loops: numba's ndarray.min/max, np.linalg.solve
 and slice assignments each take it a second or more to compile.

@@ -170,10 +170,16 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
                 dashboard = _announce_dashboard(client, progress, local=False)
                 _run_on(client, pending, store, bar, out_dir)
         elif address is None and workers == 0:
+            if remaining:
+                with compile_kernels_ahead(campaign.kernel_groups, address) as ahead:
+                    ahead.wait()
             for task in pending:
                 _record(run_task(task), task, store, bar, out_dir)
         elif remaining:
-            with ClusterClient(address, workers) as own_client:
+            # the kernels compile once, while the workers start, instead of in every worker
+            with compile_kernels_ahead(campaign.kernel_groups, address) as ahead, \
+                    ClusterClient(address, workers) as own_client:
+                ahead.wait()
                 dashboard = _announce_dashboard(own_client, progress, local=address is None)
                 _run_on(own_client, pending, store, bar, out_dir, address)
         else:
@@ -195,6 +201,14 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
         rows=rows,
         dashboard=dashboard,
     )
+
+
+def compile_kernels_ahead(groups, address: str | None):
+    """`kernels.compile_ahead` of `groups` for runs on this machine; nothing for the workers of a
+    scheduler at `address` (they may be on other machines, with caches of their own)."""
+    from hrc_drake.kernels import KernelsAhead, compile_ahead
+
+    return compile_ahead(groups) if address is None and groups else KernelsAhead()
 
 
 def _environment(action, what: str):

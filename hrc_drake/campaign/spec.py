@@ -174,6 +174,8 @@ class Campaign:
     extra_metrics: list[str] = field(default_factory=list)
     #: list-valued extra columns pooled over each group's runs (`PooledSamples`)
     pooled: list[PooledSamples] = field(default_factory=list)
+    #: the kernel groups its cells run (`cell.build.kernel_groups`), compiled ahead of local runs
+    kernel_groups: list[str] = field(default_factory=list)
 
     @property
     def run_count(self) -> int:
@@ -291,7 +293,10 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
             path, "seeds", f"{len(seeds) * len(scenarios) * len(variants)} runs: at most {MAX_RUNS} "
             "per campaign (split the seeds over several campaigns)"
         )
+    from hrc_drake.cell.build import kernel_groups
+
     metric_names = {}
+    groups: dict[str, None] = {}
     for label, scenario_path in scenarios.items():
         load_scenario(scenario_path)  # the scenario's own problems are named by its own file
         for name, overrides in variants.items():
@@ -303,6 +308,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
             metric_names[label] = sorted(
                 set(metric_names.get(label, [])) | set(scenario_metric_names(scenario))
             )
+            groups.update(dict.fromkeys(kernel_groups(scenario)))
     metrics = list(spec.metrics) or list(DEFAULT_METRICS)
     for k, name in enumerate(spec.extra_metrics):
         try:
@@ -373,6 +379,7 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
         replays=replays,
         replay_fps=spec.replay_fps,
         metric_names=metric_names,
+        kernel_groups=list(groups),
         extra_metrics=list(spec.extra_metrics),
         pooled=list(spec.pooled),
     )

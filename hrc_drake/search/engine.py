@@ -319,12 +319,16 @@ def run_search(
         _check_same_search(search, out_dir)
         if evaluator is not None:
             return _run_with(search, out_dir, evaluator, progress, finish)
-        if address is None and workers == 0:
-            return _run_with(search, out_dir, CampaignEvaluator(), progress, finish)
-        from hrc_drake.campaign.engine import ClusterClient
+        from hrc_drake.campaign.engine import ClusterClient, compile_kernels_ahead
 
-        with ClusterClient(address, workers) as client:
-            return _run_with(search, out_dir, CampaignEvaluator(client, address), progress, finish)
+        with compile_kernels_ahead(search.kernel_groups, address) as ahead:
+            if address is None and workers == 0:
+                ahead.wait()
+                return _run_with(search, out_dir, CampaignEvaluator(), progress, finish)
+            # the kernels compile once, while the workers start, instead of in every worker
+            with ClusterClient(address, workers) as client:
+                ahead.wait()
+                return _run_with(search, out_dir, CampaignEvaluator(client, address), progress, finish)
 
 
 def _check_same_search(search: Search, out_dir: Path) -> None:

@@ -223,6 +223,9 @@ class Search:
     #: the base scenario's raw document
     document: dict = field(default_factory=dict)
     metric_names: list[str] = field(default_factory=list)
+    #: the kernel groups the base scenario's cell runs (`cell.build.kernel_groups`), compiled
+    #: ahead of local runs
+    kernel_groups: list[str] = field(default_factory=list)
 
     @property
     def candidates(self) -> int:
@@ -361,6 +364,7 @@ def make_search(document: dict, file: str | Path) -> Search:
     if not scenario_path.is_file():
         raise ScenarioError(path, "scenario", f"no such scenario file: {scenario_path}")
     scenario = load_scenario(scenario_path)  # its own problems named by its own file
+    from hrc_drake.cell.build import kernel_groups
     raw = _raw_document(scenario_path.read_bytes().decode("utf-8"), scenario_path)
     metric_names = scenario_metric_names(scenario)
     numeric = [m for m in metric_names if m not in TEXT_METRICS and "*" not in m]
@@ -410,6 +414,7 @@ def make_search(document: dict, file: str | Path) -> Search:
         replay_fps=float(spec.replay_fps),
         document=raw,
         metric_names=numeric,
+        kernel_groups=kernel_groups(scenario),
     )
 
 

@@ -85,6 +85,8 @@ def test_values_are_written_exactly_and_the_scenario_loads_them(tmp_path):
     # the rest of the document is untouched
     assert document["robots"] == search.document["robots"]
     assert document["layout"]["goals"] == search.document["layout"]["goals"]
+    # what local runs compile ahead: the base scenario's cell's kernel groups
+    assert search.kernel_groups == ["geometry", "human", "perception", "motion", "safety"]
 
 
 def test_flow_precedence_and_permutations_respect_it():
