@@ -21,6 +21,7 @@ from pathlib import Path
 import yaml
 
 from hrc_drake.campaign.extras import resolve_extra_metrics
+from hrc_drake.cell.build import kernel_groups
 from hrc_drake.cell.scenario import (
     MAX_SCENARIO_BYTES,
     Tagged,
@@ -293,8 +294,6 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
             path, "seeds", f"{len(seeds) * len(scenarios) * len(variants)} runs: at most {MAX_RUNS} "
             "per campaign (split the seeds over several campaigns)"
         )
-    from hrc_drake.cell.build import kernel_groups
-
     metric_names = {}
     groups: dict[str, None] = {}
     for label, scenario_path in scenarios.items():

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from hrc_drake.campaign.spec import LABEL, MAX_RUNS, _read_raw, _seeds, scenario_metric_names
+from hrc_drake.cell.build import kernel_groups
 from hrc_drake.cell.scenario import Tagged, _check_keys, _raw_document, dump_raw, load_scenario, load_typed
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
 from hrc_drake.errors import ScenarioError, check_input_file
@@ -364,7 +365,6 @@ def make_search(document: dict, file: str | Path) -> Search:
     if not scenario_path.is_file():
         raise ScenarioError(path, "scenario", f"no such scenario file: {scenario_path}")
     scenario = load_scenario(scenario_path)  # its own problems named by its own file
-    from hrc_drake.cell.build import kernel_groups
     raw = _raw_document(scenario_path.read_bytes().decode("utf-8"), scenario_path)
     metric_names = scenario_metric_names(scenario)
     numeric = [m for m in metric_names if m not in TEXT_METRICS and "*" not in m]
