@@ -314,6 +314,11 @@ def uncached_groups(groups) -> list[str]:
     return out
 
 
+#: the most background processes `compile_ahead` starts by default: each holds up to ~300 MB
+#: while it compiles (all groups in one process: 308 MB peak), and the longest call (~1.5 s)
+#: bounds the time however many there are
+MAX_AHEAD_PROCESSES = 4
+
 # Run by each background process of `compile_ahead`: argv = start, claims folder, groups.
 _AHEAD_CODE = ("import sys; from hrc_drake import kernels; "
                "kernels.warm_up(sys.argv[3:], float(sys.argv[1]), sys.argv[2])")
@@ -372,14 +377,15 @@ def compile_ahead(groups, processes: int | None = None) -> KernelsAhead:
     """Compile the kernel groups of `groups` that the disk cache lacks (`uncached_groups`) in
     background processes while the caller goes on building a cell; after `wait()` its kernels
     load from the cache instead of compiling one after another on first use. The `processes`
-    (default: the CPU count) go round all the groups' `warm_up` calls from starts spread
-    evenly, each making the calls no other has claimed. Says so once on stderr. Changes no
-    result: a kernel compiled here is the one the caller would compile."""
+    (default: the CPU count, at most `MAX_AHEAD_PROCESSES`; never more than there are calls) go
+    round all the groups' `warm_up` calls from starts spread evenly, each making the calls no
+    other has claimed. Says so once on stderr. Changes no result: a kernel compiled here is the
+    one the caller would compile."""
     todo = uncached_groups(list(groups))
     if not todo:
         return KernelsAhead()
     calls = sum(len(importlib.import_module(GROUPS[name][0])._warm_up_steps()) for name in todo)
-    count = min(max(1, processes or os.cpu_count() or 1), calls)
+    count = min(max(1, processes or min(os.cpu_count() or 1, MAX_AHEAD_PROCESSES)), calls)
     claims = tempfile.TemporaryDirectory(prefix="hrc_drake_kernels_")
     # the children import this very package, wherever the caller found it
     package_root = str(Path(__file__).resolve().parent.parent)

@@ -485,3 +485,11 @@ def test_the_groups_compiled_ahead_for_a_cell_are_those_its_run_calls(cell):
                           check=True, timeout=600)
     used = json.loads(proc.stdout.strip().splitlines()[-1])
     assert sorted(kernel_groups(load_scenario(path))) == sorted(used)
+
+
+def test_compile_ahead_starts_at_most_max_ahead_processes_by_default(monkeypatch):
+    monkeypatch.setattr(kernels, "uncached_groups", lambda groups: list(groups))
+    monkeypatch.setattr(kernels, "_AHEAD_CODE", "pass")
+    monkeypatch.setattr(kernels.os, "cpu_count", lambda: 64)
+    with kernels.compile_ahead(["safety", "perception"]) as ahead:  # 13 calls
+        assert len(ahead._processes) == kernels.MAX_AHEAD_PROCESSES == 4
