@@ -22,3 +22,23 @@ DIAGRAMS = REPO / "diagrams"
 @pytest.fixture
 def diagrams_dir() -> Path:
     return DIAGRAMS
+
+
+def record_compile_ahead(monkeypatch) -> list:
+    """Replace `kernels.compile_ahead` by a recorder: the returned list gets the groups of each
+    call and "wait" for each wait of what it returned (which compiles nothing)."""
+    from hrc_drake import kernels
+
+    calls = []
+
+    class Ahead(kernels.KernelsAhead):
+        def wait(self):
+            calls.append("wait")
+            return 0.0
+
+    def compile_ahead(groups, processes=None):
+        calls.append(list(groups))
+        return Ahead()
+
+    monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
+    return calls

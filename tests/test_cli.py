@@ -393,27 +393,16 @@ def test_campaign_limit_runs_a_few_and_a_later_run_resumes_the_rest(tmp_path, ca
 
 
 def test_simulate_compiles_the_cell_s_kernel_groups_ahead_and_waits_before_the_run(monkeypatch, capsys):
-    from hrc_drake import kernels
     from hrc_drake.cell import run
+    from tests.conftest import record_compile_ahead
 
-    calls = []
-
-    class Ahead(kernels.KernelsAhead):
-        def wait(self):
-            calls.append("wait")
-            return 0.0
-
-    def compile_ahead(groups, processes=None):
-        calls.append(list(groups))
-        return Ahead()
-
+    calls = record_compile_ahead(monkeypatch)
     real_simulate = run.simulate
 
     def simulate(*args, **kwargs):
         calls.append("simulate")
         return real_simulate(*args, **kwargs)
 
-    monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
     monkeypatch.setattr(run, "simulate", simulate)
     assert main(["simulate", TORCH, "--duration", "1"]) == 0
     assert calls == [["geometry", "human", "safety"], "wait", "simulate"]

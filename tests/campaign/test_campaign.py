@@ -455,8 +455,8 @@ def test_ctrl_c_on_a_local_cluster_prints_one_line_and_no_dask_traceback(tmp_pat
 
 
 def test_a_local_campaign_compiles_its_cells_kernel_groups_ahead_once_before_its_runs(tmp_path, monkeypatch):
-    from hrc_drake import kernels
     from hrc_drake.campaign import engine
+    from tests.conftest import record_compile_ahead
 
     spec = SPEC.replace("duration: 15", "duration: 1").replace("seeds: [1, 2]", "seeds: [1]").replace(
         "replays: [{variant: none, seed: 1}]\n", "").replace(
@@ -464,24 +464,13 @@ def test_a_local_campaign_compiles_its_cells_kernel_groups_ahead_once_before_its
     campaign = load_campaign(_spec(tmp_path, spec))
     # the union over scenarios and variants, in the order first met
     assert campaign.kernel_groups == ["geometry", "human", "safety", "perception"]
-    calls = []
-
-    class Ahead(kernels.KernelsAhead):
-        def wait(self):
-            calls.append("wait")
-            return 0.0
-
-    def compile_ahead(groups, processes=None):
-        calls.append(list(groups))
-        return Ahead()
-
+    calls = record_compile_ahead(monkeypatch)
     real_run_task = engine.run_task
 
     def run_task(task):
         calls.append("run")
         return real_run_task(task)
 
-    monkeypatch.setattr(kernels, "compile_ahead", compile_ahead)
     monkeypatch.setattr(engine, "run_task", run_task)
     assert run_campaign(campaign, tmp_path / "out", workers=0, progress=None, analyze=False).ran == 3
     assert calls == [campaign.kernel_groups, "wait", "run", "run", "run"]
