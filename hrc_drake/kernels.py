@@ -261,6 +261,12 @@ def _warm_up_steps() -> list:
             lambda: _solve_pivoting(np.eye(2), np.ones((2, 1)))]
 
 
+def _warm_up_calls(groups) -> list[tuple[str, object]]:
+    """(key "<group>.<k>", call) of every warm-up call of `groups`, in order."""
+    return [(f"{name}.{k}", step) for name in groups
+            for k, step in enumerate(importlib.import_module(GROUPS[name][0])._warm_up_steps())]
+
+
 def warm_up(groups=None, start: float = 0.0, claims: str | None = None) -> float:
     """Compile (or load from the disk cache) every kernel of `groups` (names of `GROUPS`; all by
     default) and return the seconds it took. A cell needs none of this (each kernel compiles
@@ -268,8 +274,7 @@ def warm_up(groups=None, start: float = 0.0, claims: str | None = None) -> float
     go round the same calls from different `start`s (a fraction of the way through them) and
     make only the calls they claim first in the folder `claims` (one empty file per call)."""
     started = time.perf_counter()
-    steps = [(f"{name}.{k}", step) for name in (GROUPS if groups is None else groups)
-             for k, step in enumerate(importlib.import_module(GROUPS[name][0])._warm_up_steps())]
+    steps = _warm_up_calls(GROUPS if groups is None else groups)
     first = int(start * len(steps)) % max(len(steps), 1)
     for key, step in steps[first:] + steps[:first]:
         if claims is not None:
@@ -384,8 +389,7 @@ def compile_ahead(groups, processes: int | None = None) -> KernelsAhead:
     todo = uncached_groups(list(groups))
     if not todo:
         return KernelsAhead()
-    calls = sum(len(importlib.import_module(GROUPS[name][0])._warm_up_steps()) for name in todo)
-    count = min(max(1, processes or min(os.cpu_count() or 1, MAX_AHEAD_PROCESSES)), calls)
+    count = min(max(1, processes or min(os.cpu_count() or 1, MAX_AHEAD_PROCESSES)), len(_warm_up_calls(todo)))
     claims = tempfile.TemporaryDirectory(prefix="hrc_drake_kernels_")
     # the children import this very package, wherever the caller found it
     package_root = str(Path(__file__).resolve().parent.parent)
