@@ -283,6 +283,9 @@ def _build_and_simulate(args, scenario, scenario_path, ahead) -> int:
         cell, duration, progress=sys.stderr, record=bool(args.replay), realtime_rate=realtime_rate
     )
     m = result.metrics
+    iso = m.get("safety") or {}
+    if "verdict" in iso:  # the verdict first: the answer to "is this cell safe?"
+        print(iso["verdict"])
     print(f"simulated time    {m['simulated_time']:.1f} s")
     print(f"wall time         {m['wall_time']:.2f} s")
     print(f"realtime factor   {m['realtime_factor']:.1f}x")
@@ -303,18 +306,7 @@ def _build_and_simulate(args, scenario, scenario_path, ahead) -> int:
             f"idle {a['idle_time']:7.1f} s   actions {a['actions_finished']}"
         )
     if m["min_human_robot_distance"] is not None:
-        line = f"min human-robot distance {m['min_human_robot_distance']:.3f} m"
-        safety = m.get("safety")
-        if safety and safety["below"]:
-            line += (f"  BELOW the safety distance {safety['safety_distance']:g} m for "
-                     f"{safety['time_below_s']:.1f} s ({100 * safety['fraction_below']:.1f} % of the run; "
-                     f"{safety['time_below_not_stopped_s']:.1f} s of it with the robot not stopped)")
-        elif safety:
-            line += f"  (never below the safety distance {safety['safety_distance']:g} m)"
-        print(line)
-    iso = m.get("safety") or {}
-    if "verdict" in iso:
-        print(f"safety            {iso['verdict']}")
+        print(f"closest approach  {m['min_human_robot_distance']:.3f} m (true human-robot clearance)")
     written = []
     if args.replay:
         size = write_replay(cell, Path(args.replay), result)
@@ -349,6 +341,14 @@ def _validate(args) -> int:
         f"{path}: OK ({len(scenario.robots)} robot(s), {n_robot_actions} robot actions, "
         f"{len(scenario.operator.actions)} operator actions, {len(scenario.flow.actions)} flow actions)"
     )
+    from hrc_drake.cell.scenario import safety_departures
+
+    departures = safety_departures(scenario, path)
+    if departures:
+        print(f"warning: its safety verdict will be NON-CONFORMING ({len(departures)} departure(s) from "
+              "ISO/TS 15066's judging):", file=sys.stderr)
+        for departure in departures:
+            print(f"  - {departure}", file=sys.stderr)
     return 0
 
 

@@ -105,8 +105,8 @@ class Cell:
         return world_system.world(world_system.GetMyContextFromRoot(root_context))
 
     def safety(self, root_context) -> dict:
-        """The ISO/TS 15066 figures of a run (`safety.contacts.summarize_safety`): mode, violations
-        by rule, worst ratio per region, time below S_p while moving, protective stops, contacts."""
+        """The ISO/TS 15066 verdict and figures of a run (`safety.verdict.summarize`): verdict code
+        and line, violations by kind with their episodes, SSM breach time, stops, contacts."""
         monitor = self.system("safety_monitor")
         stops = 0
         if self.has_system("safety_controller"):
@@ -115,10 +115,11 @@ class Cell:
         return monitor.summary(monitor.GetMyContextFromRoot(root_context), stops)
 
     def safety_trace(self, root_context):
-        """The monitor's samples (time, min clearance, S_p of that pair, its rule) and contacts."""
+        """The judge's samples (time, min clearance, clearance and S_p of the SSM pair nearest its
+        S_p, in breach) and its episodes (violations and logged contacts)."""
         monitor = self.system("safety_monitor")
-        run = monitor.run(monitor.GetMyContextFromRoot(root_context))
-        return list(run.trace), sorted([*run.contacts, *(c for _, c in run.open)], key=lambda c: c.time)
+        context = monitor.GetMyContextFromRoot(root_context)
+        return list(monitor.run(context).trace), monitor.episodes(context)
 
     def log(self, root_context):
         """The `MetricsLog` of a run, from the diagram's root context."""
@@ -419,7 +420,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
                 positions_port, estimate_port, human_capsules, systems) -> None:
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
     a cell without a safety system still has its contacts counted in its verdict)."""
-    from hrc_drake.cell.scenario import safety_limits
+    from hrc_drake.cell.scenario import judge_values, safety_limits
     from hrc_drake.safety.regions import FixedBox
     from hrc_drake.safety.systems import apply_safety_config
 
@@ -431,13 +432,16 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
     zones = (np.array([z.center for z in lay.collaborative_zones], float).reshape(-1, 3),
              np.array([z.radius for z in lay.collaborative_zones], float))
     swept = systems.get("motion_predictor")
+    standard, changed = judge_values(scenario, scenario_path)
     controller, monitor = apply_safety_config(
         scenario.safety, builder, plant=plant, kinematics=capsule_kin, body_model=body,
         limits=safety_limits(scenario, scenario_path), zones=zones, fixed_boxes=tuple(fixed),
         positions=positions_port, velocities_full=follower.GetOutputPort("velocities_full"),
         skeleton_estimate=estimate_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
+        judge_values=standard, judge_changes=changed,
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
+        swept_horizon=float(getattr(scenario.motion_model, "horizon", 0.0)),
         camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)
     if controller is not None:
         systems["safety_controller"] = controller

@@ -769,7 +769,7 @@ def _check_programs_cover_the_flow(sc: Scenario, file) -> None:
 
 def _check_systems(sc: Scenario, file) -> None:
     """Each optional system's config validates itself; the names it refers to exist."""
-    for name in (*SYSTEM_FIELDS, "speed_scaling"):
+    for name in (*SYSTEM_FIELDS, "speed_scaling", "judge"):
         try:
             getattr(sc, name).validate(name)
         except ScenarioError as err:
@@ -808,6 +808,57 @@ def safety_limits(sc: Scenario, file):
         raise ScenarioError(file, field, f"{err.field}: {err.reason}") from None
 
 
+def reaction_time(sc: Scenario) -> float:
+    """T_r of the cell's sensing and control chain (s): a camera frame, a safety-controller period
+    and a path-follower period (`CELL_RATE`); a cell without a controller as if it ran at 30 Hz."""
+    from hrc_drake.safety.config import NoSafety
+
+    controller_rate = 30.0 if isinstance(sc.safety, NoSafety) else sc.safety.rate
+    return 1.0 / sc.layout.camera.rate + 1.0 / controller_rate + 1.0 / 30.0
+
+
+def judge_values(sc: Scenario, file):
+    """(the standard judge's `JudgeValues` of this cell, the scenario's changed judge or None):
+    T_r from the cell's chain (`reaction_time`), the stop of its robots' models (the slowest);
+    `ScenarioError` naming a bad `judge.limits` table."""
+    from dataclasses import replace
+
+    from hrc_drake.robots.registry import get_robot_model
+    from hrc_drake.safety.judge import standard_values
+    from hrc_drake.safety.limits import load_limits
+
+    deceleration = min(get_robot_model(r.model).stopping_deceleration for r in sc.robots) if sc.robots else 5.0
+    standard = standard_values(reaction_time(sc), deceleration)
+    changes = sc.judge
+    if not changes.changed():
+        return standard, None
+    values = standard
+    if changes.limits:
+        path = scenario_relative(file, changes.limits) if str(file) != "<scenario>" else Path(changes.limits)
+        try:
+            values = replace(values, limits=load_limits(path))
+        except ScenarioError as err:
+            raise ScenarioError(file, "judge.limits", f"{err.field}: {err.reason}") from None
+    renamed = {"human_speed": "limb_speed"}
+    for name in ("reaction_time", "deceleration", "human_speed", "body_speed", "approach_tolerance",
+                 "transient_duration"):
+        value = getattr(changes, name)
+        if value is not None:
+            values = replace(values, **{renamed.get(name, name): float(value)})
+    return standard, values
+
+
+def safety_departures(sc: Scenario, file) -> list[str]:
+    """Every way a scenario departs from the standard's judging (a changed judge, a controller
+    whose S_h is not ISO 13855's): its verdict will be NON-CONFORMING."""
+    from hrc_drake.safety.judge import deviations
+    from hrc_drake.safety.systems import controller_departures
+
+    standard, changed = judge_values(sc, file)
+    out = [] if changed is None else [f"judge changed: {d}" for d in deviations(changed, standard)]
+    return out + list(controller_departures(sc.safety))
+
+
 def _check_safety(sc: Scenario, file) -> None:
     """The safety mode can run in this cell: Z_d from a tracker needs one, swept volumes a motion
     model, a hybrid mode collaborative zones, the limits table and its regions exist."""
@@ -821,6 +872,7 @@ def _check_safety(sc: Scenario, file) -> None:
             raise ScenarioError(file, f"{field}.name", "a name is required")
         _check_vec(file, f"{field}.center", zone.center)
         _in_range(file, f"{field}.radius", zone.radius, 0.01, MAX_OBJECT_SIZE, "m")
+    judge_values(sc, file)
     config = sc.safety
     if isinstance(config, NoSafety):
         return

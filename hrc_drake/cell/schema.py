@@ -30,7 +30,7 @@ from hrc_drake.motion.config import (
 from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
-from hrc_drake.safety.config import Hybrid, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
+from hrc_drake.safety.config import Hybrid, JudgeChanges, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
 from hrc_drake.scheduling.config import NoScheduler, SchedulerConfig
 from hrc_drake.scheduling.flow import Buffer, Flow
 
@@ -145,6 +145,9 @@ class Scenario:
     proactive_planner: Proactive = field(default_factory=NoProactivePlanner)
     #: the ISO/TS 15066 safety mode (`safety.config`); none: the verdict says the cell has none
     safety: Safety = field(default_factory=NoSafety)
+    #: a changed ISO/TS 15066 judge (`safety.config.JudgeChanges`); unset: the standard's values.
+    #: Any change makes the verdict NON-CONFORMING
+    judge: JudgeChanges = field(default_factory=JudgeChanges)
 
 
 #: the scenario fields that choose a system by tag

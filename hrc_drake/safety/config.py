@@ -169,6 +169,44 @@ class Hybrid(PowerForceLimiting):
                   f"{name!r} never takes contact (ISO/TS 15066: head, face and neck get SSM)")
 
 
+@dataclass
+class JudgeChanges:
+    """A changed ISO/TS 15066 judge (a scenario's `judge:`). The judge decides with the standard's
+    values (`safety.judge`); every field set here departs from them, and the verdict is then
+    NON-CONFORMING and names each departure (`validate` warns). Unset (null): the standard's."""
+
+    #: Another limits table (a file relative to the scenario); "": Annex A's, as shipped.
+    limits: str = ""
+    #: T_r (s); null: the cell's sensing and control chain (camera + controller + follower periods).
+    reaction_time: float | None = None
+    #: a of the robot's stop (m/s^2); null: the robot model's.
+    deceleration: float | None = None
+    #: v_h of hands and arms (m/s); null: ISO 13855's rule (2.0 m/s, 1.6 m/s beyond 0.5 m).
+    human_speed: float | None = None
+    #: v_h of head and torso (m/s); null: 1.6 m/s.
+    body_speed: float | None = None
+    #: A robot point slower than this toward the body is not approaching (m/s); null: 0.001.
+    approach_tolerance: float | None = None
+    #: Time a free contact is transient (s); null: 0.5.
+    transient_duration: float | None = None
+
+    def validate(self, path: str) -> None:
+        """Raise `ConfigError` naming `path.field` for a value the judge cannot use."""
+        ranges = {"reaction_time": (0.0, 2.0, False), "deceleration": (0.0, 100.0, True),
+                  "human_speed": (0.0, 10.0, False), "body_speed": (0.0, 10.0, False),
+                  "approach_tolerance": (0.0, 1.0, False), "transient_duration": (0.0, 10.0, False)}
+        for name, (low, high, low_open) in ranges.items():
+            value = getattr(self, name)
+            if value is not None:
+                _number(value, path, name, low, high, low_open=low_open)
+
+    def changed(self) -> bool:
+        """Whether any field departs from the standard judge."""
+        return bool(self.limits) or any(getattr(self, name) is not None for name in (
+            "reaction_time", "deceleration", "human_speed", "body_speed", "approach_tolerance",
+            "transient_duration"))
+
+
 #: Every safety mode a scenario can choose.
 SafetyConfig = NoSafety | SpeedSeparationMonitoring | PowerForceLimiting | Hybrid
 

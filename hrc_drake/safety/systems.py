@@ -10,16 +10,26 @@ translational Jacobian J and the mass matrix M.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
+from pydrake.systems.primitives import MatrixGain
 
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.safety.config import NoSafety, mode_name
-from hrc_drake.safety.contacts import ContactAccountant, MonitorRun, summarize_safety
+from hrc_drake.safety.judge import (
+    LIMB_FAST_SPEED,
+    WALKING_SPEED,
+    Judge,
+    JudgeRun,
+    JudgeValues,
+    declared_mode,
+    deviations,
+)
 from hrc_drake.safety.regions import (
     BODY_CAPSULES,
     CAPSULE_POINTS,
@@ -30,6 +40,7 @@ from hrc_drake.safety.regions import (
     reach_bounded,
 )
 from hrc_drake.safety.rules import SafetyRules, decelerated_override
+from hrc_drake.safety.verdict import summarize
 from hrc_drake.systems import declare_periodic_discrete_update
 
 
@@ -370,39 +381,46 @@ class SafetyController(LeafSystem):
 
 
 class _MonitorRecording:
-    """The monitor's cache value: the `MonitorRun` so far (replaced, never changed in place)."""
+    """The monitor's cache value: the judges' runs so far (replaced, never changed in place)."""
 
-    __slots__ = ("run",)
+    __slots__ = ("runs",)
 
-    def __init__(self, run: MonitorRun | None = None):
-        self.run = run if run is not None else MonitorRun()
+    def __init__(self, runs: tuple[JudgeRun, ...] = ()):
+        self.runs = runs
 
     def __deepcopy__(self, memo):
-        return _MonitorRecording(self.run)
+        return _MonitorRecording(self.runs)
 
 
 class SafetyMonitor(LeafSystem):
-    """Accounts contacts and the time below S_p on the truth, every `period` s (`safety.contacts`).
+    """The ISO/TS 15066 judge as a system: judges the run on the truth every `period` s
+    (`safety.judge`), independent of the controller (it reads only the controller's protective-stop
+    command, to measure the stops).
 
-    Inputs "human_capsules" (`Capsules`, the true body) and "positions" (the plant's first); the
-    robot's and the body's velocities are their capsules' motion since the last sample. A
-    recorder like `MetricsRecorder`: its `MonitorRun` is a cache entry its periodic publish
-    replaces, cleared at initialization, so it costs the simulation no state copies.
+    Inputs "human_capsules" (`Capsules`, the true body), "positions" (the plant's first),
+    "protective_stop" (1: the controller's stop command, > 0.5 a stop; unconnected: no controller)
+    and "skeleton_estimate" (what the cell measured of the person; unconnected: not judged). The
+    robot's and the body's velocities are their capsules' motion since the last sample. A recorder
+    like `MetricsRecorder`: its runs are a cache entry its periodic publish replaces, cleared at
+    initialization, so it costs the simulation no state copies. `judges[0]` is the standard judge;
+    a second one, where given, is the scenario's changed judge or the controller's own model.
     `summary(context, stops)` gives metrics.json's `safety`.
     """
 
-    def __init__(self, accountant: ContactAccountant, dynamics: RobotPointDynamics, input_size: int,
-                 period: float, mode: str, standard: str):
+    def __init__(self, judges: tuple[Judge, ...], dynamics: RobotPointDynamics, input_size: int, period: float,
+                 mode: str, departures: tuple[str, ...] = ()):
         super().__init__()
-        self.accountant = accountant
+        self.judges = tuple(judges)
         self.dynamics = dynamics
         self.cutter = RegionCapsules()
         self.mode = mode
-        self.standard = standard
+        self.departures = tuple(departures)
         self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
+        self._stop = self.DeclareVectorInputPort("protective_stop", 1)
+        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate", AbstractValue.Make(SkeletonEstimate()))
         self._entry = self.DeclareCacheEntry(
-            "monitor run", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
+            "judged runs", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
                                          calc=lambda *_: None), {self.nothing_ticket()})
         self.DeclareInitializationPublishEvent(self._clear)
         self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
@@ -411,46 +429,97 @@ class SafetyMonitor(LeafSystem):
         return self._entry.get_mutable_cache_entry_value(context).GetMutableValueOrThrow()
 
     def _clear(self, context):
-        self._recording(context).run = MonitorRun()
+        self._recording(context).runs = tuple(JudgeRun() for _ in self.judges)
         return EventStatus.Succeeded()
+
+    def _measured(self, context):
+        """(8,) which skeleton points the cell measured at this sample, or None (not connected)."""
+        if not self._estimate.HasValue(context):
+            return None
+        estimate = self._estimate.Eval(context)
+        measured = np.asarray(estimate.tracked, dtype=bool) & np.isfinite(np.asarray(estimate.spread, dtype=float))
+        points = np.asarray(estimate.points, dtype=float)
+        if measured.shape != (8,) or points.shape != (8, 3):
+            return np.zeros(8, dtype=bool)
+        return measured & np.isfinite(points).all(axis=1)
 
     def _record(self, context):
         recording = self._recording(context)
         time = context.get_time()
-        if time <= recording.run.last_time:
+        if not recording.runs:
+            recording.runs = tuple(JudgeRun() for _ in self.judges)
+        if time <= recording.runs[0].last_time:
             return EventStatus.DidNothing()
         start, end, radius = self._human.Eval(context)
         if len(radius) != len(BODY_CAPSULES):
             return EventStatus.DidNothing()
         regions = self.cutter.cut(start, end, radius)
-        # positions only: the robot's velocities are its capsules' motion since the last sample
         self.dynamics.set_state(self._positions.Eval(context))
         robot, _ = self.dynamics.capsules(velocities=False)
-        recording.run = self.accountant.step(recording.run, time, robot, None, regions,
-                                             self.dynamics.effective_mass)
+        stop = bool(self._stop.Eval(context)[0] > 0.5) if self._stop.HasValue(context) else None
+        measured = self._measured(context)
+        recording.runs = tuple(judge.step(run, time, robot, regions, self.dynamics.effective_mass, stop, measured)
+                               for judge, run in zip(self.judges, recording.runs, strict=True))
         return EventStatus.Succeeded()
 
-    def run(self, context) -> MonitorRun:
-        """The monitor's run in this system's `context`."""
-        return self._recording(context).run
+    def run(self, context, which: int = 0) -> JudgeRun:
+        """The standard judge's run (`which` 1: the changed judge's) in this system's `context`."""
+        runs = self._recording(context).runs
+        return runs[which] if runs else JudgeRun()
+
+    def episodes(self, context):
+        """Every episode of the standard judge's run (violations and logged contacts), by onset."""
+        return self.judges[0].finish(self.run(context))[0]
 
     def summary(self, context, protective_stops: int = 0) -> dict:
-        """metrics.json's ISO/TS 15066 figures (`contacts.summarize_safety`)."""
-        return summarize_safety(self.run(context), self.mode, protective_stops, self.accountant.limits,
-                                self.standard)
+        """metrics.json's ISO/TS 15066 figures and verdict (`safety.verdict.summarize`)."""
+        run = self.run(context)
+        duration = max(run.last_time, 0.0) if run.samples else 0.0
+        own = (self.judges[1], self.run(context, 1)) if len(self.judges) > 1 else None
+        return summarize(self.judges[0], run, mode=self.mode, duration=duration, protective_stops=protective_stops,
+                         departures=self.departures, own=own)
+
+
+def controller_departures(config) -> tuple[str, ...]:
+    """How a safety controller's S_h departs from ISO 13855's speeds (a declared departure, e.g. the
+    thesis's 8.1 swept volumes): its verdict is NON-CONFORMING, its own model judged beside."""
+    if isinstance(config, NoSafety):
+        return ()
+    out = []
+    if config.human_motion == "swept_volumes":
+        out.append("the controller's S_h comes from the motion model's swept volumes (thesis 8.1), not ISO "
+                   "13855's speeds")
+    if 0 < config.human_speed < LIMB_FAST_SPEED:
+        out.append(f"the controller's v_h of hands and arms is {config.human_speed:g} m/s, below ISO 13855's "
+                   f"{LIMB_FAST_SPEED:g} m/s")
+    body = config.body_speed or config.human_speed
+    if 0 < body < WALKING_SPEED:
+        out.append(f"the controller's v_h of head and torso is {body:g} m/s, below ISO 13855's {WALKING_SPEED:g} m/s")
+    return tuple(out)
+
+
+def own_model_values(config, standard: JudgeValues, covered_time: float = 0.0) -> JudgeValues:
+    """The judge's values with the controller's own S_h (its v_h, or its swept volumes' horizon H)."""
+    limb = config.human_speed if config.human_speed > 0 else 0.0
+    body = config.body_speed or config.human_speed or WALKING_SPEED
+    covered = covered_time if config.human_motion == "swept_volumes" else 0.0
+    return replace(standard, limb_speed=limb, body_speed=body, covered_time=covered)
 
 
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
                         positions, velocities_full, skeleton_estimate, human_capsules,
-                        requested_override, swept_volumes=None, camera_noise: float = 0.0,
-                        monitor_period: float = 1.0 / 30.0):
+                        requested_override, judge_values: JudgeValues, judge_changes: JudgeValues | None = None,
+                        payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
+                        camera_noise: float = 0.0, monitor_period: float = 1.0 / 30.0):
     """Add the safety controller of `config` ("safety_controller"; none for `NoSafety`) and the
-    contact monitor ("safety_monitor", always) to `builder` and connect them.
+    judge ("safety_monitor", always) to `builder` and connect them.
 
     positions: the plant's positions port (kinematic: the follower's; dynamic: the plant state);
     velocities_full: the follower's joint velocities at full speed (the controller's approach speeds);
     requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
-    to connect later.
+    to connect later; limits: the controller's limits table; judge_values: the standard judge's
+    values of this cell (`judge.standard_values`); judge_changes: the scenario's changed judge, or
+    None; payloads (K,): m_L of each robot capsule's arm; swept_horizon: H of the motion model.
     Returns (controller or None, monitor); the follower reads the controller's "speed_override".
     """
     config.validate("safety")
@@ -472,12 +541,32 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
             builder.Connect(requested_override, controller.GetInputPort("requested_override"))
         if swept_volumes is not None:
             builder.Connect(swept_volumes, controller.GetInputPort("swept_volumes"))
-    moving = config.moving_speed if not isinstance(config, NoSafety) else 0.01
-    accountant = ContactAccountant(rules, limits, kinematics.names, RegionCapsules().names, moving)
-    monitor = builder.AddSystem(SafetyMonitor(accountant, dynamics, input_size,
-                                              monitor_period, mode_name(config), limits.source))
+    mode = declared_mode(config, zones)
+    cutter = RegionCapsules()
+
+    def judge(values):
+        return Judge(values, mode, kinematics.names, cutter.names, cutter.regions, masses, payloads, fixed_boxes)
+
+    judges = [judge(judge_values)]
+    departures = list(controller_departures(config))
+    if judge_changes is not None:
+        departures = [f"judge changed: {d}" for d in deviations(judge_changes, judge_values)] + departures
+        judges.append(judge(judge_changes))
+    elif departures:
+        judges.append(judge(own_model_values(config, judge_values, swept_horizon)))
+    monitor = builder.AddSystem(SafetyMonitor(tuple(judges), dynamics, input_size, monitor_period,
+                                              mode_name(config), tuple(departures)))
     monitor.set_name("safety_monitor")
     builder.Connect(human_capsules, monitor.GetInputPort("human_capsules"))
     builder.Connect(positions, monitor.GetInputPort("positions"))
+    builder.Connect(skeleton_estimate, monitor.GetInputPort("skeleton_estimate"))
+    if controller is not None:
+        # the status's "stopped" entry, picked by a gain row (Drake's C++ system, no Python per read)
+        pick = np.zeros((1, len(_STATE)))
+        pick[0, _STATE.index("stopped")] = 1.0
+        stop = builder.AddSystem(MatrixGain(pick))
+        stop.set_name("protective_stop")
+        builder.Connect(controller.GetOutputPort("status"), stop.get_input_port())
+        builder.Connect(stop.get_output_port(), monitor.GetInputPort("protective_stop"))
     return controller, monitor
 
