@@ -5,16 +5,17 @@ Issue 36, item 5. For every scenario in `diagrams/` (or those named) and every m
 replaced by that mode with default parameters, Z_d from the cell's tracker or, without one, its
 camera's noise; `hybrid` takes the layout's collaborative zones, or one sphere over the table
 where the layout declares none), runs the cell over seeds and reports products, mean cycle time,
-violations of the mode by rule, the worst ratio to the ISO limits per body region, protective
-stops, time below S_p while moving, contacts, and the CPU share of the PFL part of the safety
-controller (effective masses and permissible speeds).
+the verdict code and the violations by kind of the standard ISO/TS 15066 judge (`safety.judge`),
+the worst ratio to the ISO limits per body region, protective stops, the time in an SSM breach,
+contacts, and the CPU share of the PFL part of the safety controller (effective masses and
+permissible speeds).
 
     python tools/bench_safety.py --quick            # 20 s runs, one seed: under 5 minutes
     python tools/bench_safety.py --duration 300 --seeds 3
     python tools/bench_safety.py diagrams/torch_clock.yaml --modes declared,none
 
-Last line: one JSON object with `cells_with_violations` (cells with violations of their declared
-mode), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
+Last line: one JSON object with `cells_with_violations` (cells in whose declared mode the standard
+judge finds violations), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
 null: no contact), `products.<cell>.<mode>` and `cycle_s.<cell>.<mode>` (means over the seeds),
 `stops.<cell>.<mode>`, `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
 declared mode), `pfl_speed_mps.<region>` and `pfl_speed_quasi_static_mps.<region>` (eq. A.6 for
@@ -96,12 +97,13 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     return {"scenario": Path(path).stem, "mode": mode, "declared": safety["mode"], "seed": scenario.seed,
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
             "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
-            "violations": safety["violations_total"], "by_rule": safety["violations"],
+            "verdict": safety["verdict_code"], "violations": safety["violations_total"],
+            "by_kind": safety["violations"],
             # a region where no contact is permitted has ratio null (infinite)
             "worst_ratio": (None if not ratios else (max(ratios) if all(r is not None for r in ratios)
                                                      else "inf")),
             "worst_by_region": safety["worst_ratio"], "stops": safety["protective_stops"],
-            "below_sp_s": safety["time_below_sp_moving_s"], "contacts": safety["contact_count"],
+            "breach_s": safety["ssm_breach_s"], "contacts": safety["contact_count"],
             "min_distance_m": metrics.get("min_human_robot_distance")}
 
 
@@ -222,7 +224,8 @@ def main() -> None:
         jobs += [(str(path), mode, base_seed + k, args.duration) for mode in modes for k in range(args.seeds)]
     print(f"{len(jobs)} runs of {args.duration:.0f} s on {args.workers} workers ...", flush=True)
     print(f"{'scenario':<24} {'mode':<9} {'seed':>4} {'products':>8} {'cycle s':>8} {'violations':>10} "
-          f"{'worst':>6} {'stops':>6} {'<S_p s':>7} {'contacts':>8} {'PFL cpu':>7} {'cpu s':>6}", flush=True)
+          f"{'worst':>6} {'stops':>6} {'breach s':>8} {'contacts':>8} {'PFL cpu':>7} {'cpu s':>6}",
+          flush=True)
     rows = []
     with ProcessPoolExecutor(max(1, args.workers)) as pool:
         for row in pool.map(_run, jobs):
@@ -232,7 +235,7 @@ def main() -> None:
             cycle = "-" if row["cycle_s"] is None else f"{row['cycle_s']:.1f}"
             mode = row["mode"] if row["mode"] != "declared" else f"={row['declared']}"
             print(f"{row['scenario']:<24} {mode:<9} {row['seed']:>4} {row['products']:>8} {cycle:>8} "
-                  f"{row['violations']:>10} {worst:>6} {row['stops']:>6} {row['below_sp_s']:>7.1f} "
+                  f"{row['violations']:>10} {worst:>6} {row['stops']:>6} {row['breach_s']:>8.1f} "
                   f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}",
                   flush=True)
     print(json.dumps(figures(rows, args)))

@@ -6,7 +6,7 @@ record, the store).
 Falsification: each cell is searched `R` times (TPE seeded 0..R-1, random search beside it with a
 seed of its own, `spec.random_search_seed`), each search `budget` runs, more than TPE's
 `n_startup_trials` (its random start). Per repeat and search: the worst margin found and the runs
-spent to the first violation (a margin below 0 or a contact the mode forbids; null when none).
+spent to the first violation (a margin below 0 or a violation the judge holds; null when none).
 The one-sided Mann-Whitney U test (scipy) over the R repeats asks whether TPE's worst margins are
 lower than random search's. Cells: `falsify_pcb_ic` (the hand-over cell under PFL, whose mode
 holds for the nominal operator: contact margin 0.81) and `falsify_coexistence` (SSM: the margin is
@@ -22,7 +22,7 @@ falsify.<cell>.worst_margin_per_repeat.optimizer / .random, falsify.<cell>.worst
 (median over the repeats; a repeat with none counts as never; null when half or more found none),
 falsify.<cell>.runs_to_first_violation_per_repeat.optimizer / .random (a margin below 0: a contact
 the person made counts too), falsify.<cell>.runs_to_first_mode_violation_per_repeat.optimizer /
-.random (a contact the mode holds against the robot, `safety.violations_total` > 0), falsify.<cell>.worst (the
+.random (a violation held against the robot, `safety.violations_total` > 0), falsify.<cell>.worst (the
 worst candidate over every repeat: its search, margin and parameters), optimise.<cell>.cycle_s.best
 (fresh seeds), .shipped, .differences (best - shipped per fresh seed), .wilcoxon_p (one-sided
 signed-rank, best shorter), optimise.<cell>.violations.best / .shipped (fresh seeds),

@@ -499,20 +499,39 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         "safety.below",
         "safety.mode",
         "safety.standard",
-        "safety.violations_total",
-        "safety.time_below_sp_moving_s",
-        "safety.margin_m",
-        "safety.contact_margin",
-        "safety.protective_stops",
-        "safety.contact_count",
+        "safety.verdict_code",
         "safety.verdict",
+        "safety.protective_stops",
+        "safety.judge.conforming",
+        "safety.judge.reaction_time_s",
+        "safety.judge.deceleration_m_s2",
     ]
-    from hrc_drake.safety.config import mode_name
-    from hrc_drake.safety.contacts import MODE_RULES
+    from hrc_drake.safety.judge import VIOLATION_KINDS
     from hrc_drake.safety.limits import BODY_REGIONS
+    from hrc_drake.safety.systems import controller_departures
 
-    names += [f"safety.violations.{rule}" for rule in MODE_RULES[mode_name(scenario.safety)]]
-    names += [f"safety.worst_ratio.{region}" for region in BODY_REGIONS]
+    # the standard judge's figures (`safety.verdict.judged_figures`), and the same of the changed
+    # judge or the controller's own model (`own_model`, null in a conforming run) beside them
+    judged = [
+        "violations_total",
+        "ssm_breach_s",
+        "margin_m",
+        "contact_margin",
+        "contact_count",
+        "stops_measured",
+        "stop_ratio_worst",
+        "unobserved_s",
+        "unobserved_longest_s",
+        "reach_growth_m",
+        "closest_approach_m",
+    ]
+    judged += [f"violations.{kind}" for kind in VIOLATION_KINDS]
+    judged += [f"worst_ratio.{region}" for region in BODY_REGIONS]
+    names += [f"safety.{name}" for name in judged]
+    if scenario.judge.changed() or controller_departures(scenario.safety):
+        names += [f"safety.own_model.{name}" for name in judged]
+    else:
+        names.append("safety.own_model")
     names += [
         f"agents.{a}.{k}"
         for a in agents

@@ -116,7 +116,8 @@ def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, 
 @njit(cache=True)
 def _margin_candidates(distance, v_start, v_end, limbs, body, below):
     """The pairs (k, r), row-major, whose clearance less S_p at their capsule's fastest end point
-    lies below `below` (`ContactAccountant.ssm_margin`)."""
+    lies below `below` (the SSM margin's candidates; no caller since the judge, `safety.judge`,
+    replaced the contact accountant: only `_warm_up_steps` compiles it)."""
     counted = np.empty(distance.shape, dtype=np.bool_)
     for i in range(distance.shape[0]):
         reach = _reach(v_start, v_end, i, limbs, body, 0.0)

@@ -280,9 +280,12 @@ class JudgeRun(Immutable):
     inside: tuple = ()
     #: the SSM breach under way: a `Violation` growing while some pair is in unexcused breach
     breach: Violation | None = None
+    #: a breach younger than T_r with no protective stop yet: excused if one begins in time
+    pending: Violation | None = None
     contacts: tuple = ()  # ((k, r), JudgedContact)
     stop: Stop | None = None
     stops: AppendOnly = field(default_factory=AppendOnly)
+    #: the time of the closed SSM breaches (s; `Judge.breach_seconds` adds the open ones)
     breach_time: float = 0.0
     margin: float = math.inf
     #: whether the controller commanded a protective stop at the last sample
@@ -340,11 +343,11 @@ class Judge:
         distance = capsule_clearances(*robot, *regions)
         stop = self._stop_step(run, time, dt, fastest, stop_commanded)
         k, r = self._candidates(distance, end_speeds, fastest, run)
-        inside, contacts, breach = {}, dict(run.contacts), run.breach
+        inside, contacts, breach, pending = {}, dict(run.contacts), run.breach, run.pending
         episodes = []
         margin = run.margin
         nearest = (math.nan, math.nan)
-        worst = None
+        worst = waiting = None
         if len(k):
             geometry = _kernels.pair_geometry(robot, robot_velocity, regions, np.ascontiguousarray(k),
                                               np.ascontiguousarray(r))
@@ -358,14 +361,26 @@ class Judge:
                 n = int(np.argmin(margins))
                 margin = min(margin, float(margins[n]))
                 nearest = (float(gap[n]), float(sp[n]))
-            inside, worst = self._inside_step(run, time, k, r, counted & (gap < sp), gap - sp, stop)
+            inside, worst, waiting = self._inside_step(run, time, k, r, counted & (gap < sp), gap - sp, stop)
             if worst is not None:
                 breach = self._breach_sample(breach, time, dt, int(k[worst]), int(r[worst]),
                                              float(gap[worst] - sp[worst]))
+            elif waiting is not None:
+                pending = self._breach_sample(pending, time, dt, int(k[waiting]), int(r[waiting]),
+                                              float(gap[waiting] - sp[waiting]))
             contacts, closed = self._contact_step(run, time, dt, k, r, gap < 0.0, pfl, gap, t, surface, on_body,
                                                   direction, approach, body_velocity, robot, regions,
                                                   effective_mass, contacts)
             episodes += closed
+        if pending is not None and (worst is not None or waiting is None):
+            # T_r is over, or the breach over: without a protective stop begun in time it counts
+            stopped = stop is not None and not stop.ended and stop.onset <= pending.onset + self.values.reaction_time
+            if not stopped:
+                breach = _merged(pending, breach)
+                if worst is None:
+                    episodes.append(breach)
+                    breach = None
+            pending = None
         if worst is None and breach is not None:  # no unexcused breach now: the one under way ends
             episodes.append(breach)
             breach = None
@@ -376,8 +391,9 @@ class Judge:
         min_clearance = float(distance.min(initial=math.inf))
         trace = run.trace.offer((time, min_clearance, *nearest, worst is not None))
         return JudgeRun(run.samples + 1, time, robot, regions, run.episodes.extend(episodes),
-                        tuple(sorted(inside.items())), breach, tuple(sorted(contacts.items())), stop, stops,
-                        run.breach_time + (dt if worst is not None else 0.0), margin, bool(stop_commanded),
+                        tuple(sorted(inside.items())), breach, pending, tuple(sorted(contacts.items())), stop, stops,
+                        run.breach_time + sum(e.duration for e in episodes if e.kind == "ssm_breach"), margin,
+                        bool(stop_commanded),
                         last_measured, unobserved, longest, min(run.min_clearance, min_clearance), trace)
 
     def _candidates(self, distance, end_speeds, fastest, run: JudgeRun):
@@ -398,16 +414,23 @@ class Judge:
 
     def _inside_step(self, run: JudgeRun, time, k, r, inside_now, margins, stop):
         """(the pairs inside their S_p with the robot point approaching, by when each came inside;
-        the index of the pair deepest in unexcused breach, or None)."""
+        the index of the pair deepest in unexcused breach, or None; of the pair deepest in a breach
+        younger than T_r with no stop begun yet, or None)."""
         since = dict(run.inside)
-        inside, worst, deepest = {}, None, math.inf
+        inside, worst, waiting = {}, None, None
+        stopping = stop is not None and not stop.ended
         for n in np.nonzero(inside_now)[0].tolist():
             key = (int(k[n]), int(r[n]))
             onset = since.get(key, time)
             inside[key] = onset
-            if not self._excused(stop, onset) and margins[n] < deepest:
-                worst, deepest = n, float(margins[n])
-        return inside, worst
+            if self._excused(stop, onset):
+                continue
+            if not stopping and time - onset <= self.values.reaction_time + 1e-9:
+                if waiting is None or margins[n] < margins[waiting]:
+                    waiting = n
+            elif worst is None or margins[n] < margins[worst]:
+                worst = n
+        return inside, worst, waiting
 
     def _excused(self, stop: Stop | None, onset: float) -> bool:
         """A breach is excused while a protective stop is under way that began within T_r of the
@@ -560,7 +583,8 @@ class Judge:
     def finish(self, run: JudgeRun) -> tuple[list[Violation], list[Stop]]:
         """Every episode of the run (open ones closed as they are) and every stop, by onset."""
         episodes = list(run.episodes)
-        episodes += [run.breach] if run.breach is not None else []
+        # open at the end: a breach under way, and one still waiting for a stop that never came
+        episodes += [e for e in (run.breach, run.pending) if e is not None]
         episodes += [self._contact_episode(c) for _, c in run.contacts]
         stops = list(run.stops) + ([run.stop] if run.stop is not None else [])
         period = self.sample_period(run)
@@ -572,10 +596,23 @@ class Judge:
         return episodes, stops
 
     @staticmethod
+    def breach_seconds(run: JudgeRun) -> float:
+        """The time in unexcused SSM breach (s), open breaches included."""
+        return run.breach_time + sum(e.duration for e in (run.breach, run.pending) if e is not None)
+
+    @staticmethod
     def sample_period(run: JudgeRun) -> float:
         """The mean time between the run's samples (0 before two)."""
         return 0.0 if run.samples < 2 else run.last_time / max(run.samples - 1, 1)
 
+
+
+def _merged(first: Violation, then: Violation | None) -> Violation:
+    """A breach that began as `first` (pending) and went on as `then` (or ended there)."""
+    if then is None:
+        return first
+    deeper = then if then.worst < first.worst else first
+    return replace(deeper, onset=min(first.onset, then.onset), duration=first.duration + then.duration)
 
 
 def _limit_ratio(region, force: float, quasi_static: bool, area: float) -> float:

@@ -34,7 +34,7 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
     return {
         "violations_total": len(violations),
         "violations": {kind: counts.get(kind, 0) for kind in VIOLATION_KINDS},
-        "ssm_breach_s": round(run.breach_time, 3),
+        "ssm_breach_s": round(judge.breach_seconds(run), 3),
         "margin_m": None if not math.isfinite(run.margin) else round(run.margin, 4),
         "contact_margin": round(1.0 - max(finite, default=0.0), 4),
         "worst_ratio": {name: (None if not math.isfinite(worst.get(name, 0.0)) else round(worst.get(name, 0.0), 4))

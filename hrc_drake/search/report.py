@@ -23,17 +23,18 @@ FRESH_SEED_BASE = 1_000_000
 
 
 def is_violation(row, search) -> bool:
-    """A candidate that broke the cell: a contact the mode forbids (`safety.violations_total` > 0),
-    or, when the objective is a margin, a margin below 0 on some seed."""
+    """A candidate that broke the cell: a violation the standard's judge holds against the robot
+    (`safety.violations_total` > 0: an SSM breach, a contact its mode forbids or over its limit, a
+    stop longer than S_p assumed), or, when the objective is a margin, a margin below 0 on some seed."""
     margin = search.objective.metric in ("safety.margin_m", "safety.contact_margin")
     worst_margin = row["objective"] if search.objective.over_seeds == "worst" else math.nan
     return bool(row.get("metric.safety.violations_total", 0) > 0 or (margin and worst_margin < 0))
 
 
 def is_mode_violation(row) -> bool:
-    """A candidate with a contact its safety mode holds against the robot on some seed
-    (`safety.violations_total` > 0). Narrower than `is_violation`: a margin also counts contacts
-    the person made (walking into a still robot), which the mode does not."""
+    """A candidate with a violation the standard's judge holds against the robot on some seed
+    (`safety.violations_total` > 0). Narrower than `is_violation`: a contact margin also counts
+    contacts the person made (walking into a still robot), which the judge logs but does not hold."""
     return bool(row.get("metric.safety.violations_total", 0) > 0)
 
 

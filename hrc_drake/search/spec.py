@@ -29,8 +29,10 @@ PRESETS = ("", "falsify", "optimise")
 DIRECTIONS = ("minimize", "maximize")
 OVER_SEEDS = ("mean", "worst", "median")
 CONSTRAINT = re.compile(r"^\s*([A-Za-z0-9_.*-]+)\s*(<=|>=|==)\s*([-+0-9.eE]+|inf|-inf)\s*$")
-#: metrics.json figures that are not numbers (cannot be an objective or a constraint)
-TEXT_METRICS = ("safety.mode", "safety.standard", "safety.verdict", "safety.below")
+#: metrics.json figures that are not numbers (cannot be an objective or a constraint); `own_model`
+#: is null in a conforming run (its figures are `safety.own_model.*` where it has one)
+TEXT_METRICS = ("safety.mode", "safety.standard", "safety.verdict_code", "safety.verdict", "safety.below",
+                "safety.own_model")
 
 
 @dataclass

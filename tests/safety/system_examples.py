@@ -6,13 +6,22 @@ import numpy as np
 from hrc_drake.human.body import BodyModel
 from hrc_drake.messages import Capsules, SkeletonEstimate
 from hrc_drake.safety.config import Hybrid
-from hrc_drake.safety.contacts import ContactAccountant
+from hrc_drake.safety.judge import Judge, declared_mode, standard_values
 from hrc_drake.safety.limits import load_limits
 from hrc_drake.safety.regions import RegionCapsules
 from hrc_drake.safety.rules import SafetyRules
-from hrc_drake.safety.systems import HumanRegions, RobotPointDynamics, SafetyController, SafetyMonitor
+from hrc_drake.safety.systems import (
+    HumanRegions,
+    RobotPointDynamics,
+    SafetyController,
+    SafetyMonitor,
+    arm_masses,
+)
 from tests.contract import SystemExample
 from tests.safety.arms import two_link_arm, two_link_kinematics
+
+#: the hybrid mode's collaborative zone: a sphere around the elbow (centres (1, 3), radii (1,))
+ZONES = (np.array([[1.0, 0.0, 0.9]]), np.array([0.6]))
 
 
 def _setup():
@@ -20,8 +29,7 @@ def _setup():
     kinematics = two_link_kinematics(plant)
     config = Hybrid(position_uncertainty="fixed")
     limits = load_limits()
-    rules = SafetyRules(config, limits, RegionCapsules().regions,
-                        (np.array([[1.0, 0.0, 0.9]]), np.array([0.6])))
+    rules = SafetyRules(config, limits, RegionCapsules().regions, ZONES)
     return plant, kinematics, config, limits, rules
 
 
@@ -41,16 +49,25 @@ def safety_controller() -> SystemExample:
                          {**moving, "skeleton_estimate": SkeletonEstimate(points=far)}, duration=0.3)
 
 
+def monitor_judge(plant, kinematics, config) -> Judge:
+    """The standard judge of the two-link cell (T_r 0.1 s, a stop at 5 m/s^2) in `config`'s mode."""
+    cutter = RegionCapsules()
+    return Judge(standard_values(0.1, 5.0), declared_mode(config, ZONES), kinematics.names, cutter.names,
+                 cutter.regions, arm_masses(plant, kinematics.capsule_bodies))
+
+
 def safety_monitor() -> SystemExample:
-    plant, kinematics, _, limits, rules = _setup()
-    _, _, near = _operator(1.6)
-    _, _, far = _operator(4.0)
-    accountant = ContactAccountant(rules, limits, kinematics.names, RegionCapsules().names)
-    system = SafetyMonitor(accountant, RobotPointDynamics(plant, kinematics), 2, 1.0 / 30.0, "hybrid", "")
-    moving = {"positions": [0.0, 0.3]}
+    plant, kinematics, config, _, _ = _setup()
+    _, near_points, near = _operator(1.6)
+    _, far_points, far = _operator(4.0)
+    judge = monitor_judge(plant, kinematics, config)
+    system = SafetyMonitor((judge,), RobotPointDynamics(plant, kinematics), 2, 1.0 / 30.0, "hybrid")
+    moving = {"positions": [0.0, 0.3], "protective_stop": [0.0]}
     # the monitor has no output ports: its run is read with `summary` (tests/safety/test_systems.py)
-    return SystemExample(system, {**moving, "human_capsules": near}, {**moving, "human_capsules": far},
-                         duration=0.3, inputs_matter=False)
+    return SystemExample(
+        system, {**moving, "human_capsules": near, "skeleton_estimate": SkeletonEstimate(points=near_points)},
+        {**moving, "human_capsules": far, "skeleton_estimate": SkeletonEstimate(points=far_points)},
+        duration=0.3, inputs_matter=False)
 
 
 EXAMPLES = {SafetyController: safety_controller, SafetyMonitor: safety_monitor}

@@ -1,0 +1,369 @@
+"""The ISO/TS 15066 judge (`safety.judge`, `safety.verdict`), attacked class by class.
+
+Every expected value is worked by hand from the standard's numbers, not from the judge's own
+functions: ISO 13855 speeds (hands and arms 2.0 m/s while S_h <= 0.5 m, else 1.6 m/s and >= 0.5
+m; head and torso 1.6 m/s), Table A.2/A.3 rows (hand: F 140 N, p 190 N/cm^2 on the back of the
+non-dominant hand, k 75 N/mm, m_H 0.6 kg; transient x 2), m_R = max(plant, M/2) + m_L with the
+YuMi arm's M = 6.34 kg, so M/2 = 3.17 kg.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from hrc_drake.safety.config import Hybrid, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
+from hrc_drake.safety.judge import (
+    Judge,
+    JudgeRun,
+    declared_mode,
+    deviations,
+    protective_separation,
+    standard_values,
+)
+from hrc_drake.safety.limits import parse_limits
+from hrc_drake.safety.regions import FixedBox
+from hrc_drake.safety.verdict import summarize
+
+RATE = 30.0
+DT = 1.0 / RATE
+VALUES = standard_values(reaction_time=0.1, deceleration=5.0)
+ARM_MASS = 6.34  # M of a YuMi arm: M/2 = 3.17 kg
+HAND_RADIUS = 0.04
+TOOL_RADIUS = 0.03
+# the hand's peak-force factor sqrt(mu k) at m_R = 3.17 kg: mu = (1/0.6 + 1/3.17)^-1 = 0.504469 kg,
+# sqrt(0.504469 * 75000) = 194.514 N s/m
+HAND_FACTOR = 194.514
+
+
+def plant_mass(k, points, u):
+    """A light plant (as the URDF without drives): the judge must take the standard's M/2."""
+    return np.full(len(np.atleast_1d(k)), 0.2)
+
+
+def judge(config, links=("yumi/gripper_r_base",), masses=(ARM_MASS,), payloads=None, boxes=(), values=VALUES,
+          region=("right_hand", "hand_fingers"), zones=None):
+    return Judge(values, declared_mode(config, zones), links, (region[0],), (region[1],), masses, payloads, boxes)
+
+
+def sphere(x, radius=TOOL_RADIUS, y=0.0, z=1.0):
+    point = np.array([[x, y, z]], dtype=float)
+    return point, point.copy(), np.array([radius])
+
+
+def hand_at(x=0.0, y=0.0, z=1.0, radius=HAND_RADIUS):
+    """A hand region: a short capsule along z at (x, y)."""
+    return (np.array([[x, y, z - 0.03]]), np.array([[x, y, z + 0.03]]), np.array([radius]))
+
+
+def run_path(j, robot_x, hand_x=None, stop=None, measured=None, extra_robot=None, times=None):
+    """Step the judge along robot positions `robot_x` (one per 1/30 s sample); the hand at
+    `hand_x` (a number or one per sample); extra_robot: more capsules (start, end, radius)."""
+    run = JudgeRun()
+    n = len(robot_x)
+    hands = np.broadcast_to(np.asarray(0.0 if hand_x is None else hand_x, dtype=float), (n,))
+    for i, x in enumerate(robot_x):
+        robot = sphere(x)
+        if extra_robot is not None:
+            robot = tuple(np.concatenate([a, b]) for a, b in zip(robot, extra_robot, strict=True))
+        time = (i * DT) if times is None else times[i]
+        run = j.step(run, time, robot, hand_at(hands[i]), plant_mass,
+                     None if stop is None else bool(stop[i]),
+                     None if measured is None else measured[i])
+    return run
+
+
+def figures(j, run, mode="pfl", departures=()):
+    return summarize(j, run, mode=mode, duration=run.last_time, departures=departures)
+
+
+# -- S_p: eq. (1)-(2) on the truth, with the stop the controller makes ----------------------------
+
+def test_protective_separation_by_hand():
+    # v = V = 0.06 m/s: T_s = 0.012 s, S_h = 2.0 (0.1 + 0.012) = 0.224, S_r = 0.006, S_s = 0.00036
+    assert protective_separation(0.06, 0.06, False, VALUES) == pytest.approx(0.23036, abs=1e-9)
+    # head and torso at 1.6 m/s: 1.6 x 0.112 = 0.1792
+    assert protective_separation(0.06, 0.06, True, VALUES) == pytest.approx(0.1792 + 0.00636, abs=1e-9)
+    # v = 0.5 m/s on a path whose fastest point runs 1.5 m/s: T_s = 1.5 / 5 = 0.3 s (not 0.1 s),
+    # S_h: 2.0 x 0.4 = 0.8 > 0.5, so 1.6 x 0.4 = 0.64; S_r = 0.05; S_s = 0.5 x 1.5 / 10 = 0.075
+    assert protective_separation(0.5, 1.5, False, VALUES) == pytest.approx(0.765, abs=1e-9)
+    # ISO 13855's floor: beyond 0.5 m of a reach S_h is at least 0.5 m (T = 0.27 s: 2.0 T = 0.54)
+    assert protective_separation(0.85, 0.85, False, VALUES) == pytest.approx(
+        0.5 + 0.085 + 0.85 * 0.85 / 10, abs=1e-9)
+
+
+# -- SSM breaches -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("speed", [0.06, 0.3, 0.002])
+def test_a_robot_creeping_toward_a_hand_and_stopping_1_cm_short_breaches(speed):
+    # SSM: from 0.5 m clearance toward the hand at `speed`, then at rest 1 cm short
+    stop_x = HAND_RADIUS + TOOL_RADIUS + 0.01
+    start = stop_x + 0.3
+    steps = int(math.ceil((start - stop_x) / (speed * DT)))
+    xs = [max(start - speed * DT * i, stop_x) for i in range(steps + 1)] + [stop_x] * 30
+    j = judge(SpeedSeparationMonitoring())
+    run = run_path(j, xs)
+    out = figures(j, run, "ssm")
+    assert out["violations"]["ssm_breach"] == 1 and out["violations_total"] == 1
+    breach = out["events"][0]
+    assert breach["kind"] == "ssm_breach" and breach["region"] == "hand_fingers"
+    # inside from the sample the clearance fell under S_p(speed) until the robot stopped
+    sp = 0.1 * 2.0 + speed * 0.1 + speed * speed / 10 + 2.0 * speed / 5.0  # S_h(T_r + v/a) + S_r + S_s
+    clearance = [x - stop_x + 0.01 for x in xs]
+    inside = [i for i in range(1, steps + 1) if clearance[i] < sp]
+    assert breach["onset"] == pytest.approx(inside[0] * DT, abs=1e-4)
+    assert out["ssm_breach_s"] == pytest.approx(len(inside) * DT, abs=1e-3)
+    assert out["verdict_code"] == "unsafe" and out["verdict"].startswith("UNSAFE: ISO/TS 15066 ssm")
+    assert "1 violation (1 SSM breach" in out["verdict"]
+
+
+def test_a_robot_below_the_numerical_tolerance_is_not_approaching():
+    xs = [0.2 - 0.0005 * DT * i for i in range(60)]  # 0.5 mm/s: numerically at rest
+    j = judge(SpeedSeparationMonitoring())
+    out = figures(j, run_path(j, xs), "ssm")
+    assert out["violations_total"] == 0 and out["verdict_code"] == "safe"
+    assert out["verdict"] == f"SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in {run_path(j, xs).last_time:.0f} s"
+
+
+def test_a_robot_moving_away_inside_s_p_is_no_breach():
+    xs = [0.1 + 0.5 * DT * i for i in range(30)]
+    j = judge(SpeedSeparationMonitoring())
+    assert figures(j, run_path(j, xs), "ssm")["violations_total"] == 0
+
+
+def _stopping_path(stop_delay_samples, deceleration=5.0):
+    """The robot at 1.0 m/s toward the hand; S_p(1, 1) = 1.6 x 0.3 -> the 0.5 m floor, + 0.1 +
+    0.1 = 0.7 m. From the sample it comes inside, a stop is commanded after `stop_delay_samples`
+    and brakes at `deceleration`."""
+    xs, x, v = [], 1.2, 1.0
+    commanded, stop_at = [], None
+    for i in range(90):
+        if x - HAND_RADIUS - TOOL_RADIUS < 0.7 and stop_at is None:
+            stop_at = i + stop_delay_samples
+        if stop_at is not None and i >= stop_at:
+            v = max(v - deceleration * DT, 0.0)
+        commanded.append(stop_at is not None and i >= stop_at)
+        xs.append(x)
+        x -= v * DT
+    return xs, commanded
+
+
+def test_a_timely_protective_stop_excuses_the_breach_and_a_late_one_does_not():
+    j = judge(SpeedSeparationMonitoring())
+    xs, stop = _stopping_path(2)  # commanded 2 samples (0.067 s) after the breach: within T_r = 0.1 s
+    out = figures(j, run_path(j, xs, stop=stop), "ssm")
+    assert out["violations_total"] == 0, out["events"]
+    assert out["stops_measured"] == 1 and 0.0 < out["stop_ratio_worst"] <= 1.0
+    late_xs, late_stop = _stopping_path(6)  # 0.2 s after the breach: later than T_r
+    out = figures(j, run_path(j, late_xs, stop=late_stop), "ssm")
+    assert out["violations"]["ssm_breach"] == 1
+    # the late stop excuses nothing: the 6 samples before it and its braking while still inside
+    # the shrinking S_p count (S_p(1/3 m/s) = 0.333 + 0.033 + 0.011 = 0.378 m; 4 samples of braking)
+    assert out["ssm_breach_s"] == pytest.approx(10 * DT, abs=1e-3)
+
+
+def test_a_timely_stop_that_brakes_too_slowly_excuses_no_more_than_s_p_assumed():
+    j = judge(SpeedSeparationMonitoring())
+    xs, stop = _stopping_path(0, deceleration=1.0)  # 1 s to stop where S_p took T_r + 0.2 s
+    out = figures(j, run_path(j, xs, stop=stop), "ssm")
+    assert out["violations"]["stop"] == 1 and out["violations"]["ssm_breach"] == 1
+    assert out["stop_ratio_worst"] > 1.5
+
+
+def test_a_breach_that_ends_without_a_protective_stop_counts_even_within_t_r():
+    # inside S_p (0.7 m at 1 m/s) for 3 samples, 0.067 s from the first (< T_r), then away: no stop
+    xs = [0.30, 0.30 - 1.0 * DT, 0.30 - 2.0 * DT, 0.30 - 3.0 * DT, 0.30, 0.40, 0.50]
+    j = judge(SpeedSeparationMonitoring())
+    out = figures(j, run_path(j, xs), "ssm")
+    assert out["violations"]["ssm_breach"] == 1
+    assert out["ssm_breach_s"] == pytest.approx(3 * DT, abs=1e-3)
+
+
+def test_a_stop_slower_than_s_p_assumed_is_a_violation():
+    # commanded at 1.0 m/s, braking at 2 m/s^2: 0.25 m in 0.5 s where S_p took 0.1 + 0.1 = 0.2 m
+    # in T_r + V/a = 0.3 s (at 5 m/s^2 it would be 0.1 m of braking after the command)
+    xs, x, v, stop = [], 5.0, 1.0, []
+    for i in range(60):
+        stop.append(i >= 5)
+        xs.append(x)
+        if i >= 5:
+            v = max(v - 2.0 * DT, 0.0)
+        x -= v * DT
+    j = judge(SpeedSeparationMonitoring())
+    out = figures(j, run_path(j, xs, stop=stop), "ssm")
+    assert out["violations"]["stop"] == 1
+    assert out["stop_ratio_worst"] == pytest.approx(0.5 / 0.3, rel=0.08)
+    # the same stop at the robot's 5 m/s^2 is within what S_p assumed
+    xs, x, v = [], 5.0, 1.0
+    for i in range(60):
+        xs.append(x)
+        if i >= 5:
+            v = max(v - 5.0 * DT, 0.0)
+        x -= v * DT
+    out = figures(j, run_path(j, xs, stop=stop), "ssm")
+    assert out["violations"]["stop"] == 0 and out["stop_ratio_worst"] < 1.0
+
+
+# -- contacts ---------------------------------------------------------------------------------
+
+def _touch_then(speed_before, speed_after, samples_after=3, config=None, hand_speed=0.0):
+    touch = HAND_RADIUS + TOOL_RADIUS
+    xs = [touch + 0.02 - speed_before * DT * i for i in range(int(0.02 / (speed_before * DT)) + 2)]
+    x = xs[-1]
+    for _ in range(samples_after):
+        x -= speed_after * DT
+        xs.append(x)
+    hands = [0.0] * len(xs)
+    if hand_speed:
+        hands = [0.0 if i < len(xs) - samples_after else hand_speed * DT * (i - len(xs) + samples_after + 1)
+                 for i in range(len(xs))]
+    j = judge(config or PowerForceLimiting())
+    return j, figures(j, run_path(j, xs, hand_x=hands))
+
+
+def test_a_slow_touch_then_a_fast_push_is_judged_while_it_lasts():
+    # 2.0 m/s into a free hand: F = 2.0 x 194.514 = 389.0 N against the transient 280 N: 1.389
+    j, out = _touch_then(0.04, 2.0)
+    assert out["violations"]["pfl_contact"] == 1
+    assert out["worst_ratio"]["hand_fingers"] == pytest.approx(389.03 / 280.0, rel=2e-3)
+    assert "transient limit" in out["events"][0]["detail"]
+
+
+def test_a_push_within_the_transient_limit_is_no_violation():
+    # 1.0 m/s: 194.5 N, 0.695 of the transient limit (1.39 of the quasi-static: not yet 0.5 s)
+    j, out = _touch_then(0.04, 1.0, samples_after=2)
+    assert out["violations_total"] == 0
+    assert out["worst_ratio"]["hand_fingers"] == pytest.approx(194.514 / 280.0, rel=2e-3)
+
+
+def test_the_persons_own_speed_counts_in_the_relative_speed():
+    # the robot at 1.0 m/s and the hand at 1.0 m/s toward it: v_rel 2.0 m/s, 1.389
+    j, out = _touch_then(0.04, 1.0, samples_after=1, hand_speed=1.0)
+    assert out["violations"]["pfl_contact"] == 1
+    assert out["worst_ratio"]["hand_fingers"] == pytest.approx(389.03 / 280.0, rel=5e-3)
+
+
+def test_a_contact_turns_quasi_static_after_the_transient_duration():
+    j = judge(PowerForceLimiting())
+    first = j.judge_contact(None, 0.0, DT, (0, 0), True, 1.0, 0.0, 0.001, 3.17, "")
+    assert not first.violation and first.limit == "transient"
+    assert first.ratio == pytest.approx(HAND_FACTOR / 280.0, rel=1e-4)
+    later = j.judge_contact(first, 0.6, DT, (0, 0), True, 1.0, 0.0, 0.002, 3.17, "")
+    assert later.violation and later.limit == "quasi-static"
+    assert later.ratio == pytest.approx(HAND_FACTOR / 140.0, rel=1e-4)
+
+
+def test_the_payload_counts_in_the_robot_mass():
+    # m_R = 3.17 + 1.0 = 4.17 kg: mu = 0.524531, sqrt(mu 75000) = 198.34; at 1.42 m/s 281.6 N > 280 N
+    # (without the payload 276.2 N: within the limit)
+    light = judge(PowerForceLimiting())
+    heavy = judge(PowerForceLimiting(), payloads=[1.0])
+    assert heavy.robot_mass(0, np.zeros(3), np.array([1.0, 0, 0]), plant_mass) == pytest.approx(4.17)
+    assert light.robot_mass(0, np.zeros(3), np.array([1.0, 0, 0]), plant_mass) == pytest.approx(3.17)
+    assert not light.judge_contact(None, 0.0, DT, (0, 0), True, 1.42, 0.0, 0.001, 3.17, "").violation
+    pushed = heavy.judge_contact(None, 0.0, DT, (0, 0), True, 1.42, 0.0, 0.001, 4.17, "")
+    assert pushed.violation and pushed.ratio == pytest.approx(1.42 * 198.34 / 280.0, rel=1e-3)
+
+
+def test_the_plant_mass_counts_where_it_is_heavier_than_the_standards():
+    j = judge(PowerForceLimiting())
+    assert j.robot_mass(0, np.zeros(3), np.array([1.0, 0, 0]), lambda k, p, u: np.array([9.0])) == 9.0
+
+
+def test_creeping_into_the_face_is_a_violation_at_any_speed():
+    j, out = _touch_then(0.045, 0.045, samples_after=30,
+                         config=Hybrid(), )  # face: SSM in every mode
+    j = Judge(VALUES, declared_mode(Hybrid(), (np.zeros((1, 3)), np.array([5.0]))), ("link",), ("face",),
+              ("face",), (ARM_MASS,))
+    touch = HAND_RADIUS + TOOL_RADIUS
+    xs = [touch + 0.01 - 0.045 * DT * i for i in range(80)]
+    out = figures(j, run_path(j, xs), "hybrid")
+    assert out["violations"]["ssm_contact"] == 1 and out["violations"]["ssm_breach"] == 1
+    assert out["worst_ratio"]["face"] is None  # no contact permitted with the face at all
+    assert "touch where SSM governs (face)" in out["verdict"]
+
+
+def test_a_person_walking_into_a_resting_robot_is_logged_not_held_against_it():
+    touch = HAND_RADIUS + TOOL_RADIUS
+    hands = [-0.05 + 1.5 * DT * i for i in range(12)]  # the hand at 1.5 m/s into the robot
+    xs = [touch + 0.06] * len(hands)
+    for config, mode in ((PowerForceLimiting(), "pfl"), (SpeedSeparationMonitoring(), "ssm")):
+        j = judge(config)
+        out = figures(j, run_path(j, xs, hand_x=hands), mode)
+        assert out["violations_total"] == 0 and out["contact_count"] == 1
+        assert out["contacts"][0]["kind"] == "contact"
+
+
+def _clamp(extra_robot, boxes=()):
+    # the hand between the gripper (pushing +x... toward -x) and a rigid body behind it at -x
+    touch = HAND_RADIUS + TOOL_RADIUS
+    xs = [touch + 0.01 - 0.2 * DT * i for i in range(6)]
+    j = Judge(VALUES, declared_mode(PowerForceLimiting()), ("yumi/gripper_r_base", "other"),
+              ("right_hand",), ("hand_fingers",), (ARM_MASS, ARM_MASS), None, boxes)
+    return figures(j, run_path(j, xs, extra_robot=extra_robot))
+
+
+def test_a_hand_pressed_against_a_cart_or_the_robots_other_arm_is_clamped():
+    # 0.2 m/s into a hand with a capsule 5 mm behind it: quasi-static (140 N); after one more
+    # sample the robot pressed 6.7 mm: 75 N/mm x 6.67 mm = 500 N, 3.57 of the limit
+    behind = (np.array([[-0.085, -0.2, 1.0]]), np.array([[-0.085, 0.2, 1.0]]), np.array([0.04]))
+    out = _clamp(behind)
+    assert out["violations"]["pfl_contact"] == 1
+    event = out["events"][0]
+    assert "quasi-static" in event["detail"] and "clamped against other" in event["detail"]
+    assert event["worst"] >= 75.0 * 0.2 * DT * 1000 / 140.0 - 1e-6
+
+
+def test_a_hand_pressed_against_the_table_is_clamped_and_one_in_free_air_is_not():
+    table = FixedBox((-0.3, 0.0, 1.0), (0.5, 1.0, 1.0))  # its face at x = -0.05, 1 cm behind the hand
+    far = (np.array([[5.0, 5.0, 5.0]]), np.array([[5.0, 5.0, 5.0]]), np.array([0.01]))
+    assert _clamp(far, (table,))["violations"]["pfl_contact"] == 1
+    assert _clamp(far)["violations_total"] == 0  # 0.2 m/s free: 38.9 N, transient
+
+
+# -- lost people, codes, changed judges -------------------------------------------------------
+
+def test_a_person_unmeasured_for_10_s_is_named_in_the_verdict():
+    n = int(12 * RATE)
+    measured = [np.ones(8, bool) if i < RATE or i > 11 * RATE else np.zeros(8, bool) for i in range(n + 1)]
+    j = judge(SpeedSeparationMonitoring())
+    out = figures(j, run_path(j, [3.0] * (n + 1), measured=measured), "ssm")
+    assert out["unobserved_s"] == pytest.approx(10.0, abs=2 * DT)
+    assert out["unobserved_longest_s"] == pytest.approx(10.0, abs=2 * DT)
+    assert out["reach_growth_m"] == pytest.approx(20.0, abs=0.2)
+    assert "a body part unmeasured 10.0 s" in out["verdict"]
+
+
+def test_verdict_codes():
+    xs = [1.0] * 10
+    j = judge(SpeedSeparationMonitoring())
+    run = run_path(j, xs)
+    assert figures(j, run, "ssm")["verdict_code"] == "safe"
+    assert figures(j, run, "none")["verdict_code"] == "no_safety_system"
+    assert figures(j, run, "none")["verdict"].startswith("NO SAFETY SYSTEM: ISO/TS 15066 not applied")
+    changed = figures(j, run, "ssm", departures=("judge changed: reaction_time 0.01, not the standard's 0.1",))
+    assert changed["verdict_code"] == "non_conforming" and changed["verdict"].startswith("NON-CONFORMING: judge")
+    assert changed["judge"]["conforming"] is False
+
+
+def test_a_cell_without_a_safety_system_reports_what_the_judge_would_count():
+    j = judge(NoSafety())
+    j2, pushed = _touch_then(0.04, 2.0, config=NoSafety())
+    out = figures(j2, run_path(j2, [HAND_RADIUS + TOOL_RADIUS + 0.02 - 0.04 * DT * i for i in range(20)]), "none")
+    assert j.mode.name == "pfl"
+    assert pushed["violations"]["pfl_contact"] == 1 and out["verdict_code"] == "no_safety_system"
+
+
+def test_any_change_of_the_judge_is_a_deviation():
+    table = parse_limits({"regions": {name: {"force": 1000, "transient_factor": 2, "spring_constant": 1,
+                                             "effective_mass": 0.01, "areas": {"a": 1000}}
+                                      for name in VALUES.limits.regions}}, "mine.yaml")
+    from dataclasses import replace
+
+    assert deviations(VALUES, standard_values(0.1, 5.0)) == ()
+    changed = replace(VALUES, limits=table, reaction_time=0.0, deceleration=100.0, limb_speed=0.01)
+    found = deviations(changed, VALUES)
+    assert len(found) == 4 and any("limits table 'mine.yaml'" in d for d in found)
+    assert any(d.startswith("reaction_time 0") for d in found)
