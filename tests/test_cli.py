@@ -270,17 +270,32 @@ def test_a_best_scenario_scheduler_must_name_a_collaboration(fields, field, tmp_
     assert field in capsys.readouterr().err
 
 
-def test_the_summary_flags_time_below_the_safety_distance(tmp_path, capsys):
-    """pcb_collab's collaboration brings the human and the arms together: the summary says for
-    how long the true distance was under the scenario's safety distance."""
+VERDICT_WORDS = ("SAFE:", "UNSAFE:", "NO SAFETY SYSTEM:", "NON-CONFORMING:")
+
+
+def test_the_summary_states_the_verdict_first_and_the_closest_approach(tmp_path, capsys):
+    """pcb_collab's collaboration brings the human and the arms together: the summary opens with the
+    judge's verdict (before the run's figures) and gives the closest true approach; the time under
+    the scenario's safety distance stays in metrics.json, no longer on the console."""
     out_dir = tmp_path / "out"
     assert main(["simulate", str(DIAGRAMS / "pcb_collab.yaml"), "--duration", "40", "--out",
                  str(out_dir)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    line = next(ln for ln in lines if ln.startswith("min human-robot distance"))
-    safety = json.loads((out_dir / "metrics.json").read_text())["safety"]
+    metrics = json.loads((out_dir / "metrics.json").read_text())
+    safety = metrics["safety"]
+    figures = next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
+    assert lines[figures - 1] == safety["verdict"]
+    assert safety["verdict"].startswith(VERDICT_WORDS)
+    # pcb_collab's hybrid mode is conforming: the verdict is the standard judge's count
+    total = safety["violations_total"]
+    assert total == sum(safety["violations"].values())
+    assert safety["verdict_code"] == ("unsafe" if total else "safe")
+    assert safety["verdict"].startswith("UNSAFE:" if total else "SAFE:")
+    assert (f"{total} violation" if total else "0 violations") in safety["verdict"]
+    line = next(ln for ln in lines if ln.startswith("closest approach"))
+    assert f"{metrics['min_human_robot_distance']:.3f} m" in line
+    assert not any("safety distance" in ln for ln in lines)
     assert safety["below"] and 0 < safety["time_below_s"] < 40
-    assert f"BELOW the safety distance 0.1 m for {safety['time_below_s']:.1f} s" in line
 
 
 def test_version_prints_the_package_version(capsys):

@@ -827,7 +827,8 @@ def judge_values(sc: Scenario, file):
     from hrc_drake.safety.judge import standard_values
     from hrc_drake.safety.limits import load_limits
 
-    deceleration = min(get_robot_model(r.model).stopping_deceleration for r in sc.robots) if sc.robots else 5.0
+    decelerations = [get_robot_model(r.model).stopping_deceleration for r in sc.robots]
+    deceleration = min(decelerations) if decelerations else 5.0
     standard = standard_values(reaction_time(sc), deceleration)
     changes = sc.judge
     if not changes.changed():

@@ -30,7 +30,13 @@ from hrc_drake.motion.config import (
 from hrc_drake.perception.config import HoldLastSeenTracker, KalmanTracker, NoTracker, ParticleFilterTracker
 from hrc_drake.prediction.config import NoPredictor, PredictorConfig
 from hrc_drake.robots.config import Robot
-from hrc_drake.safety.config import Hybrid, JudgeChanges, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
+from hrc_drake.safety.config import (
+    Hybrid,
+    JudgeChanges,
+    NoSafety,
+    PowerForceLimiting,
+    SpeedSeparationMonitoring,
+)
 from hrc_drake.scheduling.config import NoScheduler, SchedulerConfig
 from hrc_drake.scheduling.flow import Buffer, Flow
 

@@ -128,8 +128,9 @@ def human_travel(time, body_region, values: JudgeValues):
         limbs = values.limb_speed * time
     else:
         fast = LIMB_FAST_SPEED * time
-        limbs = np.where(fast <= LIMB_SWITCH_DISTANCE, fast,
-                         np.maximum(WALKING_SPEED * time, LIMB_SWITCH_DISTANCE))
+        limbs = np.where(
+            fast <= LIMB_SWITCH_DISTANCE, fast, np.maximum(WALKING_SPEED * time, LIMB_SWITCH_DISTANCE)
+        )
         if values.covered_time > 0:  # a time shifted by H is no longer an approach from rest
             limbs = np.where(time > 0, limbs, 0.0)
     return np.where(body_region, values.body_speed * time, limbs)
@@ -262,8 +263,10 @@ class Stop(Immutable):
 
     def overran(self, period: float) -> bool:
         """Longer than S_p assumed: further by more than the tolerance, or later by over a sample."""
-        return (self.distance > self.assumed_distance + STOP_DISTANCE_TOLERANCE
-                or self.time > self.assumed_time + period + 1e-9)
+        return (
+            self.distance > self.assumed_distance + STOP_DISTANCE_TOLERANCE
+            or self.time > self.assumed_time + period + 1e-9
+        )
 
 
 @dataclass(frozen=True)
@@ -308,8 +311,17 @@ class Judge:
     surfaces of the cell (table, occluders, fixtures) a part can be clamped against.
     """
 
-    def __init__(self, values: JudgeValues, mode: DeclaredMode, link_names, region_names, regions,
-                 arm_masses, payloads=None, fixed_boxes: tuple[FixedBox, ...] = ()):
+    def __init__(
+        self,
+        values: JudgeValues,
+        mode: DeclaredMode,
+        link_names,
+        region_names,
+        regions,
+        arm_masses,
+        payloads=None,
+        fixed_boxes: tuple[FixedBox, ...] = (),
+    ):
         self.values = values
         self.mode = mode
         self.link_names = tuple(link_names)
@@ -326,8 +338,9 @@ class Judge:
 
     # -- one sample ---------------------------------------------------------------------------
 
-    def step(self, run: JudgeRun, time: float, robot, regions, effective_mass, stop_commanded=None,
-             measured=None) -> JudgeRun:
+    def step(
+        self, run: JudgeRun, time: float, robot, regions, effective_mass, stop_commanded=None, measured=None
+    ) -> JudgeRun:
         """The run after a true sample at `time`: robot capsules (start, end, radius) (K) and region
         capsules (R); their velocities are their motion since the last sample. effective_mass(k,
         points, u): the plant's m_R (vectorised); stop_commanded: whether the controller commands
@@ -338,7 +351,9 @@ class Judge:
         regions = tuple(np.asarray(x, dtype=float) for x in regions)
         robot_velocity = _velocity(run.last_robot, robot, dt)
         body_velocity = _velocity(run.last_regions, regions, dt)
-        end_speeds = np.maximum(np.linalg.norm(robot_velocity[0], axis=1), np.linalg.norm(robot_velocity[1], axis=1))
+        end_speeds = np.maximum(
+            np.linalg.norm(robot_velocity[0], axis=1), np.linalg.norm(robot_velocity[1], axis=1)
+        )
         fastest = float(end_speeds.max(initial=0.0))
         distance = capsule_clearances(*robot, *regions)
         stop = self._stop_step(run, time, dt, fastest, stop_commanded)
@@ -349,8 +364,9 @@ class Judge:
         nearest = (math.nan, math.nan)
         worst = waiting = None
         if len(k):
-            geometry = _kernels.pair_geometry(robot, robot_velocity, regions, np.ascontiguousarray(k),
-                                              np.ascontiguousarray(r))
+            geometry = _kernels.pair_geometry(
+                robot, robot_velocity, regions, np.ascontiguousarray(k), np.ascontiguousarray(r)
+            )
             t, surface, on_body, direction, _, approach = geometry
             pfl = self.mode.governed_by_pfl(self.pfl_region[r], 0.5 * (surface + on_body))
             gap = distance[k, r]
@@ -363,18 +379,41 @@ class Judge:
                 nearest = (float(gap[n]), float(sp[n]))
             inside, worst, waiting = self._inside_step(run, time, k, r, counted & (gap < sp), gap - sp, stop)
             if worst is not None:
-                breach = self._breach_sample(breach, time, dt, int(k[worst]), int(r[worst]),
-                                             float(gap[worst] - sp[worst]))
+                breach = self._breach_sample(
+                    breach, time, dt, int(k[worst]), int(r[worst]), float(gap[worst] - sp[worst])
+                )
             elif waiting is not None:
-                pending = self._breach_sample(pending, time, dt, int(k[waiting]), int(r[waiting]),
-                                              float(gap[waiting] - sp[waiting]))
-            contacts, closed = self._contact_step(run, time, dt, k, r, gap < 0.0, pfl, gap, t, surface, on_body,
-                                                  direction, approach, body_velocity, robot, regions,
-                                                  effective_mass, contacts)
+                pending = self._breach_sample(
+                    pending, time, dt, int(k[waiting]), int(r[waiting]), float(gap[waiting] - sp[waiting])
+                )
+            contacts, closed = self._contact_step(
+                run,
+                time,
+                dt,
+                k,
+                r,
+                gap < 0.0,
+                pfl,
+                gap,
+                t,
+                surface,
+                on_body,
+                direction,
+                approach,
+                body_velocity,
+                robot,
+                regions,
+                effective_mass,
+                contacts,
+            )
             episodes += closed
         if pending is not None and (worst is not None or waiting is None):
             # T_r is over, or the breach over: without a protective stop begun in time it counts
-            stopped = stop is not None and not stop.ended and stop.onset <= pending.onset + self.values.reaction_time
+            stopped = (
+                stop is not None
+                and not stop.ended
+                and stop.onset <= pending.onset + self.values.reaction_time
+            )
             if not stopped:
                 breach = _merged(pending, breach)
                 if worst is None:
@@ -390,11 +429,27 @@ class Judge:
             stops, stop = stops.append(stop), None
         min_clearance = float(distance.min(initial=math.inf))
         trace = run.trace.offer((time, min_clearance, *nearest, worst is not None))
-        return JudgeRun(run.samples + 1, time, robot, regions, run.episodes.extend(episodes),
-                        tuple(sorted(inside.items())), breach, pending, tuple(sorted(contacts.items())), stop, stops,
-                        run.breach_time + sum(e.duration for e in episodes if e.kind == "ssm_breach"), margin,
-                        bool(stop_commanded),
-                        last_measured, unobserved, longest, min(run.min_clearance, min_clearance), trace)
+        return JudgeRun(
+            run.samples + 1,
+            time,
+            robot,
+            regions,
+            run.episodes.extend(episodes),
+            tuple(sorted(inside.items())),
+            breach,
+            pending,
+            tuple(sorted(contacts.items())),
+            stop,
+            stops,
+            run.breach_time + sum(e.duration for e in episodes if e.kind == "ssm_breach"),
+            margin,
+            bool(stop_commanded),
+            last_measured,
+            unobserved,
+            longest,
+            min(run.min_clearance, min_clearance),
+            trace,
+        )
 
     def _candidates(self, distance, end_speeds, fastest, run: JudgeRun):
         """Pairs that may be inside their S_p, may set a new margin, or are in an open breach or
@@ -444,18 +499,52 @@ class Judge:
     def _breach_sample(self, breach: Violation | None, time, dt, k, r, margin) -> Violation:
         """The SSM breach under way after a sample in unexcused breach, deepest at pair (k, r)."""
         if breach is None:
-            return Violation("ssm_breach", time, dt, self.link_names[k], self.region_names[r], self.regions[r],
-                             margin, True, f"{-margin:.3f} m inside S_p")
+            return Violation(
+                "ssm_breach",
+                time,
+                dt,
+                self.link_names[k],
+                self.region_names[r],
+                self.regions[r],
+                margin,
+                True,
+                f"{-margin:.3f} m inside S_p",
+            )
         if margin < breach.worst:
-            return replace(breach, duration=breach.duration + dt, link=self.link_names[k],
-                           body_part=self.region_names[r], region=self.regions[r], worst=margin,
-                           detail=f"{-margin:.3f} m inside S_p")
+            return replace(
+                breach,
+                duration=breach.duration + dt,
+                link=self.link_names[k],
+                body_part=self.region_names[r],
+                region=self.regions[r],
+                worst=margin,
+                detail=f"{-margin:.3f} m inside S_p",
+            )
         return replace(breach, duration=breach.duration + dt)
 
     # -- contacts -------------------------------------------------------------------------------
 
-    def _contact_step(self, run, time, dt, k, r, touching, pfl, gap, t, surface, on_body, direction, approach,
-                      body_velocity, robot, regions, effective_mass, contacts):
+    def _contact_step(
+        self,
+        run,
+        time,
+        dt,
+        k,
+        r,
+        touching,
+        pfl,
+        gap,
+        t,
+        surface,
+        on_body,
+        direction,
+        approach,
+        body_velocity,
+        robot,
+        regions,
+        effective_mass,
+        contacts,
+    ):
         """Follow every contact a sample: open, judge, close; (open contacts, closed episodes)."""
         out, closed = {}, []
         now = set()
@@ -469,8 +558,18 @@ class Judge:
                 human_approach = -float(v_body @ direction[n])  # toward the robot
             robot_mass = self.robot_mass(key[0], surface[n], direction[n], effective_mass)
             against = self.clamped_against(key[0], float(regions[2][key[1]]), on_body[n], direction[n], robot)
-            out[key] = self.judge_contact(contacts.get(key), time, dt, key, bool(pfl[n]), float(approach[n]),
-                                          human_approach, -float(gap[n]), robot_mass, against)
+            out[key] = self.judge_contact(
+                contacts.get(key),
+                time,
+                dt,
+                key,
+                bool(pfl[n]),
+                float(approach[n]),
+                human_approach,
+                -float(gap[n]),
+                robot_mass,
+                against,
+            )
         for key, contact in contacts.items():
             if key not in now:
                 closed.append(self._contact_episode(contact))
@@ -478,8 +577,12 @@ class Judge:
 
     def robot_mass(self, k: int, point, direction, effective_mass) -> float:
         """m_R at a contact: max(the plant's along u, the standard's M/2) plus the payload m_L."""
-        plant = float(np.asarray(effective_mass(np.array([k]), np.reshape(point, (1, 3)),
-                                                np.reshape(direction, (1, 3))), dtype=float)[0])
+        plant = float(
+            np.asarray(
+                effective_mass(np.array([k]), np.reshape(point, (1, 3)), np.reshape(direction, (1, 3))),
+                dtype=float,
+            )[0]
+        )
         return max(plant, 0.5 * float(self.arm_masses[k])) + float(self.payloads[k])
 
     def clamped_against(self, k: int, radius: float, body_point, direction, robot) -> str:
@@ -499,8 +602,19 @@ class Judge:
         j = int(np.argmin(gaps))
         return self.link_names[j] if gaps[j] <= 0.0 else ""
 
-    def judge_contact(self, contact: JudgedContact | None, time, dt, key, pfl: bool, robot_approach: float,
-                      human_approach: float, depth: float, robot_mass: float, against: str) -> JudgedContact:
+    def judge_contact(
+        self,
+        contact: JudgedContact | None,
+        time,
+        dt,
+        key,
+        pfl: bool,
+        robot_approach: float,
+        human_approach: float,
+        depth: float,
+        robot_mass: float,
+        against: str,
+    ) -> JudgedContact:
         """The contact after one sample: its limit (transient for the first `transient_duration` of a
         free contact, quasi-static once clamped or later), the peak force v_rel sqrt(mu k) (eq. A.3)
         while the robot approaches, the spring force k x the depth pressed since it turned
@@ -511,9 +625,17 @@ class Judge:
         moving = robot_approach > values.approach_tolerance
         relative = max(robot_approach + human_approach, 0.0)
         if contact is None:
-            contact = JudgedContact(time, self.link_names[k], self.region_names[r], self.regions[r],
-                                    "pfl" if pfl else "ssm", time, relative_speed=relative,
-                                    robot_speed=robot_approach, robot_mass=robot_mass)
+            contact = JudgedContact(
+                time,
+                self.link_names[k],
+                self.region_names[r],
+                self.regions[r],
+                "pfl" if pfl else "ssm",
+                time,
+                relative_speed=relative,
+                robot_speed=robot_approach,
+                robot_mass=robot_mass,
+            )
         elapsed = dt if time > contact.onset else 0.0
         rule = "pfl" if contact.rule == "pfl" and pfl else "ssm"  # SSM at any sample: an SSM contact
         against = against or contact.clamped_against
@@ -531,12 +653,21 @@ class Judge:
         ratio = _limit_ratio(region, force, quasi, values.contact_area)
         violation = contact.violation or (rule == "pfl" and ratio > 1.0) or (rule == "ssm" and moving)
         worse = ratio > contact.ratio
-        return replace(contact, rule=rule, last=time, duration=contact.duration + elapsed,
-                       ratio=max(ratio, contact.ratio), force=force if worse else contact.force,
-                       limit=("quasi-static" if quasi else "transient") if worse else contact.limit,
-                       violation=violation, robot_moved=contact.robot_moved or moving, clamped_against=against,
-                       quasi_since=quasi_since, compression=compression,
-                       penetration=max(contact.penetration, depth))
+        return replace(
+            contact,
+            rule=rule,
+            last=time,
+            duration=contact.duration + elapsed,
+            ratio=max(ratio, contact.ratio),
+            force=force if worse else contact.force,
+            limit=("quasi-static" if quasi else "transient") if worse else contact.limit,
+            violation=violation,
+            robot_moved=contact.robot_moved or moving,
+            clamped_against=against,
+            quasi_since=quasi_since,
+            compression=compression,
+            penetration=max(contact.penetration, depth),
+        )
 
     def _contact_episode(self, contact: JudgedContact) -> Violation:
         """A closed contact as an episode: an ssm_contact or pfl_contact violation, or a logged one."""
@@ -547,8 +678,17 @@ class Judge:
             detail = f"{contact.ratio:.2f}x the {contact.limit} limit"
         if contact.clamped_against:
             detail += f", clamped against {contact.clamped_against}"
-        return Violation(kind, contact.onset, contact.duration, contact.link, contact.body_part, contact.region,
-                         contact.ratio, contact.violation, detail)
+        return Violation(
+            kind,
+            contact.onset,
+            contact.duration,
+            contact.link,
+            contact.body_part,
+            contact.region,
+            contact.ratio,
+            contact.violation,
+            detail,
+        )
 
     # -- stops and lost people ------------------------------------------------------------------
 
@@ -561,11 +701,18 @@ class Judge:
             if not commanded or run.commanded:
                 return None
             a, t_r = self.values.deceleration, self.values.reaction_time
-            return Stop(time, fastest, t_r + fastest / a, fastest * t_r + fastest * fastest / (2.0 * a),
-                        ended=fastest <= self.values.approach_tolerance)
+            return Stop(
+                time,
+                fastest,
+                t_r + fastest / a,
+                fastest * t_r + fastest * fastest / (2.0 * a),
+                ended=fastest <= self.values.approach_tolerance,
+            )
         if fastest <= self.values.approach_tolerance:
             return replace(stop, ended=True)
-        return replace(stop, distance=stop.distance + fastest * dt, time=time - stop.onset, ended=not commanded)
+        return replace(
+            stop, distance=stop.distance + fastest * dt, time=time - stop.onset, ended=not commanded
+        )
 
     def _unobserved_step(self, run: JudgeRun, time, dt, measured):
         """(when each skeleton point was last measured, the time some point was not, the longest time
@@ -588,10 +735,22 @@ class Judge:
         episodes += [self._contact_episode(c) for _, c in run.contacts]
         stops = list(run.stops) + ([run.stop] if run.stop is not None else [])
         period = self.sample_period(run)
-        episodes += [Violation("stop", s.onset, s.time, "robot", "", "", s.ratio(), True,
-                               f"{s.distance * 1000:.1f} mm in {s.time:.2f} s where S_p assumed "
-                               f"{s.assumed_distance * 1000:.1f} mm in {s.assumed_time:.2f} s")
-                     for s in stops if s.overran(period)]
+        episodes += [
+            Violation(
+                "stop",
+                s.onset,
+                s.time,
+                "robot",
+                "",
+                "",
+                s.ratio(),
+                True,
+                f"{s.distance * 1000:.1f} mm in {s.time:.2f} s where S_p assumed "
+                f"{s.assumed_distance * 1000:.1f} mm in {s.assumed_time:.2f} s",
+            )
+            for s in stops
+            if s.overran(period)
+        ]
         episodes.sort(key=lambda e: (e.onset, e.kind))
         return episodes, stops
 
@@ -604,7 +763,6 @@ class Judge:
     def sample_period(run: JudgeRun) -> float:
         """The mean time between the run's samples (0 before two)."""
         return 0.0 if run.samples < 2 else run.last_time / max(run.samples - 1, 1)
-
 
 
 def _merged(first: Violation, then: Violation | None) -> Violation:

@@ -9,12 +9,25 @@ from pathlib import Path
 import numpy as np
 
 #: a colour per body region (matplotlib's tab10 order)
-REGION_COLOURS = {"hand_fingers": "tab:red", "lower_arm_wrist": "tab:orange", "upper_arm_elbow": "tab:olive",
-                  "chest": "tab:purple", "abdomen": "tab:pink", "neck": "tab:brown", "face": "black",
-                  "skull_forehead": "black", "back_shoulders": "tab:cyan", "pelvis": "tab:gray"}
+REGION_COLOURS = {
+    "hand_fingers": "tab:red",
+    "lower_arm_wrist": "tab:orange",
+    "upper_arm_elbow": "tab:olive",
+    "chest": "tab:purple",
+    "abdomen": "tab:pink",
+    "neck": "tab:brown",
+    "face": "black",
+    "skull_forehead": "black",
+    "back_shoulders": "tab:cyan",
+    "pelvis": "tab:gray",
+}
 #: a colour per kind of violation (`safety.judge.VIOLATION_KINDS`)
-KIND_COLOURS = {"ssm_breach": "tab:orange", "ssm_contact": "tab:red", "pfl_contact": "tab:purple",
-                "stop": "tab:brown"}
+KIND_COLOURS = {
+    "ssm_breach": "tab:orange",
+    "ssm_contact": "tab:red",
+    "pfl_contact": "tab:purple",
+    "stop": "tab:brown",
+}
 
 
 def plot_safety(path: str | Path, trace, episodes, summary: dict, title: str = "") -> Path:
@@ -30,11 +43,21 @@ def plot_safety(path: str | Path, trace, episodes, summary: dict, title: str = "
     if trace:
         rows = np.array([row[:4] for row in trace], dtype=float)
         t = rows[:, 0]
-        top.plot(t, np.where(np.isfinite(rows[:, 1]), rows[:, 1], np.nan), color="tab:blue", lw=0.8,
-                 label="min clearance robot - body (truth)")
+        top.plot(
+            t,
+            np.where(np.isfinite(rows[:, 1]), rows[:, 1], np.nan),
+            color="tab:blue",
+            lw=0.8,
+            label="min clearance robot - body (truth)",
+        )
         top.plot(t, rows[:, 2], color="tab:cyan", lw=0.6, label="clearance of the SSM pair nearest its S_p")
-        top.plot(t, rows[:, 3], color="tab:green", lw=0.8,
-                 label="its S_p (ISO 13855 speeds, the robot's real stop)")
+        top.plot(
+            t,
+            rows[:, 3],
+            color="tab:green",
+            lw=0.8,
+            label="its S_p (ISO 13855 speeds, the robot's real stop)",
+        )
     top.axhline(0.0, color="black", lw=0.6)
     violations = [e for e in episodes if e.violation]
     for kind, colour in KIND_COLOURS.items():
@@ -46,9 +69,15 @@ def plot_safety(path: str | Path, trace, episodes, summary: dict, title: str = "
     touched = [e for e in episodes if e.kind in ("contact", "ssm_contact", "pfl_contact")]
     for region in sorted({c.region for c in touched}):
         chosen = [c for c in touched if c.region == region]
-        top.scatter([c.onset for c in chosen], [0.0] * len(chosen), s=[40 if c.violation else 14 for c in chosen],
-                    marker="x", color=REGION_COLOURS.get(region, "tab:gray"),
-                    label=f"contact: {region} ({len(chosen)})", zorder=3)
+        top.scatter(
+            [c.onset for c in chosen],
+            [0.0] * len(chosen),
+            s=[40 if c.violation else 14 for c in chosen],
+            marker="x",
+            color=REGION_COLOURS.get(region, "tab:gray"),
+            label=f"contact: {region} ({len(chosen)})",
+            zorder=3,
+        )
     top.set_xlabel("time (s)")
     top.set_ylabel("m")
     top.set_ylim(bottom=-0.05)
@@ -61,8 +90,9 @@ def plot_safety(path: str | Path, trace, episodes, summary: dict, title: str = "
     bars = bottom.bar(names, shown, color=[REGION_COLOURS.get(n, "tab:gray") for n in names])
     for bar, value in zip(bars, values, strict=True):
         label = "no contact permitted" if not math.isfinite(value) else f"{value:.2f}"
-        bottom.annotate(label, (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
-                        va="bottom", fontsize=8)
+        bottom.annotate(
+            label, (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center", va="bottom", fontsize=8
+        )
     bottom.axhline(1.0, color="tab:red", ls="--", lw=1.0, label="the region's limit (ratio 1)")
     bottom.set_ylabel("worst ratio to the limit")
     bottom.set_ylim(0.0, max([1.2, *(v * 1.15 for v in shown)]))

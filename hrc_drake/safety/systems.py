@@ -407,7 +407,8 @@ class SafetyMonitor(LeafSystem):
     `summary(context, stops)` gives metrics.json's `safety`.
     """
 
-    def __init__(self, judges: tuple[Judge, ...], dynamics: RobotPointDynamics, input_size: int, period: float,
+    def __init__(self, judges: tuple[Judge, ...], dynamics: RobotPointDynamics, input_size: int,
+                 period: float,
                  mode: str, departures: tuple[str, ...] = ()):
         super().__init__()
         self.judges = tuple(judges)
@@ -418,7 +419,8 @@ class SafetyMonitor(LeafSystem):
         self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._stop = self.DeclareVectorInputPort("protective_stop", 1)
-        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate", AbstractValue.Make(SkeletonEstimate()))
+        self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
+                                                       AbstractValue.Make(SkeletonEstimate()))
         self._entry = self.DeclareCacheEntry(
             "judged runs", ValueProducer(allocate=lambda: AbstractValue.Make(_MonitorRecording()),
                                          calc=lambda *_: None), {self.nothing_ticket()})
@@ -437,7 +439,8 @@ class SafetyMonitor(LeafSystem):
         if not self._estimate.HasValue(context):
             return None
         estimate = self._estimate.Eval(context)
-        measured = np.asarray(estimate.tracked, dtype=bool) & np.isfinite(np.asarray(estimate.spread, dtype=float))
+        measured = (np.asarray(estimate.tracked, dtype=bool)
+                    & np.isfinite(np.asarray(estimate.spread, dtype=float)))
         points = np.asarray(estimate.points, dtype=float)
         if measured.shape != (8,) or points.shape != (8, 3):
             return np.zeros(8, dtype=bool)
@@ -458,7 +461,8 @@ class SafetyMonitor(LeafSystem):
         robot, _ = self.dynamics.capsules(velocities=False)
         stop = bool(self._stop.Eval(context)[0] > 0.5) if self._stop.HasValue(context) else None
         measured = self._measured(context)
-        recording.runs = tuple(judge.step(run, time, robot, regions, self.dynamics.effective_mass, stop, measured)
+        mass = self.dynamics.effective_mass
+        recording.runs = tuple(judge.step(run, time, robot, regions, mass, stop, measured)
                                for judge, run in zip(self.judges, recording.runs, strict=True))
         return EventStatus.Succeeded()
 
@@ -476,7 +480,8 @@ class SafetyMonitor(LeafSystem):
         run = self.run(context)
         duration = max(run.last_time, 0.0) if run.samples else 0.0
         own = (self.judges[1], self.run(context, 1)) if len(self.judges) > 1 else None
-        return summarize(self.judges[0], run, mode=self.mode, duration=duration, protective_stops=protective_stops,
+        return summarize(self.judges[0], run, mode=self.mode, duration=duration,
+                         protective_stops=protective_stops,
                          departures=self.departures, own=own)
 
 
@@ -494,7 +499,8 @@ def controller_departures(config) -> tuple[str, ...]:
                    f"{LIMB_FAST_SPEED:g} m/s")
     body = config.body_speed or config.human_speed
     if 0 < body < WALKING_SPEED:
-        out.append(f"the controller's v_h of head and torso is {body:g} m/s, below ISO 13855's {WALKING_SPEED:g} m/s")
+        out.append(f"the controller's v_h of head and torso is {body:g} m/s, below ISO 13855's "
+                   f"{WALKING_SPEED:g} m/s")
     return tuple(out)
 
 
@@ -508,7 +514,8 @@ def own_model_values(config, standard: JudgeValues, covered_time: float = 0.0) -
 
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
                         positions, velocities_full, skeleton_estimate, human_capsules,
-                        requested_override, judge_values: JudgeValues, judge_changes: JudgeValues | None = None,
+                        requested_override, judge_values: JudgeValues,
+                        judge_changes: JudgeValues | None = None,
                         payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
                         camera_noise: float = 0.0, monitor_period: float = 1.0 / 30.0):
     """Add the safety controller of `config` ("safety_controller"; none for `NoSafety`) and the
@@ -545,7 +552,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     cutter = RegionCapsules()
 
     def judge(values):
-        return Judge(values, mode, kinematics.names, cutter.names, cutter.regions, masses, payloads, fixed_boxes)
+        return Judge(values, mode, kinematics.names, cutter.names, cutter.regions, masses, payloads,
+                     fixed_boxes)
 
     judges = [judge(judge_values)]
     departures = list(controller_departures(config))

@@ -16,7 +16,11 @@ from hrc_drake.safety.judge import LIMB_FAST_SPEED, VIOLATION_KINDS, Judge, Judg
 from hrc_drake.safety.limits import BODY_REGIONS
 
 VERDICT_CODES = ("safe", "unsafe", "no_safety_system", "non_conforming")
-_MODE_WORDS = {"ssm": "speed and separation monitoring", "pfl": "power and force limiting", "hybrid": "hybrid"}
+_MODE_WORDS = {
+    "ssm": "speed and separation monitoring",
+    "pfl": "power and force limiting",
+    "hybrid": "hybrid",
+}
 
 
 def judged_figures(judge: Judge, run: JudgeRun) -> dict:
@@ -37,8 +41,10 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
         "ssm_breach_s": round(judge.breach_seconds(run), 3),
         "margin_m": None if not math.isfinite(run.margin) else round(run.margin, 4),
         "contact_margin": round(1.0 - max(finite, default=0.0), 4),
-        "worst_ratio": {name: (None if not math.isfinite(worst.get(name, 0.0)) else round(worst.get(name, 0.0), 4))
-                        for name in BODY_REGIONS},
+        "worst_ratio": {
+            name: (None if not math.isfinite(worst.get(name, 0.0)) else round(worst.get(name, 0.0), 4))
+            for name in BODY_REGIONS
+        },
         "contact_count": len(contacts),
         "stops_measured": len(stop_ratios),
         "stop_ratio_worst": round(max(stop_ratios, default=0.0), 4),
@@ -52,8 +58,16 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
     }
 
 
-def summarize(judge: Judge, run: JudgeRun, *, mode: str, duration: float, protective_stops: int = 0,
-              departures: tuple[str, ...] = (), own: tuple[Judge, JudgeRun] | None = None) -> dict:
+def summarize(
+    judge: Judge,
+    run: JudgeRun,
+    *,
+    mode: str,
+    duration: float,
+    protective_stops: int = 0,
+    departures: tuple[str, ...] = (),
+    own: tuple[Judge, JudgeRun] | None = None,
+) -> dict:
     """metrics.json's `safety`: the standard judge's figures, the verdict code and line.
 
     mode: the declared mode (none, ssm, pfl, hybrid); duration: the time judged (s); departures:
@@ -79,9 +93,12 @@ def summarize(judge: Judge, run: JudgeRun, *, mode: str, duration: float, protec
         "verdict": verdict_line(code, mode, figures, duration, departures, own_figures),
         **figures,
         "protective_stops": int(protective_stops),
-        "judge": {"conforming": not departures, "deviations": list(departures),
-                  "reaction_time_s": judge.values.reaction_time,
-                  "deceleration_m_s2": judge.values.deceleration},
+        "judge": {
+            "conforming": not departures,
+            "deviations": list(departures),
+            "reaction_time_s": judge.values.reaction_time,
+            "deceleration_m_s2": judge.values.deceleration,
+        },
         "own_model": own_figures,
     }
 
@@ -99,16 +116,23 @@ def violations_text(figures: dict) -> str:
         parts.append(f"{_plural(n, 'SSM breach', 'SSM breaches')} {figures['ssm_breach_s']:.1f} s")
     if counts["ssm_contact"]:
         regions = sorted({e["region"] for e in events if e["kind"] == "ssm_contact"})
-        parts.append(f"{_plural(counts['ssm_contact'], 'touch', 'touches')} where SSM governs "
-                     f"({', '.join(regions)})")
+        parts.append(
+            f"{_plural(counts['ssm_contact'], 'touch', 'touches')} where SSM governs ({', '.join(regions)})"
+        )
     if counts["pfl_contact"]:
-        worst = max((e for e in events if e["kind"] == "pfl_contact"),
-                    key=lambda e: math.inf if e["worst"] == "inf" else e["worst"])
-        parts.append(f"{_plural(counts['pfl_contact'], 'contact', 'contacts')} over the limit, worst "
-                     f"{worst['region']} {worst['detail']}")
+        worst = max(
+            (e for e in events if e["kind"] == "pfl_contact"),
+            key=lambda e: math.inf if e["worst"] == "inf" else e["worst"],
+        )
+        parts.append(
+            f"{_plural(counts['pfl_contact'], 'contact', 'contacts')} over the limit, worst "
+            f"{worst['region']} {worst['detail']}"
+        )
     if counts["stop"]:
-        parts.append(f"{_plural(counts['stop'], 'stop', 'stops')} longer than S_p assumed "
-                     f"(worst {figures['stop_ratio_worst']:.2f}x)")
+        parts.append(
+            f"{_plural(counts['stop'], 'stop', 'stops')} longer than S_p assumed "
+            f"(worst {figures['stop_ratio_worst']:.2f}x)"
+        )
     return f"{_plural(total, 'violation', 'violations')} ({', '.join(parts)})"
 
 
@@ -119,19 +143,24 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
     span = f"in {duration:.0f} s"
     counted = violations_text(figures)
     if code == "non_conforming":
-        line = (f"NON-CONFORMING: {'; '.join(departures)}; by the standard's judge {counted} {span}")
+        line = f"NON-CONFORMING: {'; '.join(departures)}; by the standard's judge {counted} {span}"
         if own is not None:
             line += f"; by its own model {violations_text(own)}"
     elif code == "no_safety_system":
-        line = (f"NO SAFETY SYSTEM: ISO/TS 15066 not applied; judged as power and force limiting the standard "
-                f"counts {counted} {span}")
+        line = (
+            f"NO SAFETY SYSTEM: ISO/TS 15066 not applied; judged as power and force limiting the standard "
+            f"counts {counted} {span}"
+        )
     elif code == "safe":
         line = f"SAFE: ISO/TS 15066 {mode}, conforming judge, 0 violations {span}"
     else:
         line = f"UNSAFE: ISO/TS 15066 {mode}, conforming judge: {counted} {span}"
     if figures["unobserved_s"] > 0:
-        line += (f"; a body part unmeasured {figures['unobserved_s']:.1f} s (longest {figures['unobserved_longest_s']:.1f} s: "
-                 f"its reachable set grew {figures['reach_growth_m']:.2f} m)")
+        line += (
+            f"; a body part unmeasured {figures['unobserved_s']:.1f} s "
+            f"(longest {figures['unobserved_longest_s']:.1f} s: "
+            f"its reachable set grew {figures['reach_growth_m']:.2f} m)"
+        )
     return line
 
 

@@ -43,9 +43,19 @@ def plant_mass(k, points, u):
     return np.full(len(np.atleast_1d(k)), 0.2)
 
 
-def judge(config, links=("yumi/gripper_r_base",), masses=(ARM_MASS,), payloads=None, boxes=(), values=VALUES,
-          region=("right_hand", "hand_fingers"), zones=None):
-    return Judge(values, declared_mode(config, zones), links, (region[0],), (region[1],), masses, payloads, boxes)
+def judge(
+    config,
+    links=("yumi/gripper_r_base",),
+    masses=(ARM_MASS,),
+    payloads=None,
+    boxes=(),
+    values=VALUES,
+    region=("right_hand", "hand_fingers"),
+    zones=None,
+):
+    return Judge(
+        values, declared_mode(config, zones), links, (region[0],), (region[1],), masses, payloads, boxes
+    )
 
 
 def sphere(x, radius=TOOL_RADIUS, y=0.0, z=1.0):
@@ -69,9 +79,15 @@ def run_path(j, robot_x, hand_x=None, stop=None, measured=None, extra_robot=None
         if extra_robot is not None:
             robot = tuple(np.concatenate([a, b]) for a, b in zip(robot, extra_robot, strict=True))
         time = (i * DT) if times is None else times[i]
-        run = j.step(run, time, robot, hand_at(hands[i]), plant_mass,
-                     None if stop is None else bool(stop[i]),
-                     None if measured is None else measured[i])
+        run = j.step(
+            run,
+            time,
+            robot,
+            hand_at(hands[i]),
+            plant_mass,
+            None if stop is None else bool(stop[i]),
+            None if measured is None else measured[i],
+        )
     return run
 
 
@@ -80,6 +96,7 @@ def figures(j, run, mode="pfl", departures=()):
 
 
 # -- S_p: eq. (1)-(2) on the truth, with the stop the controller makes ----------------------------
+
 
 def test_protective_separation_by_hand():
     # v = V = 0.06 m/s: T_s = 0.012 s, S_h = 2.0 (0.1 + 0.012) = 0.224, S_r = 0.006, S_s = 0.00036
@@ -91,10 +108,12 @@ def test_protective_separation_by_hand():
     assert protective_separation(0.5, 1.5, False, VALUES) == pytest.approx(0.765, abs=1e-9)
     # ISO 13855's floor: beyond 0.5 m of a reach S_h is at least 0.5 m (T = 0.27 s: 2.0 T = 0.54)
     assert protective_separation(0.85, 0.85, False, VALUES) == pytest.approx(
-        0.5 + 0.085 + 0.85 * 0.85 / 10, abs=1e-9)
+        0.5 + 0.085 + 0.85 * 0.85 / 10, abs=1e-9
+    )
 
 
 # -- SSM breaches -----------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("speed", [0.06, 0.3, 0.002])
 def test_a_robot_creeping_toward_a_hand_and_stopping_1_cm_short_breaches(speed):
@@ -124,7 +143,10 @@ def test_a_robot_below_the_numerical_tolerance_is_not_approaching():
     j = judge(SpeedSeparationMonitoring())
     out = figures(j, run_path(j, xs), "ssm")
     assert out["violations_total"] == 0 and out["verdict_code"] == "safe"
-    assert out["verdict"] == f"SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in {run_path(j, xs).last_time:.0f} s"
+    assert (
+        out["verdict"]
+        == f"SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in {run_path(j, xs).last_time:.0f} s"
+    )
 
 
 def test_a_robot_moving_away_inside_s_p_is_no_breach():
@@ -208,6 +230,7 @@ def test_a_stop_slower_than_s_p_assumed_is_a_violation():
 
 # -- contacts ---------------------------------------------------------------------------------
 
+
 def _touch_then(speed_before, speed_after, samples_after=3, config=None, hand_speed=0.0):
     touch = HAND_RADIUS + TOOL_RADIUS
     xs = [touch + 0.02 - speed_before * DT * i for i in range(int(0.02 / (speed_before * DT)) + 2)]
@@ -217,8 +240,10 @@ def _touch_then(speed_before, speed_after, samples_after=3, config=None, hand_sp
         xs.append(x)
     hands = [0.0] * len(xs)
     if hand_speed:
-        hands = [0.0 if i < len(xs) - samples_after else hand_speed * DT * (i - len(xs) + samples_after + 1)
-                 for i in range(len(xs))]
+        hands = [
+            0.0 if i < len(xs) - samples_after else hand_speed * DT * (i - len(xs) + samples_after + 1)
+            for i in range(len(xs))
+        ]
     j = judge(config or PowerForceLimiting())
     return j, figures(j, run_path(j, xs, hand_x=hands))
 
@@ -273,10 +298,20 @@ def test_the_plant_mass_counts_where_it_is_heavier_than_the_standards():
 
 
 def test_creeping_into_the_face_is_a_violation_at_any_speed():
-    j, out = _touch_then(0.045, 0.045, samples_after=30,
-                         config=Hybrid(), )  # face: SSM in every mode
-    j = Judge(VALUES, declared_mode(Hybrid(), (np.zeros((1, 3)), np.array([5.0]))), ("link",), ("face",),
-              ("face",), (ARM_MASS,))
+    j, out = _touch_then(
+        0.045,
+        0.045,
+        samples_after=30,
+        config=Hybrid(),
+    )  # face: SSM in every mode
+    j = Judge(
+        VALUES,
+        declared_mode(Hybrid(), (np.zeros((1, 3)), np.array([5.0]))),
+        ("link",),
+        ("face",),
+        ("face",),
+        (ARM_MASS,),
+    )
     touch = HAND_RADIUS + TOOL_RADIUS
     xs = [touch + 0.01 - 0.045 * DT * i for i in range(80)]
     out = figures(j, run_path(j, xs), "hybrid")
@@ -300,8 +335,16 @@ def _clamp(extra_robot, boxes=()):
     # the hand between the gripper (pushing +x... toward -x) and a rigid body behind it at -x
     touch = HAND_RADIUS + TOOL_RADIUS
     xs = [touch + 0.01 - 0.2 * DT * i for i in range(6)]
-    j = Judge(VALUES, declared_mode(PowerForceLimiting()), ("yumi/gripper_r_base", "other"),
-              ("right_hand",), ("hand_fingers",), (ARM_MASS, ARM_MASS), None, boxes)
+    j = Judge(
+        VALUES,
+        declared_mode(PowerForceLimiting()),
+        ("yumi/gripper_r_base", "other"),
+        ("right_hand",),
+        ("hand_fingers",),
+        (ARM_MASS, ARM_MASS),
+        None,
+        boxes,
+    )
     return figures(j, run_path(j, xs, extra_robot=extra_robot))
 
 
@@ -325,6 +368,7 @@ def test_a_hand_pressed_against_the_table_is_clamped_and_one_in_free_air_is_not(
 
 # -- lost people, codes, changed judges -------------------------------------------------------
 
+
 def test_a_person_unmeasured_for_10_s_is_named_in_the_verdict():
     n = int(12 * RATE)
     measured = [np.ones(8, bool) if i < RATE or i > 11 * RATE else np.zeros(8, bool) for i in range(n + 1)]
@@ -343,23 +387,41 @@ def test_verdict_codes():
     assert figures(j, run, "ssm")["verdict_code"] == "safe"
     assert figures(j, run, "none")["verdict_code"] == "no_safety_system"
     assert figures(j, run, "none")["verdict"].startswith("NO SAFETY SYSTEM: ISO/TS 15066 not applied")
-    changed = figures(j, run, "ssm", departures=("judge changed: reaction_time 0.01, not the standard's 0.1",))
-    assert changed["verdict_code"] == "non_conforming" and changed["verdict"].startswith("NON-CONFORMING: judge")
+    changed = figures(
+        j, run, "ssm", departures=("judge changed: reaction_time 0.01, not the standard's 0.1",)
+    )
+    assert changed["verdict_code"] == "non_conforming" and changed["verdict"].startswith(
+        "NON-CONFORMING: judge"
+    )
     assert changed["judge"]["conforming"] is False
 
 
 def test_a_cell_without_a_safety_system_reports_what_the_judge_would_count():
     j = judge(NoSafety())
     j2, pushed = _touch_then(0.04, 2.0, config=NoSafety())
-    out = figures(j2, run_path(j2, [HAND_RADIUS + TOOL_RADIUS + 0.02 - 0.04 * DT * i for i in range(20)]), "none")
+    out = figures(
+        j2, run_path(j2, [HAND_RADIUS + TOOL_RADIUS + 0.02 - 0.04 * DT * i for i in range(20)]), "none"
+    )
     assert j.mode.name == "pfl"
     assert pushed["violations"]["pfl_contact"] == 1 and out["verdict_code"] == "no_safety_system"
 
 
 def test_any_change_of_the_judge_is_a_deviation():
-    table = parse_limits({"regions": {name: {"force": 1000, "transient_factor": 2, "spring_constant": 1,
-                                             "effective_mass": 0.01, "areas": {"a": 1000}}
-                                      for name in VALUES.limits.regions}}, "mine.yaml")
+    table = parse_limits(
+        {
+            "regions": {
+                name: {
+                    "force": 1000,
+                    "transient_factor": 2,
+                    "spring_constant": 1,
+                    "effective_mass": 0.01,
+                    "areas": {"a": 1000},
+                }
+                for name in VALUES.limits.regions
+            }
+        },
+        "mine.yaml",
+    )
     from dataclasses import replace
 
     assert deviations(VALUES, standard_values(0.1, 5.0)) == ()

@@ -1,4 +1,6 @@
-"""Contact accounting on scripted motions: a robot link driven into a body region."""
+"""The safety controller's rules (`safety.rules.SafetyRules`) on scripted scenes: a robot link
+above the operator's right hand (moved here from the tests of the contact accountant, which the
+ISO/TS 15066 judge replaced: tests/safety/test_judge.py)."""
 
 from __future__ import annotations
 
@@ -7,8 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from hrc_drake.safety.config import Hybrid, NoSafety, PowerForceLimiting, SpeedSeparationMonitoring
-from hrc_drake.safety.contacts import ContactAccountant, MonitorRun, summarize_safety
+from hrc_drake.safety.config import Hybrid, PowerForceLimiting, SpeedSeparationMonitoring
 from hrc_drake.safety.limits import load_limits
 from hrc_drake.safety.regions import FixedBox, RegionCapsules
 from hrc_drake.safety.rules import SafetyRules, decelerated_override
@@ -36,113 +37,6 @@ def robot_at(z: float):
     start = np.array([[0.0, 0.58, z]])
     end = np.array([[0.0, 0.58, z + 0.2]])
     return start, end, np.array([0.03])
-
-
-def drive(config, speed: float, stop_after: float | None = None, hand_height: float = 1.0, boxes=()):
-    """The robot capsule moving down at `speed` onto the hand, 30 Hz samples; it stops (speed 0)
-    `stop_after` s after touching. Returns the monitor's summary."""
-    rules = SafetyRules(config, LIMITS, CUTTER.regions, (np.array([[0.0, 0.5, 1.0]]), np.array([0.5])), boxes)
-    accountant = ContactAccountant(rules, LIMITS, ["link"], CUTTER.names)
-    run = MonitorRun()
-    regions = body(hand_height)
-    z = hand_height + 0.05 + 0.03 + 0.05  # 5 cm above the hand's surface
-    touched = None
-    dt = 1.0 / 30.0
-    for step in range(60):
-        t = step * dt
-        v = speed
-        if touched is not None and stop_after is not None and t - touched >= stop_after:
-            v = 0.0
-        velocity = np.array([[0.0, 0.0, -v]])
-        run = accountant.step(run, t, robot_at(z), (velocity, velocity), regions,
-                              lambda k, p, u: np.full(len(k), ROBOT_MASS))
-        if touched is None and run.open:
-            touched = t
-        z -= v * dt
-    return summarize_safety(run, rules.mode, 0, LIMITS, LIMITS.source)
-
-
-def test_a_slow_pfl_contact_with_the_hand_is_within_the_limit():
-    summary = drive(PowerForceLimiting(), speed=0.5, stop_after=0.1)
-    contacts = [c for c in summary["contacts"] if c["body_part"] == "right_hand"]
-    assert len(contacts) == 1
-    c = contacts[0]
-    mu = 1.0 / (1.0 / 0.6 + 1.0 / ROBOT_MASS)
-    assert c["rule"] == "pfl" and c["region"] == "hand_fingers" and not c["clamped"]
-    assert c["relative_speed"] == pytest.approx(0.5)
-    assert c["reduced_mass"] == pytest.approx(mu, abs=1e-4)
-    assert c["force"] == pytest.approx(0.5 * math.sqrt(mu * 75e3), abs=1e-3)
-    assert c["energy"] == pytest.approx(0.5 * mu * 0.25, abs=1e-4)
-    assert c["ratio"] == pytest.approx(c["force"] / 280.0, abs=1e-4)
-    assert not c["violation"]
-    assert c["stop_delay"] == pytest.approx(0.1, abs=0.04)
-    assert 0.0 < c["penetration"] < 0.5 * 0.2
-    assert summary["violations_total"] == 0
-    assert summary["verdict"].startswith("ISO/TS 15066 pfl: 0 violations")
-
-
-def test_a_fast_pfl_contact_violates_and_says_so():
-    summary = drive(PowerForceLimiting(), speed=2.0, stop_after=0.1)
-    assert summary["violations"] == {"ssm": 0, "pfl": 1}
-    assert summary["worst_ratio"]["hand_fingers"] > 1.0
-    assert "1 VIOLATIONS (1 pfl)" in summary["verdict"]
-
-
-def test_the_same_contact_under_ssm_is_a_violation():
-    summary = drive(SpeedSeparationMonitoring(position_uncertainty="fixed"), speed=0.5, stop_after=0.1)
-    assert summary["violations"] == {"ssm": 1}
-
-
-def test_a_hand_on_the_table_is_clamped_and_judged_quasi_statically():
-    table = FixedBox((0.0, 0.2, 0.73), (1.0, 1.0, 0.04))  # top at 0.75, the hand (radius 0.05) on it
-    summary = drive(PowerForceLimiting(), speed=0.5, stop_after=0.1, hand_height=0.8, boxes=(table,))
-    c = next(c for c in summary["contacts"] if c["body_part"] == "right_hand")
-    assert c["clamped"] and c["force_limit"] == 140.0
-    # pressed until the stop: the spring force k x depth counts against the quasi-static limit
-    assert c["ratio"] == pytest.approx(75e3 * c["robot_penetration"] / 140.0, rel=1e-3)
-    assert c["robot_penetration"] == pytest.approx(0.5 * 0.1, abs=2 * 0.5 / 30 + 1e-6)  # 30 Hz samples
-    assert c["violation"]
-
-
-def test_hybrid_outside_its_zones_is_ssm():
-    far_zone = Hybrid()
-    rules = SafetyRules(far_zone, LIMITS, CUTTER.regions, (np.array([[5.0, 5.0, 5.0]]), np.array([0.2])))
-    accountant = ContactAccountant(rules, LIMITS, ["link"], CUTTER.names)
-    run = MonitorRun()
-    regions = body()
-    for step, z in enumerate(np.linspace(1.13, 1.05, 5)):
-        velocity = np.array([[0.0, 0.0, -0.6]])
-        run = accountant.step(run, step / 30.0, robot_at(z), (velocity, velocity), regions,
-                              lambda k, p, u: np.full(len(k), ROBOT_MASS))
-    summary = summarize_safety(run, "hybrid", 0, LIMITS, "")
-    assert summary["violations"] == {"ssm": 1, "pfl": 0}
-
-
-def test_no_safety_system_reports_contacts_against_the_standard():
-    summary = drive(NoSafety(), speed=2.0, stop_after=0.1)
-    assert summary["contact_count"] >= 1
-    assert summary["violations"] == {"none": 1}
-    assert summary["verdict"].startswith("NO SAFETY SYSTEM")
-
-
-def test_a_person_walking_into_a_stopped_robot_is_logged_not_a_violation():
-    rules = SafetyRules(SpeedSeparationMonitoring(), LIMITS, CUTTER.regions)
-    accountant = ContactAccountant(rules, LIMITS, ["link"], CUTTER.names)
-    run = MonitorRun()
-    still = np.zeros((1, 3))
-    for step in range(10):
-        hand = 1.0 + 0.2 - 0.03 * step  # the hand rises into the robot's capsule at 0.9 m/s
-        run = accountant.step(run, step / 30.0, robot_at(1.2), (still, still), body(hand),
-                              lambda k, p, u: np.full(len(k), ROBOT_MASS))
-    summary = summarize_safety(run, "ssm", 0, LIMITS, "")
-    assert summary["contact_count"] >= 1 and summary["violations_total"] == 0
-
-
-def test_no_contact_no_violation():
-    summary = drive(PowerForceLimiting(), speed=0.0)
-    assert summary["contact_count"] == 0 and summary["violations_total"] == 0
-    assert set(summary["worst_ratio"].values()) == {0.0}  # every region, none touched
-    assert summary["verdict"] == "ISO/TS 15066 pfl: 0 violations; 0 contacts; no contact"
 
 
 def test_the_stopping_model_limits_the_fall_of_the_override():
