@@ -49,6 +49,41 @@ def _protective_separation(speed, params, z_d, covered_time):
     return human + speed * t_r + s_s + intrusion + z_d + uncertainty
 
 
+@njit(cache=True, inline="always")
+def _path_stop(params, speed, fastest):
+    """`params` with the deceleration a point approaching at `speed` has when the controller brakes
+    the whole path at a on its fastest point (`fastest`, both at full path speed): a v / V, so
+    that T_s = V / a and S_s = v V / (2a) (`ssm.path_stop_deceleration`)."""
+    out = params.copy()
+    if fastest > speed and speed > 0.0:
+        out[1] = params[1] * speed / fastest
+    return out
+
+
+@njit(cache=True)
+def _pieces(params, covered_time):
+    """(K, constant, v_low, v_high) of each piece of S_h(T_r + v / a) (`SeparationParameters._pieces`)."""
+    t_r, a, human_speed = params[0], params[1], params[4]
+    if covered_time > 0:
+        speed = human_speed if human_speed > 0 else _FAST
+        switch = max(a * (covered_time - t_r), 0.0)
+        out = np.empty((2, 4))
+        out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 0.0, 0.0, 0.0, switch
+        out[1, 0], out[1, 1], out[1, 2], out[1, 3] = speed, -speed * covered_time, switch, np.inf
+        return out
+    if human_speed > 0:
+        out = np.empty((1, 4))
+        out[0, 0], out[0, 1], out[0, 2], out[0, 3] = human_speed, 0.0, 0.0, np.inf
+        return out
+    fast_end = max(a * (_SWITCH / _FAST - t_r), 0.0)
+    slow_start = max(a * (_SWITCH / _SLOW - t_r), 0.0)
+    out = np.empty((3, 4))
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = _FAST, 0.0, 0.0, fast_end
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = 0.0, _SWITCH, fast_end, slow_start
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = _SLOW, 0.0, slow_start, np.inf
+    return out
+
+
 @njit(cache=True)
 def _permissible_speed(distance, params, pieces, z_d):
     """The largest v_r with S_p(v_r) <= distance, per ISO 13855 piece (`ssm.permissible_speed`)."""
@@ -70,13 +105,13 @@ def _permissible_speed(distance, params, pieces, z_d):
 
 
 @njit(cache=True, inline="always")
-def _reach(v_start, v_end, i, limbs, body, covered_time):
+def _reach(v_start, v_end, i, limbs, body, covered_time, fastest):
     """S_p at the fastest end point of robot capsule i (a link segment's fastest points), the larger
-    of the limbs' and the body's."""
+    of the limbs' and the body's, with the path's stop (`_path_stop`)."""
     v_max = max(_norm3(v_start[i, 0], v_start[i, 1], v_start[i, 2]),
                 _norm3(v_end[i, 0], v_end[i, 1], v_end[i, 2]))
-    return max(_protective_separation(v_max, limbs, 0.0, covered_time),
-               _protective_separation(v_max, body, 0.0, covered_time))
+    return max(_protective_separation(v_max, _path_stop(limbs, v_max, fastest), 0.0, covered_time),
+               _protective_separation(v_max, _path_stop(body, v_max, fastest), 0.0, covered_time))
 
 
 @njit(cache=True, inline="always")
@@ -100,30 +135,17 @@ def _pairs_of(mask):
 
 @njit(cache=True)
 def _screen(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, h_radius, z_d, limbs, body,
-            covered_time):
+            covered_time, fastest):
     """Clearances (K, R) and the candidate pairs (k, r), row-major: nearer than S_p at the capsule's
     fastest end point plus the region's Z_d (`SafetyRules.screen`)."""
     distance = _capsule_clearances(r_start, r_end, r_radius, h_start, h_end, h_radius)
     near = np.empty(distance.shape, dtype=np.bool_)
     for i in range(distance.shape[0]):
-        reach = _reach(v_start, v_end, i, limbs, body, covered_time)
+        reach = _reach(v_start, v_end, i, limbs, body, covered_time, fastest)
         for j in range(distance.shape[1]):
             near[i, j] = distance[i, j] < reach + z_d[j]
     k, r = _pairs_of(near)
     return distance, k, r
-
-
-@njit(cache=True)
-def _margin_candidates(distance, v_start, v_end, limbs, body, below):
-    """The pairs (k, r), row-major, whose clearance less S_p at their capsule's fastest end point
-    lies below `below` (the SSM margin's candidates; no caller since the judge, `safety.judge`,
-    replaced the contact accountant: only `_warm_up_steps` compiles it)."""
-    counted = np.empty(distance.shape, dtype=np.bool_)
-    for i in range(distance.shape[0]):
-        reach = _reach(v_start, v_end, i, limbs, body, 0.0)
-        for j in range(distance.shape[1]):
-            counted[i, j] = distance[i, j] - reach < below
-    return _pairs_of(counted)
 
 
 @njit(cache=True)
@@ -233,17 +255,19 @@ def _hold_clamps(k, r, governed, clamped, clamped_until, now, hold):
 
 
 @njit(cache=True)
-def _separations(r, speed, body_region, limbs, body, z_d, covered_time):
-    """S_p (N,) of each pair at `speed` (N,), head and torso at their own v_h (`SafetyRules.separations`)."""
+def _separations(r, speed, body_region, limbs, body, z_d, covered_time, full_speed, fastest):
+    """S_p (N,) of each pair at `speed` (N,), head and torso at their own v_h, the path braked on its
+    fastest point (`full_speed` (N,) and `fastest` at full path speed; `SafetyRules.separations`)."""
     out = np.empty(r.shape[0])
     for n in range(r.shape[0]):
-        out[n] = _protective_separation(speed[n], body if body_region[r[n]] else limbs, z_d[n], covered_time)
+        params = _path_stop(body if body_region[r[n]] else limbs, full_speed[n], fastest)
+        out[n] = _protective_separation(speed[n], params, z_d[n], covered_time)
     return out
 
 
 @njit(cache=True)
-def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limbs, limb_pieces, body,
-                body_pieces, moving_speed, pfl_floor):
+def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limbs, body, covered_time,
+                fastest, moving_speed, pfl_floor):
     """The override of every pair by SSM (PFL pairs start from it), and the PFL pairs that still need
     their robot mass (`SafetyRules.override` up to the masses): (scale (N,), needs mass (N,))."""
     size = r.shape[0]
@@ -254,10 +278,8 @@ def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limb
         moving[n] = approach[n] > (1e-9 if clamped[n] else moving_speed)
         if moving[n]:
             j = r[n]
-            if body_region[j]:
-                v_ssm = _permissible_speed(distance[n], body, body_pieces, z_d[j])
-            else:
-                v_ssm = _permissible_speed(distance[n], limbs, limb_pieces, z_d[j])
+            params = _path_stop(body if body_region[j] else limbs, approach[n], fastest)
+            v_ssm = _permissible_speed(distance[n], params, _pieces(params, covered_time), z_d[j])
             scale[n] = min(v_ssm / max(approach[n], 1e-12), 1.0)
         else:
             scale[n] = 1.0
@@ -288,9 +310,10 @@ def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limb
     return scale, needs_mass
 
 
-def screen(robot, robot_velocity, regions, z_d, limbs, body, covered_time):
+def screen(robot, robot_velocity, regions, z_d, limbs, body, covered_time, fastest):
     """`_screen` on any array-likes: (distance (K, R), k, r)."""
-    return _screen(*_arrays(*robot, *robot_velocity, *regions, z_d), limbs, body, float(covered_time))
+    return _screen(*_arrays(*robot, *robot_velocity, *regions, z_d), limbs, body, float(covered_time),
+                   float(fastest))
 
 
 def pair_geometry(robot, robot_velocity, regions, k, r):
@@ -302,20 +325,19 @@ def _warm_up_steps() -> list:
     """Calls that compile (or load) every kernel here on tiny inputs, each on its own
     (`kernels.warm_up`): one robot capsule, one body region, one pair."""
     one, params = np.zeros((1, 3)), np.array([0.1, 5.0, 0.05, 0.01, 0.0])
-    pieces = np.array([[2.0, 0.0, 0.0, np.inf]])
     capsules = (one, one + 1.0, np.ones(1))
-    pair, distance, approach = np.zeros(1, dtype=np.int64), np.zeros((1, 1)), np.zeros(1)
+    pair, approach = np.zeros(1, dtype=np.int64), np.zeros(1)
     flags = np.ones(1, dtype=np.bool_)
     return [
-        lambda: screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0),
+        lambda: screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0, 1.0),
         lambda: pair_geometry(capsules, (one, one), capsules, pair, pair),
         lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), True, one,
                                  one + 1.0, 0.02),
-        lambda: _margin_candidates(distance, one, one, params, params, np.inf),
         lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
-        lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0),
+        lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0, approach, 1.0),
         lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,
-                            pieces, params, pieces, 0.01, np.ones(1)),
+                            params, 0.0, 1.0, 0.01, np.ones(1)),
+        lambda: _pieces(params, 0.0),
     ]
 
 

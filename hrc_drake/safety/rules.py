@@ -35,7 +35,7 @@ from hrc_drake.safety.config import (
 )
 from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
 from hrc_drake.safety.regions import FixedBox, clamped, surface_clearances
-from hrc_drake.safety.ssm import SeparationParameters, permissible_speed, protective_separation
+from hrc_drake.safety.ssm import SeparationParameters, path_stop, permissible_speed, protective_separation
 
 #: Override of a pair with no constraint.
 FREE = 1.0
@@ -141,7 +141,6 @@ class SafetyRules:
         self.clamp_margin = config.clamp_margin if self.pfl else 0.02
         self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
                                        p.human_speed]) for p in (self.separation, self.body_separation))
-        self._pieces_by_covered_time: dict = {}
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None
@@ -160,15 +159,6 @@ class SafetyRules:
             self._pfl_floor = floor
         else:
             self._pfl_floor = np.full(len(self.regions), np.inf)
-
-    def _pieces_of(self, covered_time: float):
-        """The ISO 13855 pieces (P, 4) of the limbs' and the body's S_p (`_kernels`), by H."""
-        pieces = self._pieces_by_covered_time.get(covered_time)
-        if pieces is None:
-            pieces = tuple(np.array(p._pieces(covered_time), dtype=float).reshape(-1, 4)
-                           for p in (self.separation, self.body_separation))
-            self._pieces_by_covered_time[covered_time] = pieces
-        return pieces
 
     def in_zone(self, points) -> np.ndarray:
         """(N,) whether each point lies in a collaborative zone."""
@@ -248,14 +238,16 @@ class SafetyRules:
 
     def screen(self, robot, robot_velocity, regions, z_d, covered_time: float = 0.0):
         """Candidate pairs: clearances (K, R) and the pairs nearer than S_p at the fastest point of
-        the robot capsule (a bound: the end points are a link segment's fastest points)."""
+        the robot capsule (a bound: the end points are a link segment's fastest points), the path
+        braked on its fastest point (`fastest_speed`)."""
+        fastest = fastest_speed(robot_velocity)
         if self.compiled:
-            return _kernels.screen(robot, robot_velocity, regions, z_d, *self._params, covered_time)
+            return _kernels.screen(robot, robot_velocity, regions, z_d, *self._params, covered_time, fastest)
         distance = capsule_clearances(*robot, *regions)
         v_max = np.maximum(np.linalg.norm(robot_velocity[0], axis=1),
                            np.linalg.norm(robot_velocity[1], axis=1))
-        reach = np.maximum(protective_separation(v_max, self.separation, 0.0, covered_time),
-                           protective_separation(v_max, self.body_separation, 0.0, covered_time))
+        reach = np.array([max(protective_separation(v, path_stop(p, v, fastest), 0.0, covered_time)
+                              for p in (self.separation, self.body_separation)) for v in v_max])
         near = distance < reach[:, None] + np.asarray(z_d)[None, :]
         k, r = np.nonzero(near)
         return distance, k, r
@@ -300,7 +292,8 @@ class SafetyRules:
         seen = np.ones(len(k), dtype=bool) if lost is None else ~np.isfinite(lost[0][r])
         moving = approach > np.where(clamped & seen, 1e-9, self.moving_speed)
         z = np.asarray(z_d)[r]
-        v_ssm = self.ssm_speeds(pairs, z, covered_time)
+        fastest = fastest_speed(robot_velocity)
+        v_ssm = self.ssm_speeds(pairs, z, covered_time, fastest)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
         # a pair approaching slower than its region's PFL speed for an infinite robot mass (the
         # smallest eq. A.6 gives, quasi-static) is free whatever m_R: no Jacobian needed
@@ -323,7 +316,7 @@ class SafetyRules:
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
         n = int(np.argmin(scale))
         sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n],
-                                    covered_time)[0])
+                                    covered_time, fastest)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
     def _override_compiled(self, robot, robot_velocity, regions, z_d, effective_mass, covered_time,
@@ -345,10 +338,10 @@ class SafetyRules:
             clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
             held = governed & (clamped_until[k, r] > now)
             governed, clamped = governed & ~held, clamped | held
-        limb_pieces, body_pieces = self._pieces_of(float(covered_time))
         limbs, body = self._params
+        fastest = fastest_speed(robot_velocity)
         scale, needs_mass = _kernels._ssm_scales(r, pairs.distance, pairs.approach, governed, clamped, z_d,
-                                                 self.body_region, limbs, limb_pieces, body, body_pieces,
+                                                 self.body_region, limbs, body, float(covered_time), fastest,
                                                  float(self.moving_speed), self._pfl_floor)
         if needs_mass.any():
             sub = np.nonzero(needs_mass)[0]
@@ -357,19 +350,27 @@ class SafetyRules:
             v_pfl = self.pfl_speeds(picked, masses, np.zeros(len(sub), dtype=bool))  # free: transient
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / pairs.approach[sub], FREE))
         n = int(np.argmin(scale))
-        j = int(r[n])
-        sp = _kernels._protective_separation(float(pairs.approach[n]), body if self.body_region[j] else limbs,
-                                             float(z_d[j]), float(covered_time))
+        at = np.array([n])
+        sp = float(_kernels._separations(r[at], pairs.approach[at], self.body_region, limbs, body, z_d[r[at]],
+                                         float(covered_time), pairs.approach[at], fastest)[0])
         return float(scale[n]), (pairs, n, "pfl" if governed[n] else "ssm", sp)
 
-    def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0) -> np.ndarray:
-        """The permissible speeds (N,) of SSM at each pair's separation (head and torso at their v_h)."""
-        limbs = permissible_speed(pairs.distance, self.separation, z_d, covered_time)
-        body = permissible_speed(pairs.distance, self.body_separation, z_d, covered_time)
-        return np.where(self.body_region[pairs.r], body, limbs)
+    def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0,
+                   fastest: float = 0.0) -> np.ndarray:
+        """The permissible speeds (N,) of SSM at each pair's separation (head and torso at their v_h),
+        the path braked on its fastest point (`fastest`, at full path speed; `ssm.path_stop`)."""
+        z_d = np.broadcast_to(np.asarray(z_d, dtype=float), pairs.r.shape)
+        out = np.empty(len(pairs.r))
+        for n, j in enumerate(pairs.r.tolist()):
+            params = self.body_separation if self.body_region[j] else self.separation
+            stop = path_stop(params, pairs.approach[n], fastest)
+            out[n] = permissible_speed(pairs.distance[n], stop, z_d[n], covered_time)
+        return out
 
-    def separations(self, pairs: PairGeometry, speed, z_d=0.0, covered_time: float = 0.0) -> np.ndarray:
-        """S_p (N,) of each pair for robot points approaching at `speed` (head and torso at their v_h)."""
+    def separations(self, pairs: PairGeometry, speed, z_d=0.0, covered_time: float = 0.0,
+                    fastest: float = 0.0) -> np.ndarray:
+        """S_p (N,) of each pair for robot points approaching at `speed` (head and torso at their v_h),
+        the path braked on its fastest point (`fastest` and the pairs' approach at full path speed)."""
         if self.compiled:
             size = len(pairs.r)
             speed, z_d = (np.asarray(x, dtype=float) for x in (speed, z_d))
@@ -377,10 +378,22 @@ class SafetyRules:
             speed, z_d = _kernels._arrays(*(x if x.shape == (size,) else np.full(size, x) if x.ndim == 0
                                             else np.broadcast_to(x, size) for x in (speed, z_d)))
             return _kernels._separations(pairs.r, speed, self.body_region, *self._params, z_d,
-                                         float(covered_time))
-        limbs = protective_separation(speed, self.separation, z_d, covered_time)
-        body = protective_separation(speed, self.body_separation, z_d, covered_time)
-        return np.where(self.body_region[pairs.r], body, limbs)
+                                         float(covered_time), _kernels._arrays(pairs.approach)[0],
+                                         float(fastest))
+        speed = np.broadcast_to(np.asarray(speed, dtype=float), pairs.r.shape)
+        z_d = np.broadcast_to(np.asarray(z_d, dtype=float), pairs.r.shape)
+        out = np.empty(len(pairs.r))
+        for n, j in enumerate(pairs.r.tolist()):
+            params = self.body_separation if self.body_region[j] else self.separation
+            out[n] = protective_separation(speed[n], path_stop(params, pairs.approach[n], fastest), z_d[n],
+                                           covered_time)
+        return out
+
+
+def fastest_speed(robot_velocity) -> float:
+    """The speed of the robot's fastest capsule end point (m/s): the point the stop is braked on."""
+    return float(max(np.linalg.norm(robot_velocity[0], axis=1).max(initial=0.0),
+                     np.linalg.norm(robot_velocity[1], axis=1).max(initial=0.0)))
 
 
 def subset_pairs(pairs: PairGeometry, index) -> PairGeometry:

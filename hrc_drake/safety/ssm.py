@@ -18,7 +18,7 @@ satisfies it when d < S_p(0): a protective stop.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -66,6 +66,15 @@ class SeparationParameters:
         return ((ISO13855_FAST, 0.0, 0.0, fast_end),
                 (0.0, ISO13855_SWITCH, fast_end, slow_start),
                 (ISO13855_SLOW, 0.0, slow_start, np.inf))
+
+
+def path_stop(params: SeparationParameters, speed: float, fastest: float) -> SeparationParameters:
+    """`params` for a point approaching at `speed` when the controller brakes the whole path at a on
+    its fastest point (`fastest`, both at full path speed): the point decelerates at a v / V, so
+    its T_s = V / a and S_s = v V / (2a), the stop the controller makes (`rules.decelerated_override`)."""
+    if fastest > speed > 0.0:
+        return replace(params, deceleration=params.deceleration * speed / fastest)
+    return params
 
 
 def human_approach(time, human_speed: float = 0.0):

@@ -127,8 +127,10 @@ def test_override_and_clamp_holds_equal_numpy(name):
     if name.startswith(("pfl", "hybrid")):
         assert kinds == {"ssm", "pfl"}
         assert np.isfinite(until[compiled]).any() or not CONFIGS[name][1]  # clamps held
-    if name in ("pfl", "pfl_area", "hybrid"):
-        assert calls  # the plant's masses of the PFL pairs past the floor and the skip
+    if name in ("pfl", "pfl_area"):
+        # the plant's masses of the PFL pairs past the floor and the skip (in these hybrid scenes the
+        # path's stop makes SSM's overrides the smaller ones, so the skip takes every PFL pair)
+        assert calls
 
 
 @pytest.mark.parametrize("source", ["tracker", "camera"])

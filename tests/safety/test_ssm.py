@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from hrc_drake.safety.ssm import (
     SeparationParameters,
     human_approach,
+    path_stop,
     permissible_speed,
     protective_separation,
 )
@@ -56,3 +57,21 @@ def test_permissible_speed_is_the_root_of_the_separation(speed, z_d, t_r, a, v_h
 def test_vectorised():
     d = np.array([0.1, 0.565, 0.79])
     assert np.allclose(permissible_speed(d, PARAMS, 0.03), [0.0, 0.5, 1.0])
+
+
+def test_the_controllers_s_p_takes_the_stop_it_makes_on_the_paths_fastest_point():
+    # a face pair approaching at 0.2 m/s on a path whose fastest point runs 1.5 m/s: the controller
+    # brakes the path at 5 m/s^2 on that point, so T_s = 1.5 / 5 = 0.3 s (not 0.2 / 5 = 0.04 s) and
+    # the pair's point travels 0.2 x 1.5 / 10 = 0.03 m. S_h = 1.6 x 0.4 = 0.64 (2.0 x 0.4 > 0.5),
+    # S_r = 0.02, C + Z_d + Z_r = 0.05 + 0.03 + 0.01: S_p = 0.78 m (the per-pair stop gave 0.338 m)
+    face = SeparationParameters(reaction_time=0.1, deceleration=5.0, intrusion=0.05, robot_uncertainty=0.01,
+                                human_speed=1.6)  # head and torso: the whole body's 1.6 m/s
+    stop = path_stop(face, 0.2, 1.5)
+    assert stop.deceleration == pytest.approx(5.0 * 0.2 / 1.5)
+    assert protective_separation(0.2, stop, z_d=0.03) == pytest.approx(0.78, abs=1e-12)
+    # per pair (T_s = 0.04 s): 1.6 x 0.14 + 0.02 + 0.004 + 0.09 = 0.338 m
+    assert protective_separation(0.2, face, z_d=0.03) == pytest.approx(0.338, abs=1e-12)
+    # the permissible speed at that separation is the pair's 0.2 m/s, and so the override is
+    assert permissible_speed(0.78, stop, 0.03) == pytest.approx(0.2, abs=1e-9)
+    # the path's fastest point itself stops at a: no change
+    assert path_stop(PARAMS, 1.5, 1.5) is PARAMS and path_stop(PARAMS, 0.0, 1.5) is PARAMS
