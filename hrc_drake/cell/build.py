@@ -198,7 +198,8 @@ def _add_plant(builder, scenario: Scenario):
     return plant, scene_graph, robots, False
 
 
-def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler, flow):
+def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler, flow,
+                      hold_new_paths: bool = False):
     """Task executor and path follower of every arm agent, driving the plant. An arm on a
     flow action of several agents stays on it until all are done, unless released early.
 
@@ -227,7 +228,8 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
     holds = {(agent, a.name) for a in flow.actions if len(a.agents) > 1
              for agent in a.agents if agent in arm_agents and agent not in a.early_release}
     follower = builder.AddSystem(
-        PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE)
+        PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE,
+                     hold_new_paths=hold_new_paths)
     )
     follower.set_name("path_follower")
     executor = builder.AddSystem(
@@ -396,6 +398,13 @@ def _add_world(builder, scenario: Scenario, operator_source, executor):
     return world_system
 
 
+def has_safety_controller(scenario: Scenario) -> bool:
+    """Whether the scenario's safety mode runs a controller (any but `NoSafety`)."""
+    from hrc_drake.safety.config import NoSafety
+
+    return not isinstance(scenario.safety, NoSafety)
+
+
 def _add_speed_override(builder, overrides, follower, systems) -> None:
     """The smallest of the speed rules' overrides (1 when there is none) drives the path follower,
     through the ISO/TS 15066 safety controller where the cell has one (`_add_safety`)."""
@@ -437,6 +446,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         scenario.safety, builder, plant=plant, kinematics=capsule_kin, body_model=body,
         limits=safety_limits(scenario, scenario_path), zones=zones, fixed_boxes=tuple(fixed),
         positions=positions_port, velocities_full=follower.GetOutputPort("velocities_full"),
+        velocities_full_ahead=follower.GetOutputPort("velocities_full_ahead"),
         skeleton_estimate=estimate_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
         judge_values=standard, judge_changes=changed,
@@ -518,6 +528,8 @@ def build_cell(
         named_poses,
         not isinstance(scenario.scheduler, NoScheduler),
         scenario.flow,
+        # a safety controller sees a path before it moves (`PathFollower.hold_new_paths`)
+        hold_new_paths=has_safety_controller(scenario),
     )
     capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))

@@ -74,9 +74,6 @@ class RobotModel:
     def __post_init__(self):
         if not self.arms:
             raise ValueError(f"robot model {self.name!r}: at least one arm is required")
-        if not (np.isfinite(self.stopping_deceleration) and self.stopping_deceleration > 0):
-            raise ValueError(f"robot model {self.name!r}: stopping_deceleration must be > 0 m/s^2 (the "
-                             f"judge's stopping model), got {self.stopping_deceleration!r}")
         names = [a.name for a in self.arms]
         if len(set(names)) != len(names):
             raise ValueError(f"robot model {self.name!r}: duplicate arm names {names}")
@@ -86,6 +83,9 @@ class RobotModel:
         missing = sorted(set(joints) - set(self.pd_gains))
         if missing:
             raise ValueError(f"robot model {self.name!r}: no PD gains for joints {missing}")
+        if not (np.isfinite(self.stopping_deceleration) and self.stopping_deceleration > 0):
+            raise ValueError(f"robot model {self.name!r}: stopping_deceleration must be > 0 m/s^2 (the "
+                             f"judge's stopping model), got {self.stopping_deceleration!r}")
 
     @property
     def arm_names(self) -> tuple[str, ...]:

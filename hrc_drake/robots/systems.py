@@ -37,7 +37,12 @@ class PathFollower(LeafSystem):
     Outputs "positions" (nq,), "velocities" (nq,), "velocities_full" (nq,: at override 1, for a
     safety controller's approach speeds), "path_done" (`messages.PathStatus`),
     "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
-    later at full speed, so that a speed rule can tell motion toward the operator from motion away.
+    later at full speed, so that a speed rule can tell motion toward the operator from motion away;
+    "velocities_full_ahead" (nq,): the velocities at full speed `lookahead` s of path time after the
+    last tick (a path accelerating from rest: what a safety controller's reaction time may reach).
+    hold_new_paths: a path starts moving one tick after it was requested, so that a safety
+    controller's override (applied a tick later) has seen it (else its first tick runs at the
+    override computed without it: the robot accelerates from rest within the reaction time).
     Positions are evaluated at the context time, extrapolated from the last tick with the
     override then applied, so they stay smooth between ticks.
 
@@ -52,9 +57,11 @@ class PathFollower(LeafSystem):
     Drake copy every abstract state of the diagram at each tick).
     """
 
-    def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1):
+    def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1,
+                 hold_new_paths: bool = False):
         super().__init__()
         self.period = float(period)
+        self.hold_new_paths = bool(hold_new_paths)
         self.lookahead = float(lookahead)
         self.arm_indices = [np.asarray(i, dtype=int) for i in follower.arm_indices]
         self.v_max = [np.asarray(v, dtype=float) for v in follower.v_max]
@@ -78,6 +85,7 @@ class PathFollower(LeafSystem):
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
         self.DeclareVectorOutputPort("velocities", nq, self._calc_v, ticked)
         self.DeclareVectorOutputPort("velocities_full", nq, self._calc_v_full, ticked)
+        self.DeclareVectorOutputPort("velocities_full_ahead", nq, self._calc_v_full_ahead, ticked)
         self.DeclareVectorOutputPort("positions_ahead", nq, self._calc_q_ahead, smooth)
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(PathStatus()), self._calc_done, {self.xd_ticket()}
@@ -117,9 +125,11 @@ class PathFollower(LeafSystem):
         x = np.array(context.get_discrete_state(self._state).get_value())
         requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
         q = x[self._q]
+        started = set()
         for request in requests:
             k = self._arm0 + 4 * request.channel
             if request.seq > x[k]:
+                started.add(request.channel)
                 if np.shape(request.waypoints)[-1] != len(self.arm_indices[request.channel]):
                     raise ValueError(
                         f"PathFollower: request for arm {request.channel} has waypoints of "
@@ -135,6 +145,8 @@ class PathFollower(LeafSystem):
         override = float(override)
         applied = min(max(override, 0.0), 1.0) if math.isfinite(override) else 0.0
         for arm, path, segment, phase in self._active(x, requests):
+            if self.hold_new_paths and arm in started:
+                continue  # it moves from the next tick, under an override that has seen it
             k = self._arm0 + 4 * arm
             segment, phase, finished = path.progress_after(segment, phase, self.period * applied)
             q[self.arm_indices[arm]] = path.position_at(segment, phase)
@@ -165,11 +177,14 @@ class PathFollower(LeafSystem):
         ahead = max(context.get_time() - x[1], 0.0) * x[0] + self.lookahead
         output.SetFromVector(self._positions(context, ahead))
 
-    def _velocities(self, context, override: float) -> np.ndarray:
+    def _velocities(self, context, override: float, ahead: float = 0.0) -> np.ndarray:
+        """Joint velocities at `override`, `ahead` seconds of full-speed path time after the last tick."""
         x = context.get_discrete_state(self._state).get_value()
         v = np.zeros(self._nq)
         requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
         for arm, path, segment, phase in self._active(x, requests):
+            if ahead > 0.0:
+                segment, phase, _ = path.progress_after(segment, phase, ahead)
             v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * override
         return v
 
@@ -179,6 +194,9 @@ class PathFollower(LeafSystem):
 
     def _calc_v_full(self, context, output: BasicVector):
         output.SetFromVector(self._velocities(context, 1.0))
+
+    def _calc_v_full_ahead(self, context, output: BasicVector):
+        output.SetFromVector(self._velocities(context, 1.0, self.lookahead))
 
     def _calc_done(self, context, output):
         x = context.get_discrete_state(self._state).get_value()

@@ -255,18 +255,15 @@ class Stop(Immutable):
     time: float = 0.0
     ended: bool = False
 
-    def ratio(self) -> float:
-        """The larger of measured / assumed distance and time (0 for a stop from rest)."""
-        if self.speed <= APPROACH_TOLERANCE:
-            return 0.0
-        return max(self.distance / max(self.assumed_distance, 1e-9), self.time / max(self.assumed_time, 1e-9))
+    def ratio(self, period: float) -> float:
+        """Measured / assumed, the larger of distance and time, each assumed with its rounding
+        tolerance (0.5 mm; one sample `period`): above 1 exactly when the stop overran."""
+        return max(self.distance / (self.assumed_distance + STOP_DISTANCE_TOLERANCE),
+                   self.time / (self.assumed_time + period + 1e-9))
 
     def overran(self, period: float) -> bool:
         """Longer than S_p assumed: further by more than the tolerance, or later by over a sample."""
-        return (
-            self.distance > self.assumed_distance + STOP_DISTANCE_TOLERANCE
-            or self.time > self.assumed_time + period + 1e-9
-        )
+        return self.ratio(period) > 1.0
 
 
 @dataclass(frozen=True)
@@ -293,6 +290,8 @@ class JudgeRun(Immutable):
     margin: float = math.inf
     #: whether the controller commanded a protective stop at the last sample
     commanded: bool = False
+    #: the robot's fastest end point's speed at the last sample (m/s)
+    last_fastest: float = 0.0
     #: when each skeleton point was last measured (the run's start before it ever was)
     last_measured: tuple = (0.0,) * 8
     unobserved_time: float = 0.0
@@ -444,6 +443,7 @@ class Judge:
             run.breach_time + sum(e.duration for e in episodes if e.kind == "ssm_breach"),
             margin,
             bool(stop_commanded),
+            fastest,
             last_measured,
             unobserved,
             longest,
@@ -693,26 +693,25 @@ class Judge:
     # -- stops and lost people ------------------------------------------------------------------
 
     def _stop_step(self, run: JudgeRun, time, dt, fastest, commanded) -> Stop | None:
-        """The protective stop under way after this sample, measured on the truth: one begins where
-        the controller's command turns to a stop, with the fastest point's speed over the interval
-        before; it ends when the robot is at rest or the command is released."""
+        """The protective stop under way after this sample, measured on the truth. A robot's pose at
+        a sample already holds the motion its command of that sample makes (the path follower
+        advances a period at each tick): a stop begins where the command turns to a stop, from the
+        fastest point's speed at the sample before, and counts the motion seen from that sample on;
+        it ends when the robot is at rest or the command is released (that sample's motion is the
+        released command's)."""
         stop = run.stop
+        tolerance = self.values.approach_tolerance
         if stop is None:
             if not commanded or run.commanded:
                 return None
             a, t_r = self.values.deceleration, self.values.reaction_time
-            return Stop(
-                time,
-                fastest,
-                t_r + fastest / a,
-                fastest * t_r + fastest * fastest / (2.0 * a),
-                ended=fastest <= self.values.approach_tolerance,
-            )
-        if fastest <= self.values.approach_tolerance:
+            speed = run.last_fastest
+            moving = fastest > tolerance
+            return Stop(time, speed, t_r + speed / a, speed * t_r + speed * speed / (2.0 * a),
+                        distance=fastest * dt, time=dt if moving else 0.0, ended=not moving)
+        if not commanded or fastest <= tolerance:
             return replace(stop, ended=True)
-        return replace(
-            stop, distance=stop.distance + fastest * dt, time=time - stop.onset, ended=not commanded
-        )
+        return replace(stop, distance=stop.distance + fastest * dt, time=time - stop.onset + dt)
 
     def _unobserved_step(self, run: JudgeRun, time, dt, measured):
         """(when each skeleton point was last measured, the time some point was not, the longest time
@@ -743,7 +742,7 @@ class Judge:
                 "robot",
                 "",
                 "",
-                s.ratio(),
+                s.ratio(period),
                 True,
                 f"{s.distance * 1000:.1f} mm in {s.time:.2f} s where S_p assumed "
                 f"{s.assumed_distance * 1000:.1f} mm in {s.assumed_time:.2f} s",

@@ -402,11 +402,17 @@ def subset_pairs(pairs: PairGeometry, index) -> PairGeometry:
 
 
 def decelerated_override(previous: float, target: float, dt: float, fastest_speed: float,
-                         deceleration: float) -> float:
-    """The override after one controller period: `target`, but falling no faster than the stopping
-    model allows, so that the robot's fastest point (at `fastest_speed` m/s at override 1) slows
-    by at most a dt (a category-2 protective stop at deceleration a)."""
+                         deceleration: float, next_fastest: float | None = None) -> float:
+    """The override after one controller period: `target`, but changing no faster than the stopping
+    model allows, so that the robot's fastest point (at `fastest_speed` m/s at override 1 now, at up
+    to `next_fastest` by the next period: a path still accelerating) slows by at most a dt (a
+    category-2 protective stop at deceleration a): (previous v - a dt) / v_next; and speeds up by
+    at most a dt too (a robot that leaps from rest to speed in one period outruns the S_r = v T_r
+    its S_p took at the lower speed)."""
     target = min(max(target, 0.0), 1.0)
-    if target >= previous or fastest_speed <= 1e-9:
+    if fastest_speed <= 1e-9:
         return target
-    return max(target, previous - deceleration * dt / fastest_speed)
+    following = max(fastest_speed, next_fastest or 0.0)
+    if target >= previous:
+        return min(target, (previous * fastest_speed + deceleration * dt) / following)
+    return max(target, (previous * fastest_speed - deceleration * dt) / following)

@@ -39,7 +39,7 @@ from hrc_drake.safety.regions import (
     lost_capsules,
     reach_bounded,
 )
-from hrc_drake.safety.rules import SafetyRules, decelerated_override
+from hrc_drake.safety.rules import SafetyRules, decelerated_override, fastest_speed
 from hrc_drake.safety.verdict import summarize
 from hrc_drake.systems import declare_periodic_discrete_update
 
@@ -302,6 +302,7 @@ class SafetyController(LeafSystem):
         self._state = self.DeclareDiscreteState(np.concatenate(initial))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
+        self._velocities_ahead = self.DeclareVectorInputPort("velocities_full_ahead", dynamics.num_velocities)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
                                                        AbstractValue.Make(SkeletonEstimate()))
         self._requested = self.DeclareVectorInputPort("requested_override", 1)
@@ -317,14 +318,15 @@ class SafetyController(LeafSystem):
 
     def _command(self, context, seen, head_offset, clamped_until):
         """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
-        path speed) for the inputs of `context`; `seen` (8,): the time each point was last
+        path speed now and the most it reaches within `lookahead` of path time) for the inputs of
+        `context`; `seen` (8,): the time each point was last
         measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
         in place (`SafetyRules.override`)."""
         human = None
         if self._estimate.HasValue(context):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
-            return 0.0, math.nan, math.nan, 0.0
+            return 0.0, math.nan, math.nan, 0.0, 0.0
         regions, z_d, lost_radius = human
         covered = 0.0
         if self.swept and self._swept_volumes.HasValue(context):
@@ -332,16 +334,30 @@ class SafetyController(LeafSystem):
             grown = swept_regions(swept, self.regions.cutter)
             if grown is not None:
                 regions, covered = grown, float(swept.horizon)
-        self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
+        positions = self._positions.Eval(context)
+        self.dynamics.set_state(positions, self._velocities.Eval(context))
         robot, velocity = self.dynamics.capsules()
+        now = context.get_time()
         command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
-                                               covered, clamped_until, context.get_time(), lost_radius)
-        fastest = float(max(np.linalg.norm(velocity[0], axis=1).max(initial=0.0),
-                            np.linalg.norm(velocity[1], axis=1).max(initial=0.0)))
+                                               covered, clamped_until, now, lost_radius)
+        fastest = next_fastest = fastest_speed(velocity)
+        if self._velocities_ahead.HasValue(context):
+            # a path accelerating within T_r (from rest, say): the speed it reaches counts, not only
+            # the speed it has (S_r = v T_r holds v over T_r); the smaller override of the two
+            self.dynamics.set_state(positions, self._velocities_ahead.Eval(context))
+            _, velocity_ahead = self.dynamics.capsules()
+            fastest_ahead = fastest_speed(velocity_ahead)
+            if fastest_ahead > fastest:
+                ahead, ahead_binding = self.rules.override(
+                    robot, velocity_ahead, regions, z_d, self.dynamics.effective_mass, covered, clamped_until,
+                    now, lost_radius)
+                if ahead < command:
+                    command, binding = ahead, ahead_binding
+                next_fastest = fastest_ahead
         if binding is None:
-            return command, math.inf, math.nan, fastest
+            return command, math.inf, math.nan, fastest, next_fastest
         pairs, n, _, separation = binding
-        return command, float(pairs.distance[n]), separation, fastest
+        return command, float(pairs.distance[n]), separation, fastest, next_fastest
 
     def _update(self, context, discrete_state):
         x = np.array(context.get_discrete_state(self._state).get_value())
@@ -356,12 +372,13 @@ class SafetyController(LeafSystem):
                     points = np.asarray(estimate.points, dtype=float)
                     head_offset = points[HEAD] - points[THORAX]
         clamped_until = x[self._clamped].reshape(self._pairs)
-        command, distance, separation, fastest = self._command(context, seen, head_offset, clamped_until)
+        command, distance, separation, fastest, next_fastest = self._command(context, seen, head_offset,
+                                                                             clamped_until)
         requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
         requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
         target = min(requested, command)
         applied = decelerated_override(float(x[0]), target, self.period, fastest,
-                                       self.rules.config.deceleration)
+                                       self.rules.config.deceleration, next_fastest)
         stopped = command <= 0.0
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
@@ -514,6 +531,7 @@ def own_model_values(config, standard: JudgeValues, covered_time: float = 0.0) -
 
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
                         positions, velocities_full, skeleton_estimate, human_capsules,
+                        velocities_full_ahead=None,
                         requested_override, judge_values: JudgeValues,
                         judge_changes: JudgeValues | None = None,
                         payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
@@ -523,6 +541,7 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
 
     positions: the plant's positions port (kinematic: the follower's; dynamic: the plant state);
     velocities_full: the follower's joint velocities at full speed (the controller's approach speeds);
+    velocities_full_ahead: the same a reaction time of path ahead (None: not used);
     requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
     to connect later; limits: the controller's limits table; judge_values: the standard judge's
     values of this cell (`judge.standard_values`); judge_changes: the scenario's changed judge, or
@@ -543,6 +562,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
         controller.set_name("safety_controller")
         builder.Connect(positions, controller.GetInputPort("positions"))
         builder.Connect(velocities_full, controller.GetInputPort("velocities_full"))
+        if velocities_full_ahead is not None:
+            builder.Connect(velocities_full_ahead, controller.GetInputPort("velocities_full_ahead"))
         builder.Connect(skeleton_estimate, controller.GetInputPort("skeleton_estimate"))
         if requested_override is not None:
             builder.Connect(requested_override, controller.GetInputPort("requested_override"))
@@ -567,7 +588,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     monitor.set_name("safety_monitor")
     builder.Connect(human_capsules, monitor.GetInputPort("human_capsules"))
     builder.Connect(positions, monitor.GetInputPort("positions"))
-    builder.Connect(skeleton_estimate, monitor.GetInputPort("skeleton_estimate"))
+    if skeleton_estimate is not None:  # a cell without sensing (a recorded skeleton) measures nothing
+        builder.Connect(skeleton_estimate, monitor.GetInputPort("skeleton_estimate"))
     if controller is not None:
         # the status's "stopped" entry, picked by a gain row (Drake's C++ system, no Python per read)
         pick = np.zeros((1, len(_STATE)))

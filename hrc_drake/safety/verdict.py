@@ -34,7 +34,8 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
     for c in contacts:
         worst[c.region] = max(worst.get(c.region, 0.0), c.worst)
     finite = [v for v in worst.values() if math.isfinite(v)]
-    stop_ratios = [s.ratio() for s in stops if s.speed > judge.values.approach_tolerance]
+    period = judge.sample_period(run)
+    stop_ratios = [s.ratio(period) for s in stops]
     return {
         "violations_total": len(violations),
         "violations": {kind: counts.get(kind, 0) for kind in VIOLATION_KINDS},

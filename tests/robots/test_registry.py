@@ -44,6 +44,9 @@ def test_a_record_checks_itself():
         RobotModel("bot", "bot.urdf", "base", (arm,), pd_gains={"j1": (1.0, 0.1)})
     with pytest.raises(ValueError, match="at least one arm"):
         RobotModel("bot", "bot.urdf", "base", ())
-    record = RobotModel("bot", "bot.urdf", "base", (arm,), pd_gains={"j1": (1.0, 0.1), "j2": (1.0, 0.1)})
+    gains = {"j1": (1.0, 0.1), "j2": (1.0, 0.1)}
+    with pytest.raises(ValueError, match="stopping_deceleration must be > 0"):
+        RobotModel("bot", "bot.urdf", "base", (arm,), pd_gains=gains)  # the judge needs its stop
+    record = RobotModel("bot", "bot.urdf", "base", (arm,), pd_gains=gains, stopping_deceleration=5.0)
     with pytest.raises(TypeError):
         record.pd_gains["j3"] = (0.0, 0.0)  # read-only

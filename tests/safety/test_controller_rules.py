@@ -42,8 +42,13 @@ def robot_at(z: float):
 def test_the_stopping_model_limits_the_fall_of_the_override():
     # a point at 1 m/s braking at 5 m/s^2 loses at most 5 x 0.02 = 0.1 m/s in one 20 ms period
     assert decelerated_override(1.0, 0.0, 0.02, 1.0, 5.0) == pytest.approx(0.9)
-    assert decelerated_override(0.5, 0.8, 0.02, 1.0, 5.0) == 0.8  # speeding up is not limited
+    # speeding up, too, by at most a dt: 0.5 m/s + 0.1 m/s (not a leap to 0.8 m/s in one period)
+    assert decelerated_override(0.5, 0.8, 0.02, 1.0, 5.0) == pytest.approx(0.6)
+    assert decelerated_override(0.5, 0.55, 0.02, 1.0, 5.0) == 0.55
     assert decelerated_override(1.0, 0.0, 0.02, 0.0, 5.0) == 0.0  # nothing moves: stop at once
+    # a path still accelerating (its fastest point at 2 m/s by the next period at full speed): the
+    # override falls so that the point's real speed, 1 m/s now, is 0.9 m/s then: 0.9 / 2
+    assert decelerated_override(1.0, 0.0, 0.02, 1.0, 5.0, next_fastest=2.0) == pytest.approx(0.45)
 
 
 def test_the_controller_rules_keep_the_hand_within_its_pfl_speed():

@@ -216,7 +216,8 @@ def test_a_stop_slower_than_s_p_assumed_is_a_violation():
     j = judge(SpeedSeparationMonitoring())
     out = figures(j, run_path(j, xs, stop=stop), "ssm")
     assert out["violations"]["stop"] == 1
-    assert out["stop_ratio_worst"] == pytest.approx(0.5 / 0.3, rel=0.08)
+    # it moves 0.5 s after the command where S_p assumed 0.3 s, one sample of rounding allowed
+    assert out["stop_ratio_worst"] == pytest.approx(0.5 / (0.3 + DT), rel=0.02)
     # the same stop at the robot's 5 m/s^2 is within what S_p assumed
     xs, x, v = [], 5.0, 1.0
     for i in range(60):
