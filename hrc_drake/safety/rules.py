@@ -108,8 +108,10 @@ class SafetyRules:
         if isinstance(config, NoSafety):
             self.separation = self.body_separation = SeparationParameters()
         else:
+            # T_r and the period the override commands: the path follower moves the robot a whole
+            # period at the tick that applies it, so the separation after that period must hold
             self.separation = SeparationParameters(
-                reaction_time=config.reaction_time, deceleration=config.deceleration,
+                reaction_time=config.reaction_time + 1.0 / config.rate, deceleration=config.deceleration,
                 intrusion=config.intrusion, robot_uncertainty=config.robot_uncertainty,
                 human_speed=config.human_speed)
             self.body_separation = replace(self.separation,
