@@ -42,7 +42,9 @@ class SpeedSeparationMonitoring:
     #: Update rate of the safety controller (Hz), at most 50; the camera's and the path follower's
     #: 30 Hz by default, so that its updates share their simulator steps.
     rate: float = 30.0
-    #: T_r, the robot system's reaction time: sensing, tracking and one controller period (s).
+    #: T_r, the robot system's reaction time: sensing, tracking and one controller period (s). The
+    #: controller adds its own period to it (the path follower moves a whole period at the tick
+    #: that applies an override, `rules.SafetyRules`).
     reaction_time: float = 0.1
     #: a, the deceleration of the robot's stopping model (m/s^2): T_s = v / a, S_s = v^2 / (2a).
     #: ABB publishes no stopping distances for the YuMi; 5 m/s^2 is an assumption.
