@@ -9,7 +9,7 @@ The numpy forms stay the reference (`SafetyRules(..., compiled=False)`), tested 
 pair (tests/safety/test_compiled_rules.py); the order of every floating-point operation is
 theirs. Compiled when first called, cached on disk (`hrc_drake.kernels`, group "safety").
 
-A separation parameter set is the array (T_r, a, C, Z_r, v_h) of `SeparationParameters`; its
+A separation parameter set is the array (T_r, a, C, Z_r, v_h, P) of `SeparationParameters`; its
 pieces (P, 4) are (K, constant, v_low, v_high) of `SeparationParameters._pieces`.
 """
 
@@ -46,7 +46,7 @@ def _protective_separation(speed, params, z_d, covered_time):
     else:
         fast = _FAST * time
         human = fast if fast <= _SWITCH else max(_SLOW * time, _SWITCH)
-    return human + speed * t_r + s_s + intrusion + z_d + uncertainty
+    return human + speed * (t_r + params[5]) + s_s + intrusion + z_d + uncertainty
 
 
 @njit(cache=True, inline="always")
@@ -94,7 +94,7 @@ def _permissible_speed(distance, params, pieces, z_d):
         k, constant, low, high = pieces[p, 0], pieces[p, 1], pieces[p, 2], pieces[p, 3]
         if high <= low:
             continue
-        b = k / a + t_r
+        b = k / a + t_r + params[5]
         c = k * t_r + constant - d
         root = a * (math.sqrt(max(b * b - 2.0 * c / a, 0.0)) - b)
         if root >= low - 1e-12 and root <= high + 1e-12 and c <= 0:
@@ -324,7 +324,7 @@ def pair_geometry(robot, robot_velocity, regions, k, r):
 def _warm_up_steps() -> list:
     """Calls that compile (or load) every kernel here on tiny inputs, each on its own
     (`kernels.warm_up`): one robot capsule, one body region, one pair."""
-    one, params = np.zeros((1, 3)), np.array([0.1, 5.0, 0.05, 0.01, 0.0])
+    one, params = np.zeros((1, 3)), np.array([0.1, 5.0, 0.05, 0.01, 0.0, 0.0])
     capsules = (one, one + 1.0, np.ones(1))
     pair, approach = np.zeros(1, dtype=np.int64), np.zeros(1)
     flags = np.ones(1, dtype=np.bool_)

@@ -108,12 +108,12 @@ class SafetyRules:
         if isinstance(config, NoSafety):
             self.separation = self.body_separation = SeparationParameters()
         else:
-            # T_r and the period the override commands: the path follower moves the robot a whole
-            # period at the tick that applies it, so the separation after that period must hold
+            # the path follower moves the robot a whole period at the tick that applies an override:
+            # the separation must hold after that period's travel (`actuation_period`)
             self.separation = SeparationParameters(
-                reaction_time=config.reaction_time + 1.0 / config.rate, deceleration=config.deceleration,
+                reaction_time=config.reaction_time, deceleration=config.deceleration,
                 intrusion=config.intrusion, robot_uncertainty=config.robot_uncertainty,
-                human_speed=config.human_speed)
+                human_speed=config.human_speed, actuation_period=1.0 / config.rate)
             self.body_separation = replace(self.separation,
                                            human_speed=config.body_speed or config.human_speed)
         #: head and torso regions (their own v_h, `body_speed`)
@@ -142,7 +142,8 @@ class SafetyRules:
         #: the clamping test's margin behind a part (`clamped`)
         self.clamp_margin = config.clamp_margin if self.pfl else 0.02
         self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
-                                       p.human_speed]) for p in (self.separation, self.body_separation))
+                                       p.human_speed, p.actuation_period])
+                             for p in (self.separation, self.body_separation))
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None

@@ -6,7 +6,8 @@ the protective separation distance of a robot point moving toward the human at v
 
     S_p(v_r) = S_h + S_r + S_s + C + Z_d + Z_r
     S_h = v_h (T_r + T_s)       the human's approach while the robot reacts and stops
-    S_r = v_r T_r               the robot's travel during its reaction time
+    S_r = v_r (T_r + P)         the robot's travel during its reaction time (and a period P it
+                                moves at once when its command acts, `actuation_period`)
     S_s = v_r^2 / (2 a)         the robot's stopping distance
 
 v_h follows ISO 13855 (eq. 1 there: S = K T + C): K = 2.0 m/s while K T <= 0.5 m, else
@@ -34,7 +35,9 @@ class SeparationParameters:
     """The terms of eq. (1)-(2) that do not depend on the robot's speed (SI units).
 
     reaction_time: T_r; deceleration: a of the stopping model; intrusion: C; robot_uncertainty:
-    Z_r; human_speed: v_h, or 0 for ISO 13855's rule. Z_d is per region, given with each call.
+    Z_r; human_speed: v_h, or 0 for ISO 13855's rule; actuation_period: P, a period the robot
+    travels at v before the next command can act (a controller whose override moves the robot a
+    whole period at once adds v P to S_r). Z_d is per region, given with each call.
     """
 
     reaction_time: float = 0.1
@@ -42,9 +45,10 @@ class SeparationParameters:
     intrusion: float = 0.05
     robot_uncertainty: float = 0.01
     human_speed: float = 0.0
+    actuation_period: float = 0.0
 
     def __post_init__(self):
-        for name in ("reaction_time", "intrusion", "robot_uncertainty", "human_speed"):
+        for name in ("reaction_time", "intrusion", "robot_uncertainty", "human_speed", "actuation_period"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0):
                 raise ValueError(f"SeparationParameters.{name} must be a finite number >= 0, got {value!r}")
@@ -102,7 +106,8 @@ def protective_separation(speed, params: SeparationParameters, z_d=0.0, covered_
             params.reaction_time + t_s - covered_time, 0.0)
     else:
         human = human_approach(params.reaction_time + t_s, params.human_speed)
-    return human + speed * params.reaction_time + s_s + params.intrusion + z_d + params.robot_uncertainty
+    return (human + speed * (params.reaction_time + params.actuation_period) + s_s + params.intrusion + z_d
+            + params.robot_uncertainty)
 
 
 def permissible_speed(distance, params: SeparationParameters, z_d=0.0, covered_time: float = 0.0):
@@ -117,7 +122,7 @@ def permissible_speed(distance, params: SeparationParameters, z_d=0.0, covered_t
         if high <= low:
             continue
         # v^2 / (2a) + v (K / a + T_r) + (K T_r + constant - d) = 0, the root v >= 0
-        b = k / a + t_r
+        b = k / a + t_r + params.actuation_period
         c = k * t_r + constant - d
         disc = np.maximum(b * b - 2.0 * c / a, 0.0)
         root = a * (np.sqrt(disc) - b)
