@@ -47,6 +47,21 @@ def test_stretched_arm_tangential_mass_worked_by_hand():
         L1, L2, M1, M2 = saved
 
 
+def test_the_drives_reflected_inertia_counts_in_the_effective_mass():
+    # unit links and masses, stretched (q2 = 0), along y at the tip: M = [[5, 2], [2, 1]] without
+    # drives (m_R = 1 kg, above). Each joint's drive: rotor 5e-5 kg m^2 behind a 100:1 gear
+    # reflects N^2 I_r = 0.5 kg m^2 onto its diagonal: M = [[5.5, 2], [2, 1.5]], det 4.25,
+    # J^T u = [2, 1], M^-1 J^T u = [1.0, 1.5] / 4.25, u^T J M^-1 J^T u = 3.5 / 4.25: m_R = 17/14 kg
+    plant, link2 = two_link_arm(1.0, 1.0, 1.0, 1.0, rotor_inertia=5e-5, gear_ratio=100.0)
+    context = plant.CreateDefaultContext()
+    assert effective_mass(plant, context, link2, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]) == pytest.approx(17 / 14)
+    kinematics = two_link_kinematics(plant, 1.0)
+    dynamics = RobotPointDynamics(plant, kinematics)
+    dynamics.set_state(np.zeros(2), np.zeros(2))
+    dynamics.capsules()
+    assert dynamics.effective_mass([0], [[2.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])[0] == pytest.approx(17 / 14)
+
+
 def test_the_cached_body_form_equals_the_point_jacobian_form():
     plant, link2 = two_link_arm(L1, L2, M1, M2)
     kinematics = two_link_kinematics(plant, L2)
