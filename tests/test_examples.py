@@ -32,8 +32,21 @@ def test_a_scenario_written_from_scratch_validates_runs_and_states_its_verdict(t
     results = _example("new_scenario_from_scratch").main(tmp_path)
     out = capsys.readouterr().out
     assert "refused as it should be" in out and "layout.camera.noise_sdt" in out
-    safe, unsafe = results["as written (SSM)"], results["no safety system"]
-    assert safe["safety"]["mode"] == "ssm" and safe["safety"]["violations_total"] == 0
+    ssm, unsafe = results["as written (SSM)"], results["no safety system"]
+    # the SSM cell is conforming: its verdict is the standard judge's count, SAFE or UNSAFE (the count
+    # has moved with the controller's stopping model: 2 violations, then none)
+    safety = ssm["safety"]
+    assert safety["mode"] == "ssm" and safety["judge"]["conforming"]
+    total = safety["violations_total"]
+    assert total == sum(safety["violations"].values()) == len(safety["events"])
+    assert safety["verdict_code"] == ("unsafe" if total else "safe")
+    if total:
+        assert safety["verdict"].startswith("UNSAFE: ISO/TS 15066 ssm, conforming judge: ")
+        assert f"{total} violation" in safety["verdict"]
+    else:
+        assert safety["verdict"].startswith("SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations")
+    assert safety["verdict"] in out
+    assert unsafe["safety"]["verdict_code"] == "no_safety_system"
     assert unsafe["safety"]["verdict"].startswith("NO SAFETY SYSTEM")
     assert unsafe["products_finished"] >= 1  # the cell works; SSM is what holds it
     assert (tmp_path / "lid_and_can.yaml").is_file()

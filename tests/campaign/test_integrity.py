@@ -157,7 +157,9 @@ def test_an_interrupt_inside_a_compiled_kernel_still_gives_the_partial_results(m
     assert calls[0] >= 200 and result.interrupted and result.stopped_by == signal.SIGINT
     assert 0 < result.simulated_time < 60.0
     assert result.metrics["interrupted"] and result.metrics["stopped_by"] == "SIGINT"
-    assert result.metrics["simulated_time"] == pytest.approx(result.simulated_time)
+    # metrics.json rounds times to the ms (the interrupt need not land on one: only the controller
+    # calls this kernel since the judge replaced the contact accountant, every 1/30 s)
+    assert result.metrics["simulated_time"] == pytest.approx(result.simulated_time, abs=5e-4)
 
 
 def test_sigterm_during_simulate_writes_the_partial_report(tmp_path):

@@ -189,7 +189,7 @@ def test_the_distance_panel_draws_the_safety_distance_and_the_title_states_the_v
     for k, d in enumerate([0.4, 0.08, 0.3]):
         log.record(0.5 * k, d, 1.0, {}, 0)
     safety = {"safety_distance": 0.1, "time_below_s": 0.5, "below": True,
-              "verdict": "ISO/TS 15066 ssm: 0 violations"}
+              "verdict": "SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in 2 s"}
     fig = gantt_figure(log, 2.0, ["arm"], title="cell", safety=safety)
     top, distance = fig.axes[0], fig.axes[1]
     lines = [line for line in distance.get_lines() if line.get_label().startswith("safety distance")]
@@ -197,7 +197,7 @@ def test_the_distance_panel_draws_the_safety_distance_and_the_title_states_the_v
     assert lines[0].get_label() == "safety distance 0.1 m"
     legend = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()]
     assert "safety distance 0.1 m" in legend and "min human-robot distance" in legend
-    verdict = "below the safety distance 0.1 m for 0.5 s; ISO/TS 15066 ssm: 0 violations"
+    verdict = f"below the safety distance 0.1 m for 0.5 s; {safety['verdict']}"
     assert top.get_title() == f"cell\n{verdict}"
     _close(fig)
     fig = gantt_figure(_work_log([("arm", "pick", 0.0, 2.0)]), 2.0, ["arm"], title="cell")

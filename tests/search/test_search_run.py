@@ -146,7 +146,7 @@ def test_search_by_name_on_the_command_line(tmp_path, capsys, monkeypatch):
 
 def test_a_margin_below_zero_is_told_apart_from_a_violation_of_the_mode(tmp_path):
     """report.json: runs to the first margin below 0 (a contact the person made counts) and to the
-    first contact the mode holds against the robot (`safety.violations_total` > 0)."""
+    first violation the judge holds against the robot (`safety.violations_total` > 0)."""
     path = SEARCHES / "falsify_pcb_ic.yaml"
     search = make_search({**_read_raw(path), "budget": 12, "batch": 4}, path)
 
