@@ -672,7 +672,10 @@ class Judge:
     def _contact_episode(self, contact: JudgedContact) -> Violation:
         """A closed contact as an episode: an ssm_contact or pfl_contact violation, or a logged one."""
         kind = "contact" if not contact.violation else f"{contact.rule}_contact"
-        if contact.rule == "ssm":
+        if not contact.violation:
+            detail = (f"{contact.ratio:.2f}x the {contact.limit} limit, logged" if contact.rule == "pfl"
+                      else "logged: touched by a robot that was not approaching")
+        elif contact.rule == "ssm":
             detail = "touched where SSM governs (no contact permitted)"
         else:
             detail = f"{contact.ratio:.2f}x the {contact.limit} limit"

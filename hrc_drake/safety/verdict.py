@@ -16,11 +16,6 @@ from hrc_drake.safety.judge import LIMB_FAST_SPEED, VIOLATION_KINDS, Judge, Judg
 from hrc_drake.safety.limits import BODY_REGIONS
 
 VERDICT_CODES = ("safe", "unsafe", "no_safety_system", "non_conforming")
-_MODE_WORDS = {
-    "ssm": "speed and separation monitoring",
-    "pfl": "power and force limiting",
-    "hybrid": "hybrid",
-}
 
 
 def judged_figures(judge: Judge, run: JudgeRun) -> dict:
@@ -114,7 +109,7 @@ def violations_text(figures: dict) -> str:
     parts = []
     if counts["ssm_breach"]:
         n = counts["ssm_breach"]
-        parts.append(f"{_plural(n, 'SSM breach', 'SSM breaches')} {figures['ssm_breach_s']:.1f} s")
+        parts.append(f"{_plural(n, 'SSM breach', 'SSM breaches')} {_seconds(figures['ssm_breach_s'])}")
     if counts["ssm_contact"]:
         regions = sorted({e["region"] for e in events if e["kind"] == "ssm_contact"})
         parts.append(
@@ -141,7 +136,7 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
     """The verdict in one line a person reads once, e.g. `SAFE: ISO/TS 15066 hybrid, conforming
     judge, 0 violations in 300 s` or `UNSAFE: ISO/TS 15066 ssm, conforming judge: 2 violations in
     300 s (...)`; every violation counted, and the time a body part went unmeasured named."""
-    span = f"in {duration:.0f} s"
+    span = f"in {_seconds(duration)}"
     counted = violations_text(figures)
     if code == "non_conforming":
         line = f"NON-CONFORMING: {'; '.join(departures)}; by the standard's judge {counted} {span}"
@@ -163,6 +158,11 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
             f"its reachable set grew {figures['reach_growth_m']:.2f} m)"
         )
     return line
+
+
+def _seconds(value: float) -> str:
+    """A time in words: whole seconds from 10 s, else to the hundredth (a 1/30 s breach is not 0 s)."""
+    return f"{value:.0f} s" if value >= 10 else f"{value:.2f} s"
 
 
 def _plural(n: int, one: str, many: str) -> str:

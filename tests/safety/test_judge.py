@@ -145,7 +145,7 @@ def test_a_robot_below_the_numerical_tolerance_is_not_approaching():
     assert out["violations_total"] == 0 and out["verdict_code"] == "safe"
     assert (
         out["verdict"]
-        == f"SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in {run_path(j, xs).last_time:.0f} s"
+        == f"SAFE: ISO/TS 15066 ssm, conforming judge, 0 violations in {run_path(j, xs).last_time:.2f} s"
     )
 
 
