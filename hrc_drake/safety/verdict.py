@@ -139,7 +139,8 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
     span = f"in {_seconds(duration)}"
     counted = violations_text(figures)
     if code == "non_conforming":
-        line = f"NON-CONFORMING: {'; '.join(departures)}; by the standard's judge {counted} {span}"
+        line = (f"NON-CONFORMING: ISO/TS 15066 {mode}, {'; '.join(departures)}; by the standard's judge "
+                f"{counted} {span}")
         if own is not None:
             line += f"; by its own model {violations_text(own)}"
     elif code == "no_safety_system":

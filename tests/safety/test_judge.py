@@ -392,7 +392,7 @@ def test_verdict_codes():
         j, run, "ssm", departures=("judge changed: reaction_time 0.01, not the standard's 0.1",)
     )
     assert changed["verdict_code"] == "non_conforming" and changed["verdict"].startswith(
-        "NON-CONFORMING: judge"
+        "NON-CONFORMING: ISO/TS 15066 ssm, judge changed: reaction_time 0.01"
     )
     assert changed["judge"]["conforming"] is False
 
