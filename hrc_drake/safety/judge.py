@@ -48,7 +48,7 @@ from hrc_drake.messages import Immutable
 from hrc_drake.safety import _kernels
 from hrc_drake.safety.config import LIMB_REGIONS, NO_CONTACT_REGIONS, Hybrid, NoSafety, PowerForceLimiting
 from hrc_drake.safety.limits import BODY_REGIONS, LimitsTable, load_limits
-from hrc_drake.safety.regions import FixedBox, clamped
+from hrc_drake.safety.regions import FixedBox
 from hrc_drake.traces import AppendOnly, DecimatedTrace
 
 #: ISO 13855:2010 eq. (1): the upper limbs' approach speed K while S <= 0.5 m ...
@@ -66,6 +66,8 @@ CONTACT_AREA = 1e-4
 CLAMP_MARGIN = 0.02
 #: m: a stop may travel this much beyond what S_p assumed before it counts (the samples' rounding).
 STOP_DISTANCE_TOLERANCE = 5e-4
+#: m/s: a stopping robot may be this much faster than braking at a from its command allows.
+STOP_SPEED_TOLERANCE = 0.01
 #: the kinds of violation, in the order the verdict lists them
 VIOLATION_KINDS = ("ssm_breach", "ssm_contact", "pfl_contact", "stop")
 
@@ -75,9 +77,10 @@ class JudgeValues:
     """The values the judge decides with (SI units); `standard_values` gives the conforming ones.
 
     reaction_time: T_r of the cell's sensing and control chain; deceleration: a of the robot's
-    stop; limb_speed / body_speed: v_h of hands and arms (0: ISO 13855's rule) and of head and
-    torso; covered_time: H of a motion model whose swept volumes hold the person's next H s (0 for
-    the standard: S_h = v_h max(T_r + T_s - H, 0)); the rest as the module's constants.
+    stop; actuation_period: the part of T_r after a stop command (the path follower's period);
+    limb_speed / body_speed: v_h of hands and arms (0: ISO 13855's rule) and of head and torso;
+    covered_time: H of a motion model whose swept volumes hold the person's next H s (0 for the
+    standard: S_h = v_h max(T_r + T_s - H, 0)); the rest as the module's constants.
     """
 
     reaction_time: float
@@ -90,6 +93,7 @@ class JudgeValues:
     transient_duration: float = TRANSIENT_DURATION
     contact_area: float = CONTACT_AREA
     clamp_margin: float = CLAMP_MARGIN
+    actuation_period: float = 1.0 / 30.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -100,10 +104,18 @@ class JudgeValues:
             raise ValueError(f"JudgeValues.deceleration must be > 0, got {self.deceleration!r}")
 
 
-def standard_values(reaction_time: float, deceleration: float) -> JudgeValues:
-    """The conforming judge of a cell whose chain reacts in `reaction_time` s and whose robot
-    stops at `deceleration` m/s^2: ISO 13855's speeds, Annex A's packaged tables."""
-    return JudgeValues(reaction_time=reaction_time, deceleration=deceleration, limits=load_limits())
+def standard_values(
+    reaction_time: float, deceleration: float, actuation_period: float = 1.0 / 30.0
+) -> JudgeValues:
+    """The conforming judge of a cell whose chain reacts in `reaction_time` s (its last part, the
+    path follower's period after a command, `actuation_period`) and whose robot stops at
+    `deceleration` m/s^2: ISO 13855's speeds, Annex A's packaged tables."""
+    return JudgeValues(
+        reaction_time=reaction_time,
+        deceleration=deceleration,
+        limits=load_limits(),
+        actuation_period=actuation_period,
+    )
 
 
 def deviations(values: JudgeValues, standard: JudgeValues) -> tuple[str, ...]:
@@ -179,7 +191,8 @@ def declared_mode(config, zones=None) -> DeclaredMode:
     radii = np.asarray(radii, dtype=float).reshape(-1)
     contact_regions = frozenset(r for r in BODY_REGIONS if r not in NO_CONTACT_REGIONS)
     if isinstance(config, Hybrid):
-        return DeclaredMode("hybrid", frozenset(config.pfl_regions) - set(NO_CONTACT_REGIONS), centers, radii)
+        # hybrid: hands and arms may take contact in the zones, head and torso never (SSM)
+        return DeclaredMode("hybrid", frozenset(config.pfl_regions) & set(LIMB_REGIONS), centers, radii)
     if isinstance(config, PowerForceLimiting) or isinstance(config, NoSafety):
         return DeclaredMode("pfl", contact_regions, centers, radii)
     return DeclaredMode("ssm", frozenset(), centers, radii)
@@ -233,8 +246,10 @@ class JudgedContact(Immutable):
     clamped_against: str = ""
     #: time it became quasi-static (clamped or past the transient duration); nan while transient
     quasi_since: float = math.nan
-    #: depth the robot pressed since it became quasi-static (m)
+    #: depth the robot pressed since the onset, at most the overlap (m)
     compression: float = 0.0
+    #: time over its limit (s): the samples over it, each for its interval
+    over_limit: float = 0.0
     penetration: float = 0.0
 
     def as_dict(self) -> dict:
@@ -245,7 +260,10 @@ class JudgedContact(Immutable):
 class Stop(Immutable):
     """A protective stop as measured: commanded at `onset` with the fastest point at `speed`;
     `distance` and `time` the fastest point travelled and moved since; `assumed_*` what S_p took
-    (T_r + V/a and V T_r + V^2/(2a)); `ended`: the robot was at rest (or the stop released)."""
+    after the command (the follower's period P, then the brake: P + V/a and V P + V^2/(2a); the
+    rest of T_r came before the command); `speed_ratio` the largest of the fastest point's speed
+    over what braking at a from the command allows (V - a (t - P), with a 1 cm/s tolerance);
+    `ended`: the command was released."""
 
     onset: float
     speed: float
@@ -253,16 +271,20 @@ class Stop(Immutable):
     assumed_distance: float
     distance: float = 0.0
     time: float = 0.0
+    speed_ratio: float = 0.0
     ended: bool = False
 
     def ratio(self, period: float) -> float:
-        """Measured / assumed, the larger of distance and time, each assumed with its rounding
-        tolerance (0.5 mm; one sample `period`): above 1 exactly when the stop overran."""
-        return max(self.distance / (self.assumed_distance + STOP_DISTANCE_TOLERANCE),
-                   self.time / (self.assumed_time + period + 1e-9))
+        """Measured / assumed, the largest of distance, time and speed, each assumed with its rounding
+        tolerance (0.5 mm; one sample `period`; 1 cm/s): above 1 exactly when the stop overran."""
+        return max(
+            self.distance / (self.assumed_distance + STOP_DISTANCE_TOLERANCE),
+            self.time / (self.assumed_time + period + 1e-9),
+            self.speed_ratio,
+        )
 
     def overran(self, period: float) -> bool:
-        """Longer than S_p assumed: further by more than the tolerance, or later by over a sample."""
+        """Longer than S_p assumed: further, later or faster than braking at a allows."""
         return self.ratio(period) > 1.0
 
 
@@ -331,6 +353,11 @@ class Judge:
         self.arm_masses = np.asarray(arm_masses, dtype=float)
         self.payloads = np.zeros(len(self.link_names)) if payloads is None else np.asarray(payloads, float)
         self.fixed_boxes = tuple(fixed_boxes)
+        halves = [np.multiply(b.size, 0.5) for b in self.fixed_boxes]
+        self._boxes = (
+            np.array([np.subtract(b.center, h) for b, h in zip(self.fixed_boxes, halves, strict=True)]),
+            np.array([np.add(b.center, h) for b, h in zip(self.fixed_boxes, halves, strict=True)]),
+        )
         table = values.limits
         self._human_mass = np.array([table[name].effective_mass for name in self.regions])
         self._stiffness = np.array([table[name].spring_constant for name in self.regions])
@@ -366,7 +393,7 @@ class Judge:
             geometry = _kernels.pair_geometry(
                 robot, robot_velocity, regions, np.ascontiguousarray(k), np.ascontiguousarray(r)
             )
-            t, surface, on_body, direction, _, approach = geometry
+            t, surface, on_body, direction, velocity, approach = geometry
             pfl = self.mode.governed_by_pfl(self.pfl_region[r], 0.5 * (surface + on_body))
             gap = distance[k, r]
             sp = protective_separation(approach, fastest, self.body_region[r], self.values)
@@ -386,7 +413,6 @@ class Judge:
                     pending, time, dt, int(k[waiting]), int(r[waiting]), float(gap[waiting] - sp[waiting])
                 )
             contacts, closed = self._contact_step(
-                run,
                 time,
                 dt,
                 k,
@@ -394,11 +420,7 @@ class Judge:
                 gap < 0.0,
                 pfl,
                 gap,
-                t,
-                surface,
-                on_body,
-                direction,
-                approach,
+                geometry,
                 body_velocity,
                 robot,
                 regions,
@@ -526,7 +548,6 @@ class Judge:
 
     def _contact_step(
         self,
-        run,
         time,
         dt,
         k,
@@ -534,18 +555,16 @@ class Judge:
         touching,
         pfl,
         gap,
-        t,
-        surface,
-        on_body,
-        direction,
-        approach,
+        geometry,
         body_velocity,
         robot,
         regions,
         effective_mass,
         contacts,
     ):
-        """Follow every contact a sample: open, judge, close; (open contacts, closed episodes)."""
+        """Follow every contact a sample: open, judge, close; (open contacts, closed episodes).
+        geometry: the pairs' (t, robot surface point, body point, direction, velocity, approach)."""
+        t, surface, on_body, direction, velocity, approach = geometry
         out, closed = {}, []
         now = set()
         for n in np.nonzero(touching)[0].tolist():
@@ -569,6 +588,7 @@ class Judge:
                 -float(gap[n]),
                 robot_mass,
                 against,
+                float(np.linalg.norm(velocity[n])),
             )
         for key, contact in contacts.items():
             if key not in now:
@@ -586,21 +606,26 @@ class Judge:
         return max(plant, 0.5 * float(self.arm_masses[k])) + float(self.payloads[k])
 
     def clamped_against(self, k: int, radius: float, body_point, direction, robot) -> str:
-        """What clamps a body part of `radius` pushed by robot capsule k along `direction` (unit,
-        robot -> body): a fixed box, or another robot capsule (another robot, a cart, the robot's
-        own other links), within its radius + `clamp_margin` behind its axis point; "" if none."""
-        reach = radius + self.values.clamp_margin
+        """What clamps a body part (a ball of `radius` at its axis point) pushed by robot capsule k
+        along `direction` (unit, robot -> body): a rigid body the ball, pushed `clamp_margin` on,
+        would reach and come nearer to; a fixed box (table, occluder), or another robot capsule
+        (another robot, a cart, the robot's own other links); "" if none."""
         point = np.reshape(np.asarray(body_point, dtype=float), (1, 3))
-        u = np.reshape(np.asarray(direction, dtype=float), (1, 3))
-        for box in self.fixed_boxes:
-            if clamped(point, u, np.array([radius]), (box,), self.values.clamp_margin)[0]:
+        moved = point + self.values.clamp_margin * np.reshape(np.asarray(direction, dtype=float), (1, 3))
+        if self.fixed_boxes:
+            lower, upper = self._boxes
+            now, then = (
+                np.linalg.norm(np.maximum(lower - p, 0.0) + np.maximum(p - upper, 0.0), axis=1)
+                for p in (point, moved)
+            )
+            if np.any((then < radius) & (then < now - 1e-9)):
                 return "a fixed surface"
         start, end, radii = robot
-        probe_end = point + reach * u
-        gaps = capsule_clearances(point, probe_end, np.zeros(1), start, end, radii)[0]
-        gaps[k] = np.inf
-        j = int(np.argmin(gaps))
-        return self.link_names[j] if gaps[j] <= 0.0 else ""
+        ball = np.array([radius])
+        now, then = (capsule_clearances(p, p, ball, start, end, radii)[0] for p in (point, moved))
+        behind = (then < 0.0) & (then < now - 1e-9)
+        behind[k] = False
+        return self.link_names[int(np.argmax(behind))] if behind.any() else ""
 
     def judge_contact(
         self,
@@ -614,15 +639,19 @@ class Judge:
         depth: float,
         robot_mass: float,
         against: str,
+        robot_speed: float | None = None,
     ) -> JudgedContact:
-        """The contact after one sample: its limit (transient for the first `transient_duration` of a
-        free contact, quasi-static once clamped or later), the peak force v_rel sqrt(mu k) (eq. A.3)
-        while the robot approaches, the spring force k x the depth pressed since it turned
-        quasi-static, and the worst ratio to the limit (force, and pressure over 1 cm^2)."""
+        """The contact after one sample. Its limit: transient for the first `transient_duration` of a
+        free contact, quasi-static once clamped or later. Its forces: the peak force v_rel sqrt(mu k)
+        (eq. A.3) while the robot moves, and, once quasi-static, the spring force k x the depth the
+        robot pressed since the onset (its approach over each interval, at most the overlap); the
+        ratio to the limit (force, and pressure over 1 cm^2). robot_speed: the robot point's speed
+        (None: its approach): a robot at rest is not held to a contact the person made."""
         k, r = key
         values = self.values
         region = values.limits[self.regions[r]]
-        moving = robot_approach > values.approach_tolerance
+        speed = robot_approach if robot_speed is None else robot_speed
+        moving = speed > values.approach_tolerance
         relative = max(robot_approach + human_approach, 0.0)
         if contact is None:
             contact = JudgedContact(
@@ -643,15 +672,16 @@ class Judge:
         if math.isnan(quasi_since) and (against or time - contact.onset > values.transient_duration):
             quasi_since = time
         quasi = not math.isnan(quasi_since)
-        # the depth the robot pressed the held part (its approach over the sample's interval), no
-        # more than the overlap: the person's own pressing on is not the robot's doing
-        compression = min(contact.compression + max(robot_approach, 0.0) * dt, depth) if quasi else 0.0
+        # the depth the robot pressed (its approach over each interval), no more than the overlap: the
+        # person's own pressing on is not the robot's doing
+        compression = min(contact.compression + max(robot_approach, 0.0) * dt, depth)
         mu = 1.0 / (1.0 / region.effective_mass + 1.0 / robot_mass)
         peak = relative * math.sqrt(mu * region.spring_constant) if moving else 0.0  # eq. (A.3)
-        spring = region.spring_constant * compression
+        spring = region.spring_constant * compression if quasi else 0.0
         force = max(peak, spring)
         ratio = _limit_ratio(region, force, quasi, values.contact_area)
-        violation = contact.violation or (rule == "pfl" and ratio > 1.0) or (rule == "ssm" and moving)
+        over = rule == "pfl" and ratio > 1.0
+        violation = contact.violation or over or (rule == "ssm" and moving)
         worse = ratio > contact.ratio
         return replace(
             contact,
@@ -667,14 +697,18 @@ class Judge:
             quasi_since=quasi_since,
             compression=compression,
             penetration=max(contact.penetration, depth),
+            over_limit=contact.over_limit + (max(elapsed, dt) if over else 0.0),
         )
 
     def _contact_episode(self, contact: JudgedContact) -> Violation:
         """A closed contact as an episode: an ssm_contact or pfl_contact violation, or a logged one."""
         kind = "contact" if not contact.violation else f"{contact.rule}_contact"
         if not contact.violation:
-            detail = (f"{contact.ratio:.2f}x the {contact.limit} limit, logged" if contact.rule == "pfl"
-                      else "logged: touched by a robot that was not approaching")
+            detail = (
+                f"{contact.ratio:.2f}x the {contact.limit} limit, logged"
+                if contact.rule == "pfl"
+                else "logged: touched by a robot that was not approaching"
+            )
         elif contact.rule == "ssm":
             detail = "touched where SSM governs (no contact permitted)"
         else:
@@ -699,22 +733,28 @@ class Judge:
         """The protective stop under way after this sample, measured on the truth. A robot's pose at
         a sample already holds the motion its command of that sample makes (the path follower
         advances a period at each tick): a stop begins where the command turns to a stop, from the
-        fastest point's speed at the sample before, and counts the motion seen from that sample on;
-        it ends when the robot is at rest or the command is released (that sample's motion is the
-        released command's)."""
+        fastest point's speed at the sample before, and counts the motion seen from that sample on,
+        every sample while the command lasts (a robot that moves again under it overruns); it ends
+        when the command is released (that sample's motion is the released command's)."""
         stop = run.stop
-        tolerance = self.values.approach_tolerance
+        values = self.values
         if stop is None:
             if not commanded or run.commanded:
                 return None
-            a, t_r = self.values.deceleration, self.values.reaction_time
+            a, period = values.deceleration, values.actuation_period
             speed = run.last_fastest
-            moving = fastest > tolerance
-            return Stop(time, speed, t_r + speed / a, speed * t_r + speed * speed / (2.0 * a),
-                        distance=fastest * dt, time=dt if moving else 0.0, ended=not moving)
-        if not commanded or fastest <= tolerance:
+            stop = Stop(time, speed, period + speed / a, speed * period + speed * speed / (2.0 * a))
+        elif not commanded:
             return replace(stop, ended=True)
-        return replace(stop, distance=stop.distance + fastest * dt, time=time - stop.onset + dt)
+        elapsed = time - stop.onset
+        allowed = max(stop.speed - values.deceleration * (elapsed - values.actuation_period), 0.0)
+        moving = fastest > values.approach_tolerance
+        return replace(
+            stop,
+            distance=stop.distance + fastest * dt,
+            time=elapsed + dt if moving else stop.time,
+            speed_ratio=max(stop.speed_ratio, fastest / (allowed + STOP_SPEED_TOLERANCE)),
+        )
 
     def _unobserved_step(self, run: JudgeRun, time, dt, measured):
         """(when each skeleton point was last measured, the time some point was not, the longest time
@@ -738,18 +778,7 @@ class Judge:
         stops = list(run.stops) + ([run.stop] if run.stop is not None else [])
         period = self.sample_period(run)
         episodes += [
-            Violation(
-                "stop",
-                s.onset,
-                s.time,
-                "robot",
-                "",
-                "",
-                s.ratio(period),
-                True,
-                f"{s.distance * 1000:.1f} mm in {s.time:.2f} s where S_p assumed "
-                f"{s.assumed_distance * 1000:.1f} mm in {s.assumed_time:.2f} s",
-            )
+            Violation("stop", s.onset, s.time, "robot", "", "", s.ratio(period), True, _stop_words(s))
             for s in stops
             if s.overran(period)
         ]
@@ -765,6 +794,17 @@ class Judge:
     def sample_period(run: JudgeRun) -> float:
         """The mean time between the run's samples (0 before two)."""
         return 0.0 if run.samples < 2 else run.last_time / max(run.samples - 1, 1)
+
+
+def _stop_words(stop: Stop) -> str:
+    """How a stop overran, in words."""
+    words = (
+        f"{stop.distance * 1000:.1f} mm in {stop.time:.2f} s where S_p assumed "
+        f"{stop.assumed_distance * 1000:.1f} mm in {stop.assumed_time:.2f} s"
+    )
+    if stop.speed_ratio > 1.0:
+        words += f"; {stop.speed_ratio:.2f}x the speed braking at a allows"
+    return words
 
 
 def _merged(first: Violation, then: Violation | None) -> Violation:

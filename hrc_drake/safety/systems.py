@@ -20,7 +20,7 @@ from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, Valu
 from pydrake.systems.primitives import MatrixGain
 
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
-from hrc_drake.safety.config import NoSafety, mode_name
+from hrc_drake.safety.config import LIMB_REGIONS, Hybrid, NoSafety, mode_name
 from hrc_drake.safety.judge import (
     LIMB_FAST_SPEED,
     WALKING_SPEED,
@@ -514,6 +514,11 @@ def controller_departures(config) -> tuple[str, ...]:
     if 0 < config.human_speed < LIMB_FAST_SPEED:
         out.append(f"the controller's v_h of hands and arms is {config.human_speed:g} m/s, below ISO 13855's "
                    f"{LIMB_FAST_SPEED:g} m/s")
+    if isinstance(config, Hybrid):
+        torso = sorted(set(config.pfl_regions) - set(LIMB_REGIONS))
+        if torso:
+            out.append(f"the controller lets {', '.join(torso)} take contact under hybrid, where the judge "
+                       "holds head and torso to SSM")
     body = config.body_speed or config.human_speed
     if 0 < body < WALKING_SPEED:
         out.append(f"the controller's v_h of head and torso is {body:g} m/s, below ISO 13855's "
