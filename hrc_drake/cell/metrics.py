@@ -313,16 +313,24 @@ def detection_summary(events, perceived_events) -> dict:
     return {k: (round(v, 4) if isinstance(v, float) and np.isfinite(v) else v) for k, v in quality.items()}
 
 
-def write_events_csv(path: Path, events, perceived_events=()) -> None:
+def write_events_csv(path: Path, events, perceived_events=(), violations=()) -> None:
     """Every event in time order, one global `seq` (the row number); `source` says "truth" (what
-    the agents did) or "perceived" (the action detector), `source_seq` the source's own seq."""
-    rows = [(e, "truth") for e in events] + [(e, "perceived") for e in perceived_events]
-    rows.sort(key=lambda row: (row[0].time, row[1] != "truth", _agent_of(row[0]), row[0].seq))
+    the agents did), "perceived" (the action detector) or "judge" (a violation of the ISO/TS 15066
+    judge, metrics.json's `safety.events`: agent the robot link, action the body part, kind the
+    violation's kind, with its duration and words), `source_seq` the source's own seq."""
+    order = {"truth": 0, "perceived": 1, "judge": 2}
+    rows = [(e.time, "truth", _agent_of(e), e.action, e.kind, e.seq, "", "") for e in events]
+    rows += [(e.time, "perceived", _agent_of(e), e.action, e.kind, e.seq, "", "") for e in perceived_events]
+    rows += [(float(v["onset"]), "judge", v["link"], v["body_part"], v["kind"], n, v["duration"],
+              f"{v['region']}: {v['detail']}" if v["region"] else v["detail"])
+             for n, v in enumerate(violations, start=1)]
+    rows.sort(key=lambda row: (row[0], order[row[1]], row[2], row[5]))
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["time", "agent", "action", "kind", "seq", "source", "source_seq"])
-        for k, (e, source) in enumerate(rows, start=1):
-            writer.writerow([f"{e.time:.3f}", _agent_of(e), e.action, e.kind, k, source, e.seq])
+        writer.writerow(["time", "agent", "action", "kind", "seq", "source", "source_seq", "duration",
+                         "detail"])
+        for k, (time, source, agent, action, kind, source_seq, duration, detail) in enumerate(rows, 1):
+            writer.writerow([f"{time:.3f}", agent, action, kind, k, source, source_seq, duration, detail])
 
 
 #: the Gantt chart's palette: one colour per action of the scenario's action list, in that

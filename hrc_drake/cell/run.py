@@ -207,7 +207,8 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     metrics_path = out_dir / "metrics.json"
     metrics_path.write_text(json.dumps({"run": run_header(cell, result), **result.metrics}, indent=2))
     events_path = out_dir / "events.csv"
-    write_events_csv(events_path, result.log.events, result.log.perceived_events)
+    write_events_csv(events_path, result.log.events, result.log.perceived_events,
+                     (result.metrics.get("safety") or {}).get("events", ()))
     gantt_path = out_dir / "gantt.png"
     title = cell.scenario.description or "cell"
     plot_gantt(gantt_path, result.log, result.simulated_time, cell.agents, title=title,

@@ -257,3 +257,23 @@ def test_the_collaboration_figure_names_its_colours():
     for handle in legend.legend_handles[:3]:
         assert tuple(to_rgba(handle.get_facecolor())[:3]) in plotted
     _close(fig)
+
+
+def test_events_csv_holds_the_judges_violations_in_time_order(tmp_path):
+    import csv
+
+    from hrc_drake.cell.metrics import write_events_csv
+
+    events = [HumanEvent(1.0, "torch", "begin", 1), RobotEvent(2.0, "arm", "clock", "begin", 1)]
+    violation = {"kind": "ssm_breach", "onset": 1.5, "duration": 0.0333, "link": "yumi/gripper_r_base",
+                 "body_part": "left_hand", "region": "hand_fingers", "worst": -0.02, "violation": True,
+                 "detail": "0.020 m inside S_p, \"quoted\""}
+    path = tmp_path / "events.csv"
+    write_events_csv(path, events, (), [violation])
+    rows = list(csv.DictReader(path.open()))
+    assert [r["source"] for r in rows] == ["truth", "judge", "truth"]
+    judged = rows[1]
+    assert (judged["time"], judged["agent"], judged["action"], judged["kind"]) == (
+        "1.500", "yumi/gripper_r_base", "left_hand", "ssm_breach")
+    assert judged["duration"] == "0.0333" and judged["detail"] == 'hand_fingers: 0.020 m inside S_p, "quoted"'
+    assert [int(r["seq"]) for r in rows] == [1, 2, 3] and rows[0]["duration"] == ""
