@@ -91,7 +91,7 @@ class ArmPath:
         a, b = self.points[segment], self.points[segment + 1]
         T = self.move_times[segment]
         tau = phase / T
-        if tau >= 1.0:
+        if tau >= 1.0 or tau < 0.0:  # done, or held before its start (`PathFollower.hold_new_paths`)
             return np.zeros_like(a)
         return (b - a) * 30.0 * tau**2 * (1.0 - tau) ** 2 / T
 

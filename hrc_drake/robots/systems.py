@@ -41,8 +41,10 @@ class PathFollower(LeafSystem):
     "velocities_full_ahead" (nq,): the velocities at full speed `lookahead` s of path time after the
     last tick (a path accelerating from rest: what a safety controller's reaction time may reach).
     hold_new_paths: a path starts moving one tick after it was requested, so that a safety
-    controller's override (applied a tick later) has seen it (else its first tick runs at the
-    override computed without it: the robot accelerates from rest within the reaction time).
+    controller's override has seen it (else its first period runs at an override computed without
+    it: the robot accelerates from rest within the reaction time). Each tick advances the paths by
+    the time since the last tick at the override applied then, and applies the new override to
+    the next period: positions are continuous in time.
     Positions are evaluated at the context time, extrapolated from the last tick with the
     override then applied, so they stay smooth between ticks.
 
@@ -140,15 +142,20 @@ class PathFollower(LeafSystem):
                 start = x[self._start]
                 start[idx] = q[idx]
                 x[self._start] = start
-                x[k], x[k + 2], x[k + 3] = request.seq, 0.0, 0.0
+                # a held path starts a period before its start: it moves from the next tick, under an
+                # override that has seen it
+                x[k], x[k + 2], x[k + 3] = request.seq, 0.0, -self.period if self.hold_new_paths else 0.0
         override = self._override.Eval(context)[0] if self._override.HasValue(context) else 1.0
         override = float(override)
         applied = min(max(override, 0.0), 1.0) if math.isfinite(override) else 0.0
+        # the motion since the last tick, at the override applied then: the arms' positions are
+        # continuous in time (the outputs extrapolate from the last tick at that override)
+        elapsed = max(context.get_time() - x[1], 0.0) * x[0]
         for arm, path, segment, phase in self._active(x, requests):
-            if self.hold_new_paths and arm in started:
-                continue  # it moves from the next tick, under an override that has seen it
+            if arm in started:
+                continue  # nothing of a path started now has elapsed
             k = self._arm0 + 4 * arm
-            segment, phase, finished = path.progress_after(segment, phase, self.period * applied)
+            segment, phase, finished = path.progress_after(segment, phase, elapsed)
             q[self.arm_indices[arm]] = path.position_at(segment, phase)
             x[k + 2], x[k + 3] = segment, phase
             if finished:

@@ -127,7 +127,7 @@ def violations_text(figures: dict) -> str:
     if counts["stop"]:
         parts.append(
             f"{_plural(counts['stop'], 'stop', 'stops')} longer than S_p assumed "
-            f"(worst {figures['stop_ratio_worst']:.2f}x)"
+            f"(worst {figures['stop_ratio_worst']:.3f}x)"
         )
     return f"{_plural(total, 'violation', 'violations')} ({', '.join(parts)})"
 
