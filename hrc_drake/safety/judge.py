@@ -312,6 +312,8 @@ class JudgeRun(Immutable):
     margin: float = math.inf
     #: whether the controller commanded a protective stop at the last sample
     commanded: bool = False
+    #: the robot's fastest end point's speed at the last sample (m/s)
+    last_fastest: float = 0.0
     #: when each skeleton point was last measured (the run's start before it ever was)
     last_measured: tuple = (0.0,) * 8
     unobserved_time: float = 0.0
@@ -463,6 +465,7 @@ class Judge:
             run.breach_time + sum(e.duration for e in episodes if e.kind == "ssm_breach"),
             margin,
             bool(stop_commanded),
+            fastest,
             last_measured,
             unobserved,
             longest,
@@ -728,24 +731,26 @@ class Judge:
 
     def _stop_step(self, run: JudgeRun, time, dt, fastest, commanded) -> Stop | None:
         """The protective stop under way after this sample, measured on the truth. The judge samples
-        before the systems' updates at its time: the command it reads was decided a period before,
-        and the motion it sees was commanded a period before that. So a stop begins at the first
-        sample its command is read, from the speed seen there (the last motion commanded before it),
-        and counts the motion seen from the next sample on, every sample while the command lasts
-        and the one where it is read released (a robot that moves again under it overruns)."""
+        before the systems' updates at its time: the command it reads and the motion it sees since
+        the last sample were both decided at the last sample. So a stop begins at the first sample
+        its command is read, from the speed seen at the sample before, and counts the motion seen
+        from that sample on, every sample while the command lasts (a robot that moves again under
+        it overruns); it ends at the sample the command is read released (that motion is the
+        released command's)."""
         stop = run.stop
         values = self.values
         if stop is None:
             if not commanded or run.commanded:
                 return None
-            a, period = values.deceleration, values.actuation_period
-            return Stop(time, fastest, period + fastest / a, fastest * period + fastest * fastest / (2.0 * a))
-        elapsed = time - stop.onset
+            a, period, speed = values.deceleration, values.actuation_period, run.last_fastest
+            stop = Stop(time, speed, period + speed / a, speed * period + speed * speed / (2.0 * a))
+        elif not commanded:
+            return replace(stop, ended=True)
+        elapsed = time - stop.onset + dt  # the motion seen now ends `elapsed` after the command
         allowed = max(stop.speed - values.deceleration * (elapsed - values.actuation_period), 0.0)
         moving = fastest > values.approach_tolerance
         return replace(stop, distance=stop.distance + fastest * dt, time=elapsed if moving else stop.time,
-                       speed_ratio=max(stop.speed_ratio, fastest / (allowed + STOP_SPEED_TOLERANCE)),
-                       ended=not commanded)
+                       speed_ratio=max(stop.speed_ratio, fastest / (allowed + STOP_SPEED_TOLERANCE)))
 
     def _unobserved_step(self, run: JudgeRun, time, dt, measured):
         """(when each skeleton point was last measured, the time some point was not, the longest time

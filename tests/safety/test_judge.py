@@ -164,7 +164,7 @@ def _stopping_path(stop_delay_samples, deceleration=5.0):
     for i in range(90):
         if x - HAND_RADIUS - TOOL_RADIUS < 0.7 and stop_at is None:
             stop_at = i + stop_delay_samples
-        if stop_at is not None and i >= stop_at:
+        if stop_at is not None and i + 1 >= stop_at:  # the motion seen from the command's sample on
             v = max(v - deceleration * DT, 0.0)
         commanded.append(stop_at is not None and i >= stop_at)
         xs.append(x)
@@ -182,8 +182,8 @@ def test_a_timely_protective_stop_excuses_the_breach_and_a_late_one_does_not():
     out = figures(j, run_path(j, late_xs, stop=late_stop), "ssm")
     assert out["violations"]["ssm_breach"] == 1
     # the late stop excuses nothing: the 6 samples before it and its braking while still inside
-    # the shrinking S_p count (S_p(1/3 m/s) = 0.333 + 0.033 + 0.011 = 0.378 m; 4 samples of braking)
-    assert out["ssm_breach_s"] == pytest.approx(10 * DT, abs=1e-3)
+    # the shrinking S_p count (3 samples of braking)
+    assert out["ssm_breach_s"] == pytest.approx(9 * DT, abs=1e-3)
 
 
 def test_a_timely_stop_that_brakes_too_slowly_excuses_no_more_than_s_p_assumed():
@@ -212,7 +212,7 @@ def test_a_stop_slower_than_s_p_assumed_is_a_violation():
     for i in range(60):
         stop.append(i >= 5)
         xs.append(x)
-        if i >= 5:
+        if i >= 4:  # the motion seen from the command's sample (5) on brakes
             v = max(v - 2.0 * DT, 0.0)
         x -= v * DT
     j = judge(SpeedSeparationMonitoring())
@@ -224,7 +224,7 @@ def test_a_stop_slower_than_s_p_assumed_is_a_violation():
     xs, x, v = [], 5.0, 1.0
     for i in range(60):
         xs.append(x)
-        if i >= 5:
+        if i >= 4:
             v = max(v - 5.0 * DT, 0.0)
         x -= v * DT
     out = figures(j, run_path(j, xs, stop=stop), "ssm")
