@@ -358,9 +358,6 @@ class Judge:
             np.array([np.subtract(b.center, h) for b, h in zip(self.fixed_boxes, halves, strict=True)]),
             np.array([np.add(b.center, h) for b, h in zip(self.fixed_boxes, halves, strict=True)]),
         )
-        table = values.limits
-        self._human_mass = np.array([table[name].effective_mass for name in self.regions])
-        self._stiffness = np.array([table[name].spring_constant for name in self.regions])
 
     # -- one sample ---------------------------------------------------------------------------
 
@@ -428,22 +425,10 @@ class Judge:
                 contacts,
             )
             episodes += closed
-        if pending is not None and (worst is not None or waiting is None):
-            # T_r is over, or the breach over: without a protective stop begun in time it counts
-            stopped = (
-                stop is not None
-                and not stop.ended
-                and stop.onset <= pending.onset + self.values.reaction_time
-            )
-            if not stopped:
-                breach = _merged(pending, breach)
-                if worst is None:
-                    episodes.append(breach)
-                    breach = None
-            pending = None
-        if worst is None and breach is not None:  # no unexcused breach now: the one under way ends
-            episodes.append(breach)
-            breach = None
+        breach, pending, ended = self._settle_breaches(
+            breach, pending, worst is not None, waiting is not None, stop
+        )
+        episodes += ended
         last_measured, unobserved, longest = self._unobserved_step(run, time, dt, measured)
         stops = run.stops
         if stop is not None and stop.ended:
@@ -508,6 +493,25 @@ class Judge:
             elif worst is None or margins[n] < margins[worst]:
                 worst = n
         return inside, worst, waiting
+
+    def _settle_breaches(self, breach, pending, breaching: bool, waiting: bool, stop):
+        """(breach under way, pending breach, closed breaches) after a sample: a pending breach whose
+        T_r is over, or that is over, counts unless a protective stop began within T_r of it; a
+        breach with no unexcused sample now ends."""
+        closed = []
+        if pending is not None and (breaching or not waiting):
+            stopped = (
+                stop is not None
+                and not stop.ended
+                and stop.onset <= pending.onset + self.values.reaction_time
+            )
+            if not stopped:
+                breach = _merged(pending, breach)
+            pending = None
+        if not breaching and breach is not None:
+            closed.append(breach)
+            breach = None
+        return breach, pending, closed
 
     def _excused(self, stop: Stop | None, onset: float) -> bool:
         """A breach is excused while a protective stop is under way that began within T_r of the
@@ -749,8 +753,12 @@ class Judge:
         elapsed = time - stop.onset + dt  # the motion seen now ends `elapsed` after the command
         allowed = max(stop.speed - values.deceleration * (elapsed - values.actuation_period), 0.0)
         moving = fastest > values.approach_tolerance
-        return replace(stop, distance=stop.distance + fastest * dt, time=elapsed if moving else stop.time,
-                       speed_ratio=max(stop.speed_ratio, fastest / (allowed + STOP_SPEED_TOLERANCE)))
+        return replace(
+            stop,
+            distance=stop.distance + fastest * dt,
+            time=elapsed if moving else stop.time,
+            speed_ratio=max(stop.speed_ratio, fastest / (allowed + STOP_SPEED_TOLERANCE)),
+        )
 
     def _unobserved_step(self, run: JudgeRun, time, dt, measured):
         """(when each skeleton point was last measured, the time some point was not, the longest time
