@@ -230,7 +230,6 @@ class JudgedContact(Immutable):
     body_part: str
     region: str
     rule: str
-    last: float
     duration: float = 0.0
     #: relative and robot approach speeds at the onset
     relative_speed: float = 0.0
@@ -409,20 +408,9 @@ class Judge:
                 pending = self._breach_sample(
                     pending, time, dt, int(k[waiting]), int(r[waiting]), float(gap[waiting] - sp[waiting])
                 )
+            touching = (gap < 0.0, pfl, gap, geometry, body_velocity)
             contacts, closed = self._contact_step(
-                time,
-                dt,
-                k,
-                r,
-                gap < 0.0,
-                pfl,
-                gap,
-                geometry,
-                body_velocity,
-                robot,
-                regions,
-                effective_mass,
-                contacts,
+                time, dt, k, r, touching, robot, regions, effective_mass, contacts
             )
             episodes += closed
         breach, pending, ended = self._settle_breaches(
@@ -550,24 +538,11 @@ class Judge:
 
     # -- contacts -------------------------------------------------------------------------------
 
-    def _contact_step(
-        self,
-        time,
-        dt,
-        k,
-        r,
-        touching,
-        pfl,
-        gap,
-        geometry,
-        body_velocity,
-        robot,
-        regions,
-        effective_mass,
-        contacts,
-    ):
+    def _contact_step(self, time, dt, k, r, pairs, robot, regions, effective_mass, contacts):
         """Follow every contact a sample: open, judge, close; (open contacts, closed episodes).
-        geometry: the pairs' (t, robot surface point, body point, direction, velocity, approach)."""
+        pairs: (touching, governed by PFL, clearance, geometry, the body's velocity) of the pairs,
+        geometry their (t, robot surface point, body point, direction, velocity, approach)."""
+        touching, pfl, gap, geometry, body_velocity = pairs
         t, surface, on_body, direction, velocity, approach = geometry
         out, closed = {}, []
         now = set()
@@ -664,7 +639,6 @@ class Judge:
                 self.region_names[r],
                 self.regions[r],
                 "pfl" if pfl else "ssm",
-                time,
                 relative_speed=relative,
                 robot_speed=robot_approach,
                 robot_mass=robot_mass,
@@ -690,7 +664,6 @@ class Judge:
         return replace(
             contact,
             rule=rule,
-            last=time,
             duration=contact.duration + elapsed,
             ratio=max(ratio, contact.ratio),
             force=force if worse else contact.force,

@@ -50,7 +50,6 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
         "closest_approach_m": None if not math.isfinite(run.min_clearance) else round(run.min_clearance, 4),
         "events": [e.as_dict() for e in violations],
         "contacts": [c.as_dict() for c in contacts],
-        "_episodes": episodes,
     }
 
 
@@ -70,7 +69,6 @@ def summarize(
     every way the run's judge or controller departs from the standard (non-conforming); own: the
     changed judge (the scenario's `judge:` block, or the controller's own model) and its run."""
     figures = judged_figures(judge, run)
-    figures.pop("_episodes")
     if departures:
         code = "non_conforming"
     elif mode == "none":
@@ -80,8 +78,7 @@ def summarize(
     own_figures = None
     if own is not None:
         own_figures = judged_figures(*own)
-        for key in ("_episodes", "contacts"):
-            own_figures.pop(key)
+        own_figures.pop("contacts")
     return {
         "mode": mode,
         "standard": judge.values.limits.source,

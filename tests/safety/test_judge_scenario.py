@@ -16,6 +16,7 @@ from hrc_drake.cell.scenario import (
     load_scenario_with,
     safety_departures,
 )
+from tests.safety.test_judge import graded_by_itself
 
 REPO = Path(__file__).resolve().parents[2]
 TORCH = REPO / "diagrams" / "torch_clock.yaml"  # hybrid, camera at 30 Hz, controller at 30 Hz
@@ -55,30 +56,7 @@ def test_a_controller_assuming_a_slow_person_is_non_conforming():
 
 
 def test_a_changed_judge_is_non_conforming_and_names_every_change(tmp_path):
-    table = {
-        "standard": "my table",
-        "regions": {
-            name: {
-                "force": 1000,
-                "transient_factor": 2,
-                "spring_constant": 1,
-                "effective_mass": 0.01,
-                "areas": {"a": 1000},
-            }
-            for name in (
-                "skull_forehead",
-                "face",
-                "neck",
-                "back_shoulders",
-                "chest",
-                "abdomen",
-                "pelvis",
-                "upper_arm_elbow",
-                "lower_arm_wrist",
-                "hand_fingers",
-            )
-        },
-    }
+    table = graded_by_itself()
     scenario = tmp_path / "cell.yaml"
     (tmp_path / "mine.yaml").write_text(yaml.safe_dump(table))
     scenario.write_text(
