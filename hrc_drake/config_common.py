@@ -32,6 +32,8 @@ MAX_SEGMENT_LENGTH = 1.0
 MAX_CAMERA_NOISE = 0.5
 #: parts in a buffer (capacity or initial) and units of a shared resource
 MAX_PARTS = 10_000
+#: one part's mass (kg): the heaviest payload of a collaborative robot's arm is well below it
+MAX_PART_MASS = 100.0
 #: the time step of a dynamic plant (s): below 0.5 ms a cell runs slower than real time
 MIN_TIME_STEP, MAX_TIME_STEP = 5e-4, 0.05
 #: the minimum human-robot distance a cell must keep, for reports (m)

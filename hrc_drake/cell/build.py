@@ -425,6 +425,28 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
 
+def capsule_payloads(scenario: Scenario, plant, capsule_kin) -> np.ndarray:
+    """m_L (K,) of each robot capsule: the payload of the arm whose chain moves it
+    (`scenario.arm_payloads`), 0 for a capsule no arm moves (a robot's body)."""
+    from hrc_drake.cell.scenario import arm_payloads
+    from hrc_drake.robots.registry import get_robot_model
+
+    payload = arm_payloads(scenario)
+    bodies = [int(b) for b in capsule_kin.capsule_bodies]
+    out = np.zeros(len(bodies))
+    for robot in scenario.robots:
+        instance = plant.GetModelInstanceByName(robot.name)
+        model = get_robot_model(robot.model)
+        for arm in robot.arms:
+            first = plant.GetJointByName(model.arm(arm.arm).joints[0], instance)
+            moved = {int(b) for b in plant.GetBodiesKinematicallyAffectedBy([first.index()])}
+            carried = payload.get(arm.agent, 0.0)
+            for k, body in enumerate(bodies):
+                if body in moved:
+                    out[k] = max(out[k], carried)
+    return out
+
+
 def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower,
                 positions_port, estimate_port, human_capsules, systems) -> None:
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
@@ -449,7 +471,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         velocities_full_ahead=follower.GetOutputPort("velocities_full_ahead"),
         skeleton_estimate=estimate_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
-        judge_values=standard, judge_changes=changed,
+        judge_values=standard, judge_changes=changed, payloads=capsule_payloads(scenario, plant, capsule_kin),
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
         swept_horizon=float(getattr(scenario.motion_model, "horizon", 0.0)),
         camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)

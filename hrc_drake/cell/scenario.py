@@ -27,6 +27,7 @@ from hrc_drake.config_common import (
     MAX_CELL_COORDINATE,
     MAX_GOAL_RADIUS,
     MAX_OBJECT_SIZE,
+    MAX_PART_MASS,
     MAX_PARTS,
     MAX_SAFETY_DISTANCE,
     MAX_SEGMENT_LENGTH,
@@ -510,6 +511,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         if b.kind == "intermediate" and b.capacity < 1:
             raise ScenarioError(file, f"layout.buffers[{i}].capacity", f"must be >= 1, got {b.capacity}")
         _in_range(file, f"layout.buffers[{i}].capacity", b.capacity, 0, MAX_PARTS, "parts")
+        _in_range(file, f"layout.buffers[{i}].part_mass", b.part_mass, 0.0, MAX_PART_MASS, "kg")
         if b.initial < 0 or b.initial > MAX_PARTS or (b.kind == "intermediate" and b.initial > b.capacity):
             raise ScenarioError(
                 file, f"layout.buffers[{i}].initial", f"must be in 0..capacity, got {b.initial}"
@@ -847,6 +849,18 @@ def judge_values(sc: Scenario, file):
         if value is not None:
             values = replace(values, **{renamed.get(name, name): float(value)})
     return standard, values
+
+
+def arm_payloads(sc: Scenario) -> dict[str, float]:
+    """m_L of each agent (kg): the heaviest part (`Buffer.part_mass`) among the buffers its flow
+    actions take parts from or put parts into (ISO/TS 15066 eq. A.5: the payload the arm carries)."""
+    masses = {b.name: float(b.part_mass) for b in sc.layout.buffers}
+    out: dict[str, float] = {}
+    for action in sc.flow.actions:
+        handled = [masses.get(name, 0.0) for name in (*action.inputs, *action.outputs)]
+        for agent in action.agents:
+            out[agent] = max(out.get(agent, 0.0), *handled, 0.0)
+    return out
 
 
 def safety_departures(sc: Scenario, file) -> list[str]:

@@ -73,8 +73,8 @@ class SpeedSeparationMonitoring:
     uncertainty_sigmas: float = 3.0
     #: Z_d (m) with position_uncertainty: fixed.
     fixed_uncertainty: float = 0.05
-    #: Largest Z_d (m) from a spread (a lost point's grows without bound); an arm point beyond it
-    #: is bounded by its parent joint's reach instead (`regions.reach_bounded`).
+    #: An arm point whose Z_d exceeds this (m) is bounded by its parent joint's reach instead
+    #: (`regions.reach_bounded`); no Z_d is capped: a point unmeasured for t s grows by v_h t.
     max_uncertainty: float = 0.3
     #: Largest Z_d (m) of a head the camera lost while it sees the thorax ("camera" source): the
     #: head is carried with the thorax at its last measured offset, and the neck moves it at most

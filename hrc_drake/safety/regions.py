@@ -91,32 +91,32 @@ ARM_CHAINS = (((2, 4, 6), (2, 4)), ((3, 5, 7), (3, 5)))
 
 
 def reach_bounded(start, end, radius, point_uncertainty, cap: float, upper_arm: float, forearm_reach: float):
-    """Body capsules (6, 3), (6, 3), (6,) and their uncertainty (6,) with every lost arm point
-    bounded by the body's reach instead of a capped spread.
+    """Body capsules (6, 3), (6, 3), (6,) and their uncertainty (6,) as reachable sets (issue 51,
+    item 5): a part not measured for t s may be anywhere within its last position plus v_h t, with
+    no cap, bounded by the body's reach where that is tighter.
 
-    A point whose uncertainty (m, (8,), inf when lost) exceeds `cap` may be anywhere its parent
-    joint lets it reach: a lost wrist within `forearm_reach` (forearm + hand) of a placed elbow,
-    a lost elbow within `upper_arm` of a placed shoulder (and its hand within upper_arm +
+    An arm point whose uncertainty (m, (8,), inf when lost) exceeds `cap` may be anywhere its
+    parent joint lets it reach: a lost wrist within `forearm_reach` (forearm + hand) of its elbow,
+    a lost elbow within `upper_arm` of its shoulder (and its hand within upper_arm +
     forearm_reach). The capsules they place become spheres of that reach around the parent, with
-    the parent's uncertainty: a reachable set, as sara-shield bounds a human it cannot see (a
-    Kalman filter's prediction of a hidden hand drifts away from it). Other capsules take the
-    largest uncertainty of their points, at most `cap`."""
+    the parent's own uncertainty, uncapped (a lost shoulder's grows too): a reachable set, as
+    sara-shield bounds a human it cannot see (a Kalman filter's prediction of a hidden hand drifts
+    away from it). Other capsules take the largest uncertainty of their points, uncapped."""
     start, end = np.array(start, dtype=float), np.array(end, dtype=float)
     radius = np.array(radius, dtype=float)
     u = np.asarray(point_uncertainty, dtype=float)
     per_capsule = np.array([max(u[list(CAPSULE_POINTS[name])]) for name in BODY_CAPSULES])
     for (shoulder, elbow, wrist), (upper, fore) in ARM_CHAINS:
-        if u[elbow] > cap and u[shoulder] <= cap:
+        if u[elbow] > cap:
             end[upper] = start[upper]
             start[fore] = end[fore] = start[upper]
             radius[fore] += upper_arm + forearm_reach
             radius[upper] += upper_arm
             per_capsule[upper] = per_capsule[fore] = u[shoulder]
-        elif u[wrist] > cap and u[elbow] <= cap:
+        elif u[wrist] > cap:
             end[fore] = start[fore]
             radius[fore] += forearm_reach
             per_capsule[fore] = u[elbow]
-    per_capsule = np.minimum(np.where(np.isfinite(per_capsule), per_capsule, cap), cap)
     return start, end, radius, per_capsule
 
 
@@ -124,10 +124,10 @@ def lost_capsules(point_uncertainty, cap: float) -> np.ndarray:
     """(6,) whether each body capsule is a reachable set in `reach_bounded` (a lost arm point)."""
     u = np.asarray(point_uncertainty, dtype=float)
     lost = np.zeros(len(BODY_CAPSULES), dtype=bool)
-    for (shoulder, elbow, wrist), (upper, fore) in ARM_CHAINS:
-        if u[elbow] > cap and u[shoulder] <= cap:
+    for (_, elbow, wrist), (upper, fore) in ARM_CHAINS:
+        if u[elbow] > cap:
             lost[upper] = lost[fore] = True
-        elif u[wrist] > cap and u[elbow] <= cap:
+        elif u[wrist] > cap:
             lost[fore] = True
     return lost
 

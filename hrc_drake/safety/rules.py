@@ -95,12 +95,14 @@ class SafetyRules:
     regions: the ISO region name of each region capsule (`RegionCapsules.regions`); zones:
     (centers (Z, 3), radii (Z,)) of the collaborative zones (hybrid); fixed_boxes: the cell's
     fixed surfaces (`FixedBox`) for clamping; arm_masses: M of the arm of each robot capsule (K,)
-    for the "iso" robot mass; compiled: the kernels of `safety._kernels` (False: numpy, the
+    for the "iso" robot mass; payloads: m_L of the arm of each robot capsule (K,), the parts it
+    carries (the config's `payload` is the least); compiled: the kernels of `safety._kernels` (False: numpy, the
     reference they are tested against).
     """
 
     def __init__(self, config, limits: LimitsTable | None, regions: tuple[str, ...], zones=None,
-                 fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None, compiled: bool = True):
+                 fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None, compiled: bool = True,
+                 payloads=None):
         self.config = config
         self.compiled = bool(compiled)
         self.mode = mode_name(config)
@@ -145,6 +147,7 @@ class SafetyRules:
                                        p.human_speed, p.actuation_period])
                              for p in (self.separation, self.body_separation))
         self.arm_masses = None if arm_masses is None else np.asarray(arm_masses, dtype=float)
+        self.payloads = None if payloads is None else np.asarray(payloads, dtype=float)
         self.contact_area = (config.contact_area * 1e-4 if config.contact_area > 0 else None) if self.pfl \
             else None
         if limits is not None:
@@ -220,6 +223,8 @@ class SafetyRules:
         """m_R (N,) of each pair: the plant's along u (`effective_mass(k, points, u)`, vectorised over
         the pairs), or the standard's M/2 + m_L; plus the payload."""
         payload = self.config.payload
+        if self.payloads is not None:
+            payload = np.maximum(payload, self.payloads[pairs.k])
         if self.config.robot_mass == "iso":
             if self.arm_masses is None:
                 raise ValueError("SafetyRules: the 'iso' robot mass needs the arms' masses")

@@ -214,8 +214,9 @@ class HumanRegions:
         lost is held where it was last seen, and may have moved v_h x that time since).
         head_offset: head - thorax when both were last measured: a lost head (the robot's arm
         between camera and face) is carried with the measured thorax, its Z_d growing at v_h up to
-        `lost_head_uncertainty` (the neck's own motion), not to `max_uncertainty`. A lost arm
-        point is bounded by its parent's reach (`regions.reach_bounded`)."""
+        `lost_head_uncertainty` (the neck's own motion). A lost arm point is bounded by its
+        parent's reach (`regions.reach_bounded`); every other point's Z_d grows at v_h with no cap
+        (issue 51, item 5: a person the camera lost for 10 s may be 20 m away)."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
@@ -235,6 +236,13 @@ class HumanRegions:
             return self.cutter.cut(start, end, radius), z_d, np.full(len(self.cutter), np.nan)
         if config.position_uncertainty == "tracker":
             uncertainty = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
+            if unseen is not None:
+                # a point the camera has not measured for t s may be v_h t away, whatever the
+                # tracker's model predicts (its spread of a hidden point grows at its own rate)
+                moved = self.lost_speed * unseen
+                if head_carried:
+                    moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
+                uncertainty = np.fmax(uncertainty, moved)
         else:  # camera
             uncertainty = np.full(8, config.uncertainty_sigmas * self.camera_noise)
             if unseen is not None:
@@ -253,7 +261,9 @@ class HumanRegions:
             start, end, radius, uncertainty, config.max_uncertainty, self.body.upper_arm,
             self.body.forearm + self.body.hand_length)
         regions = self.cutter.cut(start, end, radius)
-        z_d = self.cutter.region_uncertainty(per_capsule)
+        # a point never measured or without a spread may be anywhere: a finite stand-in beyond
+        # any cell keeps the separation arithmetic free of inf - inf
+        z_d = self.cutter.region_uncertainty(np.minimum(per_capsule, ANYWHERE))
         return regions, z_d, np.where(lost, own_radius, np.nan)
 
 
@@ -265,6 +275,9 @@ def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
     index = np.array([names[BODY_CAPSULES[c.capsule]] for c in cutter.cuts])
     return (np.asarray(swept.start)[index], np.asarray(swept.end)[index], np.asarray(swept.radius)[index])
 
+
+#: Z_d (m) of a body point that may be anywhere (never measured, no spread): beyond any cell
+ANYWHERE = 1000.0
 
 #: the controller's discrete state: [override applied, safety command, protective stops, stopped
 #: flag, binding clearance, S_p of the binding pair], then the time each skeleton point was last
@@ -556,7 +569,7 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     config.validate("safety")
     region_names = RegionCapsules().regions
     masses = arm_masses(plant, kinematics.capsule_bodies)
-    rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses)
+    rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses, payloads=payloads)
     input_size = positions.size()
     controller = None
     # one for both systems: they read the same positions at most samples (`RobotPointDynamics`)

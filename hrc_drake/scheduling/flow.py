@@ -24,6 +24,9 @@ class Buffer:
     capacity: int = 1
     initial: int = 0
     position: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    #: mass of one part held here (kg): an arm that takes parts from or puts parts into this
+    #: buffer carries up to this payload, m_L of ISO/TS 15066 eq. (A.5)
+    part_mass: float = 0.0
 
 
 @dataclass

@@ -153,7 +153,7 @@ def test_regions_of_an_estimate_with_nothing_lost_are_reach_bounded_s(source):
         estimate = SkeletonEstimate(points=points, spread=spread)
         got_regions, got_z, got_lost = regions(estimate, unseen)
         if source == "tracker":
-            uncertainty = config.uncertainty_sigmas * spread
+            uncertainty = np.maximum(config.uncertainty_sigmas * spread, regions.lost_speed * unseen)
         else:
             uncertainty = config.uncertainty_sigmas * 0.01 + regions.lost_speed * unseen
         if lost_capsules(uncertainty, config.max_uncertainty).any():
@@ -188,3 +188,24 @@ def test_body_capsules_from_points_by_floats_equal_the_numpy_form():
         floats, numpy_form = body.capsules_from_points(points), body._capsules_from_points_numpy(points)
         for x, y in zip(floats, numpy_form, strict=True):
             np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("source", ["tracker", "camera"])
+def test_a_person_lost_for_10_s_may_be_20_m_away(source):
+    """Issue 51, item 5: no cap on a lost person's Z_d. The whole skeleton unmeasured for 10 s (a
+    tracker still holding it with a 5 cm spread): every region's Z_d is 2.0 m/s x 10 s = 20 m
+    (the camera source adds its 3 sigma x 1 cm); each arm a sphere of its reach around its lost
+    shoulder, with the shoulder's 20 m."""
+    from hrc_drake.human.body import BodyModel
+    from hrc_drake.messages import SkeletonEstimate
+    from hrc_drake.safety.systems import HumanRegions
+
+    body = BodyModel()
+    regions = HumanRegions(body, Hybrid(position_uncertainty=source), camera_noise=0.01)
+    points = body.points(body.rest_q((0.9, 0.0), np.pi))
+    estimate = SkeletonEstimate(points=points, spread=np.full(8, 0.05))
+    _, z_d, lost = regions(estimate, np.full(8, 10.0))
+    expected = 20.0 + (0.03 if source == "camera" else 0.0)
+    np.testing.assert_allclose(z_d, expected)
+    arms = np.array([cut.capsule in (2, 3, 4, 5) for cut in regions.cutter.cuts])  # both arms' capsules
+    assert np.isfinite(lost[arms]).all() and np.isnan(lost[~arms]).all()

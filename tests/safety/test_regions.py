@@ -79,7 +79,7 @@ def test_a_lost_wrist_is_anywhere_its_elbow_lets_it_reach():
         assert radius[capsule] == placed[2][capsule]
 
 
-def test_a_lost_elbow_bounds_the_whole_arm_by_the_shoulder_and_a_lost_shoulder_is_capped():
+def test_a_lost_elbow_bounds_the_whole_arm_by_the_shoulder_and_a_lost_shoulder_grows_uncapped():
     uncertainty = np.full(8, 0.02)
     uncertainty[[4, 6]] = [0.5, np.inf]  # the left elbow and wrist are lost
     body, points, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
@@ -88,9 +88,20 @@ def test_a_lost_elbow_bounds_the_whole_arm_by_the_shoulder_and_a_lost_shoulder_i
         assert per_capsule[capsule] == pytest.approx(0.02)
     assert radius[2] == pytest.approx(placed[2][2] + body.upper_arm)
     assert radius[4] == pytest.approx(placed[2][4] + body.upper_arm + body.forearm + body.hand_length)
-    uncertainty[2] = np.inf  # no placed joint to bound it: the capped spread
+    # the shoulder unmeasured for 5 s at 2.0 m/s: the arm's spheres keep their reach around its
+    # last position, with its 10 m growth (no cap at 0.3 m; issue 51, item 5)
+    uncertainty[2] = 10.0
     _, _, _, (start, _, radius, per_capsule) = _reach_bounded(uncertainty)
-    assert per_capsule[2] == per_capsule[4] == pytest.approx(0.3)
+    assert per_capsule[2] == per_capsule[4] == pytest.approx(10.0)
+    assert np.allclose(start[4], points[2])
+    assert radius[4] == pytest.approx(placed[2][4] + body.upper_arm + body.forearm + body.hand_length)
+
+
+def test_a_lost_thorax_grows_without_a_cap():
+    uncertainty = np.full(8, 0.02)
+    uncertainty[0] = 20.0  # the thorax unmeasured for 10 s at 2.0 m/s
+    _, _, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
+    assert per_capsule[0] == pytest.approx(20.0)
     assert np.array_equal(radius, placed[2])
 
 
