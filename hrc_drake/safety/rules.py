@@ -96,8 +96,8 @@ class SafetyRules:
     (centers (Z, 3), radii (Z,)) of the collaborative zones (hybrid); fixed_boxes: the cell's
     fixed surfaces (`FixedBox`) for clamping; arm_masses: M of the arm of each robot capsule (K,)
     for the "iso" robot mass; payloads: m_L of the arm of each robot capsule (K,), the parts it
-    carries (the config's `payload` is the least); compiled: the kernels of `safety._kernels` (False: numpy, the
-    reference they are tested against).
+    carries (the config's `payload` is the least); compiled: the kernels of `safety._kernels`
+    (False: numpy, the reference they are tested against).
     """
 
     def __init__(self, config, limits: LimitsTable | None, regions: tuple[str, ...], zones=None,

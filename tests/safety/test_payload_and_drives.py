@@ -61,7 +61,7 @@ def test_the_judge_and_the_controller_of_a_built_cell_carry_the_parts():
     monitor = cell.diagram.GetSubsystemByName("safety_monitor")
     judge = monitor.judges[0]
     names = list(judge.link_names)
-    payload = dict(zip(names, judge.payloads))
+    payload = dict(zip(names, judge.payloads, strict=True))
     assert payload["yumi/gripper_r_base"] == pytest.approx(0.05)
     assert payload["yumi/yumi_link_3_r"] == pytest.approx(0.05)
     assert payload["yumi/yumi_body"] == 0.0  # welded: no arm moves it
