@@ -11,14 +11,22 @@ contacts, and the CPU share of the PFL part of the safety controller (effective 
 permissible speeds).
 
     python tools/bench_safety.py --quick            # 20 s runs, one seed: under 5 minutes
-    python tools/bench_safety.py --duration 300 --seeds 3
+    python tools/bench_safety.py --duration 300 --seeds 2 --declared-seeds 5 \
+        --falsify OUT/falsify_pcb_ic/report.json ...   # issue 51's bench (about an hour on 2 cores)
     python tools/bench_safety.py diagrams/torch_clock.yaml --modes declared,none
 
 Last line: one JSON object with `cells_with_violations` (cells in whose declared mode the standard
 judge finds violations), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
 null: no contact), `products.<cell>.<mode>` and `cycle_s.<cell>.<mode>` (means over the seeds),
 `stops.<cell>.<mode>`, `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
-declared mode), `pfl_speed_mps.<region>` and `pfl_speed_quasi_static_mps.<region>` (eq. A.6 for
+declared mode), `judge_cpu_share.<cell>` (CPU share of the judge, the `SafetyMonitor`),
+`ssm_breach_s.<cell>` (declared mode, summed over the seeds), `verdict.<cell>` (the worst seed's
+code) and `verdicts.<cell>`, `stop_ratio_worst.<cell>` (measured / assumed stopping distance or
+time, worst over the seeds; null: no stop), `effective_mass_kg.gripper` (the YuMi's right gripper
+at its home pose along +x, the plant with the URDF's drives; `gripper_min`, `gripper_max` over
+directions, `iso` the standard's M/2), `falsify.<cell>.violations` and `.verdict` (the judged worst
+candidate of each `--falsify` report) and `.candidates_with_violations.<search>`,
+`pfl_speed_mps.<region>` and `pfl_speed_quasi_static_mps.<region>` (eq. A.6 for
 m_R = 3 kg), `effective_mass_us` (one evaluation on a fresh YuMi state: Jacobian, mass matrix,
 factorisation) and `effective_mass_cached_us` (another point of the same body and state).
 """
@@ -67,12 +75,30 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     from hrc_drake.cell.run import simulate
     from hrc_drake.cell.scenario import load_scenario_with
     from hrc_drake.safety import rules
+    from hrc_drake.safety.systems import SafetyMonitor
 
     warnings.filterwarnings("ignore")
     scenario = load_scenario_with(path, mode_overrides(path, mode))
     scenario.seed = int(seed)
-    cell = build_cell(scenario, path)
     pfl_time = [0.0]
+    judge_time = [0.0]
+
+    def judged(function):
+        def wrapper(*args, **kwargs):
+            start = time.thread_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                judge_time[0] += time.thread_time() - start
+        return wrapper
+
+    # the monitor binds its periodic event at construction: time it from there
+    original_record = SafetyMonitor._record
+    SafetyMonitor._record = judged(original_record)
+    try:
+        cell = build_cell(scenario, path)
+    finally:
+        SafetyMonitor._record = original_record
 
     def timed(function):
         def wrapper(*args, **kwargs):
@@ -96,6 +122,8 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     ratios = [v for v in safety["worst_ratio"].values() if v != 0.0]  # 0: no contact with that region
     return {"scenario": Path(path).stem, "mode": mode, "declared": safety["mode"], "seed": scenario.seed,
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
+            "judge_share": round(judge_time[0] / cpu, 4) if cpu > 0 else None,
+            "stop_ratio_worst": safety.get("stop_ratio_worst"),
             "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
             "verdict": safety["verdict_code"], "violations": safety["violations_total"],
             "by_kind": safety["violations"],
@@ -207,6 +235,10 @@ def main() -> None:
                         help="runs per (cell, mode): the scenario's seed, then seed + 1, ... (default 2)")
     parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {MODES}")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--declared-seeds", type=int, default=None,
+                        help="runs of the declared mode (default: --seeds)")
+    parser.add_argument("--falsify", nargs="*", default=(), metavar="REPORT",
+                        help="report.json files of falsification searches, for the falsify.* keys")
     parser.add_argument("--quick", action="store_true", help="20 s runs, one seed (under 5 minutes)")
     args = parser.parse_args()
     if args.quick:
@@ -221,7 +253,8 @@ def main() -> None:
     jobs = []
     for path in paths:
         base_seed = load_scenario(path).seed
-        jobs += [(str(path), mode, base_seed + k, args.duration) for mode in modes for k in range(args.seeds)]
+        jobs += [(str(path), mode, base_seed + k, args.duration) for mode in modes
+                 for k in range((args.declared_seeds or args.seeds) if mode == "declared" else args.seeds)]
     print(f"{len(jobs)} runs of {args.duration:.0f} s on {args.workers} workers ...", flush=True)
     print(f"{'scenario':<24} {'mode':<9} {'seed':>4} {'products':>8} {'cycle s':>8} {'violations':>10} "
           f"{'worst':>6} {'stops':>6} {'breach s':>8} {'contacts':>8} {'PFL cpu':>7} {'cpu s':>6}",
@@ -239,6 +272,69 @@ def main() -> None:
                   f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}",
                   flush=True)
     print(json.dumps(figures(rows, args)))
+
+
+#: verdict codes from the worst: a cell's verdict over its seeds is its worst seed's
+VERDICT_ORDER = ("unsafe", "non_conforming", "no_safety_system", "safe")
+
+
+def worst_verdict(codes) -> str:
+    """The worst of a cell's verdict codes over its seeds (`VERDICT_ORDER`)."""
+    codes = list(codes)
+    return min(codes, key=VERDICT_ORDER.index) if codes else None
+
+
+def gripper_effective_mass() -> dict:
+    """m_R (kg) of the YuMi's right gripper (its tool point) at torch_clock's home pose from the
+    plant with the drives of the URDF: `gripper` along +x (toward an operator across the table),
+    `gripper_min` and `gripper_max` over 2000 directions, and `iso` the standard's M/2 of that arm."""
+    import numpy as np
+
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.robots.models import RobotCapsuleKinematics
+    from hrc_drake.robots.registry import get_robot_model
+    from hrc_drake.safety.systems import RobotPointDynamics, arm_masses
+
+    path = REPO / "diagrams" / "torch_clock.yaml"
+    scenario = load_scenario(path)
+    plant = build_cell(scenario, path).plant
+    robot = scenario.robots[0]
+    instance = plant.GetModelInstanceByName(robot.name)
+    kinematics = RobotCapsuleKinematics(plant, [(instance, robot.model)])
+    dynamics = RobotPointDynamics(plant, kinematics)
+    q = plant.GetPositions(plant.CreateDefaultContext())
+    poses = {p.name: p for p in robot.poses}
+    model = get_robot_model(robot.model)
+    for arm in robot.arms:
+        for name, value in zip(model.arm(arm.arm).joints, poses[arm.home].joints, strict=True):
+            q[plant.GetJointByName(name, instance).position_start()] = value
+    dynamics.set_state(q, np.zeros(plant.num_velocities()))
+    (_, ends, _), _ = dynamics.capsules()
+    k = list(dynamics.names).index(f"{robot.name}/gripper_r_base")
+    directions = np.random.default_rng(0).normal(size=(2000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    points = np.repeat(ends[k][None], len(directions), 0)
+    masses = dynamics.effective_mass(np.full(len(directions), k), points, directions)
+    along_x = float(dynamics.effective_mass([k], ends[k][None], np.array([[1.0, 0.0, 0.0]]))[0])
+    iso = 0.5 * float(arm_masses(plant, kinematics.capsule_bodies)[k])
+    return {"gripper": round(along_x, 3), "gripper_min": round(float(masses.min()), 3),
+            "gripper_max": round(float(masses.max()), 3), "iso": round(iso, 3)}
+
+
+def falsified(report_path: Path) -> dict:
+    """falsify.<cell>.* of a falsification search's report.json (`hrc-drake search ... --out DIR`):
+    the standard judge's violations of its worst candidate run again (`violations`, `verdict`), and
+    the candidates the judge found violations in, per search (optimiser, random)."""
+    report = json.loads(report_path.read_text())
+    cell = report["name"].removeprefix("falsify_")
+    worst = report.get("worst_replay") or {}
+    out = {f"falsify.{cell}.violations": worst.get("violations"),
+           f"falsify.{cell}.verdict": worst.get("verdict")}
+    for label, search in report.get("searches", {}).items():
+        out[f"falsify.{cell}.candidates_with_violations.{label}"] = search.get("candidates_with_violations")
+        out[f"falsify.{cell}.candidates.{label}"] = search.get("candidates")
+    return out
 
 
 def figures(rows: list[dict], args) -> dict:
@@ -264,6 +360,16 @@ def figures(rows: list[dict], args) -> dict:
         out[key] = {c: {m: mean(r[field] for r in rows if r["scenario"] == c and r["mode"] == m)
                         for m in sorted({r["mode"] for r in rows if r["scenario"] == c})} for c in cells}
     out["pfl_share"] = {c: mean(r["pfl_share"] for r in rs) for c, rs in declared.items() if rs}
+    out["judge_cpu_share"] = {c: mean(r["judge_share"] for r in rs) for c, rs in declared.items() if rs}
+    out["ssm_breach_s"] = {c: round(sum(r["breach_s"] for r in rs), 3) for c, rs in declared.items() if rs}
+    out["verdict"] = {c: worst_verdict(r["verdict"] for r in rs) for c, rs in declared.items() if rs}
+    out["verdicts"] = {c: [r["verdict"] for r in rs] for c, rs in declared.items() if rs}
+    out["stop_ratio_worst"] = {c: max((r["stop_ratio_worst"] for r in rs
+                                       if r["stop_ratio_worst"] is not None),
+                                      default=None) for c, rs in declared.items() if rs}
+    out["effective_mass_kg"] = gripper_effective_mass()
+    for report in getattr(args, "falsify", None) or ():
+        out.update(falsified(Path(report)))
     transient, quasi = pfl_speeds(3.0)
     out["pfl_speed_mps"] = transient
     out["pfl_speed_quasi_static_mps"] = quasi

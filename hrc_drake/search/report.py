@@ -94,6 +94,9 @@ def finish_search(search, out_dir: Path, outcome, evaluator, progress) -> dict:
             "runs_to_first_mode_violation": runs_to_first_violation(
                 results, search, label, is_mode_violation
             ),
+            "candidates_with_violations": int(sum(
+                is_mode_violation(row) for _, row in results[results["search"] == label].iterrows()
+                if row["status"] == "ok")),
             "top": _candidates(top, search),
         }
     plots.plot_history(results, search, out_dir / "history.png")
@@ -182,6 +185,9 @@ def _replay_worst(search, out_dir: Path, row, evaluator, progress) -> dict:
         "variant": row["variant"],
         "seed": task.seed,
         "objective": _plain(outcome["row"].get(metric)),
+        # the standard judge's count and verdict of the worst candidate, run again
+        "violations": _plain(outcome["row"].get("safety.violations_total")),
+        "verdict": outcome["row"].get("safety.verdict_code"),
         "replay": str(path) if outcome.get("replay_html") else None,
         "error": outcome["row"].get("error", ""),
     }
