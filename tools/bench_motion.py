@@ -10,8 +10,9 @@ Sequences: simulated operators (`SyntheticOperator`, skeleton points -> body-mod
 the LEGO arm trajectories of data/lego_assembly_arm (or $HRC_DRAKE_DATA) (camera frame -> world frame,
 IK with head missing; the frame rate is not stated: 15 Hz assumed).
 
-The cycle-time comparison runs the Drake cell of diagrams/box_pcb_coexistence.yaml with model C
-and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
+The cycle-time comparison runs the Drake cell of
+diagrams/variants/box_pcb_coexistence_swept_volumes.yaml (the thesis's SSM on the swept volumes)
+with model C and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
 between consecutive ends of L_store, reported with the true minimum human-robot distance.
 
 With --sweep-hyperparameters, only model C with its kernel's hyperparameters re-optimised at
@@ -552,7 +553,8 @@ def main() -> None:
         print(f"violations (model C, P=4): distance of real arm points outside the swept volumes: "
               f"{figures['violation_distance_m']}")
 
-    scenario = REPO / "diagrams" / "box_pcb_coexistence.yaml"
+    # the thesis's experiment: SSM on the swept volumes (the shipped cell runs ISO 13855's speeds)
+    scenario = REPO / "diagrams" / "variants" / "box_pcb_coexistence_swept_volumes.yaml"
     if args.no_cell or not scenario.exists():
         print(f"cycle-time comparison on {scenario.name}: switched off")
         figures["cycle_time"] = None

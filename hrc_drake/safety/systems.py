@@ -295,8 +295,9 @@ class SafetyController(LeafSystem):
     `human_motion: swept_volumes`). Output "speed_override" (1) and "status" (6: `_STATE`).
     Each period it takes the smallest of the requested override and the rules' override, and
     lets it fall no faster than the stopping model's deceleration; a command of 0 is a
-    protective stop (counted once per stop). Until every body region has been seen once the
-    robot is held (0).
+    protective stop (counted once per stop), and so is a command below what that deceleration
+    reaches within the period (the robot is inside S_p at its speed): it then brakes toward 0.
+    Until every body region has been seen once the robot is held (0).
     """
 
     def __init__(self, rules: SafetyRules, dynamics: RobotPointDynamics, regions: HumanRegions,
@@ -390,9 +391,15 @@ class SafetyController(LeafSystem):
         requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
         requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
         target = min(requested, command)
-        applied = decelerated_override(float(x[0]), target, self.period, fastest,
-                                       self.rules.config.deceleration, next_fastest)
-        stopped = command <= 0.0
+        deceleration = self.rules.config.deceleration
+        applied = decelerated_override(float(x[0]), target, self.period, fastest, deceleration, next_fastest)
+        # braking cannot bring the robot down to the speed its separation allows within this
+        # period: at the speed it has it is inside S_p, which ISO/TS 15066 5.5.4 answers with a
+        # protective stop (a speed reduction is only allowed while S_p holds)
+        braking_limited = applied > command + 1e-9
+        if braking_limited:
+            applied = decelerated_override(float(x[0]), 0.0, self.period, fastest, deceleration, next_fastest)
+        stopped = command <= 0.0 or braking_limited
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,

@@ -11,7 +11,9 @@ from hrc_drake.cell.build import build_cell  # noqa: E402
 from hrc_drake.cell.run import simulate  # noqa: E402
 from hrc_drake.cell.scenario import load_scenario  # noqa: E402
 
-SCENARIO = Path(__file__).resolve().parents[2] / "diagrams" / "box_pcb_coexistence.yaml"
+# the thesis's experiment: SSM on the swept volumes (a named, non-conforming variant)
+SCENARIO = Path(__file__).resolve().parents[2] / "diagrams"
+SCENARIO = SCENARIO / "variants" / "box_pcb_coexistence_swept_volumes.yaml"
 
 
 @pytest.fixture(scope="module")
