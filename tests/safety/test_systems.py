@@ -49,6 +49,8 @@ def test_the_requested_override_is_layered_under_the_safety_limit():
     # the thesis's own rule asks for 0.3: the robot brakes to it at the stopping model's rate
     context = _run(example, {**example.inputs_b, "requested_override": [0.3]}, duration=1.0)
     assert example.system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(0.3)
+    # the thesis's rule is no safety command: braking to it is not a protective stop
+    assert example.system.protective_stops(context) == 0
 
 
 def test_the_override_falls_no_faster_than_the_stopping_model():
@@ -67,6 +69,27 @@ def test_the_override_falls_no_faster_than_the_stopping_model():
     assert status[1] < status[0]
     # the update at t = 0.1 s (processed on leaving it) and the one at 0.133 s
     assert 1.0 - 2 * step - 1e-6 <= status[0] <= 1.0 - step + 1e-6
+    # the command is below what braking reaches in a period: the robot is inside S_p at its speed,
+    # so this is a protective stop (ISO/TS 15066 5.5.4), counted once, braking toward 0
+    assert status[1] > 0.0 and status[1] < 1.0 - step
+    assert status[3] == 1.0 and system.protective_stops(context) == 1
+
+
+def test_a_command_the_braking_reaches_is_a_speed_reduction_not_a_stop():
+    example = safety_controller()
+    system = example.system
+    slower = {**example.inputs_b, "velocities_full": [1.2, 0.0]}
+    context = _run(example, slower, duration=0.1)
+    # the operator nearer: a command just below 1 (0.94), within one period's braking (0.078)
+    _, nearer, _ = _operator(1.3)
+    system.GetInputPort("skeleton_estimate").FixValue(context, SkeletonEstimate(points=nearer))
+    Simulator(system, context).AdvanceTo(0.1 + 1.0 / 30.0 + 1e-9)
+    status = system.GetOutputPort("status").Eval(context)
+    fastest = 1.2 * abs(1.0 + 0.8 * np.exp(0.3j))
+    step = 5.0 / 30.0 / fastest
+    assert 1.0 - step < status[1] < 1.0  # slowed, by less than a period's braking
+    assert status[0] == pytest.approx(status[1])
+    assert status[3] == 0.0 and system.protective_stops(context) == 0
 
 
 def test_two_monitor_contexts_keep_their_own_runs():
