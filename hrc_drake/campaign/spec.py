@@ -515,8 +515,10 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
     judged = [
         "violations_total",
         "ssm_breach_s",
+        "violation_margin_m",
         "margin_m",
         "contact_margin",
+        "contact_violation_s",
         "contact_count",
         "stops_measured",
         "stop_ratio_worst",

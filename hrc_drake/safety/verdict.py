@@ -35,7 +35,12 @@ def judged_figures(judge: Judge, run: JudgeRun) -> dict:
         "violations_total": len(violations),
         "violations": {kind: counts.get(kind, 0) for kind in VIOLATION_KINDS},
         "ssm_breach_s": round(judge.breach_seconds(run), 3),
+        # the deepest unexcused breach (null: none); margin_m below counts excused ones too
+        "violation_margin_m": min((round(e.worst, 4) for e in violations if e.kind == "ssm_breach"),
+                                  default=None),
         "margin_m": None if not math.isfinite(run.margin) else round(run.margin, 4),
+        # the time contacts over their limits lasted (each violation's whole contact)
+        "contact_violation_s": round(sum(e.duration for e in violations if e.kind == "pfl_contact"), 3),
         "contact_margin": round(1.0 - max(finite, default=0.0), 4),
         "worst_ratio": {
             name: (None if not math.isfinite(worst.get(name, 0.0)) else round(worst.get(name, 0.0), 4))
@@ -91,6 +96,11 @@ def summarize(
             "deviations": list(departures),
             "reaction_time_s": judge.values.reaction_time,
             "deceleration_m_s2": judge.values.deceleration,
+            # the cell's risk assessment the judge applies: where PFL may govern hands and arms
+            "pfl_regions": sorted(judge.mode.pfl_regions),
+            "collaborative_zones": [
+                {"center": [round(float(c), 4) for c in center], "radius": round(float(radius), 4)}
+                for center, radius in zip(judge.mode.zone_centers, judge.mode.zone_radii, strict=True)],
         },
         "own_model": own_figures,
     }

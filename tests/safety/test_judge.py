@@ -134,6 +134,8 @@ def test_a_robot_creeping_toward_a_hand_and_stopping_1_cm_short_breaches(speed):
     inside = [i for i in range(1, steps + 1) if clearance[i] < sp]
     assert breach["onset"] == pytest.approx(inside[0] * DT, abs=1e-4)
     assert out["ssm_breach_s"] == pytest.approx(len(inside) * DT, abs=1e-3)
+    # the deepest unexcused breach: the last approaching sample, 1 cm short at `speed`
+    assert out["violation_margin_m"] == pytest.approx(0.01 - sp, abs=2e-4)
     assert out["verdict_code"] == "unsafe" and out["verdict"].startswith("UNSAFE: ISO/TS 15066 ssm")
     assert "1 violation (1 SSM breach" in out["verdict"]
 
@@ -259,6 +261,9 @@ def test_a_slow_touch_then_a_fast_push_is_judged_while_it_lasts():
     j, out = _touch_then(0.04, 2.0)
     assert out["violations"]["pfl_contact"] == 1
     assert out["worst_ratio"]["hand_fingers"] == pytest.approx(389.03 / 280.0, rel=2e-3)
+    assert out["contact_violation_s"] == pytest.approx(out["events"][0]["duration"], abs=1e-3)
+    assert out["contact_violation_s"] > 0
+    assert out["violation_margin_m"] is None  # no SSM breach
     assert "transient limit" in out["events"][0]["detail"]
 
 
