@@ -119,6 +119,8 @@ def main() -> None:
     parser.add_argument("--modules", default=",".join(MODULES), help="modules of hrc_drake/safety")
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds a test run may take")
     parser.add_argument("--quick", action="store_true", help="3 mutants of judge.py")
+    parser.add_argument("--sites", default="",
+                        help="only these mutants, e.g. judge.py:123,rules.py:40 (a survivor's `site`)")
     args = parser.parse_args()
     modules = ("judge.py",) if args.quick else tuple(args.modules.split(","))
     count = 3 if args.quick else args.mutants
@@ -129,6 +131,8 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     chosen = [candidates[i] for i in sorted(rng.choice(len(candidates), size=min(count, len(candidates)),
                                                         replace=False))]
+    if args.sites:
+        chosen = [(name, int(index)) for name, index in (s.split(":") for s in args.sites.split(","))]
     work = Path(tempfile.mkdtemp(prefix="mutate_safety_"))
     tree = work / "tree"
     subprocess.run(["git", "worktree", "add", "--detach", str(tree), "HEAD"], cwd=REPO, check=True,
@@ -148,9 +152,9 @@ def main() -> None:
                 path.write_text(original)
             killed += caught
             if not caught:
-                survivors.append({"file": name, "line": line, "change": change})
-            print(f"{n:3d}/{len(chosen)} {name}:{line} {change:24s} {'killed' if caught else 'SURVIVED'}",
-                  flush=True)
+                survivors.append({"file": name, "line": line, "change": change, "site": f"{name}:{index}"})
+            print(f"{n:3d}/{len(chosen)} {name}:{line} {change:24s} {'killed' if caught else 'SURVIVED'}"
+                  f" (site {name}:{index})", flush=True)
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=REPO, capture_output=True)
         shutil.rmtree(work, ignore_errors=True)

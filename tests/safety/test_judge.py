@@ -506,3 +506,16 @@ def test_a_hand_on_the_table_pushed_down_and_aside_is_clamped():
     )
     flat = np.array([1.0, 0.0, 0.0])  # along the table: it slides, not clamped
     assert j.clamped_against(0, HAND_RADIUS, hand[0][0] + [0, 0.03, 0], flat, sphere(-1.0)) == ""
+
+
+def test_a_clamped_hand_pressed_to_exactly_its_quasi_static_limit_is_within_it():
+    # Table A.2/A.3, hand and fingers: F_qs 140 N, k 75 N/mm. Pressed 140 / 75000 m against the
+    # table in one sample: k x depth = 140 N exactly, the limit itself (a violation is "over" it);
+    # a depth one float step deeper is over it. dt = 1/32 s keeps approach x dt exact.
+    j = judge(PowerForceLimiting())
+    depth = 140.0 / 75000.0
+    at_limit = j.judge_contact(None, 0.0, 1.0 / 32.0, (0, 0), True, depth * 32.0, 0.0, depth, 3.17, "table")
+    assert at_limit.limit == "quasi-static" and at_limit.ratio == 1.0 and not at_limit.violation
+    deeper = math.nextafter(depth, 1.0)
+    over = j.judge_contact(None, 0.0, 1.0 / 32.0, (0, 0), True, deeper * 32.0, 0.0, deeper, 3.17, "table")
+    assert over.ratio > 1.0 and over.violation
