@@ -519,3 +519,28 @@ def test_a_clamped_hand_pressed_to_exactly_its_quasi_static_limit_is_within_it()
     deeper = math.nextafter(depth, 1.0)
     over = j.judge_contact(None, 0.0, 1.0 / 32.0, (0, 0), True, deeper * 32.0, 0.0, deeper, 3.17, "table")
     assert over.ratio > 1.0 and over.violation
+
+
+def test_the_breach_names_the_deepest_pair():
+    # two robot points approach the hand at 0.3 m/s from either side, 0.10 m and 0.20 m of
+    # clearance: S_p(0.3) = 0.359 m (above), so both are inside; the episode names the nearer one
+    # and its margin, whichever order the capsules come in
+    speed, sp = 0.3, 0.1 * 2.0 + 0.3 * 0.1 + 0.3 * 0.3 / 10 + 2.0 * 0.3 / 5.0
+    touching = HAND_RADIUS + TOOL_RADIUS
+    for near_first in (True, False):
+        links = ("yumi/gripper_r_base", "yumi/yumi_link_6_r")
+        j = judge(SpeedSeparationMonitoring(), links=links, masses=(ARM_MASS, ARM_MASS))
+        run = JudgeRun()
+        for i in range(12):
+            near = touching + 0.10 + 0.1 - speed * DT * i  # 0.1 m further at the start
+            far = touching + 0.20 + 0.1 - speed * DT * i
+            xs = (near, -far) if near_first else (-far, near)
+            robot = (np.array([[x, 0.0, 1.0] for x in xs]), np.array([[x, 0.0, 1.0] for x in xs]),
+                     np.full(2, TOOL_RADIUS))
+            run = j.step(run, i * DT, robot, hand_at(0.0), plant_mass, None, None)
+        out = figures(j, run, "ssm")
+        assert out["violations"]["ssm_breach"] == 1
+        event = out["events"][0]
+        assert event["link"] == links[0 if near_first else 1]
+        # the last sample: clearance 0.10 + 0.1 - 0.3 x 11 / 30 = 0.09 m against S_p 0.359 m
+        assert event["worst"] == pytest.approx(0.2 - speed * DT * 11 - sp, abs=2e-3)
