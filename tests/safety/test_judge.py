@@ -522,25 +522,25 @@ def test_a_clamped_hand_pressed_to_exactly_its_quasi_static_limit_is_within_it()
 
 
 def test_the_breach_names_the_deepest_pair():
-    # two robot points approach the hand at 0.3 m/s from either side, 0.10 m and 0.20 m of
-    # clearance: S_p(0.3) = 0.359 m (above), so both are inside; the episode names the nearer one
-    # and its margin, whichever order the capsules come in
-    speed, sp = 0.3, 0.1 * 2.0 + 0.3 * 0.1 + 0.3 * 0.3 / 10 + 2.0 * 0.3 / 5.0
+    # two robot points approach the hand from either side: A at 0.6 m/s with 0.15 m of clearance
+    # at the last sample, B at 0.05 m/s with 0.10 m. The path's fastest point runs 0.6 m/s, so
+    # T_s = 0.12 s and S_h = 2.0 x 0.22 = 0.44 m for both; S_p(A) = 0.44 + 0.06 + 0.036 = 0.536 m,
+    # S_p(B) = 0.44 + 0.005 + 0.003 = 0.448 m: A is deeper (-0.386 against -0.348 m), though B is
+    # nearer. The episode names A and its margin, whichever order the capsules come in.
     touching = HAND_RADIUS + TOOL_RADIUS
-    for near_first in (True, False):
+    for a_first in (True, False):
         links = ("yumi/gripper_r_base", "yumi/yumi_link_6_r")
         j = judge(SpeedSeparationMonitoring(), links=links, masses=(ARM_MASS, ARM_MASS))
         run = JudgeRun()
-        for i in range(12):
-            near = touching + 0.10 + 0.1 - speed * DT * i  # 0.1 m further at the start
-            far = touching + 0.20 + 0.1 - speed * DT * i
-            xs = (near, -far) if near_first else (-far, near)
+        for i in range(4):
+            a = touching + 0.15 + 0.6 * DT * (3 - i)
+            b = touching + 0.10 + 0.05 * DT * (3 - i)
+            xs = (a, -b) if a_first else (-b, a)
             robot = (np.array([[x, 0.0, 1.0] for x in xs]), np.array([[x, 0.0, 1.0] for x in xs]),
                      np.full(2, TOOL_RADIUS))
             run = j.step(run, i * DT, robot, hand_at(0.0), plant_mass, None, None)
         out = figures(j, run, "ssm")
         assert out["violations"]["ssm_breach"] == 1
         event = out["events"][0]
-        assert event["link"] == links[0 if near_first else 1]
-        # the last sample: clearance 0.10 + 0.1 - 0.3 x 11 / 30 = 0.09 m against S_p 0.359 m
-        assert event["worst"] == pytest.approx(0.2 - speed * DT * 11 - sp, abs=2e-3)
+        assert event["link"] == links[0 if a_first else 1]
+        assert event["worst"] == pytest.approx(0.15 - 0.536, abs=1e-3)
