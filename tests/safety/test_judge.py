@@ -136,6 +136,8 @@ def test_a_robot_creeping_toward_a_hand_and_stopping_1_cm_short_breaches(speed):
     assert out["ssm_breach_s"] == pytest.approx(len(inside) * DT, abs=1e-3)
     # the deepest unexcused breach: the last approaching sample, 1 cm short at `speed`
     assert out["violation_margin_m"] == pytest.approx(0.01 - sp, abs=2e-4)
+    # events carry 0.1 mm and 0.1 ms: stable JSON, comparable across runs
+    assert all(breach[name] == round(breach[name], 4) for name in ("onset", "duration", "worst"))
     assert out["verdict_code"] == "unsafe" and out["verdict"].startswith("UNSAFE: ISO/TS 15066 ssm")
     assert "1 violation (1 SSM breach" in out["verdict"]
 
