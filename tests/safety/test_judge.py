@@ -546,3 +546,11 @@ def test_the_breach_names_the_deepest_pair():
         event = out["events"][0]
         assert event["link"] == links[0 if a_first else 1]
         assert event["worst"] == pytest.approx(0.15 - 0.536, abs=1e-3)
+
+
+def test_times_in_the_verdict_read_in_whole_seconds_from_10_s():
+    from hrc_drake.safety.verdict import _seconds
+
+    assert _seconds(0.0333) == "0.03 s"  # a one-sample breach is not "0 s"
+    assert _seconds(9.994) == "9.99 s"
+    assert _seconds(10.4) == "10 s" and _seconds(300.0) == "300 s"
