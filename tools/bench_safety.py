@@ -19,7 +19,9 @@ Last line: one JSON object with `cells_with_violations` (cells in whose declared
 judge finds violations), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
 null: no contact), `products.<cell>.<mode>` and `cycle_s.<cell>.<mode>` (means over the seeds),
 `stops.<cell>.<mode>`, `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
-declared mode), `judge_cpu_share.<cell>` (CPU share of the judge, the `SafetyMonitor`),
+declared mode), `judge_cpu_share.<cell>` (CPU share of the judge, the `SafetyMonitor`: its
+sampling of the truth and `Judge.step`, not its reading of the skeleton estimate, which computes
+the controller's input),
 `ssm_breach_s.<cell>` (declared mode, summed over the seeds), `verdict.<cell>` (the worst seed's
 code) and `verdicts.<cell>`, `stop_ratio_worst.<cell>` (measured / assumed stopping distance or
 time, worst over the seeds; null: no stop), `effective_mass_kg.gripper` (the YuMi's right gripper
@@ -83,17 +85,19 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     pfl_time = [0.0]
     judge_time = [0.0]
 
-    def judged(function):
+    def judged(function, sign=1.0):
         def wrapper(*args, **kwargs):
             start = time.thread_time()
             try:
                 return function(*args, **kwargs)
             finally:
-                judge_time[0] += time.thread_time() - start
+                judge_time[0] += sign * (time.thread_time() - start)
         return wrapper
 
-    # the monitor binds its periodic event at construction: time it from there
-    original_record = SafetyMonitor._record
+    # the monitor binds its periodic event at construction: time it from there. Its reading of the
+    # skeleton estimate (`_measured`) is left out: that evaluation computes the controller's input
+    # (the camera and the tracker), which the controller's update at the same time then reuses
+    original_record, original_measured = SafetyMonitor._record, SafetyMonitor._measured
     SafetyMonitor._record = judged(original_record)
     try:
         cell = build_cell(scenario, path)
@@ -111,11 +115,13 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
 
     original = rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds
     rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds = timed(original[0]), timed(original[1])
+    SafetyMonitor._measured = judged(original_measured, -1.0)
     start = time.thread_time()
     try:
         result = simulate(cell, duration, progress=None)
     finally:
         rules.SafetyRules.robot_masses, rules.SafetyRules.pfl_speeds = original
+        SafetyMonitor._measured = original_measured
     cpu = time.thread_time() - start
     metrics = result.metrics
     safety = metrics["safety"]
