@@ -75,3 +75,13 @@ def test_the_controllers_s_p_takes_the_stop_it_makes_on_the_paths_fastest_point(
     assert permissible_speed(0.78, stop, 0.03) == pytest.approx(0.2, abs=1e-9)
     # the path's fastest point itself stops at a: no change
     assert path_stop(PARAMS, 1.5, 1.5) is PARAMS and path_stop(PARAMS, 0.0, 1.5) is PARAMS
+
+
+def test_separation_parameters_cannot_change_under_the_rules_that_share_them():
+    # SafetyRules hands one SeparationParameters to the compiled kernels and derives the body's
+    # from it with dataclasses.replace: a change in place would move both
+    import dataclasses
+
+    params = SeparationParameters()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        params.reaction_time = 0.0
