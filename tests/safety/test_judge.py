@@ -136,8 +136,9 @@ def test_a_robot_creeping_toward_a_hand_and_stopping_1_cm_short_breaches(speed):
     assert out["ssm_breach_s"] == pytest.approx(len(inside) * DT, abs=1e-3)
     # the deepest unexcused breach: the last approaching sample, 1 cm short at `speed`
     assert out["violation_margin_m"] == pytest.approx(0.01 - sp, abs=2e-4)
-    # events carry 0.1 mm and 0.1 ms: stable JSON, comparable across runs
+    # events and margins carry 0.1 mm and 0.1 ms: stable JSON, comparable across runs
     assert all(breach[name] == round(breach[name], 4) for name in ("onset", "duration", "worst"))
+    assert out["margin_m"] == round(out["margin_m"], 4)
     assert out["verdict_code"] == "unsafe" and out["verdict"].startswith("UNSAFE: ISO/TS 15066 ssm")
     assert "1 violation (1 SSM breach" in out["verdict"]
 
@@ -223,6 +224,7 @@ def test_a_stop_slower_than_s_p_assumed_is_a_violation():
     out = figures(j, run_path(j, xs, stop=stop), "ssm")
     assert out["violations"]["stop"] == 1
     assert out["stop_ratio_worst"] == pytest.approx((1 - 7 * 2 / 30) / 0.01, rel=1e-3)
+    assert out["stop_ratio_worst"] == round(out["stop_ratio_worst"], 4)  # 4 decimals, as every figure
     assert "the speed braking at a allows" in out["events"][0]["detail"]
     # the same stop at the robot's 5 m/s^2 is within what S_p assumed
     xs, x, v = [], 5.0, 1.0
