@@ -166,3 +166,26 @@ def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     creep = velocity * 0.002
     assert rules.override(robot, (creep, creep), (start, end, radius), z_d, mass,
                           lost_radius=lost_radius)[0] == 1.0
+
+
+def test_a_robot_passing_sideways_may_approach_a_body_the_estimate_places_within_z_d():
+    from hrc_drake.safety.rules import PairGeometry, approach_within
+
+    # the robot point at the origin, the region's axis point 0.4 m along x, Z_d 0.04 m: the body
+    # may lie anywhere in a cone of half-angle asin(0.1) around x
+    def pair(velocity, z_d):
+        one = np.zeros(1, dtype=np.int64)
+        geometry = PairGeometry(one, one, np.array([0.36]), np.zeros((1, 3)), np.array([[0.4, 0.0, 0.0]]),
+                                np.array([[1.0, 0.0, 0.0]]), np.array([velocity], dtype=float),
+                                np.array([float(np.dot(velocity, [1.0, 0.0, 0.0]))]), np.zeros(1))
+        return float(approach_within(geometry, np.array([z_d]))[0])
+
+    # sideways at 0.3 m/s: 0.3 sin(theta) = 0.03 m/s toward the body (the estimate says 0)
+    assert pair([0.0, 0.3, 0.0], 0.04) == pytest.approx(0.03, rel=1e-9)
+    # straight at it: the speed itself; straight away: still away, 0.3 cos(pi - theta)
+    assert pair([0.3, 0.0, 0.0], 0.04) == pytest.approx(0.3)
+    assert pair([-0.3, 0.0, 0.0], 0.04) == pytest.approx(-0.3 * np.sqrt(1 - 0.01), rel=1e-9)
+    # Z_d beyond the distance: the body may be on any side, every motion approaches it
+    assert pair([0.0, 0.0, 0.3], 0.5) == pytest.approx(0.3)
+    # Z_d 0: the estimate's own direction
+    assert pair([0.1, 0.3, 0.0], 0.0) == pytest.approx(0.1)
