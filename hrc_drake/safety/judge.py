@@ -240,8 +240,6 @@ class JudgedContact(Immutable):
     force: float = 0.0
     limit: str = "transient"
     violation: bool = False
-    #: the robot was approaching at some sample of it (a touch under SSM is then a violation)
-    robot_moved: bool = False
     clamped_against: str = ""
     #: time it became quasi-static (clamped or past the transient duration); nan while transient
     quasi_since: float = math.nan
@@ -669,7 +667,6 @@ class Judge:
             force=force if worse else contact.force,
             limit=("quasi-static" if quasi else "transient") if worse else contact.limit,
             violation=violation,
-            robot_moved=contact.robot_moved or moving,
             clamped_against=against,
             quasi_since=quasi_since,
             compression=compression,

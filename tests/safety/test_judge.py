@@ -556,3 +556,23 @@ def test_times_in_the_verdict_read_in_whole_seconds_from_10_s():
     assert _seconds(0.0333) == "0.03 s"  # a one-sample breach is not "0 s"
     assert _seconds(9.994) == "9.99 s"
     assert _seconds(10.4) == "10 s" and _seconds(300.0) == "300 s"
+
+
+def test_a_repeated_sample_divides_by_no_zero_interval():
+    # two samples at the same time (a caller stepping twice): the robot's 1 cm between them is no
+    # speed (an infinite one would be an approach inside S_p, a breach that never happened)
+    j = judge(SpeedSeparationMonitoring())
+    run = JudgeRun()
+    for x in (0.30, 0.29):
+        run = j.step(run, 0.0, sphere(x), hand_at(0.0), plant_mass, None, None)
+    out = figures(j, run, "ssm")
+    assert out["violations_total"] == 0 and out["margin_m"] is None
+
+
+def test_a_judge_run_cannot_change_in_place():
+    # the monitor keeps the runs in a cache entry it replaces: a run changed in place would change
+    # what an earlier context saw
+    import dataclasses
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        JudgeRun().samples = 3
