@@ -576,3 +576,27 @@ def test_a_judge_run_cannot_change_in_place():
 
     with pytest.raises(dataclasses.FrozenInstanceError):
         JudgeRun().samples = 3
+
+
+def test_the_own_model_of_swept_volumes_counts_s_h_only_beyond_their_horizon():
+    from dataclasses import replace
+
+    from hrc_drake.safety.judge import human_travel
+
+    # swept volumes that hold the person's next H = 0.3 s: over T = 0.4 s only 0.1 s is left, at
+    # ISO 13855's 2.0 m/s for a hand (0.2 m) and 1.6 m/s for the torso (0.16 m); within H, none
+    own = replace(VALUES, covered_time=0.3)
+    assert human_travel(0.4, np.array([False, True]), own) == pytest.approx([0.2, 0.16])
+    assert human_travel(0.25, np.array([False, True]), own) == pytest.approx([0.0, 0.0])
+    # the standard's judge: all of T (2.0 x 0.4 = 0.8 m is beyond 0.5 m: 1.6 x 0.4 = 0.64 m)
+    assert human_travel(0.4, np.array([False, True]), VALUES) == pytest.approx([0.64, 0.64])
+
+
+def test_a_hybrid_zone_away_from_the_origin_holds_only_the_contacts_inside_it():
+    # a zone of 0.2 m around (1, 0, 0): a hand contact at (1.1, 0, 0) is PFL's, one at (-1, 0, 0)
+    # (as far from the zone as from its mirror image) is SSM's
+    mode = declared_mode(Hybrid(), (np.array([[1.0, 0.0, 0.0]]), np.array([0.2])))
+    points = np.array([[1.1, 0.0, 0.0], [-1.0, 0.0, 0.0], [1.0, 0.25, 0.0]])
+    assert mode.governed_by_pfl(np.array([True, True, True]), points).tolist() == [True, False, False]
+    # a region that never takes contact stays SSM's inside the zone too
+    assert not mode.governed_by_pfl(np.array([False]), points[:1])[0]
