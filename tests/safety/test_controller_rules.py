@@ -189,3 +189,26 @@ def test_a_robot_passing_sideways_may_approach_a_body_the_estimate_places_within
     assert pair([0.0, 0.0, 0.3], 0.5) == pytest.approx(0.3)
     # Z_d 0: the estimate's own direction
     assert pair([0.1, 0.3, 0.0], 0.0) == pytest.approx(0.1)
+
+
+def test_a_robot_point_moving_straight_at_the_body_approaches_at_its_speed_not_nan():
+    from hrc_drake.safety.rules import PairGeometry, approach_within
+
+    # a velocity whose dot product with its own unit vector rounds one float step above its norm
+    velocity = np.array([-1.2654214710460525, -0.6232744625373522, 0.0413259793472436])
+    speed = np.linalg.norm(velocity)
+    direction = velocity / speed
+    assert np.dot(velocity, direction) / speed > 1.0  # the rounding this test is about
+    one = np.zeros(1, dtype=np.int64)
+    pairs = PairGeometry(one, one, np.array([0.3]), np.zeros((1, 3)), 0.4 * direction[None],
+                         direction[None], velocity[None], np.array([np.dot(velocity, direction)]), np.zeros(1))
+    assert approach_within(pairs, np.array([0.02]))[0] == pytest.approx(speed)
+
+
+def test_head_and_torso_take_the_body_speed_and_the_limbs_the_human_speed():
+    rules = SafetyRules(Hybrid(), load_limits(), RegionCapsules().regions)
+    assert rules.separation.human_speed == 0.0  # ISO 13855's rule for hands and arms
+    assert rules.body_separation.human_speed == 1.6  # the whole body's approach
+    # body_speed 0: as human_speed
+    same = SafetyRules(Hybrid(human_speed=1.8, body_speed=0.0), load_limits(), RegionCapsules().regions)
+    assert same.body_separation.human_speed == 1.8 and same.separation.human_speed == 1.8

@@ -600,3 +600,44 @@ def test_a_hybrid_zone_away_from_the_origin_holds_only_the_contacts_inside_it():
     assert mode.governed_by_pfl(np.array([True, True, True]), points).tolist() == [True, False, False]
     # a region that never takes contact stays SSM's inside the zone too
     assert not mode.governed_by_pfl(np.array([False]), points[:1])[0]
+
+
+def _floats(value):
+    if isinstance(value, float):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _floats(item)
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            yield from _floats(item)
+
+
+def test_every_figure_of_the_verdict_carries_at_most_4_decimals():
+    # a hybrid cell with a zone at (0.123456, 0.654321, 1.0), a robot creeping at 0.06 m/s toward a
+    # hand outside it: margins, closest approach, breach times and the zone itself to 0.1 mm
+    zones = (np.array([[0.123456, 0.654321, 1.0]]), np.array([0.2345678]))
+    j = judge(Hybrid(), zones=zones)
+    stop_x = HAND_RADIUS + TOOL_RADIUS + 0.0123456
+    xs = [stop_x + 0.3 - 0.002 * i for i in range(150)]
+    out = figures(j, run_path(j, xs), "hybrid")
+    assert out["violations"]["ssm_breach"] == 1 and out["closest_approach_m"] is not None
+    floats = list(_floats(out))
+    assert len(floats) > 10
+    assert all(x == round(x, 4) for x in floats), [x for x in floats if x != round(x, 4)]
+    assert out["judge"]["collaborative_zones"] == [{"center": [0.1235, 0.6543, 1.0], "radius": 0.2346}]
+
+
+def test_a_breach_after_a_released_stop_counts():
+    # SSM: creeping at 0.06 m/s into S_p; a protective stop is commanded at the breach's onset and
+    # the robot holds still, but the stop is released after 3 samples and the robot creeps on:
+    # the stop kept its model, and the breach after the release is not excused by it
+    j = judge(SpeedSeparationMonitoring())
+    sp = 0.1 * 2.0 + 0.06 * 0.1 + 0.06 * 0.06 / 10 + 2.0 * 0.06 / 5.0
+    start = HAND_RADIUS + TOOL_RADIUS + 0.3
+    onset = next(i for i in range(1, 60) if 0.3 - 0.002 * i < sp)
+    xs = [start - 0.002 * min(i, onset) - 0.002 * max(0, i - onset - 3) for i in range(60)]
+    stop = [onset <= i < onset + 3 for i in range(60)]
+    out = figures(j, run_path(j, xs, stop=stop), "ssm")
+    assert out["violations"]["ssm_breach"] == 1 and out["violations"]["stop"] == 0
+    assert out["events"][0]["onset"] == pytest.approx((onset + 4) * DT, abs=1e-4)

@@ -55,6 +55,10 @@ def test_uncertainty_from_the_spread_of_the_points():
     assert z_d[index["right_hand"]] == pytest.approx(0.03)
     assert z_d[index["chest"]] == pytest.approx(0.05)
     assert z_d[index["face"]] == pytest.approx(0.05)  # thorax and head place it
+    uncertainty[1] = 0.2  # the head's own point
+    _, _, _, (_, _, _, per_capsule) = _reach_bounded(uncertainty)
+    z_d = cutter.region_uncertainty(per_capsule)
+    assert z_d[index["face"]] == pytest.approx(0.2) and z_d[index["chest"]] == pytest.approx(0.05)
     assert np.array_equal(start, placed[0]) and np.array_equal(end, placed[1])
     assert np.array_equal(radius, placed[2])
 
