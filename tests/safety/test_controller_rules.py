@@ -200,8 +200,9 @@ def test_a_robot_point_moving_straight_at_the_body_approaches_at_its_speed_not_n
     direction = velocity / speed
     assert np.dot(velocity, direction) / speed > 1.0  # the rounding this test is about
     one = np.zeros(1, dtype=np.int64)
+    approach = np.array([np.dot(velocity, direction)])
     pairs = PairGeometry(one, one, np.array([0.3]), np.zeros((1, 3)), 0.4 * direction[None],
-                         direction[None], velocity[None], np.array([np.dot(velocity, direction)]), np.zeros(1))
+                         direction[None], velocity[None], approach, np.zeros(1))
     assert approach_within(pairs, np.array([0.02]))[0] == pytest.approx(speed)
 
 

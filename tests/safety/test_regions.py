@@ -32,6 +32,13 @@ def test_regions_tile_each_body_capsule():
     assert np.allclose(r_start[index["right_hand"]], wrist, atol=1e-9)
     assert np.allclose(r_end[index["right_hand"]], end[5])
     assert np.allclose(r_end[index["abdomen"]], r_start[index["chest"]])
+    # and each side on its own capsules: the left forearm (4), the left upper arm (2)
+    left_wrist = body.points(body.rest_q())[6]
+    assert np.allclose(r_start[index["left_lower_arm"]], start[4])
+    assert np.allclose(r_start[index["left_hand"]], left_wrist, atol=1e-9)
+    assert np.allclose(r_end[index["left_hand"]], end[4])
+    assert np.allclose(r_end[index["left_upper_arm"]], end[2])
+    assert np.allclose(r_end[index["right_upper_arm"]], end[3])
     assert cutter.regions[index["right_hand"]] == "hand_fingers"
     assert cutter.regions[index["face"]] == "face"
 
