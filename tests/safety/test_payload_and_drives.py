@@ -76,3 +76,17 @@ def test_a_part_mass_out_of_range_is_refused(mass):
     with pytest.raises(ScenarioError, match=r"layout\.buffers\[0\]\.part_mass"):
         load_scenario_with(PCB_IC, {"layout": {"buffers": [
             {"name": "pcbs", "kind": "raw", "part_mass": mass, "position": [0.74, 0.36, 0.76]}]}})
+
+
+def test_the_standards_m_is_the_moving_arm_not_the_robot():
+    from hrc_drake.safety.systems import arm_masses
+
+    # M of eq. (A.5) for the right gripper: the links outboard of axis 1 of the right arm in
+    # models/yumi.urdf, 1.5 + 1.2 + 1 + 1 + 0.8 + 0.5 + 0.1 + 0.2 + 0.02 + 0.02 + 0.001 = 6.341 kg
+    # (not the welded body's 25 kg nor the other arm); the body, welded, is its own 25 kg
+    plant = MultibodyPlant(0.0)
+    Parser(plant).AddModelsFromString((REPO / "models" / "yumi.urdf").read_text(), "urdf")
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("yumi_base_link"))  # as a cell does
+    plant.Finalize()
+    bodies = [plant.GetBodyByName(name).index() for name in ("gripper_r_base", "yumi_link_4_l", "yumi_body")]
+    assert arm_masses(plant, bodies) == pytest.approx([6.341, 6.341, 25.0])

@@ -195,3 +195,15 @@ def test_only_a_lost_arm_point_s_capsules_are_reachable_sets():
     assert lost_capsules(uncertainty, 0.3).tolist() == [False, False, False, False, False, True]
     uncertainty[4] = 0.5  # left elbow: the whole left arm
     assert lost_capsules(uncertainty, 0.3).tolist() == [False, False, True, False, True, True]
+
+
+def test_a_lost_right_elbow_bounds_the_right_arm_by_the_right_shoulder():
+    uncertainty = np.full(8, 0.02)
+    uncertainty[3] = 0.04  # the right shoulder, placed
+    uncertainty[[5, 7]] = np.inf  # the right elbow and wrist are lost
+    body, points, placed, (start, end, radius, per_capsule) = _reach_bounded(uncertainty)
+    for capsule in (3, 5):  # right upper arm and forearm: spheres around the right shoulder
+        assert np.allclose(start[capsule], points[3]) and np.allclose(end[capsule], points[3])
+        assert per_capsule[capsule] == pytest.approx(0.04)
+    for capsule in (2, 4):  # the left arm keeps its capsules
+        assert np.array_equal(start[capsule], placed[0][capsule]) and radius[capsule] == placed[2][capsule]
