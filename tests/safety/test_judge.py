@@ -641,3 +641,14 @@ def test_a_breach_after_a_released_stop_counts():
     out = figures(j, run_path(j, xs, stop=stop), "ssm")
     assert out["violations"]["ssm_breach"] == 1 and out["violations"]["stop"] == 0
     assert out["events"][0]["onset"] == pytest.approx((onset + 4) * DT, abs=1e-4)
+
+
+def test_the_sternums_pressure_over_1_cm2_binds_before_the_chests_force():
+    # chest, Table A.2/A.3: F_qs 140 N, sternum p_qs 120 N/cm^2, k 25 N/mm. Pressed 5.2 mm against
+    # a surface: k x depth = 130 N, 0.93 of the force limit but 130 N over 1 cm^2 = 1.083 of the
+    # pressure limit (ISO/TS 15066 Annex A: both must hold)
+    j = judge(PowerForceLimiting(), region=("chest", "chest"))
+    depth = 130.0 / 25000.0
+    contact = j.judge_contact(None, 0.0, 1.0 / 32.0, (0, 0), True, depth * 32.0, 0.0, depth, 3.17, "table")
+    assert contact.limit == "quasi-static" and contact.violation
+    assert contact.ratio == pytest.approx(130.0 / 120.0, rel=1e-9)
