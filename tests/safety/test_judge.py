@@ -652,3 +652,15 @@ def test_the_sternums_pressure_over_1_cm2_binds_before_the_chests_force():
     contact = j.judge_contact(None, 0.0, 1.0 / 32.0, (0, 0), True, depth * 32.0, 0.0, depth, 3.17, "table")
     assert contact.limit == "quasi-static" and contact.violation
     assert contact.ratio == pytest.approx(130.0 / 120.0, rel=1e-9)
+
+
+@pytest.mark.parametrize("field, value", [("deceleration", 0.0), ("deceleration", -1.0),
+                                          ("reaction_time", -0.01), ("reaction_time", math.nan),
+                                          ("body_speed", math.inf)])
+def test_judge_values_at_and_past_the_edge_are_refused(field, value):
+    from dataclasses import replace
+
+    with pytest.raises(ValueError, match=f"JudgeValues.{field}"):
+        replace(VALUES, **{field: value})
+    # the edge itself where it is allowed: no reaction time is a (changed) judge, not an error
+    assert replace(VALUES, reaction_time=0.0).reaction_time == 0.0
