@@ -664,3 +664,30 @@ def test_judge_values_at_and_past_the_edge_are_refused(field, value):
         replace(VALUES, **{field: value})
     # the edge itself where it is allowed: no reaction time is a (changed) judge, not an error
     assert replace(VALUES, reaction_time=0.0).reaction_time == 0.0
+
+
+def test_a_stop_that_moves_too_long_overran_by_its_time():
+    from hrc_drake.safety.judge import Stop
+
+    # 1 mm travelled where 10 mm were assumed, at a fifth of the speed braking allows, but moving
+    # 0.5 s where 0.1 s + one 1/30 s sample were: 0.5 / 0.1333 = 3.75
+    stop = Stop(onset=0.0, speed=0.005, assumed_time=0.1, assumed_distance=0.01, distance=0.001, time=0.5,
+                speed_ratio=0.2)
+    assert stop.ratio(1.0 / 30.0) == pytest.approx(0.5 / (0.1 + 1.0 / 30.0), rel=1e-6)
+    assert stop.overran(1.0 / 30.0)
+    # within its time (one sample's rounding included), it did not
+    assert not replace_stop(stop, time=0.13).overran(1.0 / 30.0)
+
+
+def replace_stop(stop, **changes):
+    from dataclasses import replace
+
+    return replace(stop, **changes)
+
+
+def test_a_hybrid_mode_without_zones_gives_pfl_no_pair():
+    mode = declared_mode(Hybrid(), None)
+    assert not mode.governed_by_pfl(np.array([True]), np.array([[0.0, 0.0, 1.0]]))[0]
+    from hrc_drake.safety.verdict import _seconds
+
+    assert _seconds(10.0) == "10 s"  # from 10 s on, whole seconds
