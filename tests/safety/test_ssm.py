@@ -85,3 +85,12 @@ def test_separation_parameters_cannot_change_under_the_rules_that_share_them():
     params = SeparationParameters()
     with pytest.raises(dataclasses.FrozenInstanceError):
         params.reaction_time = 0.0
+
+
+@pytest.mark.parametrize("field, value", [("deceleration", 0.0), ("deceleration", np.inf),
+                                          ("deceleration", -5.0), ("reaction_time", -0.1),
+                                          ("human_speed", np.inf), ("intrusion", np.nan)])
+def test_separation_parameters_at_and_past_the_edge_are_refused(field, value):
+    with pytest.raises(ValueError, match=f"SeparationParameters.{field}"):
+        SeparationParameters(**{field: value})
+    assert SeparationParameters(reaction_time=0.0, human_speed=0.0).reaction_time == 0.0
