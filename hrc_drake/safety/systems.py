@@ -234,22 +234,18 @@ class HumanRegions:
         if config.position_uncertainty == "fixed":
             z_d = np.full(len(self.cutter), config.fixed_uncertainty)
             return self.cutter.cut(start, end, radius), z_d, np.full(len(self.cutter), np.nan)
+        # a point the camera has not measured for t s may be v_h t away (a lost head rides on the
+        # measured thorax, within the neck's reach)
+        moved = np.zeros(8) if unseen is None else self.lost_speed * unseen
+        if head_carried:
+            moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
         if config.position_uncertainty == "tracker":
-            uncertainty = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
-            if unseen is not None:
-                # a point the camera has not measured for t s may be v_h t away, whatever the
-                # tracker's model predicts (its spread of a hidden point grows at its own rate)
-                moved = self.lost_speed * unseen
-                if head_carried:
-                    moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
-                uncertainty = np.fmax(uncertainty, moved)
+            # whatever the tracker's model predicts (its spread of a hidden point grows at its own
+            # rate); without the times a point with no spread stays lost (NaN, below: anywhere)
+            spread = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
+            uncertainty = spread if unseen is None else np.fmax(spread, moved)
         else:  # camera
-            uncertainty = np.full(8, config.uncertainty_sigmas * self.camera_noise)
-            if unseen is not None:
-                moved = self.lost_speed * unseen
-                if head_carried:
-                    moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
-                uncertainty = uncertainty + moved
+            uncertainty = config.uncertainty_sigmas * self.camera_noise + moved
         uncertainty = np.where(np.isnan(uncertainty), np.inf, uncertainty)
         if (uncertainty <= config.max_uncertainty).all():  # nothing lost: `reach_bounded` keeps the capsules
             per_capsule = np.maximum(uncertainty[self._capsule_first], uncertainty[self._capsule_last])
