@@ -38,8 +38,11 @@ class PathFollower(LeafSystem):
     safety controller's approach speeds), "path_done" (`messages.PathStatus`),
     "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
     later at full speed, so that a speed rule can tell motion toward the operator from motion away;
-    "velocities_full_ahead" (nq,): the velocities at full speed `lookahead` s of path time after the
-    last tick (a path accelerating from rest: what a safety controller's reaction time may reach).
+    "velocities_full_ahead" (nq,): the velocities at full speed `lookahead` s of path time after
+    now (a path accelerating from rest: what a safety controller's reaction time may reach);
+    "positions_full_next" and "velocities_full_next" (nq,): where the arms are, and their velocities
+    at full speed, one period of full-speed path time after now (a safety controller keeps its
+    separation at the next tick too, where the path may have turned toward the operator).
     hold_new_paths: a path starts moving one tick after it was requested, so that a safety
     controller's override has seen it (else its first period runs at an override computed without
     it: the robot accelerates from rest within the reaction time). Each tick advances the paths by
@@ -85,10 +88,12 @@ class PathFollower(LeafSystem):
         smooth = {self.time_ticket(), self.xd_ticket(), self._requests.ticket()}
         ticked = {self.xd_ticket(), self._requests.ticket()}
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
-        self.DeclareVectorOutputPort("velocities", nq, self._calc_v, ticked)
-        self.DeclareVectorOutputPort("velocities_full", nq, self._calc_v_full, ticked)
-        self.DeclareVectorOutputPort("velocities_full_ahead", nq, self._calc_v_full_ahead, ticked)
+        self.DeclareVectorOutputPort("velocities", nq, self._calc_v, smooth)
+        self.DeclareVectorOutputPort("velocities_full", nq, self._calc_v_full, smooth)
+        self.DeclareVectorOutputPort("velocities_full_ahead", nq, self._calc_v_full_ahead, smooth)
         self.DeclareVectorOutputPort("positions_ahead", nq, self._calc_q_ahead, smooth)
+        self.DeclareVectorOutputPort("positions_full_next", nq, self._calc_q_next, smooth)
+        self.DeclareVectorOutputPort("velocities_full_next", nq, self._calc_v_full_next, smooth)
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(PathStatus()), self._calc_done, {self.xd_ticket()}
         )
@@ -195,15 +200,29 @@ class PathFollower(LeafSystem):
             v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * override
         return v
 
+    def _elapsed(self, context) -> float:
+        """Path time since the last tick (s): the time since it at the override applied then."""
+        x = context.get_discrete_state(self._state).get_value()
+        return max(context.get_time() - x[1], 0.0) * x[0]
+
+    # the velocities are the path's at the positions' path time: a safety controller updating at a
+    # tick reads the state of the tick before (unrestricted updates go first), and a velocity from
+    # a period ago misses a path turning toward the operator within that period
     def _calc_v(self, context, output: BasicVector):
-        output.SetFromVector(self._velocities(context,
-                                              context.get_discrete_state(self._state).get_value()[0]))
+        applied = context.get_discrete_state(self._state).get_value()[0]
+        output.SetFromVector(self._velocities(context, applied, self._elapsed(context)))
 
     def _calc_v_full(self, context, output: BasicVector):
-        output.SetFromVector(self._velocities(context, 1.0))
+        output.SetFromVector(self._velocities(context, 1.0, self._elapsed(context)))
 
     def _calc_v_full_ahead(self, context, output: BasicVector):
-        output.SetFromVector(self._velocities(context, 1.0, self.lookahead))
+        output.SetFromVector(self._velocities(context, 1.0, self._elapsed(context) + self.lookahead))
+
+    def _calc_q_next(self, context, output: BasicVector):
+        output.SetFromVector(self._positions(context, self._elapsed(context) + self.period))
+
+    def _calc_v_full_next(self, context, output: BasicVector):
+        output.SetFromVector(self._velocities(context, 1.0, self._elapsed(context) + self.period))
 
     def _calc_done(self, context, output):
         x = context.get_discrete_state(self._state).get_value()

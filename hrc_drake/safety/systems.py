@@ -107,6 +107,10 @@ class RobotPointDynamics:
         self._robot = self._ends = self._moved = None
 
     @property
+    def num_positions(self) -> int:
+        return self._nq
+
+    @property
     def num_velocities(self) -> int:
         return self._nv
 
@@ -313,6 +317,8 @@ class SafetyController(LeafSystem):
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
         self._velocities_ahead = self.DeclareVectorInputPort("velocities_full_ahead", dynamics.num_velocities)
+        self._positions_next = self.DeclareVectorInputPort("positions_full_next", dynamics.num_positions)
+        self._velocities_next = self.DeclareVectorInputPort("velocities_full_next", dynamics.num_velocities)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
                                                        AbstractValue.Make(SkeletonEstimate()))
         self._requested = self.DeclareVectorInputPort("requested_override", 1)
@@ -364,10 +370,33 @@ class SafetyController(LeafSystem):
                 if ahead < command:
                     command, binding = ahead, ahead_binding
                 next_fastest = fastest_ahead
+        if self._positions_next.HasValue(context) and self._velocities_next.HasValue(context):
+            next_command, next_binding, next_speed = self._next_tick(context, regions, z_d, covered, clamped_until,
+                                                                     now, lost_radius)
+            if next_command < command:
+                command, binding = next_command, next_binding
+            next_fastest = max(next_fastest, next_speed)
         if binding is None:
             return command, math.inf, math.nan, fastest, next_fastest
         pairs, n, _, separation = binding
         return command, float(pairs.distance[n]), separation, fastest, next_fastest
+
+    def _next_tick(self, context, regions, z_d, covered, clamped_until, now, lost_radius):
+        """(rules' override, binding pair, fastest point's speed) at the robot's state one period of
+        full-speed path ahead: the judge samples S_p again there, and a path turning toward a body
+        part within the period (a corner of a blended polyline, the nearest point moving along a
+        link) raises that pair's approach before the next tick could answer it. The human's regions
+        are today's (their own motion is the S_h of the next tick's S_p, which stops in time); a
+        clamp the robot would meet there holds the override but is not remembered."""
+        positions = self._positions_next.Eval(context)
+        velocities = self._velocities_next.Eval(context)
+        if not np.any(velocities):
+            return 1.0, None, 0.0
+        self.dynamics.set_state(positions, velocities)
+        robot, velocity = self.dynamics.capsules()
+        command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
+                                               covered, clamped_until.copy(), now, lost_radius)
+        return command, binding, fastest_speed(velocity)
 
     def _update(self, context, discrete_state):
         x = np.array(context.get_discrete_state(self._state).get_value())
@@ -552,7 +581,7 @@ def own_model_values(config, standard: JudgeValues, covered_time: float = 0.0) -
 
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
                         positions, velocities_full, skeleton_estimate, human_capsules,
-                        velocities_full_ahead=None,
+                        velocities_full_ahead=None, positions_full_next=None, velocities_full_next=None,
                         requested_override, judge_values: JudgeValues,
                         judge_changes: JudgeValues | None = None,
                         payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
@@ -563,6 +592,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     positions: the plant's positions port (kinematic: the follower's; dynamic: the plant state);
     velocities_full: the follower's joint velocities at full speed (the controller's approach speeds);
     velocities_full_ahead: the same a reaction time of path ahead (None: not used);
+    positions_full_next, velocities_full_next: the plant's positions and the velocities at full speed
+    one tick of path ahead (None: not used; the controller then checks the present only);
     requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
     to connect later; limits: the controller's limits table; judge_values: the standard judge's
     values of this cell (`judge.standard_values`); judge_changes: the scenario's changed judge, or
@@ -585,6 +616,9 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
         builder.Connect(velocities_full, controller.GetInputPort("velocities_full"))
         if velocities_full_ahead is not None:
             builder.Connect(velocities_full_ahead, controller.GetInputPort("velocities_full_ahead"))
+        if positions_full_next is not None and velocities_full_next is not None:
+            builder.Connect(positions_full_next, controller.GetInputPort("positions_full_next"))
+            builder.Connect(velocities_full_next, controller.GetInputPort("velocities_full_next"))
         builder.Connect(skeleton_estimate, controller.GetInputPort("skeleton_estimate"))
         if requested_override is not None:
             builder.Connect(requested_override, controller.GetInputPort("requested_override"))

@@ -42,3 +42,48 @@ def test_path_follower_contexts_with_same_waypoints_and_other_dwells_stay_indepe
     system = _follower()
     _run(system, [short], 1.5)
     np.testing.assert_array_equal(_run(system, [long], 1.5)[0], alone)
+
+
+def _between_ticks(override: float):
+    """A follower on a 0.5 rad move of joint 0 (min-jerk), 0.0301 s in (between the 0.02 s ticks),
+    its override fixed; (system, context)."""
+    system = _follower()
+    context = system.CreateDefaultContext()
+    request = PathRequest(channel=0, seq=1, waypoints=np.array([[0.5, 0.0]]), dwells=np.array([0.0]))
+    system.GetInputPort("path_requests").FixValue(context, AbstractValue.Make((request,)))
+    system.GetInputPort("speed_override").FixValue(context, [override])
+    simulator = Simulator(system, context)
+    simulator.Initialize()
+    simulator.AdvanceTo(0.0301)
+    return system, context
+
+
+def test_the_velocities_are_the_paths_at_the_positions_path_time_not_at_the_last_tick():
+    """Regression (issue 51): the velocities were the path's at the last tick, a period stale for a
+    safety controller that updates at the tick (it reads the state of the tick before)."""
+    system, context = _between_ticks(0.5)
+    q = system.GetOutputPort("positions")
+    h = 1e-6
+    context.SetTime(0.0301 - h)
+    before = q.Eval(context).copy()
+    context.SetTime(0.0301 + h)
+    after = q.Eval(context).copy()
+    context.SetTime(0.0301)
+    slope = (after - before) / (2 * h)  # at override 0.5 between ticks: half the path's speed
+    np.testing.assert_allclose(system.GetOutputPort("velocities").Eval(context), slope, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(system.GetOutputPort("velocities_full").Eval(context), 2.0 * slope,
+                               rtol=1e-5, atol=1e-9)
+
+
+def test_the_next_tick_ports_are_one_period_of_full_speed_path_ahead():
+    """At override 1 the path time runs with the clock: the next-tick ports now are the present
+    ports one period (0.02 s) later."""
+    system, context = _between_ticks(1.0)
+    ahead = {name: system.GetOutputPort(name).Eval(context).copy()
+             for name in ("positions_full_next", "velocities_full_next")}
+    Simulator(system, context).AdvanceTo(0.0301 + 0.02)
+    assert system.GetOutputPort("positions").Eval(context)[0] > 1e-4  # the move is under way
+    np.testing.assert_allclose(ahead["positions_full_next"], system.GetOutputPort("positions").Eval(context),
+                               rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(ahead["velocities_full_next"],
+                               system.GetOutputPort("velocities_full").Eval(context), rtol=1e-12, atol=1e-15)

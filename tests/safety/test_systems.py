@@ -148,3 +148,23 @@ def test_a_cell_reports_its_safety_verdict_and_writes_the_safety_report(tmp_path
     paths = write_report(cell, result, tmp_path)
     assert (tmp_path / "safety.png") in paths and (tmp_path / "safety.png").stat().st_size > 10_000
     assert json.loads((tmp_path / "metrics.json").read_text())["safety"]["mode"] == "hybrid"
+
+
+def test_the_controller_keeps_the_separation_at_its_next_tick_where_the_path_turns_toward_the_operator():
+    """Regression (issue 51, torch_clock_fuzzy seed 9): a path turning toward the face within one
+    period raised the pair's approach before the next tick could answer; the judge found 2 cm of
+    breach with no stop begun. The controller now also checks the state one period of path ahead."""
+    example = safety_controller()
+    system = example.system
+    _, near, _ = _operator(2.4)
+    at_corner = {**example.inputs_b, "skeleton_estimate": SkeletonEstimate(points=near),
+                 "velocities_full": [0.0, 0.0]}  # the path at rest now (a corner), fast a period on
+    turning = {**at_corner, "positions_full_next": [0.0, 0.3], "velocities_full_next": [1.5, 0.0]}
+    command = system.GetOutputPort("status")
+    present_only = _run(example, at_corner, duration=0.05)
+    assert command.Eval(present_only)[1] == 1.0
+    with_next = _run(example, turning, duration=0.05)
+    # the same command as a controller whose present is that next state
+    as_present = _run(example, {**at_corner, "velocities_full": [1.5, 0.0]}, duration=0.05)
+    assert command.Eval(with_next)[1] == pytest.approx(command.Eval(as_present)[1], abs=1e-12)
+    assert command.Eval(with_next)[1] < 0.5
