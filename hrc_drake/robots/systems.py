@@ -86,7 +86,6 @@ class PathFollower(LeafSystem):
         self._override = self.DeclareVectorInputPort("speed_override", 1)
         self.DeclarePeriodicDiscreteUpdateEvent(self.period, 0.0, self._tick)
         smooth = {self.time_ticket(), self.xd_ticket(), self._requests.ticket()}
-        ticked = {self.xd_ticket(), self._requests.ticket()}
         self.DeclareVectorOutputPort("positions", nq, self._calc_q, smooth)
         self.DeclareVectorOutputPort("velocities", nq, self._calc_v, smooth)
         self.DeclareVectorOutputPort("velocities_full", nq, self._calc_v_full, smooth)

@@ -371,8 +371,8 @@ class SafetyController(LeafSystem):
                     command, binding = ahead, ahead_binding
                 next_fastest = fastest_ahead
         if self._positions_next.HasValue(context) and self._velocities_next.HasValue(context):
-            next_command, next_binding, next_speed = self._next_tick(context, regions, z_d, covered, clamped_until,
-                                                                     now, lost_radius)
+            next_command, next_binding, next_speed = self._next_tick(
+                context, regions, z_d, covered, clamped_until, now, lost_radius)
             if next_command < command:
                 command, binding = next_command, next_binding
             next_fastest = max(next_fastest, next_speed)
