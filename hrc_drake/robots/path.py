@@ -41,7 +41,10 @@ class ArmPath:
         self.finished = len(waypoints) == 0
 
     def progress_after(self, segment: int, phase: float, dt: float) -> tuple[int, float, bool]:
-        """Progress (segment, phase, finished) `dt` seconds of full-speed time after (segment, phase)."""
+        """Progress (segment, phase, finished) `dt` seconds of full-speed time after (segment, phase);
+        a negative dt goes back along the path (a retreat), no further than its start."""
+        if dt < 0:
+            return (*self._back(segment, phase, dt), False)
         n = len(self.move_times)
         while dt > 0 and segment < n:
             total = self.move_times[segment] + self.dwells[segment]
@@ -52,6 +55,20 @@ class ArmPath:
                 segment += 1
                 phase = 0.0
         return segment, phase, segment >= n
+
+    def _back(self, segment: int, phase: float, dt: float) -> tuple[int, float]:
+        """(segment, phase) -dt seconds of full-speed time before (segment, phase), dt < 0."""
+        while dt < 0:
+            if phase > 0:
+                step = max(dt, -phase)
+                phase += step
+                dt -= step
+            elif segment > 0:
+                segment -= 1
+                phase = self.move_times[segment] + self.dwells[segment]
+            else:
+                break
+        return segment, phase
 
     def position_at(self, segment: int, phase: float) -> np.ndarray:
         """Joint positions at progress (segment, phase); phase may run past the segment."""

@@ -33,7 +33,8 @@ class PathFollower(LeafSystem):
     """Joint path following with velocity limits and a speed override (see `robots.path`).
 
     Input "path_requests": abstract tuple of `messages.PathRequest` (the latest per channel).
-    Input "speed_override": vector (1,) in [0, 1]; unconnected means 1.
+    Input "speed_override": vector (1,) in [-1, 1] (a negative one backs the arms off along their
+    paths, a safety controller's retreat after a contact); unconnected means 1.
     Outputs "positions" (nq,), "velocities" (nq,), "velocities_full" (nq,: at override 1, for a
     safety controller's approach speeds), "path_done" (`messages.PathStatus`),
     "speed_override_applied" (1,), "positions_ahead" (nq,): where the arms would be `lookahead` s
@@ -151,7 +152,8 @@ class PathFollower(LeafSystem):
                 x[k], x[k + 2], x[k + 3] = request.seq, 0.0, -self.period if self.hold_new_paths else 0.0
         override = self._override.Eval(context)[0] if self._override.HasValue(context) else 1.0
         override = float(override)
-        applied = min(max(override, 0.0), 1.0) if math.isfinite(override) else 0.0
+        # a negative override backs the arms off along their paths (a safety controller's retreat)
+        applied = min(max(override, -1.0), 1.0) if math.isfinite(override) else 0.0
         # the motion since the last tick, at the override applied then: the arms' positions are
         # continuous in time (the outputs extrapolate from the last tick at that override)
         elapsed = max(context.get_time() - x[1], 0.0) * x[0]
@@ -173,10 +175,14 @@ class PathFollower(LeafSystem):
         """q `ahead` seconds of full-speed time after the last tick."""
         x = context.get_discrete_state(self._state).get_value()
         q = x[self._q].copy()
-        if ahead > 0.0:
+        if ahead != 0.0:
             requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
             for arm, path, segment, phase in self._active(x, requests):
-                q[self.arm_indices[arm]] = path.position_at(segment, phase + ahead)
+                if ahead < 0.0:  # backing off (a negative override): over the waypoints passed
+                    segment, phase, _ = path.progress_after(segment, phase, ahead)
+                    q[self.arm_indices[arm]] = path.position_at(segment, phase)
+                else:
+                    q[self.arm_indices[arm]] = path.position_at(segment, phase + ahead)
         return q
 
     def _calc_q(self, context, output: BasicVector):
@@ -194,7 +200,7 @@ class PathFollower(LeafSystem):
         v = np.zeros(self._nq)
         requests = self._requests.Eval(context) if self._requests.HasValue(context) else ()
         for arm, path, segment, phase in self._active(x, requests):
-            if ahead > 0.0:
+            if ahead != 0.0:
                 segment, phase, _ = path.progress_after(segment, phase, ahead)
             v[self.arm_indices[arm]] = path.velocity_at(segment, phase) * override
         return v

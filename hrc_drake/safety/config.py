@@ -138,12 +138,32 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
     #: operator does not: products per run torch_clock 0 and 0 (off: 4, 4), torch_clock_fuzzy 1, 1
     #: (4, 4), carts 0, 0 (5, 5).
     lost_parts_clamped: bool = False
+    #: The robot's contact detection (ISO/TS 15066 5.5.5: a PFL robot limits the contact it makes):
+    #: when a robot link presses a body part more than `CONTACT_DETECTION` deep (its joint-torque
+    #: sensing, `ContactSensing`), the controller brakes at a and backs off along its path at up to
+    #: `retreat_speed` for `retreat_time`, so that the contact stays transient (under 0.5 s) and the
+    #: robot-made compression is released; for `contact_hold` after it, it approaches PFL parts no
+    #: faster than it can stop within their quasi-static compression (`rules.compression_scales`).
+    #: Off: the robot pushes on along its path (pcb_ic: 8.8-9.2x the hand's quasi-static limit).
+    contact_reaction: bool = True
+    #: Speed (m/s) of the robot's fastest point while it backs off after a contact.
+    retreat_speed: float = 0.25
+    #: How long (s) the robot backs off after the last sensed contact.
+    retreat_time: float = 0.3
+    #: How long (s) after a contact PFL parts take the compression budget instead of eq. (A.6)'s
+    #: transient speed (the part the robot touched is likely still there).
+    contact_hold: float = 2.0
     #: The limits table (a file relative to the scenario); "": the packaged ISO/TS 15066 one.
     limits: str = ""
 
     def validate(self, path: str) -> None:
         """Raise `ConfigError` naming `path.field` for a value the controller cannot use."""
         super().validate(path)
+        check(isinstance(self.contact_reaction, bool), f"{path}.contact_reaction",
+              f"must be true or false, got {self.contact_reaction!r}")
+        _number(self.retreat_speed, path, "retreat_speed", 0.0, 1.0)
+        _number(self.retreat_time, path, "retreat_time", 0.0, 2.0)
+        _number(self.contact_hold, path, "contact_hold", 0.0, 60.0)
         check(self.robot_mass in ROBOT_MASS_MODELS, f"{path}.robot_mass",
               f"must be one of {ROBOT_MASS_MODELS}, got {self.robot_mass!r}")
         _number(self.payload, path, "payload", 0.0, 100.0)

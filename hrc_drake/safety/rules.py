@@ -179,8 +179,13 @@ class SafetyRules:
                 floor = np.minimum(floor, table["pressure"] * self.contact_area
                                    / np.sqrt(table["mass"] * table["k"]))
             self._pfl_floor = floor
+            # the compression a part takes at its quasi-static limit (force, and pressure over A)
+            allowed = table["force"] if self.contact_area is None else np.minimum(
+                table["force"], table["pressure"] * self.contact_area)
+            self._compression = allowed / table["k"]
         else:
             self._pfl_floor = np.full(len(self.regions), np.inf)
+            self._compression = np.full(len(self.regions), np.inf)
 
     def in_zone(self, points) -> np.ndarray:
         """(N,) whether each point lies in a collaborative zone."""
@@ -277,7 +282,7 @@ class SafetyRules:
         return distance, k, r
 
     def override(self, robot, robot_velocity, regions, z_d, effective_mass=None, covered_time: float = 0.0,
-                 clamped_until=None, now: float = 0.0, lost_radius=None):
+                 clamped_until=None, now: float = 0.0, lost_radius=None, budget: bool = False):
         """(override in [0, 1], binding pair or None) that keeps every pair within its rule.
 
         robot, robot_velocity, regions: as `pair_geometry`; robot_velocity at override 1 (the path
@@ -285,14 +290,15 @@ class SafetyRules:
         plant, vectorised over pairs. clamped_until (K, R), updated in place: the time until which
         each pair counts as clamped (`clamp_hold` after it was last judged so); now: the time;
         lost_radius (R,): a region's own radius where its capsule is a reachable set, NaN
-        elsewhere (`clamped`, with the config's `lost_parts_clamped`).
+        elsewhere (`clamped`, with the config's `lost_parts_clamped`); budget: PFL pairs also keep
+        `compression_scales` (after a sensed contact, `contact_hold`).
         The binding pair: (PairGeometry index, rule, S_p at full speed) of the smallest override."""
         if self.mode == "none":
             return FREE, None
         if self.compiled and not (lost_radius is not None and self.pfl and self.config.lost_parts_clamped
                                   and self.fixed_boxes and np.isfinite(lost_radius).any()):
             return self._override_compiled(robot, robot_velocity, regions, z_d, effective_mass, covered_time,
-                                           clamped_until, now)
+                                           clamped_until, now, budget)
         distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
         if not len(k):
             return FREE, None
@@ -339,13 +345,15 @@ class SafetyRules:
             masses = self.robot_masses(picked, effective_mass)
             v_pfl = self.pfl_speeds(picked, masses, np.zeros(len(sub), dtype=bool))  # free: transient
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / approach[sub], FREE))
+        if budget and self.pfl:
+            scale = np.minimum(scale, self.compression_scales(pairs, governed, z, fastest))
         n = int(np.argmin(scale))
         sp = float(self.separations(subset_pairs(pairs, np.array([n])), approach[n:n + 1], z[n],
                                     covered_time, fastest)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
     def _override_compiled(self, robot, robot_velocity, regions, z_d, effective_mass, covered_time,
-                           clamped_until, now):
+                           clamped_until, now, budget: bool = False):
         """`override` by the kernels (no lost parts judged clamped): the same decisions in the same
         order, the robot masses of the PFL pairs left after the floor and the skip from the plant."""
         z_d = _kernels._arrays(z_d)[0]
@@ -375,11 +383,33 @@ class SafetyRules:
             masses = self.robot_masses(picked, effective_mass)
             v_pfl = self.pfl_speeds(picked, masses, np.zeros(len(sub), dtype=bool))  # free: transient
             scale[sub] = np.maximum(scale[sub], np.minimum(v_pfl / pairs.approach[sub], FREE))
+        if budget and self.pfl:
+            scale = np.minimum(scale, self.compression_scales(pairs, governed, z_d[r], fastest))
         n = int(np.argmin(scale))
         at = np.array([n])
         sp = float(_kernels._separations(r[at], pairs.approach[at], self.body_region, limbs, body, z_d[r[at]],
                                          float(covered_time), pairs.approach[at], fastest)[0])
         return float(scale[n]), (pairs, n, "pfl" if governed[n] else "ssm", sp)
+
+    def compression_scales(self, pairs: PairGeometry, governed, z_d, fastest: float) -> np.ndarray:
+        """The largest override s (N,) with which each approaching PFL pair stops, after T_r + P, with
+        the robot's compression of the part at most its quasi-static limit's, d_qs = min(F_qs,
+        p_qs A) / k, beyond the part's nearest possible point: s v (T_r + P) + s^2 v V / (2a) <=
+        D - Z_d - Z_r + d_qs (v the pair's approach and V the fastest point's speed at full path
+        speed, the path braked on V as `ssm.path_stop`); 0 where that is negative, 1 for the other
+        pairs (`override`'s budget)."""
+        params = self.separation
+        approach = np.asarray(pairs.approach, dtype=float)
+        room = (np.asarray(pairs.distance, dtype=float) - np.asarray(z_d, dtype=float)
+                - params.robot_uncertainty + self._compression[pairs.r])
+        applies = np.asarray(governed, dtype=bool) & (approach > self.moving_speed)
+        v = np.where(applies, approach, 1.0)
+        quadratic = v * max(fastest, 0.0) / (2.0 * params.deceleration)
+        quadratic = np.maximum(quadratic, v * v / (2.0 * params.deceleration))  # V >= v
+        linear = v * (params.reaction_time + params.actuation_period)
+        disc = linear * linear + 4.0 * quadratic * np.maximum(room, 0.0)
+        root = (np.sqrt(disc) - linear) / (2.0 * quadratic)
+        return np.where(applies, np.minimum(np.where(room > 0.0, root, 0.0), FREE), FREE)
 
     def ssm_speeds(self, pairs: PairGeometry, z_d, covered_time: float = 0.0,
                    fastest: float = 0.0) -> np.ndarray:
@@ -428,14 +458,16 @@ def subset_pairs(pairs: PairGeometry, index) -> PairGeometry:
 
 
 def decelerated_override(previous: float, target: float, dt: float, fastest_speed: float,
-                         deceleration: float, next_fastest: float | None = None) -> float:
+                         deceleration: float, next_fastest: float | None = None,
+                         lowest: float = 0.0) -> float:
     """The override after one controller period: `target`, but changing no faster than the stopping
     model allows, so that the robot's fastest point (at `fastest_speed` m/s at override 1 now, at up
     to `next_fastest` by the next period: a path still accelerating) slows by at most a dt (a
     category-2 protective stop at deceleration a): (previous v - a dt) / v_next; and speeds up by
     at most a dt too (a robot that leaps from rest to speed in one period outruns the S_r = v T_r
-    its S_p took at the lower speed)."""
-    target = min(max(target, 0.0), 1.0)
+    its S_p took at the lower speed). lowest: -1 lets the override go below 0 (backing off along the
+    path after a contact), at the same rate."""
+    target = min(max(target, lowest), 1.0)
     if fastest_speed <= 1e-9:
         return target
     following = max(fastest_speed, next_fastest or 0.0)

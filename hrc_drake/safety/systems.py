@@ -19,6 +19,7 @@ from pydrake.multibody.tree import BodyIndex, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, EventStatus, LeafSystem, ValueProducer
 from pydrake.systems.primitives import MatrixGain
 
+from hrc_drake.kernels import capsule_clearances
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
 from hrc_drake.safety.config import LIMB_REGIONS, Hybrid, NoSafety, mode_name
 from hrc_drake.safety.judge import (
@@ -281,9 +282,44 @@ ANYWHERE = 1000.0
 
 #: the controller's discrete state: [override applied, safety command, protective stops, stopped
 #: flag, binding clearance, S_p of the binding pair], then the time each skeleton point was last
-#: measured (8), the head's offset from the thorax when both were last measured (3) and the time
-#: until which each (robot capsule, region) pair counts as clamped (K x R)
+#: measured (8), the head's offset from the thorax when both were last measured (3), until when
+#: the robot backs off after a contact and until when PFL parts keep the compression budget (2),
+#: and the time until which each (robot capsule, region) pair counts as clamped (K x R)
 _STATE = ("override", "command", "stops", "stopped", "distance", "separation")
+
+
+#: a robot link pressing a body part deeper than this (m) is a contact the robot senses (an
+#: assumption for its joint-torque contact detection: 0.5 mm is 37 N on a hand, k 75 N/mm, a
+#: quarter of its quasi-static limit)
+CONTACT_DETECTION = 0.0005
+
+
+class ContactSensing(LeafSystem):
+    """The robot's contact detection: each period the deepest overlap (m) of a robot link with the
+    person's true body, output "contact_depth" (1,), held until the next period (a sampled sensor).
+    Inputs "positions" (the plant's first) and "human_capsules" (`Capsules`, the true body). What
+    a PFL robot's joint-torque sensing feels; the controller reacts to it (`contact_reaction`)."""
+
+    def __init__(self, dynamics: RobotPointDynamics, input_size: int, period: float):
+        super().__init__()
+        self.dynamics = dynamics
+        self._state = self.DeclareDiscreteState(1)
+        self._positions = self.DeclareVectorInputPort("positions", input_size)
+        self._human = self.DeclareAbstractInputPort("human_capsules", AbstractValue.Make(no_capsules()))
+        self.DeclareStateOutputPort("contact_depth", self._state)
+        declare_periodic_discrete_update(self, period, 0.0, self._update)
+
+    def _update(self, context, discrete_state):
+        start, end, radius = self._human.Eval(context)
+        depth = 0.0
+        if len(radius):
+            self.dynamics.set_state(self._positions.Eval(context))
+            robot, _ = self.dynamics.capsules(velocities=False)
+            gaps = capsule_clearances(*robot, np.asarray(start, float), np.asarray(end, float),
+                                      np.asarray(radius, float))
+            depth = max(-float(gaps.min(initial=np.inf)), 0.0)
+        discrete_state.get_mutable_vector(self._state).SetAtIndex(0, depth)
+        return EventStatus.Succeeded()
 
 
 class SafetyController(LeafSystem):
@@ -291,8 +327,11 @@ class SafetyController(LeafSystem):
 
     Inputs "positions" (the plant's positions first), "velocities_full" (nv: the path's joint
     velocities at override 1), "skeleton_estimate" (`SkeletonEstimate`), "requested_override"
-    (1: the thesis's own speed rules, layered under; unconnected: 1) and "swept_volumes" (with
-    `human_motion: swept_volumes`). Output "speed_override" (1) and "status" (6: `_STATE`).
+    (1: the thesis's own speed rules, layered under; unconnected: 1), "swept_volumes" (with
+    `human_motion: swept_volumes`), the next tick's "positions_full_next" and
+    "velocities_full_next", and "contact_depth" (1: `ContactSensing`; PFL's `contact_reaction`:
+    after a sensed contact the robot brakes and backs off along its path, override < 0).
+    Output "speed_override" (1, in [-1, 1]) and "status" (6: `_STATE`).
     Each period it takes the smallest of the requested override and the rules' override, and
     lets it fall no faster than the stopping model's deceleration; a command of 0 is a
     protective stop (counted once per stop), and so is a command below what that deceleration
@@ -312,13 +351,14 @@ class SafetyController(LeafSystem):
         # then the time until which each (robot capsule, region) pair counts as clamped (`clamp_hold`)
         self._pairs = (len(dynamics.names), len(regions.cutter))
         initial = [[1.0, 1.0, 0.0, 0.0, np.inf, np.nan], np.full(8, -np.inf), np.full(3, np.nan),
-                   np.full(self._pairs[0] * self._pairs[1], -np.inf)]
+                   [-np.inf, -np.inf], np.full(self._pairs[0] * self._pairs[1], -np.inf)]
         self._state = self.DeclareDiscreteState(np.concatenate(initial))
         self._positions = self.DeclareVectorInputPort("positions", input_size)
         self._velocities = self.DeclareVectorInputPort("velocities_full", dynamics.num_velocities)
         self._velocities_ahead = self.DeclareVectorInputPort("velocities_full_ahead", dynamics.num_velocities)
         self._positions_next = self.DeclareVectorInputPort("positions_full_next", dynamics.num_positions)
         self._velocities_next = self.DeclareVectorInputPort("velocities_full_next", dynamics.num_velocities)
+        self._contact_depth = self.DeclareVectorInputPort("contact_depth", 1)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
                                                        AbstractValue.Make(SkeletonEstimate()))
         self._requested = self.DeclareVectorInputPort("requested_override", 1)
@@ -329,20 +369,23 @@ class SafetyController(LeafSystem):
         self.DeclareVectorOutputPort("status", len(_STATE), self._calc_status, ticket)
         self._seen = slice(len(_STATE), len(_STATE) + 8)
         self._head = slice(len(_STATE) + 8, len(_STATE) + 11)
-        self._clamped = slice(len(_STATE) + 11, None)
+        self._contact = slice(len(_STATE) + 11, len(_STATE) + 13)
+        self._clamped = slice(len(_STATE) + 13, None)
         declare_periodic_discrete_update(self, self.period, 0.0, self._update)
 
-    def _command(self, context, seen, head_offset, clamped_until):
+    def _command(self, context, seen, head_offset, clamped_until, budget: bool = False,
+                 backing: bool = False):
         """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
-        path speed now and the most it reaches within `lookahead` of path time) for the inputs of
+        path speed now and the most it reaches within `lookahead` of path time, the largest
+        override of backing off along the path (0 unless `backing`)) for the inputs of
         `context`; `seen` (8,): the time each point was last
         measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
-        in place (`SafetyRules.override`)."""
+        in place (`SafetyRules.override`); budget: as `SafetyRules.override` (after a contact)."""
         human = None
         if self._estimate.HasValue(context):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
-            return 0.0, math.nan, math.nan, 0.0, 0.0
+            return 0.0, math.nan, math.nan, 0.0, 0.0, 0.0
         regions, z_d, lost_radius = human
         covered = 0.0
         if self.swept and self._swept_volumes.HasValue(context):
@@ -354,9 +397,16 @@ class SafetyController(LeafSystem):
         self.dynamics.set_state(positions, self._velocities.Eval(context))
         robot, velocity = self.dynamics.capsules()
         now = context.get_time()
-        command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
-                                               covered, clamped_until, now, lost_radius)
+        mass = self.dynamics.effective_mass
+        command, binding = self.rules.override(robot, velocity, regions, z_d, mass, covered, clamped_until,
+                                               now, lost_radius, budget)
         fastest = next_fastest = fastest_speed(velocity)
+        # backing off is a motion too: toward whatever is behind the robot it keeps the rules (a short
+        # slow motion: the transient PFL speeds, not the compression budget, which the estimate's
+        # Z_d turns into a stop beside a part the robot is wedged against)
+        back = 0.0 if not backing else self.rules.override(
+            robot, tuple(-v for v in velocity), regions, z_d, mass, covered, clamped_until.copy(), now,
+            lost_radius)[0]
         if self._velocities_ahead.HasValue(context):
             # a path accelerating within T_r (from rest, say): the speed it reaches counts, not only
             # the speed it has (S_r = v T_r holds v over T_r); the smaller override of the two
@@ -365,23 +415,23 @@ class SafetyController(LeafSystem):
             fastest_ahead = fastest_speed(velocity_ahead)
             if fastest_ahead > fastest:
                 ahead, ahead_binding = self.rules.override(
-                    robot, velocity_ahead, regions, z_d, self.dynamics.effective_mass, covered, clamped_until,
-                    now, lost_radius)
+                    robot, velocity_ahead, regions, z_d, mass, covered, clamped_until, now, lost_radius,
+                    budget)
                 if ahead < command:
                     command, binding = ahead, ahead_binding
                 next_fastest = fastest_ahead
         if self._positions_next.HasValue(context) and self._velocities_next.HasValue(context):
             next_command, next_binding, next_speed = self._next_tick(
-                context, regions, z_d, covered, clamped_until, now, lost_radius)
+                context, regions, z_d, covered, clamped_until, now, lost_radius, budget)
             if next_command < command:
                 command, binding = next_command, next_binding
             next_fastest = max(next_fastest, next_speed)
         if binding is None:
-            return command, math.inf, math.nan, fastest, next_fastest
+            return command, math.inf, math.nan, fastest, next_fastest, back
         pairs, n, _, separation = binding
-        return command, float(pairs.distance[n]), separation, fastest, next_fastest
+        return command, float(pairs.distance[n]), separation, fastest, next_fastest, back
 
-    def _next_tick(self, context, regions, z_d, covered, clamped_until, now, lost_radius):
+    def _next_tick(self, context, regions, z_d, covered, clamped_until, now, lost_radius, budget=False):
         """(rules' override, binding pair, fastest point's speed) at the robot's state one period of
         full-speed path ahead: the judge samples S_p again there, and a path turning toward a body
         part within the period (a corner of a blended polyline, the nearest point moving along a
@@ -395,7 +445,7 @@ class SafetyController(LeafSystem):
         self.dynamics.set_state(positions, velocities)
         robot, velocity = self.dynamics.capsules()
         command, binding = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
-                                               covered, clamped_until.copy(), now, lost_radius)
+                                               covered, clamped_until.copy(), now, lost_radius, budget)
         return command, binding, fastest_speed(velocity)
 
     def _update(self, context, discrete_state):
@@ -411,25 +461,58 @@ class SafetyController(LeafSystem):
                     points = np.asarray(estimate.points, dtype=float)
                     head_offset = points[HEAD] - points[THORAX]
         clamped_until = x[self._clamped].reshape(self._pairs)
-        command, distance, separation, fastest, next_fastest = self._command(context, seen, head_offset,
-                                                                             clamped_until)
-        requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
-        requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
-        target = min(requested, command)
+        now = context.get_time()
+        backing_until, hold_until = self._contact_step(context, *x[self._contact])
+        backing = now < backing_until
+        command, distance, separation, fastest, next_fastest, back = self._command(
+            context, seen, head_offset, clamped_until, budget=now < hold_until, backing=backing)
         deceleration = self.rules.config.deceleration
-        applied = decelerated_override(float(x[0]), target, self.period, fastest, deceleration, next_fastest)
-        # braking cannot bring the robot down to the speed its separation allows within this
-        # period: at the speed it has it is inside S_p, which ISO/TS 15066 5.5.4 answers with a
-        # protective stop (a speed reduction is only allowed while S_p holds)
-        braking_limited = applied > command + 1e-9
-        if braking_limited:
-            applied = decelerated_override(float(x[0]), 0.0, self.period, fastest, deceleration, next_fastest)
-        stopped = command <= 0.0 or braking_limited
+        if backing:
+            applied, command, stopped = self._back_off(float(x[0]), back, fastest, next_fastest)
+        else:
+            requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
+            requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
+            target = min(requested, command)
+            applied = decelerated_override(float(x[0]), target, self.period, fastest, deceleration,
+                                           next_fastest)
+            # braking cannot bring the robot down to the speed its separation allows within this
+            # period: at the speed it has it is inside S_p, which ISO/TS 15066 5.5.4 answers with a
+            # protective stop (a speed reduction is only allowed while S_p holds)
+            braking_limited = applied > command + 1e-9
+            if braking_limited:
+                applied = decelerated_override(float(x[0]), 0.0, self.period, fastest, deceleration,
+                                               next_fastest)
+            stopped = command <= 0.0 or braking_limited
         stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,
-                            head_offset, clamped_until.ravel()]))
+                            head_offset, [backing_until, hold_until], clamped_until.ravel()]))
         return EventStatus.Succeeded()
+
+    def _contact_step(self, context, backing_until: float, hold_until: float) -> tuple[float, float]:
+        """(until when the robot backs off, until when PFL parts keep the compression budget) after
+        this period's reading of the robot's contact sensing (`contact_reaction`)."""
+        config = self.rules.config
+        if not (self.rules.pfl and config.contact_reaction and self._contact_depth.HasValue(context)):
+            return backing_until, hold_until
+        if float(self._contact_depth.Eval(context)[0]) > CONTACT_DETECTION:
+            now = context.get_time()
+            backing_until = now + config.retreat_time
+            hold_until = backing_until + config.contact_hold
+        return backing_until, hold_until
+
+    def _back_off(self, previous: float, back: float, fastest: float, next_fastest: float):
+        """(applied override, command, stopped) of a period backing off after a contact: braking at
+        a first (a protective stop while the robot still moves on), then back along the path at up
+        to `retreat_speed` on its fastest point, within the rules of that motion (`back`); a robot
+        whose path is at rest here did not make the contact and holds (0)."""
+        config = self.rules.config
+        if fastest <= 1e-9:
+            return 0.0, 0.0, True
+        command = -min(config.retreat_speed / fastest, back, 1.0)
+        applied = decelerated_override(previous, command, self.period, fastest, config.deceleration,
+                                       next_fastest, lowest=-1.0)
+        return applied, command, applied > 1e-12 or command == 0.0
 
     def _calc_override(self, context, output: BasicVector):
         output.SetAtIndex(0, context.get_discrete_state(self._state).get_value()[0])
@@ -624,6 +707,12 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
             builder.Connect(requested_override, controller.GetInputPort("requested_override"))
         if swept_volumes is not None:
             builder.Connect(swept_volumes, controller.GetInputPort("swept_volumes"))
+        if rules.pfl and config.contact_reaction:
+            sensing = builder.AddSystem(ContactSensing(dynamics, input_size, 1.0 / config.rate))
+            sensing.set_name("contact_sensing")
+            builder.Connect(positions, sensing.GetInputPort("positions"))
+            builder.Connect(human_capsules, sensing.GetInputPort("human_capsules"))
+            builder.Connect(sensing.GetOutputPort("contact_depth"), controller.GetInputPort("contact_depth"))
     mode = declared_mode(config, zones)
     cutter = RegionCapsules()
 

@@ -110,3 +110,17 @@ def test_blended_path_is_one_smooth_move_within_the_velocity_limits():
     segment, phase, finished = blended.progress_after(0, 0.0, T + 0.4)
     assert (segment, finished) == (0, False)
     assert blended.progress_after(0, 0.0, T + 0.51)[2]
+
+
+def test_a_path_goes_back_over_its_waypoints_no_further_than_its_start():
+    """A retreat (negative time): back through the dwell at the first waypoint into the first move;
+    never before the start. Moves of 1.875 s (1 rad at 1 rad/s, the min-jerk peak), a 0.5 s dwell."""
+    from hrc_drake.robots.path import ArmPath
+
+    path = ArmPath(np.zeros(1), np.array([[1.0], [2.0]]), np.array([0.5, 0.0]), np.array([1.0]), 1.0)
+    segment, phase, finished = path.progress_after(1, 0.3, -1.0)  # 0.3 of move 2, the dwell, 0.2 of move 1
+    assert (segment, finished) == (0, False) and phase == pytest.approx(1.875 - 0.2)
+    u = (1.875 - 0.2) / 1.875
+    np.testing.assert_allclose(path.position_at(segment, phase), [u**3 * (10 - 15 * u + 6 * u * u)])
+    assert path.progress_after(0, 0.4, -5.0)[:2] == (0, 0.0)
+    assert path.progress_after(1, 0.3, 0.0)[:2] == (1, 0.3)

@@ -87,3 +87,26 @@ def test_the_next_tick_ports_are_one_period_of_full_speed_path_ahead():
                                rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(ahead["velocities_full_next"],
                                system.GetOutputPort("velocities_full").Eval(context), rtol=1e-12, atol=1e-15)
+
+
+def test_a_negative_override_backs_the_arm_off_along_its_path():
+    """A safety controller's retreat: at override -1 the path time runs back at the clock's rate
+    (its positions are the path's at the earlier time), and not before the path's start."""
+    system, context = _between_ticks(1.0)
+    simulator = Simulator(system, context)
+    simulator.AdvanceTo(0.3)
+    forward = system.GetOutputPort("positions").Eval(context).copy()
+    system.GetInputPort("speed_override").FixValue(context, [-1.0])
+    simulator.AdvanceTo(0.3 + 1e-9)  # the tick at 0.3 applies -1
+    turning = system.GetOutputPort("positions").Eval(context).copy()
+    simulator.AdvanceTo(0.4)
+    back = system.GetOutputPort("positions").Eval(context).copy()
+    assert back[0] < turning[0] <= forward[0] + 1e-12
+    # 0.1 s back in path time: where the arm was at 0.2 s (forward at override 1 from the start)
+    again, again_context = _between_ticks(1.0)
+    Simulator(again, again_context).AdvanceTo(0.2)
+    np.testing.assert_allclose(back, again.GetOutputPort("positions").Eval(again_context), atol=1e-9)
+    np.testing.assert_allclose(system.GetOutputPort("velocities").Eval(context),
+                               -again.GetOutputPort("velocities").Eval(again_context), atol=1e-9)
+    simulator.AdvanceTo(2.0)
+    np.testing.assert_allclose(system.GetOutputPort("positions").Eval(context), [0.0, 0.0], atol=1e-12)

@@ -213,3 +213,35 @@ def test_head_and_torso_take_the_body_speed_and_the_limbs_the_human_speed():
     # body_speed 0: as human_speed
     same = SafetyRules(Hybrid(human_speed=1.8, body_speed=0.0), load_limits(), RegionCapsules().regions)
     assert same.body_separation.human_speed == 1.8 and same.separation.human_speed == 1.8
+
+
+def test_after_a_contact_the_robot_approaches_a_hand_no_faster_than_it_stops_within_its_compression():
+    """The compression budget (`override(..., budget=True)`, PFL after a sensed contact): the robot
+    2 m/s straight down onto the hand 7 cm below, Z_d 3 cm, Z_r 1 cm. It must stop, after T_r +
+    P = 0.1 + 1/30 s and braking at 5 m/s^2, within the 4 cm left plus the hand's quasi-static
+    compression 140 N / 75 N/mm = 1.867 mm: s 2 (0.1 + 1/30) + s^2 2 x 2 / (2 x 5) <= 0.031867."""
+    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions)
+    z_d = np.full(len(CUTTER), 0.03)
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    room = 0.07 - 0.03 - 0.01 + 140.0 / 75e3
+    a, b = 2.0 * 2.0 / (2 * 5.0), 2.0 * (0.1 + 1.0 / 30.0)
+    expected = (math.sqrt(b * b + 4 * a * room) - b) / (2 * a)  # 0.1034
+    override, (pairs, n, rule, _) = rules.override(robot_at(1.15), (velocity, velocity), body(), z_d, mass,
+                                                   budget=True)
+    assert rule == "pfl" and CUTTER.regions[pairs.r[n]] == "hand_fingers"
+    assert override == pytest.approx(expected, rel=1e-9)
+    # without the budget: eq. (A.6)'s transient speed, 7x faster
+    assert rules.override(robot_at(1.15), (velocity, velocity), body(), z_d, mass)[0] > 6.5 * expected
+    # at the edge: the hand's nearest possible point less its compression -> a stop; moving away is free
+    edge = 1.0 + 0.05 + 0.03 + 0.03 + 0.01 - 140.0 / 75e3
+    def budgeted(z, v):
+        return rules.override(robot_at(z), (v, v), body(), z_d, mass, budget=True)[0]
+
+    assert budgeted(edge - 1e-6, velocity) == 0.0
+    assert budgeted(edge + 1e-4, velocity) > 0.0
+    assert budgeted(edge - 0.02, -velocity) == 1.0
+    # the numpy reference decides the same
+    reference = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, compiled=False)
+    assert reference.override(robot_at(1.15), (velocity, velocity), body(), z_d, mass,
+                              budget=True)[0] == pytest.approx(expected, rel=1e-9)

@@ -9,10 +9,15 @@ import numpy as np
 import pytest
 from pydrake.systems.analysis import Simulator
 
-from hrc_drake.messages import SkeletonEstimate
+from hrc_drake.messages import Capsules, SkeletonEstimate
+from hrc_drake.safety.config import Hybrid
 from hrc_drake.safety.judge import VIOLATION_KINDS
-from tests.contract import new_context
-from tests.safety.system_examples import _operator, safety_controller, safety_monitor
+from hrc_drake.safety.regions import RegionCapsules
+from hrc_drake.safety.rules import SafetyRules
+from hrc_drake.safety.systems import ContactSensing, HumanRegions, RobotPointDynamics, SafetyController
+from tests.contract import SystemExample, new_context
+from tests.safety.arms import two_link_arm, two_link_kinematics
+from tests.safety.system_examples import ZONES, _operator, _setup, safety_controller, safety_monitor
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -168,3 +173,62 @@ def test_the_controller_keeps_the_separation_at_its_next_tick_where_the_path_tur
     as_present = _run(example, {**at_corner, "velocities_full": [1.5, 0.0]}, duration=0.05)
     assert command.Eval(with_next)[1] == pytest.approx(command.Eval(as_present)[1], abs=1e-12)
     assert command.Eval(with_next)[1] < 0.5
+
+
+def test_the_contact_sensing_reads_the_deepest_overlap_of_a_robot_link_with_the_body():
+    """Link 2 of the two-link arm lies along x from (1, 0, 0.9) to (1.8, 0, 0.9), radius 0.05; a body
+    capsule upright at (1.4, 0.09), radius 0.05: their axes 0.09 apart, 1 cm of overlap."""
+    plant, _ = two_link_arm(height=0.9)
+    system = ContactSensing(RobotPointDynamics(plant, two_link_kinematics(plant)), 2, 1.0 / 30.0)
+    context = system.CreateDefaultContext()
+    system.GetInputPort("positions").FixValue(context, [0.0, 0.0])
+    body = Capsules(np.array([[1.4, 0.09, 0.5]]), np.array([[1.4, 0.09, 1.3]]), np.array([0.05]))
+    system.GetInputPort("human_capsules").FixValue(context, body)
+    Simulator(system, context).AdvanceTo(0.01)
+    assert system.GetOutputPort("contact_depth").Eval(context)[0] == pytest.approx(0.01, abs=1e-12)
+    clear = Capsules(np.array([[1.4, 0.2, 0.5]]), np.array([[1.4, 0.2, 1.3]]), np.array([0.05]))
+    system.GetInputPort("human_capsules").FixValue(context, clear)
+    Simulator(system, context).AdvanceTo(0.05)
+    assert system.GetOutputPort("contact_depth").Eval(context)[0] == 0.0
+
+
+def test_after_a_sensed_contact_the_robot_brakes_then_backs_off_along_its_path():
+    """The operator far, the tip at 1.5 rad/s on its 1.766 m lever (2.649 m/s): a contact of 1 cm
+    at t = 0.1 s. The robot brakes at 5 m/s^2 (a protective stop, counted once), then backs off
+    with its fastest point at the retreat speed, 0.25 m/s: override -0.25 / 2.649. A robot whose
+    path is at rest did not make the contact: it holds."""
+    example = safety_controller()
+    system = example.system
+    context = _run(example, {**example.inputs_b, "contact_depth": [0.0]}, duration=0.1)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(1.0)
+    system.GetInputPort("contact_depth").FixValue(context, [0.01])
+    simulator = Simulator(system, context)
+    fastest = 1.5 * abs(1.0 + 0.8 * np.exp(0.3j))
+    simulator.AdvanceTo(0.1 + 1.0 / 30.0 + 1e-9)  # the updates at 0.1 and 0.133 s
+    status = system.GetOutputPort("status").Eval(context)
+    assert status[1] == pytest.approx(-0.25 / fastest)
+    assert status[0] == pytest.approx(1.0 - 2 * 5.0 / 30.0 / fastest) and status[3] == 1.0
+    simulator.AdvanceTo(1.0)
+    status = system.GetOutputPort("status").Eval(context)
+    assert status[0] == pytest.approx(-0.25 / fastest) and status[3] == 0.0
+    assert system.protective_stops(context) == 1
+    # the contact over: backing off ends retreat_time (0.3 s) after it, then forward again
+    system.GetInputPort("contact_depth").FixValue(context, [0.0])
+    simulator.AdvanceTo(1.5)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] > 0.0
+    at_rest = _run(example, {**example.inputs_b, "velocities_full": [0.0, 0.0], "contact_depth": [0.01]},
+                   duration=0.2)
+    assert system.GetOutputPort("speed_override").Eval(at_rest)[0] == 0.0
+
+
+def test_without_contact_reaction_the_robot_does_not_read_its_contact_sensing():
+    config = Hybrid(position_uncertainty="fixed", contact_reaction=False)
+    plant, kinematics, _, limits, _ = _setup()
+    rules = SafetyRules(config, limits, RegionCapsules().regions, ZONES)
+    body, _, _ = _operator(4.0)
+    system = SafetyController(rules, RobotPointDynamics(plant, kinematics), HumanRegions(body, config), 2)
+    example = safety_controller()
+    context = new_context(SystemExample(system, example.inputs_b, example.inputs_b),
+                          {**example.inputs_b, "contact_depth": [0.01]})
+    Simulator(system, context).AdvanceTo(0.3)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(1.0)
