@@ -232,3 +232,11 @@ def test_without_contact_reaction_the_robot_does_not_read_its_contact_sensing():
                           {**example.inputs_b, "contact_depth": [0.01]})
     Simulator(system, context).AdvanceTo(0.3)
     assert system.GetOutputPort("speed_override").Eval(context)[0] == pytest.approx(1.0)
+
+
+def test_the_next_tick_is_checked_only_with_both_of_its_ports():
+    """A diagram that connects only the next tick's positions (not its velocities) checks the
+    present only (`apply_safety_config` connects both or neither)."""
+    example = safety_controller()
+    context = _run(example, {**example.inputs_b, "positions_full_next": [0.0, 0.3]}, duration=0.05)
+    assert example.system.GetOutputPort("speed_override").Eval(context)[0] == 1.0

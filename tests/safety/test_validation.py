@@ -50,7 +50,10 @@ def test_an_unknown_body_region_is_refused():
 
 
 @pytest.mark.parametrize("field, value", [("deceleration", 0.0), ("reaction_time", -0.1), ("rate", 80.0),
-                                          ("position_uncertainty", "psychic"), ("robot_mass", "guess")])
+                                          ("position_uncertainty", "psychic"), ("robot_mass", "guess"),
+                                          ("contact_reaction", "yes"), ("retreat_speed", 1.5),
+                                          ("retreat_speed", -0.1), ("retreat_time", float("nan")),
+                                          ("contact_hold", 61.0)])
 def test_bad_numbers_and_names_are_refused(field, value):
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", field: value})})
     assert err.field == f"safety.{field}"
