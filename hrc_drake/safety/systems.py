@@ -462,12 +462,14 @@ class SafetyController(LeafSystem):
                     head_offset = points[HEAD] - points[THORAX]
         clamped_until = x[self._clamped].reshape(self._pairs)
         now = context.get_time()
-        backing_until, hold_until = self._contact_step(context, *x[self._contact])
+        backing_until, hold_until, touched = self._contact_step(context, float(x[0]), *x[self._contact])
         backing = now < backing_until
         command, distance, separation, fastest, next_fastest, back = self._command(
             context, seen, head_offset, clamped_until, budget=now < hold_until, backing=backing)
         deceleration = self.rules.config.deceleration
-        if backing:
+        if touched:
+            applied, command, stopped = 0.0, 0.0, True
+        elif backing:
             applied, command, stopped = self._back_off(float(x[0]), back, fastest, next_fastest)
         else:
             requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
@@ -489,17 +491,27 @@ class SafetyController(LeafSystem):
                             head_offset, [backing_until, hold_until], clamped_until.ravel()]))
         return EventStatus.Succeeded()
 
-    def _contact_step(self, context, backing_until: float, hold_until: float) -> tuple[float, float]:
-        """(until when the robot backs off, until when PFL parts keep the compression budget) after
-        this period's reading of the robot's contact sensing (`contact_reaction`)."""
+    def _contact_step(self, context, previous: float, backing_until: float, hold_until: float):
+        """(until when the robot backs off, until when PFL parts keep the compression budget, whether
+        it is touched at rest) after this period's reading of its contact sensing
+        (`contact_reaction`). A robot moving (faster than the judge's 1 mm/s) when a contact comes
+        made it and backs off; a robot at rest did not: it stays at rest while touched (a person
+        who walks into a stopped robot is not held against it, one it moves under is)."""
         config = self.rules.config
         if not (self.rules.pfl and config.contact_reaction and self._contact_depth.HasValue(context)):
-            return backing_until, hold_until
-        if float(self._contact_depth.Eval(context)[0]) > CONTACT_DETECTION:
-            now = context.get_time()
-            backing_until = now + config.retreat_time
-            hold_until = backing_until + config.contact_hold
-        return backing_until, hold_until
+            return backing_until, hold_until, False
+        if float(self._contact_depth.Eval(context)[0]) <= CONTACT_DETECTION:
+            return backing_until, hold_until, False
+        now = context.get_time()
+        hold_until = max(hold_until, now + config.retreat_time + config.contact_hold)
+        if now < backing_until or self._moving(context, previous):
+            return now + config.retreat_time, hold_until, False
+        return backing_until, hold_until, True
+
+    def _moving(self, context, override: float) -> bool:
+        """Whether the robot's fastest point moves faster than 1 mm/s at `override` of its path."""
+        self.dynamics.set_state(self._positions.Eval(context), self._velocities.Eval(context))
+        return abs(override) * fastest_speed(self.dynamics.capsules()[1]) > 1e-3
 
     def _back_off(self, previous: float, back: float, fastest: float, next_fastest: float):
         """(applied override, command, stopped) of a period backing off after a contact: braking at

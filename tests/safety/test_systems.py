@@ -240,3 +240,23 @@ def test_the_next_tick_is_checked_only_with_both_of_its_ports():
     example = safety_controller()
     context = _run(example, {**example.inputs_b, "positions_full_next": [0.0, 0.3]}, duration=0.05)
     assert example.system.GetOutputPort("speed_override").Eval(context)[0] == 1.0
+
+
+def test_a_robot_at_rest_that_is_touched_stays_at_rest():
+    """The person made the contact (the robot's path moves, but the robot stands still: the thesis's
+    rule asks for 0): it neither backs off nor moves on while touched (a robot moving under a face
+    that leans on it is a violation), and it is a protective stop."""
+    example = safety_controller()
+    system = example.system
+    context = _run(example, {**example.inputs_b, "requested_override": [0.0], "contact_depth": [0.0]},
+                   duration=1.0)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] == 0.0
+    system.GetInputPort("requested_override").FixValue(context, [1.0])
+    system.GetInputPort("contact_depth").FixValue(context, [0.01])
+    Simulator(system, context).AdvanceTo(1.5)
+    status = system.GetOutputPort("status").Eval(context)
+    assert status[0] == 0.0 and status[1] == 0.0 and status[3] == 1.0
+    # the contact over, it moves on (forward: it did not make the contact)
+    system.GetInputPort("contact_depth").FixValue(context, [0.0])
+    Simulator(system, context).AdvanceTo(1.7)
+    assert system.GetOutputPort("speed_override").Eval(context)[0] > 0.0
