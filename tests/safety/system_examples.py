@@ -11,6 +11,7 @@ from hrc_drake.safety.limits import load_limits
 from hrc_drake.safety.regions import RegionCapsules
 from hrc_drake.safety.rules import SafetyRules
 from hrc_drake.safety.systems import (
+    ContactSensing,
     HumanRegions,
     RobotPointDynamics,
     SafetyController,
@@ -70,4 +71,15 @@ def safety_monitor() -> SystemExample:
         duration=0.3, inputs_matter=False)
 
 
-EXAMPLES = {SafetyController: safety_controller, SafetyMonitor: safety_monitor}
+def contact_sensing() -> SystemExample:
+    """The arm's link 2 along x at height 0.9, a body capsule upright across it (1 cm of overlap) or
+    clear of it."""
+    plant, kinematics, _, _, _ = _setup()
+    system = ContactSensing(RobotPointDynamics(plant, kinematics), 2, 1.0 / 30.0)
+    touching = Capsules(np.array([[1.4, 0.09, 0.5]]), np.array([[1.4, 0.09, 1.3]]), np.array([0.05]))
+    clear = Capsules(np.array([[1.4, 0.3, 0.5]]), np.array([[1.4, 0.3, 1.3]]), np.array([0.05]))
+    return SystemExample(system, {"positions": [0.0, 0.0], "human_capsules": touching},
+                         {"positions": [0.0, 0.0], "human_capsules": clear}, duration=0.3)
+
+
+EXAMPLES = {SafetyController: safety_controller, SafetyMonitor: safety_monitor, ContactSensing: contact_sensing}
