@@ -82,4 +82,5 @@ def contact_sensing() -> SystemExample:
                          {"positions": [0.0, 0.0], "human_capsules": clear}, duration=0.3)
 
 
-EXAMPLES = {SafetyController: safety_controller, SafetyMonitor: safety_monitor, ContactSensing: contact_sensing}
+EXAMPLES = {SafetyController: safety_controller, SafetyMonitor: safety_monitor,
+            ContactSensing: contact_sensing}
