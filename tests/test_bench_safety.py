@@ -76,3 +76,15 @@ def test_the_bench_reports_eq_a6_per_region(bench):
     assert transient["hand_fingers"] == pytest.approx(1.4459, abs=1e-4)
     assert quasi["hand_fingers"] == pytest.approx(0.7230, abs=1e-4)
     assert transient["face"] == 0.0
+
+
+def test_the_kept_percentage_and_the_products_plot(bench, tmp_path):
+    assert bench.kept_percentage({"none": 8.0, "declared": 6.0}) == 75.0
+    assert bench.kept_percentage({"none": 0.0, "declared": 0.0}) is None
+    assert bench.kept_percentage({"declared": 3.0}) is None
+    products = {"a": {"none": 8.0, "declared": 6.0, "ssm": 0.0}, "b": {"declared": 2.0}}
+    out = {"duration_s": 300.0, "products": products,
+           "verdict": {"a": "safe", "b": "unsafe"}, "kept_pct": {"a": 75.0, "b": None}}
+    path = tmp_path / "products.png"
+    bench.plot_products(out, path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000

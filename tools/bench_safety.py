@@ -30,7 +30,10 @@ directions, `iso` the standard's M/2), `falsify.<cell>.violations` and `.verdict
 candidate of each `--falsify` report) and `.candidates_with_violations.<search>`,
 `pfl_speed_mps.<region>` and `pfl_speed_quasi_static_mps.<region>` (eq. A.6 for
 m_R = 3 kg), `effective_mass_us` (one evaluation on a fresh YuMi state: Jacobian, mass matrix,
-factorisation) and `effective_mass_cached_us` (another point of the same body and state).
+factorisation) and `effective_mass_cached_us` (another point of the same body and state), and
+`kept_pct.<cell>` (issue 52: declared-mode products as a percentage of the products without a
+safety system; null without both). `--plot FILE` draws the products per cell and mode as bars,
+each declared bar labelled with its verdict (the before/after picture of docs/safety.md).
 """
 
 from __future__ import annotations
@@ -246,6 +249,8 @@ def main() -> None:
     parser.add_argument("--falsify", nargs="*", default=(), metavar="REPORT",
                         help="report.json files of falsification searches, for the falsify.* keys")
     parser.add_argument("--quick", action="store_true", help="20 s runs, one seed (under 5 minutes)")
+    parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                        help="draw the products per cell and mode (bars) to this file")
     args = parser.parse_args()
     if args.quick:
         args.duration, args.seeds = 20.0, 1
@@ -277,7 +282,11 @@ def main() -> None:
                   f"{row['violations']:>10} {worst:>6} {row['stops']:>6} {row['breach_s']:>8.1f} "
                   f"{row['contacts']:>8} {100 * (row['pfl_share'] or 0):>6.1f}% {row['cpu_s']:>6.1f}",
                   flush=True)
-    print(json.dumps(figures(rows, args)))
+    out = figures(rows, args)
+    if args.plot is not None:
+        plot_products(out, args.plot)
+        print(f"products per cell and mode drawn to {args.plot}", flush=True)
+    print(json.dumps(out))
 
 
 #: verdict codes from the worst: a cell's verdict over its seeds is its worst seed's
@@ -376,6 +385,7 @@ def figures(rows: list[dict], args) -> dict:
     out["stop_ratio_worst"] = {c: max((r["stop_ratio_worst"] for r in rs
                                        if r["stop_ratio_worst"] is not None),
                                       default=None) for c, rs in declared.items() if rs}
+    out["kept_pct"] = {c: kept_percentage(out["products"][c]) for c in cells}
     out["effective_mass_kg"] = gripper_effective_mass()
     for report in getattr(args, "falsify", None) or ():
         out.update(falsified(Path(report)))
@@ -384,6 +394,52 @@ def figures(rows: list[dict], args) -> dict:
     out["pfl_speed_quasi_static_mps"] = quasi
     out["effective_mass_us"], out["effective_mass_cached_us"] = time_effective_mass()
     return out
+
+
+def kept_percentage(products: dict):
+    """Declared-mode products as a percentage of those without a safety system (`products.<cell>`),
+    or None without both runs or with no product unsafeguarded."""
+    declared, unsafeguarded = products.get("declared"), products.get("none")
+    if declared is None or not unsafeguarded:
+        return None
+    return round(100.0 * declared / unsafeguarded, 1)
+
+
+#: the bars of each cell, in this order, and their colours
+PLOT_MODES = (("none", "0.75"), ("ssm", "tab:blue"), ("pfl", "tab:orange"), ("hybrid", "tab:green"),
+              ("declared", "black"))
+
+
+def plot_products(figures_out: dict, path: Path) -> None:
+    """Grouped bars: products per run of each cell under each mode it ran, the declared bar
+    labelled with the cell's verdict and kept percentage."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    products = figures_out["products"]
+    cells = sorted(products)
+    modes = [(m, colour) for m, colour in PLOT_MODES if any(m in products[c] for c in cells)]
+    width = 0.8 / max(len(modes), 1)
+    fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(cells)), 4.5))
+    for j, (mode, colour) in enumerate(modes):
+        xs = [i + (j - (len(modes) - 1) / 2) * width for i in range(len(cells))]
+        heights = [products[c].get(mode) or 0.0 for c in cells]
+        ax.bar(xs, heights, width, label=mode, color=colour)
+        if mode == "declared":
+            for x, c, h in zip(xs, cells, heights, strict=True):
+                verdict = figures_out.get("verdict", {}).get(c) or ""
+                kept = figures_out.get("kept_pct", {}).get(c)
+                label = verdict.upper() + ("" if kept is None else f" {kept:.0f} %")
+                ax.text(x, h, label, rotation=90, ha="center", va="bottom", fontsize=7)
+    ax.set_xticks(range(len(cells)), cells, rotation=45, ha="right", fontsize=8)
+    ax.set_ylabel("products per run")
+    ax.set_title(f"The cost of safety ({figures_out.get('duration_s', 0):.0f} s runs)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
 
 
 if __name__ == "__main__":
