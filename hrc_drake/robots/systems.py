@@ -186,13 +186,10 @@ class PathFollower(LeafSystem):
         return q
 
     def _calc_q(self, context, output: BasicVector):
-        x = context.get_discrete_state(self._state).get_value()
-        output.SetFromVector(self._positions(context, (context.get_time() - x[1]) * x[0]))
+        output.SetFromVector(self._positions(context, self._elapsed(context)))
 
     def _calc_q_ahead(self, context, output: BasicVector):
-        x = context.get_discrete_state(self._state).get_value()
-        ahead = max(context.get_time() - x[1], 0.0) * x[0] + self.lookahead
-        output.SetFromVector(self._positions(context, ahead))
+        output.SetFromVector(self._positions(context, self._elapsed(context) + self.lookahead))
 
     def _velocities(self, context, override: float, ahead: float = 0.0) -> np.ndarray:
         """Joint velocities at `override`, `ahead` seconds of full-speed path time after the last tick."""

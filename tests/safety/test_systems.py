@@ -260,3 +260,18 @@ def test_a_robot_at_rest_that_is_touched_stays_at_rest():
     system.GetInputPort("contact_depth").FixValue(context, [0.0])
     Simulator(system, context).AdvanceTo(1.7)
     assert system.GetOutputPort("speed_override").Eval(context)[0] > 0.0
+
+
+def test_a_contact_at_the_detection_threshold_is_not_sensed_and_just_past_it_is():
+    """The edge of the contact detection (0.5 mm): at it the robot goes on at full speed; 0.01 mm
+    deeper it brakes (a protective stop) toward backing off."""
+    from hrc_drake.safety.systems import CONTACT_DETECTION
+
+    example = safety_controller()
+    system = example.system
+    at_edge = _run(example, {**example.inputs_b, "contact_depth": [CONTACT_DETECTION]}, duration=0.2)
+    assert system.GetOutputPort("speed_override").Eval(at_edge)[0] == 1.0
+    assert CONTACT_DETECTION == 0.0005
+    past = _run(example, {**example.inputs_b, "contact_depth": [0.00051]}, duration=0.2)
+    status = system.GetOutputPort("status").Eval(past)
+    assert status[1] < 0.0 and system.protective_stops(past) == 1
