@@ -39,6 +39,7 @@ each declared bar labelled with its verdict (the before/after picture of docs/sa
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -49,7 +50,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-MODES = ("declared", "none", "ssm", "pfl", "hybrid")
+MODES = ("declared", "none", "ssm", "pfl", "hybrid", "predictive", "reactive")
 #: the tag of each mode override
 MODE_TAGS = {"ssm": "SpeedSeparationMonitoring", "pfl": "PowerForceLimiting", "hybrid": "Hybrid"}
 
@@ -58,12 +59,19 @@ def mode_overrides(path: str, mode: str) -> dict:
     """The raw overrides that put the cell of `path` under `mode` ({} for `declared`)."""
     from hrc_drake.cell.scenario import Tagged, load_scenario
     from hrc_drake.perception.config import NoTracker
+    from hrc_drake.safety.config import NoSafety
 
     if mode == "declared":
         return {}
     if mode == "none":
         return {"safety": Tagged("NoSafety", {})}
     scenario = load_scenario(path)
+    if mode in ("predictive", "reactive"):
+        # the declared mode with the other speed profile (a cell with no safety system has none)
+        if isinstance(scenario.safety, NoSafety):
+            return {}
+        fields = {**dataclasses.asdict(scenario.safety), "speed_profile": mode}
+        return {"safety": Tagged(type(scenario.safety).__name__, fields)}
     uncertainty = "camera" if isinstance(scenario.tracker, NoTracker) else "tracker"
     out = {"safety": Tagged(MODE_TAGS[mode], {"position_uncertainty": uncertainty})}
     if mode == "hybrid" and not scenario.layout.collaborative_zones:

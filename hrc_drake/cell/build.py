@@ -199,7 +199,7 @@ def _add_plant(builder, scenario: Scenario):
 
 
 def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler, flow,
-                      hold_new_paths: bool = False):
+                      hold_new_paths: bool = False, preview: dict | None = None):
     """Task executor and path follower of every arm agent, driving the plant. An arm on a
     flow action of several agents stays on it until all are done, unless released early.
 
@@ -229,7 +229,7 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
              for agent in a.agents if agent in arm_agents and agent not in a.early_release}
     follower = builder.AddSystem(
         PathFollower(JointPathFollower(q0, arm_indices, v_max), period=1.0 / CELL_RATE,
-                     hold_new_paths=hold_new_paths)
+                     hold_new_paths=hold_new_paths, **(preview or {}))
     )
     follower.set_name("path_follower")
     executor = builder.AddSystem(
@@ -447,6 +447,12 @@ def capsule_payloads(scenario: Scenario, plant, capsule_kin) -> np.ndarray:
     return out
 
 
+def _preview_of(safety) -> dict:
+    """The follower's path preview for a predictive safety controller (none otherwise)."""
+    steps = safety.preview_steps() if hasattr(safety, "preview_steps") else 0
+    return {"preview_steps": steps, "preview_step": safety.preview_step} if steps else {}
+
+
 def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower,
                 positions_port, estimate_port, human_capsules, systems) -> None:
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
@@ -471,6 +477,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         velocities_full_ahead=follower.GetOutputPort("velocities_full_ahead"),
         positions_full_next=follower.GetOutputPort("positions_full_next"),
         velocities_full_next=follower.GetOutputPort("velocities_full_next"),
+        path_preview=follower.GetOutputPort("path_preview"),
         skeleton_estimate=estimate_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
         judge_values=standard, judge_changes=changed, payloads=capsule_payloads(scenario, plant, capsule_kin),
@@ -554,6 +561,7 @@ def build_cell(
         scenario.flow,
         # a safety controller sees a path before it moves (`PathFollower.hold_new_paths`)
         hold_new_paths=has_safety_controller(scenario),
+        preview=_preview_of(scenario.safety),
     )
     capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))

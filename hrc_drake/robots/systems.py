@@ -43,7 +43,10 @@ class PathFollower(LeafSystem):
     now (a path accelerating from rest: what a safety controller's reaction time may reach);
     "positions_full_next" and "velocities_full_next" (nq,): where the arms are, and their velocities
     at full speed, one period of full-speed path time after now (a safety controller keeps its
-    separation at the next tick too, where the path may have turned toward the operator).
+    separation at the next tick too, where the path may have turned toward the operator);
+    "path_preview" (preview_steps x 2 nq): the positions and the full-speed velocities at
+    `preview_step`, 2 `preview_step`, ... of full-speed path time after now, stacked per sample (a
+    predictive safety controller plans its speed over them; 0 steps: an empty port).
     hold_new_paths: a path starts moving one tick after it was requested, so that a safety
     controller's override has seen it (else its first period runs at an override computed without
     it: the robot accelerates from rest within the reaction time). Each tick advances the paths by
@@ -64,9 +67,11 @@ class PathFollower(LeafSystem):
     """
 
     def __init__(self, follower: JointPathFollower, period: float = 0.02, lookahead: float = 0.1,
-                 hold_new_paths: bool = False):
+                 hold_new_paths: bool = False, preview_steps: int = 0, preview_step: float = 0.1):
         super().__init__()
         self.period = float(period)
+        self.preview_steps = int(preview_steps)
+        self.preview_step = float(preview_step)
         self.hold_new_paths = bool(hold_new_paths)
         self.lookahead = float(lookahead)
         self.arm_indices = [np.asarray(i, dtype=int) for i in follower.arm_indices]
@@ -94,6 +99,7 @@ class PathFollower(LeafSystem):
         self.DeclareVectorOutputPort("positions_ahead", nq, self._calc_q_ahead, smooth)
         self.DeclareVectorOutputPort("positions_full_next", nq, self._calc_q_next, smooth)
         self.DeclareVectorOutputPort("velocities_full_next", nq, self._calc_v_full_next, smooth)
+        self.DeclareVectorOutputPort("path_preview", 2 * nq * self.preview_steps, self._calc_preview, smooth)
         self.DeclareAbstractOutputPort(
             "path_done", lambda: AbstractValue.Make(PathStatus()), self._calc_done, {self.xd_ticket()}
         )
@@ -225,6 +231,13 @@ class PathFollower(LeafSystem):
 
     def _calc_v_full_next(self, context, output: BasicVector):
         output.SetFromVector(self._velocities(context, 1.0, self._elapsed(context) + self.period))
+
+    def _calc_preview(self, context, output: BasicVector):
+        elapsed = self._elapsed(context)
+        samples = [np.concatenate([self._positions(context, elapsed + k * self.preview_step),
+                                   self._velocities(context, 1.0, elapsed + k * self.preview_step)])
+                   for k in range(1, self.preview_steps + 1)]
+        output.SetFromVector(np.concatenate(samples) if samples else np.zeros(0))
 
     def _calc_done(self, context, output):
         x = context.get_discrete_state(self._state).get_value()

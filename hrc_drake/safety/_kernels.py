@@ -267,16 +267,19 @@ def _separations(r, speed, body_region, limbs, body, z_d, covered_time, full_spe
 
 @njit(cache=True)
 def _ssm_scales(r, distance, approach, governed, clamped, z_d, body_region, limbs, body, covered_time,
-                fastest, moving_speed, pfl_floor):
+                fastest, moving_speed, pfl_floor, clamped_scale):
     """The override of every pair by SSM (PFL pairs start from it), and the PFL pairs that still need
-    their robot mass (`SafetyRules.override` up to the masses): (scale (N,), needs mass (N,))."""
+    their robot mass (`SafetyRules.override` up to the masses): (scale (N,), needs mass (N,)).
+    clamped_scale (N,): a clamped pair's override where >= 0 (the compression budget), else SSM's."""
     size = r.shape[0]
     scale = np.empty(size)
     moving = np.empty(size, dtype=np.bool_)
     any_pfl = False
     for n in range(size):
         moving[n] = approach[n] > (1e-9 if clamped[n] else moving_speed)
-        if moving[n]:
+        if clamped[n] and clamped_scale[n] >= 0.0:
+            scale[n] = clamped_scale[n]
+        elif moving[n]:
             j = r[n]
             params = _path_stop(body if body_region[j] else limbs, approach[n], fastest)
             v_ssm = _permissible_speed(distance[n], params, _pieces(params, covered_time), z_d[j])
@@ -336,7 +339,7 @@ def _warm_up_steps() -> list:
         lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
         lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0, approach, 1.0),
         lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,
-                            params, 0.0, 1.0, 0.01, np.ones(1)),
+                            params, 0.0, 1.0, 0.01, np.ones(1), -np.ones(1)),
         lambda: _pieces(params, 0.0),
     ]
 

@@ -326,6 +326,9 @@ class SafetyRules:
         fastest = fastest_speed(robot_velocity)
         v_ssm = self.ssm_speeds(pairs, z, covered_time, fastest)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
+        clamped_scale = self._clamped_budget(pairs, clamped, z, fastest)
+        scale = np.where(clamped_scale >= 0.0, clamped_scale, scale)
+        rule = np.where(clamped_scale >= 0.0, "clamped", rule)
         # a pair approaching slower than its region's PFL speed for an infinite robot mass (the
         # smallest eq. A.6 gives, quasi-static) is free whatever m_R: no Jacobian needed
         pfl = governed & moving & (scale < FREE)
@@ -374,9 +377,10 @@ class SafetyRules:
             governed, clamped = governed & ~held, clamped | held
         limbs, body = self._params
         fastest = fastest_speed(robot_velocity)
+        clamped_scale = self._clamped_budget(pairs, clamped, z_d[r], fastest)
         scale, needs_mass = _kernels._ssm_scales(r, pairs.distance, pairs.approach, governed, clamped, z_d,
                                                  self.body_region, limbs, body, float(covered_time), fastest,
-                                                 float(self.moving_speed), self._pfl_floor)
+                                                 float(self.moving_speed), self._pfl_floor, clamped_scale)
         if needs_mass.any():
             sub = np.nonzero(needs_mass)[0]
             picked = subset_pairs(pairs, sub)
@@ -389,20 +393,35 @@ class SafetyRules:
         at = np.array([n])
         sp = float(_kernels._separations(r[at], pairs.approach[at], self.body_region, limbs, body, z_d[r[at]],
                                          float(covered_time), pairs.approach[at], fastest)[0])
-        return float(scale[n]), (pairs, n, "pfl" if governed[n] else "ssm", sp)
+        rule = "pfl" if governed[n] else ("clamped" if clamped_scale[n] >= 0.0 else "ssm")
+        return float(scale[n]), (pairs, n, rule, sp)
 
-    def compression_scales(self, pairs: PairGeometry, governed, z_d, fastest: float) -> np.ndarray:
+    def _clamped_budget(self, pairs: PairGeometry, clamped, z_d, fastest: float) -> np.ndarray:
+        """(N,) the compression budget's override of each clamped pair (`compression_scales`) with
+        PFL's `clamped_approach: compression_budget`; -1 elsewhere (SSM's)."""
+        out = np.full(len(pairs.r), -1.0)
+        if not (self.pfl and self.config.clamped_approach == "compression_budget" and np.any(clamped)):
+            return out
+        clamped = np.asarray(clamped, dtype=bool)
+        budget = self.compression_scales(pairs, clamped, z_d, fastest, threshold=1e-9)
+        out[clamped] = budget[clamped]
+        return out
+
+    def compression_scales(self, pairs: PairGeometry, governed, z_d, fastest: float,
+                           threshold: float | None = None) -> np.ndarray:
         """The largest override s (N,) with which each approaching PFL pair stops, after T_r + P, with
         the robot's compression of the part at most its quasi-static limit's, d_qs = min(F_qs,
         p_qs A) / k, beyond the part's nearest possible point: s v (T_r + P) + s^2 v V / (2a) <=
         D - Z_d - Z_r + d_qs (v the pair's approach and V the fastest point's speed at full path
         speed, the path braked on V as `ssm.path_stop`); 0 where that is negative, 1 for the other
-        pairs (`override`'s budget)."""
+        pairs (`override`'s budget); threshold: the approach (m/s) that counts, by default
+        `moving_speed` (a clamped part's: any, 1e-9)."""
         params = self.separation
         approach = np.asarray(pairs.approach, dtype=float)
         room = (np.asarray(pairs.distance, dtype=float) - np.asarray(z_d, dtype=float)
                 - params.robot_uncertainty + self._compression[pairs.r])
-        applies = np.asarray(governed, dtype=bool) & (approach > self.moving_speed)
+        moving = self.moving_speed if threshold is None else threshold
+        applies = np.asarray(governed, dtype=bool) & (approach > moving)
         v = np.where(applies, approach, 1.0)
         quadratic = v * max(fastest, 0.0) / (2.0 * params.deceleration)
         quadratic = np.maximum(quadratic, v * v / (2.0 * params.deceleration))  # V >= v

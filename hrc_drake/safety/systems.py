@@ -359,6 +359,9 @@ class SafetyController(LeafSystem):
         self._positions_next = self.DeclareVectorInputPort("positions_full_next", dynamics.num_positions)
         self._velocities_next = self.DeclareVectorInputPort("velocities_full_next", dynamics.num_velocities)
         self._contact_depth = self.DeclareVectorInputPort("contact_depth", 1)
+        self._preview_steps = config.preview_steps()
+        self._preview = self.DeclareVectorInputPort(
+            "path_preview", 2 * dynamics.num_positions * self._preview_steps)
         self._estimate = self.DeclareAbstractInputPort("skeleton_estimate",
                                                        AbstractValue.Make(SkeletonEstimate()))
         self._requested = self.DeclareVectorInputPort("requested_override", 1)
@@ -385,7 +388,7 @@ class SafetyController(LeafSystem):
         if self._estimate.HasValue(context):
             human = self.regions(self._estimate.Eval(context), context.get_time() - seen, head_offset)
         if human is None:
-            return 0.0, math.nan, math.nan, 0.0, 0.0, 0.0
+            return 0.0, math.nan, math.nan, 0.0, 0.0, 0.0, 0.0
         regions, z_d, lost_radius = human
         covered = 0.0
         if self.swept and self._swept_volumes.HasValue(context):
@@ -426,10 +429,42 @@ class SafetyController(LeafSystem):
             if next_command < command:
                 command, binding = next_command, next_binding
             next_fastest = max(next_fastest, next_speed)
+        planned = 1.0
+        if self._preview_steps and not backing and self._preview.HasValue(context):
+            planned = self._planned_profile(self._preview.Eval(context), fastest, regions, z_d, covered,
+                                            clamped_until, now, lost_radius, budget)
         if binding is None:
-            return command, math.inf, math.nan, fastest, next_fastest, back
+            return command, math.inf, math.nan, fastest, next_fastest, back, planned
         pairs, n, _, separation = binding
-        return command, float(pairs.distance[n]), separation, fastest, next_fastest, back
+        return command, float(pairs.distance[n]), separation, fastest, next_fastest, back, planned
+
+    def _planned_profile(self, preview, fastest, regions, z_d, covered, clamped_until, now, lost_radius,
+                         budget=False) -> float:
+        """The predictive speed profile's override now: the largest from which braking at the
+        planning deceleration a_p reaches the override o_k the rules allow at each preview sample k
+        (k steps of full-speed path time ahead) by the sample before it, tau_{k-1} = (k - 1) step
+        ahead (the rules hold at the samples only: a lower speed may be needed anywhere after the
+        last sample checked): o <= sqrt(o_k^2 + 2 a_p tau_{k-1} / V), V the fastest point's speed
+        at full path speed up to sample k (the path time runs at o, the fastest point slows by at
+        most a_p). So the robot reaches a place it may not pass at rest, a planned wait, instead of
+        a stop; it leaves rest only where the next sample is free. The human at each sample: the
+        present estimate (a person standing still; S_p's S_h covers their motion during a stop)."""
+        config = self.rules.config
+        nq = self.dynamics.num_positions
+        samples = np.asarray(preview, dtype=float).reshape(self._preview_steps, 2, nq)
+        highest = fastest
+        planned = 1.0
+        for k, (positions, velocities) in enumerate(samples, start=1):
+            if not np.any(velocities):
+                continue  # the path rests there: no motion to keep S_p for
+            self.dynamics.set_state(positions, velocities)
+            robot, velocity = self.dynamics.capsules()
+            allowed, _ = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
+                                             covered, clamped_until.copy(), now, lost_radius, budget)
+            highest = max(highest, fastest_speed(velocity))
+            tau = (k - 1) * config.preview_step
+            planned = min(planned, math.sqrt(allowed**2 + 2.0 * config.planning_deceleration * tau / highest))
+        return planned
 
     def _next_tick(self, context, regions, z_d, covered, clamped_until, now, lost_radius, budget=False):
         """(rules' override, binding pair, fastest point's speed) at the robot's state one period of
@@ -464,7 +499,7 @@ class SafetyController(LeafSystem):
         now = context.get_time()
         backing_until, hold_until, touched = self._contact_step(context, float(x[0]), *x[self._contact])
         backing = now < backing_until
-        command, distance, separation, fastest, next_fastest, back = self._command(
+        command, distance, separation, fastest, next_fastest, back, planned = self._command(
             context, seen, head_offset, clamped_until, budget=now < hold_until, backing=backing)
         deceleration = self.rules.config.deceleration
         if touched:
@@ -474,7 +509,8 @@ class SafetyController(LeafSystem):
         else:
             requested = float(self._requested.Eval(context)[0]) if self._requested.HasValue(context) else 1.0
             requested = min(max(requested, 0.0), 1.0) if math.isfinite(requested) else 0.0
-            target = min(requested, command)
+            # the planned profile only slows the robot earlier: a stop is the present's command only
+            target = min(requested, command, planned)
             applied = decelerated_override(float(x[0]), target, self.period, fastest, deceleration,
                                            next_fastest)
             # braking cannot bring the robot down to the speed its separation allows within this
@@ -485,7 +521,9 @@ class SafetyController(LeafSystem):
                 applied = decelerated_override(float(x[0]), 0.0, self.period, fastest, deceleration,
                                                next_fastest)
             stopped = command <= 0.0 or braking_limited
-        stops = x[2] + (1.0 if stopped and not x[3] else 0.0)
+        # a stop stops a robot in motion: a command of 0 to a robot at rest (waiting where its
+        # planned profile brought it, the estimate's noise flipping the command) is none
+        stops = x[2] + (1.0 if stopped and not x[3] and abs(float(x[0])) * fastest > 1e-3 else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,
                             head_offset, [backing_until, hold_until], clamped_until.ravel()]))
@@ -677,7 +715,7 @@ def own_model_values(config, standard: JudgeValues, covered_time: float = 0.0) -
 def apply_safety_config(config, builder, *, plant, kinematics, body_model, limits, zones, fixed_boxes,
                         positions, velocities_full, skeleton_estimate, human_capsules,
                         velocities_full_ahead=None, positions_full_next=None, velocities_full_next=None,
-                        requested_override, judge_values: JudgeValues,
+                        path_preview=None, requested_override, judge_values: JudgeValues,
                         judge_changes: JudgeValues | None = None,
                         payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
                         camera_noise: float = 0.0, monitor_period: float = 1.0 / 30.0):
@@ -689,6 +727,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     velocities_full_ahead: the same a reaction time of path ahead (None: not used);
     positions_full_next, velocities_full_next: the plant's positions and the velocities at full speed
     one tick of path ahead (None: not used; the controller then checks the present only);
+    path_preview: the follower's "path_preview" of `config.preview_steps()` samples (the predictive
+    speed profile; None: not planned);
     requested_override: the smallest of the thesis's own speed rules (a port giving (1,)), or None
     to connect later; limits: the controller's limits table; judge_values: the standard judge's
     values of this cell (`judge.standard_values`); judge_changes: the scenario's changed judge, or
@@ -715,6 +755,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
             builder.Connect(positions_full_next, controller.GetInputPort("positions_full_next"))
             builder.Connect(velocities_full_next, controller.GetInputPort("velocities_full_next"))
         builder.Connect(skeleton_estimate, controller.GetInputPort("skeleton_estimate"))
+        if path_preview is not None and config.preview_steps():
+            builder.Connect(path_preview, controller.GetInputPort("path_preview"))
         if requested_override is not None:
             builder.Connect(requested_override, controller.GetInputPort("requested_override"))
         if swept_volumes is not None:
