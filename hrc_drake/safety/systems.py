@@ -523,7 +523,7 @@ class SafetyController(LeafSystem):
             stopped = command <= 0.0 or braking_limited
         # a stop stops a robot in motion: a command of 0 to a robot at rest (waiting where its
         # planned profile brought it, the estimate's noise flipping the command) is none
-        stops = x[2] + (1.0 if stopped and not x[3] and abs(float(x[0])) * fastest > 1e-3 else 0.0)
+        stops = x[2] + (1.0 if stopped and not x[3] and self._moving(context, float(x[0])) else 0.0)
         discrete_state.get_mutable_vector(self._state).SetFromVector(
             np.concatenate([[applied, command, stops, float(stopped), distance, separation], seen,
                             head_offset, [backing_until, hold_until], clamped_until.ravel()]))

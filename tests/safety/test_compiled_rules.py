@@ -22,6 +22,7 @@ CONFIGS = {
     "ssm_fixed_speed": (SpeedSeparationMonitoring(human_speed=1.2, body_speed=1.6), BOXES, None),
     "pfl": (PowerForceLimiting(clamp_hold=0.5), BOXES, None),
     "pfl_area": (PowerForceLimiting(contact_area=2.0), BOXES, None),
+    "pfl_clamped_ssm": (PowerForceLimiting(clamped_approach="ssm"), BOXES, None),
     "pfl_iso_mass": (PowerForceLimiting(robot_mass="iso"), (), None),
     "hybrid": (Hybrid(), BOXES, ZONES),
     "none": (NoSafety(), BOXES, None),
@@ -125,7 +126,10 @@ def test_override_and_clamp_holds_equal_numpy(name):
         kinds.add(rule)
     assert bound > 20 or name == "none"
     if name.startswith(("pfl", "hybrid")):
-        assert kinds == {"ssm", "pfl"}
+        # every rule binds somewhere: SSM, PFL's speed and (with fixed surfaces) a clamped part's
+        # compression budget
+        budget = CONFIGS[name][1] and CONFIGS[name][0].clamped_approach == "compression_budget"
+        assert kinds == ({"ssm", "pfl", "clamped"} if budget else {"ssm", "pfl"})
         assert np.isfinite(until[compiled]).any() or not CONFIGS[name][1]  # clamps held
     if name in ("pfl", "pfl_area"):
         # the plant's masses of the PFL pairs past the floor and the skip (in these hybrid scenes the

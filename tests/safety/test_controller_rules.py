@@ -108,11 +108,11 @@ def test_the_override_is_the_smallest_pair_s_when_a_pfl_pair_is_skipped():
 
 
 def test_a_pair_judged_clamped_stays_clamped_for_the_hold_time():
-    """A hand resting on a table under the robot is clamped (SSM: stop). When the estimate's noise
-    lifts it off the table in the next period, the pair stays clamped for `clamp_hold`, then it is
-    free again (PFL's transient speed)."""
+    """A hand resting on a table under the robot is clamped (here SSM: stop). When the estimate's
+    noise lifts it off the table in the next period, the pair stays clamped for `clamp_hold`, then
+    it is free again (PFL's transient speed)."""
     table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95: the hand (r 0.05) rests on it
-    config = PowerForceLimiting(clamp_hold=0.5)
+    config = PowerForceLimiting(clamp_hold=0.5, clamped_approach="ssm")
     rules = SafetyRules(config, LIMITS, CUTTER.regions, fixed_boxes=(table,))
     z_d = np.full(len(CUTTER), 0.03)
     velocity = np.array([[0.0, 0.0, -0.3]])
@@ -154,7 +154,7 @@ def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     lost_radius[lost] = 0.05
     override, (pairs, n, rule, _) = rules.override(robot, (velocity, velocity), (start, end, radius), z_d,
                                                    mass, lost_radius=lost_radius)
-    assert override == 0.0 and rule == "ssm"
+    assert override == 0.0 and rule == "clamped"  # inside the set: no room for a compression budget
     # 20 cm above the table the robot cannot press it there: free again
     high = (robot[0] + [0.0, 0.0, 0.2], robot[1] + [0.0, 0.0, 0.2], robot[2])
     assert rules.override(high, (velocity, velocity), (start, end, radius), z_d, mass,
@@ -245,3 +245,40 @@ def test_after_a_contact_the_robot_approaches_a_hand_no_faster_than_it_stops_wit
     reference = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, compiled=False)
     assert reference.override(robot_at(1.15), (velocity, velocity), body(), z_d, mass,
                               budget=True)[0] == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_clamped_hand_is_approached_no_faster_than_the_robot_stops_within_its_compression():
+    """A hand resting on the table (top at 0.95 m; the hand's axis at 1.0 m, radius 0.05), the robot
+    capsule (radius 0.03) 2 m/s straight down onto it, its lower end at 1.2 m: D = 0.12 m, Z_d
+    3 cm, Z_r 1 cm. `clamped_approach: compression_budget` (the default): it stops, after T_r + P
+    and braking at 5 m/s^2, within the room left plus the hand's quasi-static compression 140 N /
+    75 N/mm: s 2 (0.1 + 1/30) + s^2 2 x 2 / 10 <= 0.12 - 0.03 - 0.01 + 0.0018667 (s 0.2285). SSM (the
+    other choice) holds it: the hand's S_p at rest is already 0.27 + C + Z_d + Z_r > D."""
+    table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))
+    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    z_d = np.full(len(CUTTER), 0.03)
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    room = 0.12 - 0.03 - 0.01 + 140.0 / 75e3
+    a, b = 2.0 * 2.0 / (2 * 5.0), 2.0 * (0.1 + 1.0 / 30.0)
+    expected = (math.sqrt(b * b + 4 * a * room) - b) / (2 * a)
+    assert 0.0 < expected < 1.0
+    override, (pairs, n, rule, _) = rules.override(robot_at(1.2), (velocity, velocity), body(), z_d, mass)
+    assert rule == "clamped" and CUTTER.regions[pairs.r[n]] == "hand_fingers"
+    assert override == pytest.approx(expected, rel=1e-9)
+    ssm = SafetyRules(PowerForceLimiting(clamped_approach="ssm"), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    assert ssm.override(robot_at(1.2), (velocity, velocity), body(), z_d, mass)[0] == 0.0
+    # the edge: the hand's nearest possible point less its compression -> a stop; moving away is free
+    edge = 1.05 + 0.03 + 0.03 + 0.01 - 140.0 / 75e3
+
+    def budgeted(z, v, compiled=True):
+        judged = rules if compiled else SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions,
+                                                    fixed_boxes=(table,), compiled=False)
+        return judged.override(robot_at(z), (v, v), body(), z_d, mass)[0]
+
+    assert budgeted(edge - 1e-6, velocity) == 0.0
+    assert budgeted(edge + 1e-4, velocity) > 0.0
+    assert budgeted(edge - 0.02, -velocity) == 1.0
+    # the numpy reference decides the same
+    assert budgeted(1.2, velocity, compiled=False) == pytest.approx(expected, rel=1e-9)
+    assert budgeted(edge - 1e-6, velocity, compiled=False) == 0.0
