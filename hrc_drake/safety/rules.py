@@ -242,7 +242,9 @@ class SafetyRules:
 
     def robot_masses(self, pairs: PairGeometry, effective_mass) -> np.ndarray:
         """m_R (N,) of each pair: the plant's along u (`effective_mass(k, points, u)`, vectorised over
-        the pairs), or the standard's M/2 + m_L; plus the payload."""
+        the pairs), at least the standard's M/2 where the arms' masses are known (the judge's m_R:
+        a controller that took the plant's lower mass would allow speeds the judge does not), or
+        the standard's M/2 alone (`robot_mass: iso`); plus the payload."""
         payload = self.config.payload
         if self.payloads is not None:
             payload = np.maximum(payload, self.payloads[pairs.k])
@@ -250,7 +252,10 @@ class SafetyRules:
             if self.arm_masses is None:
                 raise ValueError("SafetyRules: the 'iso' robot mass needs the arms' masses")
             return iso_robot_mass(self.arm_masses[pairs.k], payload)
-        return np.asarray(effective_mass(pairs.k, pairs.robot_point, pairs.direction), dtype=float) + payload
+        plant = np.asarray(effective_mass(pairs.k, pairs.robot_point, pairs.direction), dtype=float)
+        if self.arm_masses is not None:
+            plant = np.maximum(plant, iso_robot_mass(self.arm_masses[pairs.k]))
+        return plant + payload
 
     def pfl_speeds(self, pairs: PairGeometry, masses, clamps) -> np.ndarray:
         """v_rel,max (N,) of eq. (A.6) per pair, transient or quasi-static (`limits.permissible_speed`

@@ -282,3 +282,19 @@ def test_a_clamped_hand_is_approached_no_faster_than_the_robot_stops_within_its_
     # the numpy reference decides the same
     assert budgeted(1.2, velocity, compiled=False) == pytest.approx(expected, rel=1e-9)
     assert budgeted(edge - 1e-6, velocity, compiled=False) == 0.0
+
+
+def test_the_controller_takes_the_judges_effective_mass_never_less_than_the_standards_m_over_2():
+    """The judge's m_R is max(the plant's along u, M/2) + m_L (ISO/TS 15066 eq. A.5); a controller that
+    took the plant's lower mass (the YuMi's gripper: 1.31 kg against M/2 = 3.17 kg) would allow a
+    transient speed the judge finds over the limit. Arm mass M = 6.34 kg, payload 0.2 kg."""
+    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, arm_masses=np.array([6.34]),
+                        payloads=np.array([0.2]))
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    robot = robot_at(1.15)
+    pairs, n = rules.override(robot, (velocity, velocity), body(), np.full(len(CUTTER), 0.03),
+                              lambda k, p, u: np.full(len(k), 1.31))[1][:2]
+    light = rules.robot_masses(pairs, lambda k, p, u: np.full(len(k), 1.31))
+    heavy = rules.robot_masses(pairs, lambda k, p, u: np.full(len(k), 5.0))
+    assert light == pytest.approx(np.full(len(pairs.k), 3.17 + 0.2))
+    assert heavy == pytest.approx(np.full(len(pairs.k), 5.0 + 0.2))
