@@ -331,7 +331,8 @@ class SafetyRules:
         fastest = fastest_speed(robot_velocity)
         v_ssm = self.ssm_speeds(pairs, z, covered_time, fastest)
         scale = np.where(moving, np.minimum(v_ssm / np.maximum(approach, 1e-12), FREE), FREE)
-        clamped_scale = self._clamped_budget(pairs, clamped, z, fastest, np.where(seen, 1e-9, self.moving_speed))
+        threshold = np.where(seen, 1e-9, self.moving_speed)
+        clamped_scale = self._clamped_budget(pairs, clamped, z, fastest, threshold)
         scale = np.where(clamped_scale >= 0.0, clamped_scale, scale)
         rule = np.where(clamped_scale >= 0.0, "clamped", rule)
         # a pair approaching slower than its region's PFL speed for an infinite robot mass (the
@@ -401,7 +402,8 @@ class SafetyRules:
         rule = "pfl" if governed[n] else ("clamped" if clamped_scale[n] >= 0.0 else "ssm")
         return float(scale[n]), (pairs, n, rule, sp)
 
-    def _clamped_budget(self, pairs: PairGeometry, clamped, z_d, fastest: float, threshold=1e-9) -> np.ndarray:
+    def _clamped_budget(self, pairs: PairGeometry, clamped, z_d, fastest: float,
+                        threshold=1e-9) -> np.ndarray:
         """(N,) the compression budget's override of each clamped pair (`compression_scales`, any
         approach faster than `threshold` counting) with PFL's `clamped_approach:
         compression_budget`; -1 elsewhere (SSM's)."""

@@ -266,7 +266,8 @@ def test_a_clamped_hand_is_approached_no_faster_than_the_robot_stops_within_its_
     override, (pairs, n, rule, _) = rules.override(robot_at(1.2), (velocity, velocity), body(), z_d, mass)
     assert rule == "clamped" and CUTTER.regions[pairs.r[n]] == "hand_fingers"
     assert override == pytest.approx(expected, rel=1e-9)
-    ssm = SafetyRules(PowerForceLimiting(clamped_approach="ssm"), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    ssm = SafetyRules(PowerForceLimiting(clamped_approach="ssm"), LIMITS, CUTTER.regions,
+                      fixed_boxes=(table,))
     assert ssm.override(robot_at(1.2), (velocity, velocity), body(), z_d, mass)[0] == 0.0
     # the edge: the hand's nearest possible point less its compression -> a stop; moving away is free
     edge = 1.05 + 0.03 + 0.03 + 0.01 - 140.0 / 75e3

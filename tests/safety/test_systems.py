@@ -328,7 +328,8 @@ def _swing_toward_operator(speed_profile: str, duration: float = 3.0):
     builder = DiagramBuilder()
     steps = config.preview_steps()
     follower = builder.AddSystem(PathFollower(
-        JointPathFollower(np.array([-1.2, 0.0]), [np.arange(2)], [np.array([1.5, 1.5])], velocity_fraction=1.0),
+        JointPathFollower(np.array([-1.2, 0.0]), [np.arange(2)], [np.array([1.5, 1.5])],
+                          velocity_fraction=1.0),
         period=1.0 / 30.0, hold_new_paths=True, preview_steps=steps, preview_step=config.preview_step))
     request = PathRequest(0, 1, np.array([[0.0, 0.0]]), np.array([0.0]))
     source = builder.AddSystem(ConstantValueSource(AbstractValue.Make((request,))))
@@ -371,7 +372,7 @@ def test_the_predictive_profile_keeps_s_p_without_the_stop_the_reactive_controll
     reactive = _swing_toward_operator("reactive")
     predictive = _swing_toward_operator("predictive")
     assert reactive[0] >= 1 and predictive[0] == 0
-    for stops, summary, shoulder, arrived in (reactive, predictive):
+    for _, summary, shoulder, arrived in (reactive, predictive):
         assert summary["violations_total"] == 0 and summary["verdict"].startswith("SAFE")
         assert shoulder == pytest.approx(0.0, abs=1e-9) and arrived is not None
     # slowing early costs little: it arrives within 0.3 s of the reactive arm
@@ -379,9 +380,9 @@ def test_the_predictive_profile_keeps_s_p_without_the_stop_the_reactive_controll
 
 
 def test_the_predictive_profile_brakes_at_the_planning_deceleration_toward_the_speed_ahead():
-    """The operator (at x = 2.4 m) far but for one preview sample: sample 2 (0.2 s of path ahead) puts
-    link 2 where the rules allow o_2 (0.10). The profile allows sqrt(o_2^2 + 2 a_p tau_1 / V) now, tau_1 = 0.1 s (the
-    sample before) and V the fastest point's speed at full path speed up to sample 2 (the tip:
+    """The operator (at x = 2.4 m) far but for one preview sample: sample 2 (0.2 s of path ahead)
+    puts link 2 where the rules allow o_2 (0.10). The profile allows sqrt(o_2^2 + 2 a_p tau_1 / V)
+    now, tau_1 = 0.1 s (the sample before) and V the fastest point's speed at full path speed up to sample 2 (the tip:
     1.5 rad/s on its lever, 2.649 m/s); held long enough, the override settles there."""
     plant, kinematics, _, limits, _ = _setup()
     config = Hybrid(position_uncertainty="fixed", speed_profile="predictive", preview_horizon=0.3)
