@@ -382,8 +382,9 @@ def test_the_predictive_profile_keeps_s_p_without_the_stop_the_reactive_controll
 def test_the_predictive_profile_brakes_at_the_planning_deceleration_toward_the_speed_ahead():
     """The operator (at x = 2.4 m) far but for one preview sample: sample 2 (0.2 s of path ahead)
     puts link 2 where the rules allow o_2 (0.10). The profile allows sqrt(o_2^2 + 2 a_p tau_1 / V)
-    now, tau_1 = 0.1 s (the sample before) and V the fastest point's speed at full path speed up to sample 2 (the tip:
-    1.5 rad/s on its lever, 2.649 m/s); held long enough, the override settles there."""
+    now, tau_1 = 0.1 s (the sample before) and V the fastest point's speed at full path speed up
+    to sample 2 (the tip: 1.5 rad/s on its lever, 2.649 m/s); held long enough, the override
+    settles there."""
     plant, kinematics, _, limits, _ = _setup()
     config = Hybrid(position_uncertainty="fixed", speed_profile="predictive", preview_horizon=0.3)
     rules = SafetyRules(config, limits, RegionCapsules().regions, ZONES)
