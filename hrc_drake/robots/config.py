@@ -26,6 +26,10 @@ class NamedPose:
     tolerance: float = 0.005
     #: whether `target` constrains orientation too (otherwise the tool z axis only points down)
     orient: bool = False
+    #: the direction (world, any length) in which the tool moves toward a person at this pose (a
+    #: hand-over): of the IK postures that reach `target`, the one of the lowest effective mass
+    #: along it (ISO/TS 15066 Annex A: the highest permissible PFL speed); empty: the first found
+    approach: list[float] = field(default_factory=list)
 
 
 @dataclass

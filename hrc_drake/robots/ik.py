@@ -15,11 +15,30 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.solvers import Solve
 from pydrake.systems.framework import Context
 
-from hrc_drake.robots.models import arm_joint_limits, arm_position_indices
+from hrc_drake.robots.models import arm_joint_limits, arm_position_indices, effective_mass
 from hrc_drake.robots.registry import get_robot_model
 
 #: maximum angle (rad) between the tool z axis and the world's -z when `tool_z_down` is set
 TOOL_DOWN_ANGLE = 0.05
+
+
+def lowest_mass_posture(plant: MultibodyPlant, frame, candidates, direction) -> tuple[int, np.ndarray]:
+    """(index, m_R (n,)) of the candidate position vectors (n, nq) of `plant` whose effective mass at
+    the origin of `frame` along the unit `direction` u (world) is lowest: m_R = (u^T J M^-1 J^T u)^-1
+    (ISO/TS 15066 Annex A, eq. A.6: the permissible PFL speed grows as m_R falls; the first of
+    equal ones)."""
+    u = _vector3(direction, "direction")
+    norm = float(np.linalg.norm(u))
+    if norm <= 0.0:
+        raise ValueError("lowest_mass_posture: the direction must not be zero")
+    context = plant.CreateDefaultContext()
+    point = frame.GetFixedPoseInBodyFrame().translation()
+    masses = []
+    for q in np.atleast_2d(np.asarray(candidates, dtype=float)):
+        plant.SetPositions(context, q)
+        masses.append(effective_mass(plant, context, frame.body(), point, u / norm))
+    masses = np.asarray(masses)
+    return int(np.argmin(masses)), masses
 
 
 class InfeasibleTarget(ValueError):
@@ -47,6 +66,7 @@ def solve_tool_position(
     angle_tolerance: float = 0.02,
     attempts: int = 6,
     seed: int = 0,
+    approach: Sequence[float] | None = None,
 ) -> np.ndarray:
     """Joint values (chain order) of `arm` that put its tool frame at `target_xyz` (world, m).
 
@@ -56,6 +76,10 @@ def solve_tool_position(
     arm joints), the others from joint vectors drawn uniformly inside the limits with
     `numpy.random.default_rng(seed)`; the first solution within tolerance is returned (a quadratic
     cost keeps it near the first seed). Raises InfeasibleTarget (target, best distance reached) otherwise.
+    approach: a direction (world) the tool moves toward a person at this pose (a hand-over): every
+    seed is solved (at least 12), each kept near its own start, and of the solutions within
+    tolerance the posture of the lowest effective mass along it is returned (`lowest_mass_posture`,
+    issue 52: the permissible PFL speed of the approach is then the highest).
     """
     if not plant.is_finalized():
         raise ValueError("solve_tool_position needs a finalized plant")
@@ -79,6 +103,8 @@ def solve_tool_position(
                 f"solve_tool_position: q_seed must hold {arm_idx.size} finite joint values for "
                 f"{model}/{arm}, got {q_seed!r}"
             )
+    if approach is not None:
+        attempts = max(attempts, 12)
     rng = np.random.default_rng(seed)
     seeds = [first_seed] + [rng.uniform(lower, upper) for _ in range(attempts - 1)]
 
@@ -128,9 +154,12 @@ def solve_tool_position(
         return float(np.linalg.norm(tool.CalcPoseInWorld(eval_context).translation() - target))
 
     best = np.inf
+    solutions = []
     for start in seeds:
         ik, q, prog = build(True)
-        prog.AddQuadraticErrorCost(np.eye(arm_idx.size), first_seed, q[arm_idx])
+        # with an approach each solution stays near its own start: the postures differ
+        near = first_seed if approach is None else start
+        prog.AddQuadraticErrorCost(np.eye(arm_idx.size), near, q[arm_idx])
         q_init = q_context.copy()
         q_init[arm_idx] = start
         result = Solve(prog, q_init)
@@ -138,7 +167,13 @@ def solve_tool_position(
         dist = tool_distance(q_arm)
         best = min(best, dist)
         if result.is_success() and dist <= tolerance:
-            return q_arm
+            if approach is None:
+                return q_arm
+            solutions.append(q_arm)
+    if solutions:
+        full = np.tile(q_context, (len(solutions), 1))
+        full[:, arm_idx] = solutions
+        return solutions[lowest_mass_posture(plant, tool, full, approach)[0]]
 
     # Report how close the arm can get: minimise the distance without the position constraint.
     for start in seeds[:2]:

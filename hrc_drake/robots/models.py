@@ -12,6 +12,7 @@ human-robot distance computations (thesis Fig. 8.18 draws the robot links as cap
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator, Sequence
 from importlib.resources import as_file, files
 from importlib.resources.abc import Traversable
@@ -21,7 +22,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import ModelInstanceIndex, PdControllerGains
+from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex, PdControllerGains
 from pydrake.systems.framework import Context
 
 from hrc_drake.robots.config import Robot
@@ -249,3 +250,16 @@ class RobotCapsuleKinematics:
 def add_robots(plant: MultibodyPlant, robots: Sequence[Robot]) -> list[tuple[ModelInstanceIndex, Robot]]:
     """`add_robot` for every robot config (model, name, base pose); [(instance, config)] in order."""
     return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in robots]
+
+
+def effective_mass(plant, context, body, point_in_body, direction) -> float:
+    """m_R = (u^T J M^-1 J^T u)^-1 (kg): the robot's effective mass at a point of `body` (its frame's
+    coordinates) along the unit `direction` u (world), J the point's translational Jacobian (3, nv)
+    and M the mass matrix of the plant at `context`."""
+    world = plant.world_frame()
+    jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, body.body_frame(),
+                                                       np.asarray(point_in_body, float), world, world)
+    mass_matrix = plant.CalcMassMatrix(context)
+    ju = jacobian.T @ np.asarray(direction, dtype=float)
+    inverse_mass = float(ju @ np.linalg.solve(mass_matrix, ju))
+    return 1.0 / inverse_mass if inverse_mass > 1e-12 else math.inf

@@ -23,6 +23,21 @@ def _error(file, field: str, reason: str) -> ScenarioError:
     return ConfigError(field, reason) if file is None else ScenarioError(file, field, reason)
 
 
+def _approach(pose, file, field_path: str):
+    """The pose's approach direction (3,), or None; raises naming the field for a bad one."""
+    if not pose.approach:
+        return None
+    numbers = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in pose.approach)
+    u = np.asarray(pose.approach, dtype=float).reshape(-1) if numbers else np.full(1, np.nan)
+    if u.shape != (3,) or not np.all(np.isfinite(u)) or not np.any(u):
+        raise _error(file, f"{field_path}.approach",
+                     f"must be 3 finite numbers, not all zero (a direction), got {list(pose.approach)!r}")
+    if pose.joints:
+        raise _error(file, f"{field_path}.approach",
+                     "chooses among the IK postures of a target: a pose given by joints has none to choose")
+    return u
+
+
 def solve_named_poses(
     robots: Sequence[Robot], file: str | Path | None = None, field: str = "robots"
 ) -> dict[tuple[str, str], np.ndarray]:
@@ -57,6 +72,7 @@ def solve_named_poses(
             if pose.arm not in limits:
                 limits[pose.arm] = arm_joint_limits(plant, instance, robot.model, pose.arm)
             lower, upper, _ = limits[pose.arm]
+            approach = _approach(pose, file, field_path)
             if pose.joints:
                 q = np.asarray(pose.joints, float)
                 if q.shape != lower.shape:
@@ -92,6 +108,7 @@ def solve_named_poses(
                         q_seed=seed_q,
                         tolerance=pose.tolerance,
                         tool_z_down=not pose.orient,
+                        approach=approach,
                     )
                 except InfeasibleTarget as err:
                     raise _error(file, f"{field_path}.target", f"out of reach: {err}") from err

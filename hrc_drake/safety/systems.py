@@ -21,6 +21,7 @@ from pydrake.systems.primitives import MatrixGain
 
 from hrc_drake.kernels import capsule_clearances
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
+from hrc_drake.robots.models import effective_mass  # noqa: F401 (the safety systems' m_R, re-exported)
 from hrc_drake.safety.config import LIMB_REGIONS, Hybrid, NoSafety, mode_name
 from hrc_drake.safety.judge import (
     LIMB_FAST_SPEED,
@@ -43,19 +44,6 @@ from hrc_drake.safety.regions import (
 from hrc_drake.safety.rules import SafetyRules, decelerated_override, fastest_speed
 from hrc_drake.safety.verdict import summarize
 from hrc_drake.systems import declare_periodic_discrete_update
-
-
-def effective_mass(plant, context, body, point_in_body, direction) -> float:
-    """m_R = (u^T J M^-1 J^T u)^-1 (kg): the robot's effective mass at a point of `body` (its frame's
-    coordinates) along the unit `direction` u (world), J the point's translational Jacobian (3, nv)
-    and M the mass matrix of the plant at `context`."""
-    world = plant.world_frame()
-    jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, body.body_frame(),
-                                                       np.asarray(point_in_body, float), world, world)
-    mass_matrix = plant.CalcMassMatrix(context)
-    ju = jacobian.T @ np.asarray(direction, dtype=float)
-    inverse_mass = float(ju @ np.linalg.solve(mass_matrix, ju))
-    return 1.0 / inverse_mass if inverse_mass > 1e-12 else math.inf
 
 
 def arm_masses(plant, bodies) -> np.ndarray:

@@ -28,6 +28,7 @@ def two_link_arm(l1: float = 1.0, l2: float = 0.8, m1: float = 2.0, m2: float = 
     shoulder = plant.AddJoint(RevoluteJoint("shoulder", base, link1.body_frame(), [0.0, 0.0, 1.0]))
     elbow = plant.AddFrame(FixedOffsetFrame("elbow", link1.body_frame(), RigidTransform([l1, 0.0, 0.0])))
     elbow_joint = plant.AddJoint(RevoluteJoint("elbow", elbow, link2.body_frame(), [0.0, 0.0, 1.0]))
+    plant.AddFrame(FixedOffsetFrame("tip", link2.body_frame(), RigidTransform([l2, 0.0, 0.0])))
     if rotor_inertia > 0.0:
         for joint in (shoulder, elbow_joint):
             drive = plant.AddJointActuator(f"{joint.name()}_drive", joint)
