@@ -4,7 +4,8 @@ Issue 36, item 5. For every scenario in `diagrams/` (or those named) and every m
 `MODES` (`declared`: the cell as shipped; `none`, `ssm`, `pfl`, `hybrid`: its `safety` field
 replaced by that mode with default parameters, Z_d from the cell's tracker or, without one, its
 camera's noise; `hybrid` takes the layout's collaborative zones, or one sphere over the table
-where the layout declares none), runs the cell over seeds and reports products, mean cycle time,
+where the layout declares none; `reactive`, `predictive` (issue 52): the declared mode with that
+`speed_profile`), runs the cell over seeds and reports products, mean cycle time,
 the verdict code and the violations by kind of the standard ISO/TS 15066 judge (`safety.judge`),
 the worst ratio to the ISO limits per body region, protective stops, the time in an SSM breach,
 contacts, and the CPU share of the PFL part of the safety controller (effective masses and
@@ -18,7 +19,8 @@ permissible speeds).
 Last line: one JSON object with `cells_with_violations` (cells in whose declared mode the standard
 judge finds violations), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
 null: no contact), `products.<cell>.<mode>` and `cycle_s.<cell>.<mode>` (means over the seeds),
-`stops.<cell>.<mode>`, `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
+`stops.<cell>.<mode>` (protective stops per run), `slowed_s.<cell>.<mode>` (time the override
+was under 0.99, per run), `pfl_share.<cell>` (CPU share of effective masses and PFL speeds in the
 declared mode), `judge_cpu_share.<cell>` (CPU share of the judge, the `SafetyMonitor`: its
 sampling of the truth and `Judge.step`, not its reading of the skeleton estimate, which computes
 the controller's input),
@@ -149,6 +151,7 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
                                                      else "inf")),
             "worst_by_region": safety["worst_ratio"], "stops": safety["protective_stops"],
             "breach_s": safety["ssm_breach_s"], "contacts": safety["contact_count"],
+            "slowed_s": metrics.get("time_slowed_s"),
             "min_distance_m": metrics.get("min_human_robot_distance")}
 
 
@@ -382,7 +385,8 @@ def figures(rows: list[dict], args) -> dict:
         ratios = [r["worst_ratio"] for r in rs if r["worst_ratio"] is not None]
         worst[c] = None if not ratios else ("inf" if "inf" in ratios else round(max(ratios), 4))
     out["worst_ratio"] = worst
-    for key, field in (("products", "products"), ("cycle_s", "cycle_s"), ("stops", "stops")):
+    for key, field in (("products", "products"), ("cycle_s", "cycle_s"), ("stops", "stops"),
+                       ("slowed_s", "slowed_s")):
         out[key] = {c: {m: mean(r[field] for r in rows if r["scenario"] == c and r["mode"] == m)
                         for m in sorted({r["mode"] for r in rows if r["scenario"] == c})} for c in cells}
     out["pfl_share"] = {c: mean(r["pfl_share"] for r in rs) for c, rs in declared.items() if rs}
@@ -415,7 +419,7 @@ def kept_percentage(products: dict):
 
 #: the bars of each cell, in this order, and their colours
 PLOT_MODES = (("none", "0.75"), ("ssm", "tab:blue"), ("pfl", "tab:orange"), ("hybrid", "tab:green"),
-              ("declared", "black"))
+              ("reactive", "tab:red"), ("predictive", "tab:purple"), ("declared", "black"))
 
 
 def plot_products(figures_out: dict, path: Path) -> None:

@@ -37,6 +37,8 @@ class LoggedEvent:
 
 #: Speed override at or below which the robot counts as stopped (8.2.4's idle: under 1 % of nominal).
 STOPPED_OVERRIDE = 0.01
+#: Speed override under which the robot counts as slowed (a path moves at most 99 % of its speed).
+SLOWED_OVERRIDE = 0.99
 
 
 @dataclass(frozen=True)
@@ -44,19 +46,23 @@ class SampleStats:
     """Exact running figures over every periodic sample, however many the trace dropped;
     `below`: samples whose true human-robot distance was under the safety distance;
     `below_not_stopped`: those of them with a speed override above `STOPPED_OVERRIDE` (the
-    safety system let the robot move; below it the robot is held and the human came to it)."""
+    safety system let the robot move; below it the robot is held and the human came to it);
+    `slowed`: samples with a speed override under `SLOWED_OVERRIDE` (a moving path slowed or
+    stopped: with no path moving the speed rules leave the override at 1)."""
 
     count: int = 0
     min_distance: float = np.inf
     override_sum: float = 0.0
     below: int = 0
     below_not_stopped: int = 0
+    slowed: int = 0
 
     def add(self, distance: float, override: float, safety_distance: float = -np.inf) -> SampleStats:
         below = bool(distance < safety_distance)
         return SampleStats(self.count + 1, min(self.min_distance, distance) if np.isfinite(distance)
                            else self.min_distance, self.override_sum + override, self.below + below,
-                           self.below_not_stopped + (below and override > STOPPED_OVERRIDE))
+                           self.below_not_stopped + (below and override > STOPPED_OVERRIDE),
+                           self.slowed + (override < SLOWED_OVERRIDE))
 
 
 @dataclass
@@ -147,6 +153,8 @@ DEFINITIONS = {
     "min_human_robot_distance": "smallest true distance between the human's and the robots' capsules over "
                                 "every 0.1 s sample (m; negative: the capsules overlap)",
     "mean_speed_override": "mean robot speed override over every sample (1: full speed)",
+    "time_slowed_s": "time the speed override was under 0.99 (samples x period, s): a moving path slowed or "
+                     "stopped by the safety controller or the thesis's speed rules",
     "safety": "samples whose true human-robot distance is under the scenario's safety_distance: their "
               "time (samples x period, s), their fraction of all samples, and whether there is any; "
               "time_below_not_stopped_s: the time of those samples where the speed override was above 1 % "
@@ -291,6 +299,7 @@ def summarize(
         "min_human_robot_distance": round(stats.min_distance, 4) if np.isfinite(stats.min_distance) else None,
         "safety": _safety(stats, log),
         "mean_speed_override": round(stats.override_sum / stats.count, 4) if stats.count else None,
+        "time_slowed_s": round(stats.slowed * log.sample_period, 3),
     }
     if log.perceived_events:
         out["detection"] = detection_summary(log.events, log.perceived_events)
