@@ -83,7 +83,8 @@ class SpeedSeparationMonitoring:
     max_uncertainty: float = 0.3
     #: Largest Z_d (m) of a head the camera lost while it sees the thorax ("camera" source): the
     #: head is carried with the thorax at its last measured offset, and the neck moves it at most
-    #: this far (a 0.25 m neck flexed by 20 degrees: 0.09 m; assumption).
+    #: this far (a 0.25 m neck flexed by 20 degrees: 0.09 m; assumption); and of a thorax lost
+    #: while the head is seen, carried with the head the same way.
     lost_head_uncertainty: float = 0.1
     #: A robot point approaching slower than this (m/s) counts as not approaching (the controller).
     #: The judge's numerical 0.001 m/s (`safety.judge.APPROACH_TOLERANCE`): any slower approach the

@@ -207,19 +207,27 @@ class HumanRegions:
         lost is held where it was last seen, and may have moved v_h x that time since).
         head_offset: head - thorax when both were last measured: a lost head (the robot's arm
         between camera and face) is carried with the measured thorax, its Z_d growing at v_h up to
-        `lost_head_uncertainty` (the neck's own motion). A lost arm point is bounded by its
-        parent's reach (`regions.reach_bounded`); every other point's Z_d grows at v_h with no cap
+        `lost_head_uncertainty` (the neck's own motion), and a lost thorax with the measured head
+        likewise (the robot's arm between camera and chest: pcb_occlusion held its robot for good,
+        the thorax's uncapped Z_d growing while the robot it waited for hid it). A lost arm point
+        is bounded by its parent's reach (`regions.reach_bounded`); every other point's Z_d grows at v_h with no cap
         (issue 51, item 5: a person the camera lost for 10 s may be 20 m away)."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
         unseen = None if unseen_for is None else np.array(unseen_for, dtype=float)
-        head_carried = (unseen is not None and head_offset is not None and np.isfinite(head_offset).all()
-                        and unseen[HEAD] > 0.0 and unseen[THORAX] == 0.0
+        offset_known = (unseen is not None and head_offset is not None
+                        and bool(np.isfinite(head_offset).all()))
+        head_carried = (offset_known and unseen[HEAD] > 0.0 and unseen[THORAX] == 0.0
                         and np.isfinite(points[THORAX]).all())
+        thorax_carried = (offset_known and unseen[THORAX] > 0.0 and unseen[HEAD] == 0.0
+                          and np.isfinite(points[HEAD]).all())
         if head_carried:
             points = points.copy()
             points[HEAD] = points[THORAX] + head_offset
+        elif thorax_carried:
+            points = points.copy()
+            points[THORAX] = points[HEAD] - head_offset
         if not np.isfinite(points[self._needed_points]).all():
             return None
         start, end, radius = self.body.capsules_from_points(points)
@@ -232,6 +240,8 @@ class HumanRegions:
         moved = np.zeros(8) if unseen is None else self.lost_speed * unseen
         if head_carried:
             moved[HEAD] = min(moved[HEAD], config.lost_head_uncertainty)
+        elif thorax_carried:
+            moved[THORAX] = min(moved[THORAX], config.lost_head_uncertainty)
         if config.position_uncertainty == "tracker":
             # whatever the tracker's model predicts (its spread of a hidden point grows at its own
             # rate); without the times a point with no spread stays lost (NaN, below: anywhere)

@@ -414,3 +414,35 @@ def test_the_predictive_profile_brakes_at_the_planning_deceleration_toward_the_s
                                             RegionCapsules().regions, ZONES), dynamics,
                                 HumanRegions(body, config), 2)
     assert reactive.GetInputPort("path_preview").size() == 0
+
+
+def test_a_lost_head_rides_on_the_seen_thorax_and_a_lost_thorax_on_the_seen_head():
+    """Camera Z_d (3 x 1 cm noise + 2.0 m/s x the time unseen): after 5 s a point the camera lost
+    alone has Z_d 10.03 m; a head lost while the thorax is seen, or a thorax lost while the head is
+    seen, is carried at their last measured offset, within the neck's 0.1 m (Z_d 0.13 m), and
+    placed by the point that is seen (here the stale estimate is 1 m off). Both lost: uncapped."""
+    config = Hybrid(position_uncertainty="camera")
+    body, points, _ = _operator(2.0)
+    regions = HumanRegions(body, config, camera_noise=0.01)
+    cutter = RegionCapsules()
+    offset = points[1] - points[0]
+    torso = [cutter.names.index("abdomen"), cutter.names.index("chest")]
+    face = cutter.names.index("face")
+
+    def uncertainty(lost):
+        stale = points.copy()
+        stale[lost] += [1.0, 0.0, 0.0]  # where the camera last saw them
+        unseen = np.zeros(8)
+        unseen[lost] = 5.0
+        capsules, z_d, _ = regions(SkeletonEstimate(points=stale), unseen, offset)
+        return capsules, z_d
+
+    truth = cutter.cut(*body.capsules_from_points(points))
+    capsules, z_d = uncertainty([1])  # the head lost, the thorax seen
+    assert z_d[face] == pytest.approx(0.03 + 0.1)
+    np.testing.assert_allclose(capsules[1][face], truth[1][face])
+    capsules, z_d = uncertainty([0])  # the thorax lost, the head seen
+    np.testing.assert_allclose(z_d[torso], 0.03 + 0.1)
+    np.testing.assert_allclose(capsules[0][torso], truth[0][torso])
+    _, z_d = uncertainty([0, 1])  # both lost: nothing to carry them
+    np.testing.assert_allclose(z_d[torso], 0.03 + 10.0)
