@@ -210,8 +210,8 @@ class HumanRegions:
         `lost_head_uncertainty` (the neck's own motion), and a lost thorax with the measured head
         likewise (the robot's arm between camera and chest: pcb_occlusion held its robot for good,
         the thorax's uncapped Z_d growing while the robot it waited for hid it). A lost arm point
-        is bounded by its parent's reach (`regions.reach_bounded`); every other point's Z_d grows at v_h with no cap
-        (issue 51, item 5: a person the camera lost for 10 s may be 20 m away)."""
+        is bounded by its parent's reach (`regions.reach_bounded`); every other point's Z_d grows
+        at v_h with no cap (issue 51, item 5: a person the camera lost for 10 s may be 20 m away)."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
