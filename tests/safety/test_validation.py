@@ -53,7 +53,10 @@ def test_an_unknown_body_region_is_refused():
                                           ("position_uncertainty", "psychic"), ("robot_mass", "guess"),
                                           ("contact_reaction", "yes"), ("retreat_speed", 1.5),
                                           ("retreat_speed", -0.1), ("retreat_time", float("nan")),
-                                          ("contact_hold", 61.0)])
+                                          ("contact_hold", 61.0), ("speed_profile", "clairvoyant"),
+                                          ("preview_step", 0.0), ("preview_horizon", 0.05),
+                                          ("preview_horizon", 5.5), ("planning_deceleration", 0.0),
+                                          ("planning_deceleration", 5.01), ("clamped_approach", "push")])
 def test_bad_numbers_and_names_are_refused(field, value):
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", field: value})})
     assert err.field == f"safety.{field}"
@@ -89,3 +92,19 @@ def test_every_shipped_cell_declares_a_safety_mode():
     for path in sorted((REPO / "diagrams").glob("*.yaml")):
         scenario = load_scenario(path)
         assert not isinstance(scenario.safety, NoSafety), f"{path.name} declares no safety mode"
+
+
+def test_the_speed_profile_s_edges():
+    """The planning deceleration may reach the stop's (5 m/s^2 here), not pass it; the horizon is at
+    least one preview step and at most 20 of them."""
+    def hybrid(**fields):
+        return {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", "speed_profile": "predictive",
+                                            **fields})}
+
+    assert load_scenario_with(TORCH, hybrid(planning_deceleration=5.0)).safety.preview_steps() == 5
+    assert load_scenario_with(TORCH, hybrid(preview_horizon=0.1)).safety.preview_steps() == 1
+    assert load_scenario_with(TORCH, hybrid(preview_horizon=2.0)).safety.preview_steps() == 20
+    err = _refused(TORCH, hybrid(preview_horizon=2.1))
+    assert err.field == "safety.preview_horizon" and "at most 20" in err.reason
+    reactive = load_scenario_with(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera"})})
+    assert reactive.safety.preview_steps() == 0
