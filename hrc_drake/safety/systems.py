@@ -460,6 +460,8 @@ class SafetyController(LeafSystem):
             allowed, _ = self.rules.override(robot, velocity, regions, z_d, self.dynamics.effective_mass,
                                              covered, clamped_until.copy(), now, lost_radius, budget)
             highest = max(highest, fastest_speed(velocity))
+            if highest <= 1e-9:
+                continue  # joints move that move no link's surface (a wrist turning in place)
             tau = (k - 1) * config.preview_step
             planned = min(planned, math.sqrt(allowed**2 + 2.0 * config.planning_deceleration * tau / highest))
         return planned
