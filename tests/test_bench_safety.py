@@ -88,3 +88,34 @@ def test_the_kept_percentage_and_the_products_plot(bench, tmp_path):
     path = tmp_path / "products.png"
     bench.plot_products(out, path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000
+
+
+def test_the_predictive_and_reactive_modes_are_the_declared_mode_with_that_profile(bench):
+    from hrc_drake.cell.scenario import load_scenario_with
+
+    pcb_ic = str(REPO / "diagrams" / "pcb_ic.yaml")
+    declared = load_scenario_with(pcb_ic, {}).safety
+    for profile in ("reactive", "predictive"):
+        safety = load_scenario_with(pcb_ic, bench.mode_overrides(pcb_ic, profile)).safety
+        assert type(safety) is type(declared) and safety.speed_profile == profile
+        assert safety.contact_reaction == declared.contact_reaction and safety.limits == declared.limits
+
+
+def test_a_plot_from_earlier_outputs_with_the_before_bars(bench, tmp_path):
+    """`--figures LOG --before LOG --plot PNG` runs nothing; a file whose last line is not the bench's
+    JSON is refused with its name."""
+    import json
+
+    now = {"duration_s": 300.0, "products": {"a": {"none": 8.0, "declared": 7.0}},
+           "verdict": {"a": "safe"}, "kept_pct": {"a": 87.5}}
+    earlier = {"products": {"a": {"declared": 5.0}}}
+    (tmp_path / "now.log").write_text("a row\n" + json.dumps(now) + "\n")
+    (tmp_path / "before.log").write_text(json.dumps(earlier))
+    assert bench.last_json(tmp_path / "before.log")["products"]["a"]["declared"] == 5.0
+    path = tmp_path / "cost.png"
+    bench.plot_products(bench.last_json(tmp_path / "now.log"), path,
+                        bench.last_json(tmp_path / "before.log")["products"])
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (tmp_path / "bad.log").write_text("run 1 of 3\n")
+    with pytest.raises(SystemExit, match="bad.log"):
+        bench.last_json(tmp_path / "bad.log")

@@ -262,7 +262,19 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="20 s runs, one seed (under 5 minutes)")
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="draw the products per cell and mode (bars) to this file")
+    parser.add_argument("--before", type=Path, default=None, metavar="LOG",
+                        help="an earlier run's output (its last line): its declared products drawn as a "
+                             "'before' bar beside this run's (the before/after picture)")
+    parser.add_argument("--figures", type=Path, default=None, metavar="LOG",
+                        help="run nothing: plot the figures of an earlier run's output (its last line)")
     args = parser.parse_args()
+    before = None if args.before is None else last_json(args.before)["products"]
+    if args.figures is not None:
+        if args.plot is None:
+            parser.error("--figures needs --plot")
+        plot_products(last_json(args.figures), args.plot, before)
+        print(f"products per cell and mode drawn to {args.plot}", flush=True)
+        return
     if args.quick:
         args.duration, args.seeds = 20.0, 1
     modes = [m for m in args.modes.split(",") if m]
@@ -295,7 +307,7 @@ def main() -> None:
                   flush=True)
     out = figures(rows, args)
     if args.plot is not None:
-        plot_products(out, args.plot)
+        plot_products(out, args.plot, before)
         print(f"products per cell and mode drawn to {args.plot}", flush=True)
     print(json.dumps(out))
 
@@ -422,23 +434,45 @@ PLOT_MODES = (("none", "0.75"), ("ssm", "tab:blue"), ("pfl", "tab:orange"), ("hy
               ("reactive", "tab:red"), ("predictive", "tab:purple"), ("declared", "black"))
 
 
-def plot_products(figures_out: dict, path: Path) -> None:
+def last_json(path: Path) -> dict:
+    """The JSON object on the last line of a bench's output."""
+    lines = [line for line in Path(path).read_text(encoding="utf-8").splitlines() if line.strip()]
+    if not lines:
+        raise SystemExit(f"{path}: empty, no bench output")
+    try:
+        out = json.loads(lines[-1])
+    except json.JSONDecodeError as err:
+        raise SystemExit(f"{path}: its last line is not the bench's JSON ({err})") from None
+    if not isinstance(out, dict) or not isinstance(out.get("products"), dict):
+        raise SystemExit(f"{path}: its last line has no products per cell")
+    return out
+
+
+def plot_products(figures_out: dict, path: Path, before: dict | None = None) -> None:
     """Grouped bars: products per run of each cell under each mode it ran, the declared bar
-    labelled with the cell's verdict and kept percentage."""
+    labelled with the cell's verdict and kept percentage; `before`: an earlier run's products per
+    cell and mode, whose declared products are drawn first as "before" (hatched)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    products = figures_out["products"]
+    products = {c: dict(v) for c, v in figures_out["products"].items()}
     cells = sorted(products)
     modes = [(m, colour) for m, colour in PLOT_MODES if any(m in products[c] for c in cells)]
+    if before:
+        for c in cells:
+            earlier = before.get(c, {}).get("declared")
+            if earlier is not None:
+                products[c]["before"] = earlier
+        modes.insert(1 if modes and modes[0][0] == "none" else 0, ("before", "0.45"))
     width = 0.8 / max(len(modes), 1)
     fig, ax = plt.subplots(figsize=(max(6.0, 0.9 * len(cells)), 4.5))
     for j, (mode, colour) in enumerate(modes):
         xs = [i + (j - (len(modes) - 1) / 2) * width for i in range(len(cells))]
         heights = [products[c].get(mode) or 0.0 for c in cells]
-        ax.bar(xs, heights, width, label=mode, color=colour)
+        label = "declared before this run" if mode == "before" else mode
+        ax.bar(xs, heights, width, label=label, color=colour, hatch="//" if mode == "before" else None)
         if mode == "declared":
             for x, c, h in zip(xs, cells, heights, strict=True):
                 verdict = figures_out.get("verdict", {}).get(c) or ""
