@@ -314,7 +314,7 @@ class SafetyRules:
         if (lost_radius is not None and self.pfl and self.config.lost_parts_clamped and self.fixed_boxes
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
-        governed = self.governed_by_pfl(pairs, regions[2], lost)
+        governed = self.governed_by_pfl(pairs, clamping_radius(regions[2], z_d), lost)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
@@ -371,7 +371,7 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
-        zone, governed = self._governed(pairs, regions[2])
+        zone, governed = self._governed(pairs, clamping_radius(regions[2], z_d))
         clamped = zone & ~governed
         if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
@@ -471,6 +471,14 @@ class SafetyRules:
             out[n] = protective_separation(speed[n], path_stop(params, pairs.approach[n], fastest), z_d[n],
                                            covered_time)
         return out
+
+
+def clamping_radius(region_radius, z_d) -> np.ndarray:
+    """(R,) each region's radius for the controller's clamping test: its own grown by its Z_d, as the
+    part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand the estimate put
+    clear of the table, and the robot approached at the free contact's transient speed, was pressed
+    onto it at 12.7x its quasi-static limit)."""
+    return np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)
 
 
 def fastest_speed(robot_velocity) -> float:

@@ -118,16 +118,37 @@ def test_a_pair_judged_clamped_stays_clamped_for_the_hold_time():
     velocity = np.array([[0.0, 0.0, -0.3]])
     mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
     until = np.full((1, len(CUTTER)), -np.inf)
-    resting, lifted = body(1.0), body(1.05)  # lifted: 5 cm of noise puts it 0.05 m clear of the table
+    # lifted: 8 cm of noise puts it 0.08 m clear of the table, beyond its Z_d and the clamp margin
+    resting, lifted = body(1.0), body(1.08)
     assert rules.override(robot_at(1.2), (velocity, velocity), resting, z_d, mass, 0.0, until, 0.0)[0] == 0.0
     assert np.isfinite(until).any()
-    robot = robot_at(1.25)
+    robot = robot_at(1.28)
     held, (_, _, rule, _) = rules.override(robot, (velocity, velocity), lifted, z_d, mass, 0.0, until, 0.1)
     assert held == 0.0 and rule == "ssm"
     free, (_, _, rule, _) = rules.override(robot, (velocity, velocity), lifted, z_d, mass, 0.0, until, 0.7)
     assert free > 0.0 and rule == "pfl"
     # without the memory, the lifted estimate is free at once
-    assert rules.override(robot_at(1.25), (velocity, velocity), lifted, z_d, mass)[0] > 0.0
+    assert rules.override(robot_at(1.28), (velocity, velocity), lifted, z_d, mass)[0] > 0.0
+
+
+def test_a_hand_the_estimate_puts_clear_of_the_table_but_within_its_z_d_counts_as_clamped():
+    """The estimate puts the hand 4 cm over the table (top 0.95 m, the hand's axis at 1.04 m, radius
+    0.05): beyond the 2 cm clamp margin, but within it plus Z_d 3 cm the hand may rest on the table
+    (falsify_pcb_ic: a hand the controller took for free was pressed onto the table at 12.7x its
+    quasi-static limit). Clamped: the compression budget, not the free contact's transient speed.
+    With Z_d 0 the same estimate is free (PFL)."""
+    table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))
+    rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,))
+    velocity = np.array([[0.0, 0.0, -2.0]])
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    robot = robot_at(1.24)
+    for compiled in (True, False):
+        judged = rules if compiled else SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions,
+                                                    fixed_boxes=(table,), compiled=False)
+        uncertain = judged.override(robot, (velocity, velocity), body(1.04), np.full(len(CUTTER), 0.03), mass)
+        exact = judged.override(robot, (velocity, velocity), body(1.04), np.zeros(len(CUTTER)), mass)
+        assert uncertain[1][2] == "clamped" and exact[1][2] == "pfl"
+        assert uncertain[0] < exact[0]
 
 
 def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
