@@ -327,8 +327,9 @@ class SafetyController(LeafSystem):
     velocities at override 1), "skeleton_estimate" (`SkeletonEstimate`), "requested_override"
     (1: the thesis's own speed rules, layered under; unconnected: 1), "swept_volumes" (with
     `human_motion: swept_volumes`), the next tick's "positions_full_next" and
-    "velocities_full_next", and "contact_depth" (1: `ContactSensing`; PFL's `contact_reaction`:
-    after a sensed contact the robot brakes and backs off along its path, override < 0).
+    "velocities_full_next", "contact_depth" (1: `ContactSensing`; PFL's `contact_reaction`:
+    after a sensed contact the robot brakes and backs off along its path, override < 0), and
+    "path_preview" (the follower's, with `speed_profile: predictive`: `_planned_profile`).
     Output "speed_override" (1, in [-1, 1]) and "status" (6: `_STATE`).
     Each period it takes the smallest of the requested override and the rules' override, and
     lets it fall no faster than the stopping model's deceleration; a command of 0 is a
@@ -378,8 +379,9 @@ class SafetyController(LeafSystem):
                  backing: bool = False):
         """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
         path speed now and the most it reaches within `lookahead` of path time, the largest
-        override of backing off along the path (0 unless `backing`)) for the inputs of
-        `context`; `seen` (8,): the time each point was last
+        override of backing off along the path (0 unless `backing`), the predictive profile's
+        override (1 when reactive)) for the inputs of `context`; `seen` (8,): the time each point
+        was last
         measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
         in place (`SafetyRules.override`); budget: as `SafetyRules.override` (after a contact)."""
         human = None
