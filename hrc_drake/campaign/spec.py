@@ -488,6 +488,7 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         "mean_cycle_time",
         "min_human_robot_distance",
         "mean_speed_override",
+        "time_slowed_s",
         "wall_time",
         "realtime_factor",
         "warmup.products",
