@@ -21,7 +21,6 @@ from pydrake.systems.primitives import MatrixGain
 
 from hrc_drake.kernels import capsule_clearances
 from hrc_drake.messages import SkeletonEstimate, SweptVolumes, no_capsules
-from hrc_drake.robots.models import effective_mass  # noqa: F401 (the safety systems' m_R, re-exported)
 from hrc_drake.safety.config import LIMB_REGIONS, Hybrid, NoSafety, mode_name
 from hrc_drake.safety.judge import (
     LIMB_FAST_SPEED,

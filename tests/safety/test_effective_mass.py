@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hrc_drake.safety.systems import RobotPointDynamics, effective_mass
+from hrc_drake.robots.models import effective_mass
+from hrc_drake.safety.systems import RobotPointDynamics
 from tests.safety.arms import two_link_arm, two_link_kinematics
 
 L1, L2, M1, M2 = 1.0, 0.8, 2.0, 1.5
