@@ -164,6 +164,11 @@ class MonteCarloScheduler(_SchedulerCommon):
     #: common ticks, which actions of several arms need) instead of lasting t_w (6.3.1); the
     #: trials and the cell both wait so
     wait_grid: bool = False
+    #: a variant (issue 52, safety-aware scheduling): learn each robot action's durations per
+    #: operator activity at its start and slow the trials' robot actions by them, so the search
+    #: prefers work the operator's presence does not slow (scheduling.slowdown); 7.3.1 draws
+    #: each delay from the transition's one distribution
+    durations_by_operator: bool = False
 
     def validate(self, path: str) -> None:
         self._validate_common(path)
@@ -172,7 +177,7 @@ class MonteCarloScheduler(_SchedulerCommon):
             f"{path}.root_choices",
             f"{self.root_choices!r} is not one of {ROOT_CHOICES}",
         )
-        for name in ("stratified_roots", "common_random_numbers", "wait_grid"):
+        for name in ("stratified_roots", "common_random_numbers", "wait_grid", "durations_by_operator"):
             value = getattr(self, name)
             check(isinstance(value, bool), f"{path}.{name}", f"{value!r} must be a bool")
         check(

@@ -37,6 +37,7 @@ from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling import _kernels
 from hrc_drake.scheduling.learning import DurationModel, UniformSupportDurationModel
 from hrc_drake.scheduling.petri import PcTPN
+from hrc_drake.scheduling.slowdown import DurationsByOperator
 
 
 def wait_tick_delay(time, quantum: float):
@@ -115,6 +116,7 @@ def simulate_trials(
     stratified_roots: bool = False,
     common_random_numbers: bool = False,
     wait_grid: bool = False,
+    by_operator: DurationsByOperator | None = None,
 ) -> TrialBatch:
     """Run `n_trials` independent Monte Carlo trajectories of the net from `marking` up to
     `horizon` s (7.3.1, the trials of Algorithm 4).
@@ -132,7 +134,9 @@ def simulate_trials(
     choice n mod R, so every root child gets samples; common_random_numbers (needs
     stratified_roots): the trials n // R of a group share their firing delays and the random
     keys of their later controllable choices; wait_grid: a wait started at absolute time
-    `now` + t ends on the next multiple of t_w (`wait_tick_delay`) instead of lasting t_w.
+    `now` + t ends on the next multiple of t_w (`wait_tick_delay`) instead of lasting t_w;
+    by_operator (`scheduling.slowdown.DurationsByOperator`): a robot action enabled while the
+    trial's operator is in an activity under which it has learned durations draws from those.
     """
     if rollout not in ROLLOUTS:
         raise ValueError(f"simulate_trials: rollout must be one of {ROLLOUTS}, got {rollout!r}")
@@ -165,6 +169,15 @@ def simulate_trials(
     else:
         n_groups, group = n_trials, rows
     pools = durations.sample_pools(rng, n_groups, depth)[group]
+    pairs = [] if by_operator is None else by_operator.learned_pairs()
+    if by_operator is None:
+        activity_place = activity_of_place = np.zeros(0, dtype=np.int64)
+        pair_of = np.full((n_tr, 1), -1, dtype=np.int64)
+    else:
+        activity_place, activity_of_place = by_operator.activities.places, by_operator.activities.activity
+        pair_of = by_operator.pair_index(pairs)
+    pair_pools = np.zeros((n_trials, 0, depth)) if not pairs else (
+        by_operator.sample_pools(pairs, rng, n_groups, depth)[group])
     if stratified_roots:
         first_j = roots[rows % roots.size]
     else:
@@ -178,10 +191,13 @@ def simulate_trials(
     # the trials read a wait's end from the grid when quantum > 0, else from its pool (t_w, fixed)
     quantum = getattr(net, "wait_quantum", 0.0) if wait_grid else 0.0
 
-    # Clocks of the transitions already enabled at the root, conditioned on their elapsed time.
+    # Clocks of the transitions already enabled at the root, conditioned on their elapsed time
+    # (drawn as if enabled under the operator's activity now).
+    root_activity = -1 if by_operator is None else by_operator.activities.of_marking(marking)
     for j in np.flatnonzero(en0 & unc):
         e = 0.0 if elapsed is None else float(elapsed[j])
-        cand = pools[:, j, :]
+        pair = pair_of[j, root_activity]
+        cand = pair_pools[:, pair, :] if pair >= 0 else pools[:, j, :]
         if e <= 0:
             fire_at[:, j] = cand[:, 0]
             count[:, j] = 1
@@ -197,7 +213,9 @@ def simulate_trials(
     lockstep = _lockstep_compiled if compiled else _lockstep_numpy
     cols, cost_r, cost_h = lockstep(
         _Trials(net, m, pools, count, fire_at, en_prev, group, n_groups, key_bonus, is_wait_end, robot_w,
-                human_w, inc_t, durations),
+                human_w, inc_t, durations, np.ascontiguousarray(activity_place, dtype=np.int64),
+                np.ascontiguousarray(activity_of_place, dtype=np.int64), pair_of, pair_pools, by_operator,
+                pairs),
         rng, horizon, now, quantum, max_steps,
     )
     return TrialBatch(np.stack([first_j] + cols, axis=1), cost_r + cost_h, cost_r, cost_h)
@@ -221,6 +239,12 @@ class _Trials:
     human_w: np.ndarray  # (P,) and of the human's
     inc_t: np.ndarray  # (T, P) incidence, transposed
     durations: DurationModel  # draws more delays when a transition has used its pool
+    activity_place: np.ndarray  # (K,) the places that show the operator's activity, by precedence
+    activity_of_place: np.ndarray  # (K,) the activity each shows
+    pair_of: np.ndarray  # (T, C + 1) the pair pool of (transition, operator activity), or -1
+    pair_pools: np.ndarray  # (N, L, depth) delays of the learned (transition, activity) pairs
+    by_operator: DurationsByOperator | None  # draws more pair delays with the pools
+    pairs: list  # the L learned (transition, activity) pairs
     random_delay: np.ndarray | None = None  # (T,) the transitions whose delays are random
 
     def refill(self, rng: np.random.Generator) -> None:
@@ -237,6 +261,9 @@ class _Trials:
         if random.any() and self.count[:, random].max() >= depth:
             more = self.durations.sample_pools(rng, self.n_groups, depth)[self.group]
             self.pools = np.concatenate([self.pools, more], axis=2)
+            if self.pairs:
+                more = self.by_operator.sample_pools(self.pairs, rng, self.n_groups, depth)[self.group]
+                self.pair_pools = np.concatenate([self.pair_pools, more], axis=2)
 
 
 def _no_horizon(max_steps: int) -> RuntimeError:
@@ -264,7 +291,8 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
         running = _kernels.trial_step(
             trials.m, net.arcs(), fired, unc, controllable, trials.is_wait_end, trials.pools, trials.count,
             trials.fire_at, trials.en_prev, t, alive, keys, trials.group, trials.key_bonus, float(horizon),
-            float(now), float(quantum), dt, chosen, column,
+            float(now), float(quantum), dt, chosen, column, trials.activity_place, trials.activity_of_place,
+            trials.pair_of, trials.pair_pools,
         )
         cost_r += (trials.m @ trials.robot_w) * dt
         cost_h += (trials.m @ trials.human_w) * dt
@@ -273,6 +301,15 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
         fired = chosen
         cols.append(column)
     raise _no_horizon(max_steps)
+
+
+def _activities(trials: _Trials, m: np.ndarray) -> np.ndarray:
+    """(N,) the operator's activity of each trial: that of its first marked activity place, else
+    the last column of the slow-down table."""
+    activity = np.full(m.shape[0], trials.pair_of.shape[1] - 1, dtype=np.int64)
+    for place, shown in zip(trials.activity_place[::-1], trials.activity_of_place[::-1], strict=True):
+        activity[m[:, place] > 0] = shown  # in reverse, so the first marked place wins
+    return activity
 
 
 def _lockstep_numpy(trials: _Trials, rng, horizon, now, quantum, max_steps):
@@ -297,6 +334,10 @@ def _lockstep_numpy(trials: _Trials, rng, horizon, now, quantum, max_steps):
             n_idx, j_idx = np.nonzero(newly)
             k = count[n_idx, j_idx] % trials.pools.shape[2]
             delay = trials.pools[n_idx, j_idx, k]
+            if trials.pairs:
+                pair = trials.pair_of[j_idx, _activities(trials, m)[n_idx]]
+                mine = pair >= 0
+                delay[mine] = trials.pair_pools[n_idx[mine], pair[mine], k[mine]]
             if quantum > 0 and is_wait_end[j_idx].any():
                 delay = np.where(is_wait_end[j_idx], wait_tick_delay(now + t[n_idx], quantum), delay)
             fire_at[n_idx, j_idx] = t[n_idx] + delay
@@ -458,6 +499,9 @@ class MonteCarloPolicy:
     generated; the defaults are 7.3.1's ("all_enabled", off, off, off), the others are the
     variants of `simulate_trials`. `wait_grid` is also how the cell should execute this
     policy's waits (`cellsim.simulate_cell` reads it), so the trials model the cell.
+    durations_by_operator: a variant (issue 52): learn each robot action's durations per operator
+    activity at its start (`observe(..., operator=)`) and draw the trials' robot actions from
+    them (`scheduling.slowdown`), so the search prefers work the operator does not slow.
     """
 
     def __init__(
@@ -477,6 +521,7 @@ class MonteCarloPolicy:
         stratified_roots: bool = False,
         common_random_numbers: bool = False,
         wait_grid: bool = False,
+        durations_by_operator: bool = False,
     ):
         if n_trials < 1 or not horizon > 0 or not 0 <= beta <= 1:
             raise ValueError(
@@ -508,6 +553,9 @@ class MonteCarloPolicy:
         self.wait_grid = bool(wait_grid)
         self.durations = durations
         self.durations_ = DURATION_MODELS[durations](net, window=window, min_samples=min_samples)
+        self.durations_by_operator = bool(durations_by_operator)
+        self.by_operator_ = (DurationsByOperator(net, window=window, min_samples=min_samples)
+                          if durations_by_operator else None)
         self.rng = np.random.default_rng(random_state)
         self.last_percentiles_: dict[str, float] = {}
 
@@ -537,6 +585,7 @@ class MonteCarloPolicy:
             stratified_roots=self.stratified_roots,
             common_random_numbers=self.common_random_numbers,
             wait_grid=self.wait_grid,
+            by_operator=self.by_operator_,
         )
         _, percentiles = evaluate_costs(
             batch.paths, batch.costs, self.net.controllable, self.beta, self.min_branch_samples
@@ -552,10 +601,15 @@ class MonteCarloPolicy:
         random generator (same state) and duration model; the net is shared."""
         new = shallow_copy(self)
         new.durations_ = self.durations_.clone()
+        if self.by_operator_ is not None:
+            new.by_operator_ = self.by_operator_.clone()
         new.rng = copy_generator(self.rng)
         return new
 
-    def observe(self, transition, delay: float) -> None:
-        """An observed firing delay of an uncontrollable transition (7.1 online learning)."""
+    def observe(self, transition, delay: float, operator: str | None = None) -> None:
+        """An observed firing delay of an uncontrollable transition (7.1 online learning);
+        `operator`: the operator's activity when it was enabled (read with durations_by_operator)."""
         if self.learn:
             self.durations_.partial_fit(transition, delay)
+            if self.by_operator_ is not None:
+                self.by_operator_.partial_fit(transition, delay, operator)

@@ -73,6 +73,7 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
             stratified_roots=config.stratified_roots,
             common_random_numbers=config.common_random_numbers,
             wait_grid=config.wait_grid,
+            durations_by_operator=config.durations_by_operator,
         )
     if isinstance(config, FuzzyScheduler):  # UniformScheduler too
         kind = UniformPolicy if isinstance(config, UniformScheduler) else FuzzyPolicy

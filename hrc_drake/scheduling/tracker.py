@@ -8,6 +8,7 @@ import numpy as np
 
 from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.petri import PcTPN
+from hrc_drake.scheduling.slowdown import OperatorActivities
 
 
 class NetTracker:
@@ -24,6 +25,11 @@ class NetTracker:
         self.m = net.m0.copy()
         self.enabled_since = np.where(net.enabled(self.m), 0.0, np.nan)
         self.now = 0.0
+        #: with a policy that learns robot durations per operator activity (`durations_by_operator`):
+        #: the operator's activity when each transition was enabled (scheduling.slowdown)
+        by_operator = getattr(policy, "durations_by_operator", False)
+        self.activities = OperatorActivities.of(net) if by_operator else None
+        self.activity_since: list[str | None] = [None] * net.n_transitions
 
     def clone(self, policy=None) -> NetTracker:
         """A copy whose marking and clocks may change without touching this one, observing
@@ -31,6 +37,7 @@ class NetTracker:
         new = shallow_copy(self)
         new.m = self.m.copy()
         new.enabled_since = self.enabled_since.copy()
+        new.activity_since = list(self.activity_since)
         if policy is not None:
             new.policy = policy
         return new
@@ -45,13 +52,22 @@ class NetTracker:
         ):
             since = self.enabled_since[j]
             if np.isfinite(since) and t >= since:
-                self.policy.observe(j, t - since)
+                if self.activities is None:
+                    self.policy.observe(j, t - since)
+                else:
+                    self.policy.observe(j, t - since, operator=self.activity_since[j])
         before = net.enabled(self.m)
         self.m = np.maximum(self.m + net.incidence[:, j], 0)
         after = net.enabled(self.m)
+        newly = after & ~before
+        newly[j] = after[j]
         self.enabled_since[after & ~before] = t
         self.enabled_since[~after] = np.nan
         self.enabled_since[j] = t if after[j] else np.nan
+        if self.activities is not None and newly.any():
+            activity = self.activities.name_of_marking(self.m)
+            for k in np.flatnonzero(newly):
+                self.activity_since[k] = activity
         self.now = t
 
     def elapsed(self, t: float) -> np.ndarray:
