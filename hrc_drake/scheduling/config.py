@@ -338,7 +338,7 @@ class UniformScheduler(FuzzyScheduler):
 
 
 #: Where a use case a robot takes the duration of its autonomous task from.
-AUTONOMOUS_DURATION_SOURCES = ("config", "observed")
+AUTONOMOUS_DURATION_SOURCES = ("config", "observed", "observed_by_operator")
 
 
 @dataclass
@@ -360,7 +360,10 @@ class _CollaborationCommon:
     #: "config": `autonomous_duration` throughout (the thesis: the duration is known to the robot
     #: program); "observed": the median of the robot's own completed autonomous tasks in this
     #: run, `autonomous_duration` until the first one ends (a variant, for a task whose duration
-    #: varies with the robot's speed scaling)
+    #: varies with the robot's speed scaling); "observed_by_operator": the median of those begun
+    #: while the operator was in the activity (human action last begun) they are in now, once
+    #: there are 3, else as "observed" (a variant, issue 52: the safety controller slows the task
+    #: by where the operator is)
     autonomous_duration_from: str = "config"
     #: the human action whose end gives the autonomous task its part (the IC insertion fills the
     #: feeder); "" when the autonomous task always has work. Without a part the robot pauses

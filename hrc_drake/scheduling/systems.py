@@ -291,6 +291,11 @@ class CollaborationRun(Immutable):
     #: begin time of the autonomous task under way (nan: none) and the durations of those done
     autonomous_begin: float = math.nan
     autonomous_durations: tuple = ()
+    #: the human action last begun (the operator's activity, as perceived), the activity when the
+    #: autonomous task under way began, and (activity, duration) of every autonomous task done
+    operator_activity: str = ""
+    autonomous_activity: str = ""
+    autonomous_by_activity: tuple = ()
     position: tuple = ()
     commands: EventLog = EventLog()
     decisions: tuple = ()
@@ -311,7 +316,9 @@ class CollaborationScheduler(LeafSystem):
     again; without a result of the autonomous task for the assist it works first; with neither
     it pauses too. Every other agent gets its program in order. The decisions are kept
     (`decisions(context)`: (time, choice, t_p)). With `autonomous_duration_from: observed` the
-    rule compares t_p with the median of the robot's completed autonomous tasks. State: one
+    rule compares t_p with the median of the robot's completed autonomous tasks; with
+    `observed_by_operator`, of those begun while the operator was in the activity they are in now
+    (the human action last begun), once there are `BY_OPERATOR_MIN_SAMPLES` of them. State: one
     abstract value `CollaborationRun`.
     """
 
@@ -351,7 +358,10 @@ class CollaborationScheduler(LeafSystem):
         policy, assists = run.policy, run.assists
         pending, awaiting = run.request_pending, run.awaiting_request
         supplied, autonomous = run.supplied, run.autonomous
+        activity = run.operator_activity
         for e in human:
+            if e.kind == "begin":
+                activity = e.action
             if e.action == self.config.request_action and e.kind == "begin":
                 if awaiting:
                     awaiting = False  # the request the committed assist was waiting for
@@ -361,7 +371,8 @@ class CollaborationScheduler(LeafSystem):
                     policy = policy.observe(e.time)
             if e.action == self.config.supplied_by and e.kind == "end":
                 supplied += 1
-        begun, durations, policy = self._observe_autonomous(run, robot, policy)
+        begun, durations, policy, began_under, by_activity = self._observe_autonomous(
+            run, robot, policy, activity)
         position = list(run.position)
         commands, decisions = list(run.commands.events), list(run.decisions)
         ready = [e.agent for e in robot if e.kind == "ready" and e.agent in self.programs]
@@ -387,24 +398,31 @@ class CollaborationScheduler(LeafSystem):
                                          wait=self.config.wait_quantum if action is None else 0.0))
         set_state(state, self._run, CollaborationRun(
             policy, human[-1].seq if human else run.last_human, robot[-1].seq if robot else run.last_robot,
-            pending, awaiting, assists, supplied, autonomous, begun, durations, tuple(position),
-            EventLog(tuple(commands)), tuple(decisions)))
+            pending, awaiting, assists, supplied, autonomous, begun, durations, activity, began_under,
+            by_activity, tuple(position), EventLog(tuple(commands)), tuple(decisions)))
         return EventStatus.Succeeded()
 
-    def _observe_autonomous(self, run: CollaborationRun, robot, policy):
-        """(begin time of the autonomous task under way, durations of those done, policy): with
-        `autonomous_duration_from: observed` the policy compares with their median."""
+    def _observe_autonomous(self, run: CollaborationRun, robot, policy, activity: str):
+        """(begin time of the autonomous task under way, durations of those done, policy, the
+        operator's activity when the task under way began, (activity, duration) of those done):
+        with `autonomous_duration_from: observed` the policy compares with their median, with
+        `observed_by_operator` with the median of those begun under the operator's `activity`."""
         begun, durations = run.autonomous_begin, run.autonomous_durations
+        began_under, by_activity = run.autonomous_activity, run.autonomous_by_activity
         for e in robot:
             if e.agent == self.config.agent and e.action == self.config.autonomous_action:
                 if e.kind == "begin":
-                    begun = e.time
+                    begun, began_under = e.time, activity
                 elif e.kind == "end" and begun == begun:
+                    by_activity += ((began_under, e.time - begun),)
                     begun, durations = math.nan, durations + (e.time - begun,)
-        if durations != run.autonomous_durations and self.config.autonomous_duration_from == "observed" \
-                and hasattr(policy, "autonomous_duration"):
-            policy = replace(policy, autonomous_duration=float(np.median(durations)))
-        return begun, durations, policy
+        source = self.config.autonomous_duration_from
+        changed = durations != run.autonomous_durations or activity != run.operator_activity
+        if durations and changed and source != "config" and hasattr(policy, "autonomous_duration"):
+            same = [d for a, d in by_activity if a == activity] if source == "observed_by_operator" else []
+            pool = same if len(same) >= BY_OPERATOR_MIN_SAMPLES else durations
+            policy = replace(policy, autonomous_duration=float(np.median(pool)))
+        return begun, durations, policy, began_under, by_activity
 
     def _choose(self, t, policy, step, pending, has_work, can_assist, context):
         """(action, next assist step, whether it commits to a new assist, decision) of the
@@ -429,6 +447,11 @@ class CollaborationScheduler(LeafSystem):
         if decision.choice == AUTONOMOUS:
             return self.config.autonomous_action, 0, False, decision
         return sequence[0], 1 % len(sequence), True, decision
+
+
+#: autonomous tasks begun under an operator activity before `observed_by_operator` takes their
+#: median instead of that of all of them
+BY_OPERATOR_MIN_SAMPLES = 3
 
 
 def _collaboration_policy(config):

@@ -187,3 +187,40 @@ def test_a_request_seen_during_an_assist_it_did_not_start_waits_for_the_next_ass
         (2.25, dict(robot_events=ready(0.0, 1.0, 2.0))),  # the assist is done
     ])
     assert [c.action for c in commands] == ["R_place", "R_close", "R_place"]
+
+
+def _checks_under(activities_and_seconds, final_activity):
+    """A script: the operator begins each activity, then the robot checks for the given seconds;
+    at the end the operator begins `final_activity` (one more IC inserted) and the robot is ready
+    with the collaboration 15 s away."""
+    human, robot, script, t = [], [], [], 0.0
+    for activity, seconds in activities_and_seconds:
+        human.append(HumanEvent(t, activity, "begin", len(human) + 1))
+        script.append((len(script) * 0.25 + 0.25, dict(human_events=EventLog(tuple(human)))))
+        robot += [RobotEvent(t + 1.0, "yumi_right", "R_check", "begin", len(robot) + 1),
+                  RobotEvent(t + 1.0 + seconds, "yumi_right", "R_check", "end", len(robot) + 2)]
+        script.append((len(script) * 0.25 + 0.25, dict(robot_events=EventLog(tuple(robot)))))
+        t += 100.0
+    human += [HumanEvent(t, "ic_insert", "end", len(human) + 1),
+              HumanEvent(t, final_activity, "begin", len(human) + 2)]
+    script.append((len(script) * 0.25 + 0.25, dict(human_events=EventLog(tuple(human)))))
+    robot.append(RobotEvent(t + 1.0, "yumi_right", "", "ready", len(robot) + 1))
+    script.append((len(script) * 0.25 + 0.25, dict(robot_events=EventLog(tuple(robot)),
+                                                   forecast=use_case_a_forecast(15.0))))
+    return script
+
+
+@pytest.mark.parametrize("final_activity, by_operator, observed", [
+    ("cable", "R_place", "R_check"), ("ic_insert", "R_check", "R_check")])
+def test_the_check_duration_by_operator_activity_makes_the_robot_wait_where_the_operator_slows_it(
+        final_activity, by_operator, observed):
+    """Issue 52, item 3 (5.4.1 safety-aware): checks begun while the operator cabled took 20 s
+    (the safety controller slowed them), those begun during IC insertion 6 s. With the operator
+    cabling now, `observed_by_operator` expects 20 s > t_p = 15 s and waits to assist; during an
+    IC insertion it expects 6 s and checks. `observed` takes the median of all six (13 s) and
+    checks either way."""
+    history = [("cable", 20.0)] * 3 + [("ic_insert", 6.0)] * 3
+    script = _checks_under(history, final_activity)
+    for source, expected in (("observed_by_operator", by_operator), ("observed", observed)):
+        commands, decisions = run_script(use_case_a_scheduler(autonomous_duration_from=source), script)
+        assert [c.action for c in commands] == [expected], source

@@ -183,5 +183,6 @@ def test_bad_observations_are_refused():
     with pytest.raises(ValueError, match=">= 1"):
         DurationsByOperator(net, window=0)
     # a human action's end or an unknown activity teaches nothing
-    model.partial_fit("HS#0:end", 5.0, "HS").partial_fit("A:end", 5.0, "nobody").partial_fit("A:end", 5.0, None)
+    model.partial_fit("HS#0:end", 5.0, "HS").partial_fit("A:end", 5.0, "nobody")
+    model.partial_fit("A:end", 5.0, None)
     assert model.samples_ == {}
