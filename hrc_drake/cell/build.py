@@ -454,9 +454,10 @@ def _preview_of(safety) -> dict:
 
 
 def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, body, follower,
-                positions_port, estimate_port, human_capsules, systems) -> None:
+                positions_port, estimate_port, human_capsules, systems, frame_port=None) -> None:
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
-    a cell without a safety system still has its contacts counted in its verdict)."""
+    a cell without a safety system still has its contacts counted in its verdict); the controller
+    reads the camera's measurement (`frame_port`) beside the estimate."""
     from hrc_drake.cell.scenario import judge_values, safety_limits
     from hrc_drake.safety.regions import FixedBox
     from hrc_drake.safety.systems import apply_safety_config
@@ -478,7 +479,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         positions_full_next=follower.GetOutputPort("positions_full_next"),
         velocities_full_next=follower.GetOutputPort("velocities_full_next"),
         path_preview=follower.GetOutputPort("path_preview"),
-        skeleton_estimate=estimate_port,
+        skeleton_estimate=estimate_port, skeleton_frame=frame_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
         judge_values=standard, judge_changes=changed, payloads=capsule_payloads(scenario, plant, capsule_kin),
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
@@ -595,8 +596,11 @@ def build_cell(
     )
     plugins.add_proactive_planner(builder, scenario, named_poses, estimate_port, decision_events, executor,
                                   systems, seed(6))
+    frame_port = None
+    if estimate_port is not None and camera.HasOutputPort("skeleton_frame"):
+        frame_port = camera.GetOutputPort("skeleton_frame")
     _add_safety(builder, scenario, scenario_path, plant, capsule_kin, body, follower, positions_port,
-                estimate_port, human_capsules, systems)
+                estimate_port, human_capsules, systems, frame_port)
     _add_speed_override(builder, overrides, follower, systems)
     _add_recorder(builder, world_system, human_events_port, executor, human_capsules, robot_capsules, systems,
                   record_forecast=isinstance(scenario.scheduler, COLLABORATION_SCHEDULERS),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,15 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.systems.primitives import ConstantValueSource, MatrixGain
 
 from hrc_drake.human.body import BodyModel
-from hrc_drake.messages import Capsules, PathRequest, SkeletonEstimate, no_capsules
+from hrc_drake.messages import (
+    L_WRIST,
+    R_WRIST,
+    Capsules,
+    PathRequest,
+    SkeletonEstimate,
+    SkeletonFrame,
+    no_capsules,
+)
 from hrc_drake.robots.path import JointPathFollower
 from hrc_drake.robots.systems import PathFollower
 from hrc_drake.safety.config import Hybrid
@@ -446,3 +455,54 @@ def test_a_lost_head_rides_on_the_seen_thorax_and_a_lost_thorax_on_the_seen_head
     np.testing.assert_allclose(capsules[0][torso], truth[0][torso])
     _, z_d = uncertainty([0, 1])  # both lost: nothing to carry them
     np.testing.assert_allclose(z_d[torso], 0.03 + 10.0)
+
+
+@pytest.mark.parametrize("source", ["camera", "tracker"])
+def test_the_age_of_a_measurement_grows_z_d_by_the_human_speed(source):
+    """The judge holds S_p against the truth now; the controller's measurement is `age` s old, and
+    a hand moves v_h = 2.0 m/s x age since (issue 52: a particle filter's estimate half a camera
+    period old, 7 cm behind a hand at 2 m/s, let a robot 1.4 mm into S_p). By hand: camera Z_d
+    3 x 1 cm + 2.0 x 1/60 s; tracker 3 x its spread (0.5 cm) + the same."""
+    config = Hybrid(position_uncertainty=source)
+    body, points, _ = _operator(2.0)
+    regions = HumanRegions(body, config, camera_noise=0.01)
+    estimate = SkeletonEstimate(points=points, spread=np.full(8, 0.005))
+    _, fresh, _ = regions(estimate, np.zeros(8), None)
+    _, aged, _ = regions(estimate, np.zeros(8), None, age=1.0 / 60.0)
+    base = 0.03 if source == "camera" else 0.015
+    np.testing.assert_allclose(fresh, base)
+    np.testing.assert_allclose(aged, base + 2.0 / 60.0)
+    # per point: only the regions whose points are old grow (the left wrist: the left hand)
+    age = np.zeros(8)
+    age[L_WRIST] = 0.1
+    _, one, _ = regions(estimate, np.zeros(8), None, age=age)
+    hand = RegionCapsules().names.index("left_hand")
+    assert one[hand] == pytest.approx(base + 0.2)
+    assert np.sum(one > base + 1e-12) < len(one) and one.min() == pytest.approx(base)
+
+
+def test_the_controller_reads_the_camera_where_it_measured_and_the_estimate_elsewhere():
+    """A tracker's estimate 10 cm behind the hand (and its small spread) against the camera's fresh
+    frame: the controller's left wrist is the camera's, with the camera's Z_d; a point the camera
+    lost, or a frame older than the estimate, leaves the estimate's."""
+    example = safety_controller()
+    system = example.system
+    _, truth, _ = _operator(2.0)
+    lagging = truth.copy()
+    lagging[L_WRIST] += [0.1, 0.0, 0.0]
+    estimate = SkeletonEstimate(time=0.95, points=lagging, spread=np.full(8, 0.002))
+    tracked = np.ones(8, dtype=bool)
+    tracked[R_WRIST] = False
+    frame_points = truth.copy()
+    frame_points[R_WRIST] = np.nan
+    frame = SkeletonFrame(time=0.95, points=frame_points, tracked=tracked)
+    inputs = {**example.inputs_b, "skeleton_estimate": estimate, "skeleton_frame": frame}
+    context = new_context(example, inputs)
+    merged, measured_at = system._measurement(context)
+    np.testing.assert_allclose(merged.points[L_WRIST], truth[L_WRIST])
+    np.testing.assert_allclose(merged.points[R_WRIST], lagging[R_WRIST])
+    assert merged.spread[L_WRIST] == system.regions.camera_noise and merged.spread[R_WRIST] == 0.002
+    np.testing.assert_allclose(measured_at, 0.95)
+    system.GetInputPort("skeleton_frame").FixValue(context, replace(frame, time=0.9))  # older
+    stale, _ = system._measurement(context)
+    np.testing.assert_allclose(stale.points, lagging)
