@@ -48,6 +48,7 @@ import statistics
 import sys
 import time
 import warnings
+from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
 from pathlib import Path
@@ -70,10 +71,16 @@ class Arm:
     pattern2: bool = False
     percentile: float | None = None
     check_dwell: float | None = None
+    #: the scheduler's `autonomous_duration_from` (None: the scenario's)
+    check_duration_from: str | None = None
 
     @property
     def name(self) -> str:
         name = f"{self.policy}_{self.events}" + ("_pattern2" if self.pattern2 else "")
+        if self.check_duration_from == "observed_by_operator":
+            name += "_by_operator"
+        elif self.check_duration_from is not None:
+            name += f"_{self.check_duration_from}"
         if self.percentile is not None:
             name += f"_p{self.percentile:g}"
         if self.check_dwell is not None:
@@ -96,6 +103,8 @@ def arm_scenario(arm: Arm, seed: int):
         levels = scenario.predictor.percentile_levels  # the forecast must carry that level
         scenario.predictor.percentile_levels = sorted(set(levels) | {arm.percentile})
     check_action = scenario.scheduler.autonomous_action
+    if arm.check_duration_from is not None:
+        scenario.scheduler.autonomous_duration_from = arm.check_duration_from
     if arm.check_dwell is not None:
         for robot in scenario.robots:
             for action in robot.actions:
@@ -171,6 +180,8 @@ def wilcoxon_less(a: list[float], b: list[float]) -> float:
     """One-sided Wilcoxon signed-rank p-value that a < b (paired); nan with fewer than 2 pairs."""
     from scipy.stats import wilcoxon
 
+    if len(a) != len(b):  # an arm not run
+        return float("nan")
     pairs = [(x, y) for x, y in zip(a, b, strict=True) if x == x and y == y]
     if len(pairs) < 2 or all(x == y for x, y in pairs):
         return float("nan")
@@ -214,6 +225,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--warmup", type=int, default=2, help="products left out of each run's mean cycle")
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
                         help="worker processes (default: 2 or the number of CPUs if fewer)")
+    parser.add_argument("--arms", default=None,
+                        help="comma-separated arm names to run (default: all; e.g. predictive_perceived,"
+                             "reactive_perceived,predictive_perceived_by_operator)")
     parser.add_argument("--sweep", action="store_true",
                         help="also sweep the percentile p and the check's dwell (predictive vs reactive)")
     parser.add_argument("--sweep-seeds", type=int, default=5, help="seeds of each sweep arm (the first N)")
@@ -225,7 +239,13 @@ def main(argv: list[str] | None = None) -> None:
     seeds = [101 + k for k in range(n_seeds)]
     arms = [Arm("predictive"), Arm("reactive"), Arm("data_driven"), Arm("predictive", "truth"),
             Arm("reactive", "truth"), Arm("predictive", pattern2=True), Arm("reactive", pattern2=True),
-            Arm("data_driven", pattern2=True)]
+            Arm("data_driven", pattern2=True), Arm("predictive", check_duration_from="observed_by_operator")]
+    if args.arms:
+        wanted = [a for a in args.arms.split(",") if a]
+        unknown = sorted(set(wanted) - {a.name for a in arms})
+        if unknown:
+            parser.error(f"unknown arms {unknown}; choose among {[a.name for a in arms]}")
+        arms = [a for a in arms if a.name in wanted]
     from hrc_drake.cell.scenario import load_scenario
 
     scenario_percentile = load_scenario(SCENARIO).scheduler.percentile  # that arm is the main one
@@ -242,8 +262,9 @@ def main(argv: list[str] | None = None) -> None:
     print(f"bench_use_case_a: {n_seeds} seeds x {len(arms)} arms, {duration:g} s each, warm-up {args.warmup} "
           f"products, {args.workers} workers", flush=True)
     start = time.perf_counter()
-    results = run_all(jobs, duration, args.warmup, args.workers)
-    cycle = {name: [r["cycle_s"] for r in runs] for name, runs in results.items()}
+    # an arm left out by --arms has no runs: its figures are null
+    results = defaultdict(list, run_all(jobs, duration, args.warmup, args.workers))
+    cycle = defaultdict(list, {name: [r["cycle_s"] for r in runs] for name, runs in results.items()})
     detection = [r["detection"] for r in results["predictive_perceived"]]
     detection2 = [r["detection"] for r in results["predictive_perceived_pattern2"]]
     out = {
@@ -267,6 +288,9 @@ def main(argv: list[str] | None = None) -> None:
         "missed_actions": median(d.get("missed_actions", float("nan")) for d in detection),
         "predictive_cycle_s_truth": median(cycle["predictive_truth"]),
         "reactive_cycle_s_truth": median(cycle["reactive_truth"]),
+        "predictive_by_operator_cycle_s": median(cycle["predictive_perceived_by_operator"]),
+        "wilcoxon_p_by_operator": wilcoxon_less(cycle["predictive_perceived_by_operator"],
+                                                cycle["reactive_perceived"]),
         "reactive_excess_percent": excess_percent(median(cycle["reactive_perceived"]),
                                                   median(cycle["predictive_perceived"])),
         "perception_cost_percent": excess_percent(median(cycle["predictive_perceived"]),
@@ -291,7 +315,8 @@ def print_tables(out: dict, cycle: dict[str, list[float]]) -> None:
     print()
     print(f"{'arm':40s} {'median cycle s':>14s} {'median check s':>14s}")
     for name, values in cycle.items():
-        print(f"{name:40s} {median(values):14.2f} {out[f'check_duration_s_{name}']:14.2f}")
+        if values:  # not an arm left out by --arms
+            print(f"{name:40s} {median(values):14.2f} {out[f'check_duration_s_{name}']:14.2f}")
     longer = out["reactive_excess_percent"]
     if longer == longer:
         holds = "holds" if longer >= 17.0 else "does not hold"
