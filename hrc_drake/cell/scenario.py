@@ -899,6 +899,10 @@ def _check_safety(sc: Scenario, file) -> None:
         raise ScenarioError(file, "safety.human_motion",
                             "'swept_volumes' needs the swept volumes of a motion_model (8.1); "
                             "the cell has none")
+    if config.preview_human == "swept_volumes" and isinstance(sc.motion_model, NoMotionModel):
+        raise ScenarioError(file, "safety.preview_human",
+                            "'swept_volumes' needs the swept volumes of a motion_model (8.1); "
+                            "the cell has none")
     if isinstance(config, Hybrid) and not sc.layout.collaborative_zones:
         raise ScenarioError(file, "safety", "!Hybrid applies PFL inside layout.collaborative_zones, and the "
                                             "layout declares none")

@@ -20,6 +20,10 @@ HUMAN_MOTIONS = ("iso13855", "swept_volumes")
 #: How the controller sets the robot's speed: from the present only ("reactive"), or also planned
 #: over the path ahead ("predictive", `SafetyController`: it slows early instead of stopping late).
 SPEED_PROFILES = ("reactive", "predictive")
+#: where the predictive profile puts the person at its preview samples: "present" (the estimate now)
+#: or "swept_volumes" (the motion model's swept volumes, thesis 8.1: where each body part may be
+#: within their horizon)
+PREVIEW_HUMANS = ("present", "swept_volumes")
 #: How the robot approaches a clamped part: stopping within its quasi-static compression, or SSM.
 CLAMPED_APPROACHES = ("compression_budget", "ssm")
 #: Effective robot mass m_R: from the plant, (u^T J M^-1 J^T u)^-1, or the standard's M/2 + m_L.
@@ -102,6 +106,11 @@ class SpeedSeparationMonitoring:
     #: Deceleration (m/s^2) of the fastest point that the predictive profile plans with: below the
     #: stopping model's `deceleration`, so that a planned slow-down never needs the stop's braking.
     planning_deceleration: float = 2.5
+    #: Where the predictive profile puts the person at its preview samples: "present" (the estimate
+    #: now; S_p's S_h covers their motion during a stop) or "swept_volumes" (the regions grown to the
+    #: motion model's swept volumes, thesis 8.1, with the full ISO 13855 S_h still added: it slows the
+    #: robot earlier where the person is going, never later).
+    preview_human: str = "present"
 
     def preview_steps(self) -> int:
         """The number of path samples the predictive profile looks at (0 when reactive)."""
@@ -126,6 +135,8 @@ class SpeedSeparationMonitoring:
               f"must be one of {HUMAN_MOTIONS}, got {self.human_motion!r}")
         check(self.speed_profile in SPEED_PROFILES, f"{path}.speed_profile",
               f"must be one of {SPEED_PROFILES}, got {self.speed_profile!r}")
+        check(self.preview_human in PREVIEW_HUMANS, f"{path}.preview_human",
+              f"must be one of {PREVIEW_HUMANS}, got {self.preview_human!r}")
         _number(self.preview_step, path, "preview_step", 0.0, 1.0, low_open=True)
         _number(self.preview_horizon, path, "preview_horizon", self.preview_step, 5.0)
         _number(self.planning_deceleration, path, "planning_deceleration", 0.0, self.deceleration,

@@ -278,6 +278,31 @@ def swept_regions(swept: SweptVolumes, cutter: RegionCapsules):
     return (np.asarray(swept.start)[index], np.asarray(swept.end)[index], np.asarray(swept.radius)[index])
 
 
+def _union(present, grown):
+    """Each region's capsule covering both: the grown (swept) one where it holds the present one,
+    else one capsule around both (ends and radius of the larger reach), so the present body is
+    never left out."""
+    start, end, radius = (np.asarray(x, dtype=float) for x in present)
+    g_start, g_end, g_radius = (np.asarray(x, dtype=float) for x in grown)
+    # a swept capsule holds the present one when both present ends lie within g_radius - radius of
+    # its segment
+    inside = (_point_segment_distance(start, g_start, g_end) <= g_radius - radius + 1e-9) & (
+        _point_segment_distance(end, g_start, g_end) <= g_radius - radius + 1e-9)
+    grow = np.maximum(_point_segment_distance(start, g_start, g_end),
+                      _point_segment_distance(end, g_start, g_end)) + radius
+    return (g_start, g_end, np.where(inside, g_radius, np.maximum(g_radius, grow)))
+
+
+def _point_segment_distance(points, a, b):
+    """(R,) distance of each point to its segment [a, b]."""
+    ab = b - a
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    along = np.einsum("ij,ij->i", points - a, ab)
+    t = np.where(length2 > 0, along / np.where(length2 > 0, length2, 1.0), 0.0)
+    closest = a + np.clip(t, 0.0, 1.0)[:, None] * ab
+    return np.linalg.norm(points - closest, axis=1)
+
+
 #: Z_d (m) of a body point that may be anywhere (never measured, no spread): beyond any cell
 ANYWHERE = 1000.0
 
@@ -354,6 +379,7 @@ class SafetyController(LeafSystem):
         self.regions = regions
         self.period = 1.0 / config.rate
         self.swept = config.human_motion == "swept_volumes"
+        self._preview_swept = config.speed_profile == "predictive" and config.preview_human == "swept_volumes"
         # then the time until which each (robot capsule, region) pair counts as clamped (`clamp_hold`)
         self._pairs = (len(dynamics.names), len(regions.cutter))
         initial = [[1.0, 1.0, 0.0, 0.0, np.inf, np.nan], np.full(8, -np.inf), np.full(3, np.nan),
@@ -401,11 +427,16 @@ class SafetyController(LeafSystem):
             return 0.0, math.nan, math.nan, 0.0, 0.0, 0.0, 0.0
         regions, z_d, lost_radius = human
         covered = 0.0
-        if self.swept and self._swept_volumes.HasValue(context):
+        preview_regions = regions
+        if (self.swept or self._preview_swept) and self._swept_volumes.HasValue(context):
             swept = self._swept_volumes.Eval(context)
             grown = swept_regions(swept, self.regions.cutter)
-            if grown is not None:
+            if grown is not None and self.swept:
                 regions, covered = grown, float(swept.horizon)
+            if grown is not None and self._preview_swept:
+                # the regions where the person may be within the horizon (present included), with
+                # the standard's full S_h on top: the profile slows earlier, never later
+                preview_regions = _union(human[0], grown)
         positions = self._positions.Eval(context)
         self.dynamics.set_state(positions, self._velocities.Eval(context))
         robot, velocity = self.dynamics.capsules()
@@ -441,7 +472,8 @@ class SafetyController(LeafSystem):
             next_fastest = max(next_fastest, next_speed)
         planned = 1.0
         if self._preview_steps and not backing and self._preview.HasValue(context):
-            planned = self._planned_profile(self._preview.Eval(context), fastest, regions, z_d, covered,
+            planned = self._planned_profile(self._preview.Eval(context), fastest, preview_regions, z_d,
+                                            0.0 if preview_regions is not regions else covered,
                                             clamped_until, now, lost_radius, budget)
         if binding is None:
             return command, math.inf, math.nan, fastest, next_fastest, back, planned

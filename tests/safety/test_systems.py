@@ -22,13 +22,14 @@ from hrc_drake.messages import (
     PathRequest,
     SkeletonEstimate,
     SkeletonFrame,
+    SweptVolumes,
     no_capsules,
 )
 from hrc_drake.robots.path import JointPathFollower
 from hrc_drake.robots.systems import PathFollower
 from hrc_drake.safety.config import Hybrid
 from hrc_drake.safety.judge import VIOLATION_KINDS
-from hrc_drake.safety.regions import RegionCapsules
+from hrc_drake.safety.regions import BODY_CAPSULES, RegionCapsules
 from hrc_drake.safety.rules import SafetyRules
 from hrc_drake.safety.systems import (
     ContactSensing,
@@ -506,3 +507,40 @@ def test_the_controller_reads_the_camera_where_it_measured_and_the_estimate_else
     system.GetInputPort("skeleton_frame").FixValue(context, replace(frame, time=0.9))  # older
     stale, _ = system._measurement(context)
     np.testing.assert_allclose(stale.points, lagging)
+
+
+def test_the_profile_on_swept_volumes_slows_earlier_where_the_person_is_going():
+    """Issue 52, item 1: with `preview_human: swept_volumes` the preview samples see the person
+    where the motion model says they may be within its horizon (here 0.8 m closer than now), with
+    the standard's S_h on top; the present's command is the same, the planned override lower."""
+    plant, kinematics, _, limits, _ = _setup()
+    body, now_points, _ = _operator(2.4)
+    _, going_points, _ = _operator(1.6)
+    start, end, radius = body.capsules_from_points(going_points)
+    swept = SweptVolumes(names=BODY_CAPSULES, start=start, end=end, radius=radius, horizon=0.3)
+    far_q, near_q, velocity = [-1.5, 0.3], [0.0, 0.3], [1.5, 0.0]
+    preview = np.concatenate([far_q, velocity, near_q, velocity, far_q, [0.0, 0.0]])
+    inputs = {"positions": far_q, "velocities_full": velocity, "path_preview": preview,
+              "skeleton_estimate": SkeletonEstimate(points=now_points), "swept_volumes": swept}
+    status = {}
+    for where in ("present", "swept_volumes"):
+        config = Hybrid(position_uncertainty="fixed", speed_profile="predictive", preview_horizon=0.3,
+                        preview_human=where)
+        rules = SafetyRules(config, limits, RegionCapsules().regions, ZONES)
+        system = SafetyController(rules, RobotPointDynamics(plant, kinematics), HumanRegions(body, config), 2)
+        context = new_context(SystemExample(system, inputs, inputs), inputs)
+        Simulator(system, context).AdvanceTo(1.0)
+        status[where] = system.GetOutputPort("status").Eval(context)
+    assert status["present"][1] == status["swept_volumes"][1] == 1.0  # the present is free in both
+    assert status["swept_volumes"][0] < status["present"][0] - 0.05
+
+
+def test_swept_volumes_in_the_preview_cover_the_present_body():
+    """A swept capsule that does not hold the present one is widened to hold both."""
+    from hrc_drake.safety.systems import _union
+
+    present = (np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([0.1]))
+    inside = (np.array([[0.0, 0.0, -0.1]]), np.array([[0.0, 0.0, 1.1]]), np.array([0.3]))
+    np.testing.assert_allclose(_union(present, inside)[2], 0.3)
+    away = (np.array([[1.0, 0.0, 0.0]]), np.array([[1.0, 0.0, 1.0]]), np.array([0.2]))
+    np.testing.assert_allclose(_union(present, away)[2], 1.0 + 0.1)

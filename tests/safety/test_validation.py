@@ -56,7 +56,8 @@ def test_an_unknown_body_region_is_refused():
                                           ("contact_hold", 61.0), ("speed_profile", "clairvoyant"),
                                           ("preview_step", 0.0), ("preview_horizon", 0.05),
                                           ("preview_horizon", 5.5), ("planning_deceleration", 0.0),
-                                          ("planning_deceleration", 5.01), ("clamped_approach", "push")])
+                                          ("planning_deceleration", 5.01), ("clamped_approach", "push"),
+                                          ("preview_human", "oracle")])
 def test_bad_numbers_and_names_are_refused(field, value):
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", field: value})})
     assert err.field == f"safety.{field}"
@@ -108,3 +109,11 @@ def test_the_speed_profile_s_edges():
     assert err.field == "safety.preview_horizon" and "at most 20" in err.reason
     reactive = load_scenario_with(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera"})})
     assert reactive.safety.preview_steps() == 0
+
+
+def test_swept_volumes_in_the_preview_need_a_motion_model():
+    """torch_clock has no motion model: its preview cannot read swept volumes (refused, not ignored)."""
+    err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera",
+                                                       "speed_profile": "predictive",
+                                                       "preview_human": "swept_volumes"})})
+    assert err.field == "safety.preview_human" and "motion_model" in err.reason
