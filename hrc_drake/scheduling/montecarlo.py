@@ -258,6 +258,7 @@ class _Trials:
             random = self.random_delay = np.array(
                 [not (self.net.controllable[j] or self.durations.is_deterministic(j))
                  for j in range(self.net.n_transitions)], dtype=bool)
+            random[[j for j, _ in self.pairs]] = True  # learned per operator activity: drawn
         if random.any() and self.count[:, random].max() >= depth:
             more = self.durations.sample_pools(rng, self.n_groups, depth)[self.group]
             self.pools = np.concatenate([self.pools, more], axis=2)
@@ -305,7 +306,7 @@ def _lockstep_compiled(trials: _Trials, rng, horizon, now, quantum, max_steps):
 
 def _activities(trials: _Trials, m: np.ndarray) -> np.ndarray:
     """(N,) the operator's activity of each trial: that of its first marked activity place, else
-    the last column of the slow-down table."""
+    the last column of `pair_of` (no activity known)."""
     activity = np.full(m.shape[0], trials.pair_of.shape[1] - 1, dtype=np.int64)
     for place, shown in zip(trials.activity_place[::-1], trials.activity_of_place[::-1], strict=True):
         activity[m[:, place] > 0] = shown  # in reverse, so the first marked place wins
