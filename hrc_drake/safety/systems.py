@@ -213,7 +213,8 @@ class HumanRegions:
         at v_h with no cap (issue 51, item 5: a person the camera lost for 10 s may be 20 m away).
         age: s (scalar or (8,)) since the measurement each point's position comes from: the person
         moves v_h x age after it, which the judge, on the truth now, holds against the robot (a
-        hand at 2 m/s moved 3.3 cm during half a camera period); added to every point's Z_d."""
+        hand at 2 m/s moved 3.3 cm during half a camera period); it grows a point's Z_d unless the
+        point's v_h x time unseen, which runs to now, is larger."""
         points = np.asarray(estimate.points, dtype=float)
         if points.shape != (8, 3):
             return None
@@ -248,10 +249,12 @@ class HumanRegions:
         if config.position_uncertainty == "tracker":
             # whatever the tracker's model predicts (its spread of a hidden point grows at its own
             # rate); without the times a point with no spread stays lost (NaN, below: anywhere)
-            spread = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float)
-            uncertainty = (spread if unseen is None else np.fmax(spread, moved)) + since_measured
+            # (the spread is the estimate's at its time, which the person has moved on from; a lost
+            # point's v_h t already runs to now)
+            spread = config.uncertainty_sigmas * np.asarray(estimate.spread, dtype=float) + since_measured
+            uncertainty = spread if unseen is None else np.fmax(spread, moved)
         else:  # camera
-            uncertainty = config.uncertainty_sigmas * self.camera_noise + moved + since_measured
+            uncertainty = config.uncertainty_sigmas * self.camera_noise + np.maximum(moved, since_measured)
         uncertainty = np.where(np.isnan(uncertainty), np.inf, uncertainty)
         if (uncertainty <= config.max_uncertainty).all():  # nothing lost: `reach_bounded` keeps the capsules
             per_capsule = np.maximum(uncertainty[self._capsule_first], uncertainty[self._capsule_last])
