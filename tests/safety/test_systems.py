@@ -547,14 +547,14 @@ def test_swept_volumes_in_the_preview_cover_the_present_body():
 
 
 def test_a_lost_point_s_time_unseen_already_covers_the_age():
-    """A point unmeasured for 0.5 s grows v_h x 0.5 s; the age of the estimate (within that time)
-    adds nothing (both run to now). By hand, camera source: 3 x 1 cm + 2.0 x 0.5 s."""
+    """A point unmeasured for 0.1 s grows v_h x 0.1 s; the age of the estimate (within that time)
+    adds nothing (both run to now). By hand, camera source: 3 x 1 cm + 2.0 x 0.1 s."""
     config = Hybrid(position_uncertainty="camera")
     body, points, _ = _operator(2.0)
     regions = HumanRegions(body, config, camera_noise=0.01)
     unseen = np.zeros(8)
-    unseen[L_WRIST] = 0.5
+    unseen[L_WRIST] = 0.1
     _, z_d, _ = regions(SkeletonEstimate(points=points), unseen, None, age=1.0 / 60.0)
     hand = RegionCapsules().names.index("left_hand")
-    assert z_d[hand] == pytest.approx(0.03 + 1.0)
+    assert z_d[hand] == pytest.approx(0.03 + 0.2)
     assert z_d.min() == pytest.approx(0.03 + 2.0 / 60.0)
