@@ -11,9 +11,14 @@ the LEGO arm trajectories of data/lego_assembly_arm (or $HRC_DRAKE_DATA) (camera
 IK with head missing; the frame rate is not stated: 15 Hz assumed).
 
 The cycle-time comparison runs the Drake cell of
-diagrams/variants/box_pcb_coexistence_swept_volumes.yaml (the thesis's SSM on the swept volumes)
-with model C and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
-between consecutive ends of L_store, reported with the true minimum human-robot distance.
+diagrams/variants/box_pcb_coexistence_swept_volumes.yaml (the thesis's SSM on the swept volumes, a
+declared departure from ISO 13855: NON-CONFORMING; JSON key `cycle_time`) and the shipped cell
+diagrams/box_pcb_coexistence.yaml in its declared ISO/TS 15066 mode (`cycle_time_declared`) with
+model C and with [107], several seeds (`run_cell`, `cycle_time_comparison`); robot cycle = time
+between consecutive ends of L_store, reported with the true human-robot distance, robot idle, and
+per run the independent judge's verdict, violations, protective stops, time slowed and products
+(`judge_figures`, `judge_summary`); whether C and [107] ran identically seed by seed (`same_runs`).
+The proactive-path comparison (8.2.4, diagrams/box_usb_proactive.yaml) carries the same figures.
 
 With --sweep-hyperparameters, only model C with its kernel's hyperparameters re-optimised at
 every k-th model refresh (`hyperparameter_every` k = 1, 2, 4, 8; 1 is the thesis): eps+/- and
@@ -210,6 +215,92 @@ def speed_scaler_seconds(predictor, deltas, filtered, repeats=50):
 
 
 # ------------------------------------------------------------------ cell
+def judge_figures(metrics: dict) -> dict:
+    """The independent ISO/TS 15066 judge's figures of one run (`metrics["safety"]`, see
+    `hrc_drake.cell.metrics.DEFINITIONS`), with the run's time slowed and products finished.
+
+    own_model_violations: the violations counted by the changed judge or the controller's own
+    model of a non-conforming run (`safety["own_model"]`), else None. A run without the judge's
+    figures has verdict_code None and no counts.
+    """
+    safety = metrics.get("safety") or {}
+    own = safety.get("own_model") or None
+    return {
+        "verdict_code": safety.get("verdict_code"),
+        "verdict": safety.get("verdict"),
+        "violations_total": safety.get("violations_total"),
+        "violations": dict(safety.get("violations") or {}),
+        "ssm_breach_s": safety.get("ssm_breach_s"),
+        "protective_stops": safety.get("protective_stops"),
+        "closest_approach_m": safety.get("closest_approach_m"),
+        "own_model_violations": None if own is None else own.get("violations_total"),
+        "time_slowed_s": float(metrics.get("time_slowed_s") or 0.0),
+        "products": int(metrics.get("products_finished") or 0),
+    }
+
+
+def judge_summary(runs: list[dict]) -> dict:
+    """The judge's figures of one arm's runs (`judge_figures` rows): runs, how many the judge
+    found SAFE, every verdict code's count, violations summed (the standard judge's, and the
+    own model's over the runs that have one), protective stops and time slowed per run (means),
+    products (total and mean)."""
+    codes: dict[str, int] = {}
+    for r in runs:
+        codes[str(r.get("verdict_code"))] = codes.get(str(r.get("verdict_code")), 0) + 1
+    judged = [r for r in runs if r.get("violations_total") is not None]
+    stops = [r["protective_stops"] for r in runs if r.get("protective_stops") is not None]
+    own = [r["own_model_violations"] for r in runs if r.get("own_model_violations") is not None]
+    return {
+        "runs": len(runs),
+        "safe_runs": sum(1 for r in runs if r.get("verdict_code") == "safe"),
+        "verdict_codes": codes,
+        "violations_total": int(sum(r["violations_total"] for r in judged)) if judged else None,
+        "ssm_breach_s_total": float(sum(r.get("ssm_breach_s") or 0.0 for r in judged)) if judged else None,
+        "protective_stops_per_run": float(np.mean(stops)) if stops else None,
+        "own_model_violations_total": int(sum(own)) if own else None,
+        "own_model_runs": len(own),
+        "time_slowed_s_per_run": float(np.mean([r["time_slowed_s"] for r in runs])) if runs else None,
+        "products_total": int(sum(r["products"] for r in runs)),
+        "products_per_run": float(np.mean([r["products"] for r in runs])) if runs else None,
+    }
+
+
+def judge_line(summary: dict) -> str:
+    """One printed line of `judge_summary`: SAFE x of N, codes, violations, stops, time slowed."""
+    codes = ", ".join(f"{k} {v}" for k, v in sorted(summary["verdict_codes"].items()))
+    own = ("" if summary["own_model_violations_total"] is None else
+           f", own model {summary['own_model_violations_total']} violations "
+           f"({summary['own_model_runs']} runs)")
+    per_run = summary["protective_stops_per_run"]
+    stops = "n/a" if per_run is None else f"{per_run:.1f}"
+    breach = summary["ssm_breach_s_total"] or 0.0
+    return (f"judge: SAFE {summary['safe_runs']} of {summary['runs']} ({codes}), "
+            f"{summary['violations_total']} violations (SSM breach {breach:.2f} s)"
+            f"{own}, {stops} protective stops/run, "
+            f"time slowed {summary['time_slowed_s_per_run']:.1f} s/run, "
+            f"{summary['products_per_run']:.1f} products/run")
+
+
+def same_runs(runs: list[dict], kinds=("gp_c", "worst_case")) -> dict:
+    """Whether the two kinds' runs of every seed are identical in what the robot did and what
+    the judge saw (`SAME_KEYS`): the seeds that differ, empty when the motion model did not
+    influence the robot at all."""
+    by_seed: dict[int, dict[str, dict]] = {}
+    for r in runs:
+        by_seed.setdefault(r["seed"], {})[r["kind"]] = r
+    differ = [seed for seed, pair in sorted(by_seed.items())
+              if all(k in pair for k in kinds)
+              and any(pair[kinds[0]].get(key) != pair[kinds[1]].get(key) for key in SAME_KEYS)]
+    paired = sum(1 for pair in by_seed.values() if all(k in pair for k in kinds))
+    return {"seeds_paired": paired, "seeds_differing": differ, "identical": paired > 0 and not differ}
+
+
+#: what two runs must share to count as identical (`same_runs`)
+SAME_KEYS = ("store_ends", "robot_actions_finished", "min_human_robot_distance", "median_distance_m",
+             "mean_speed_override", "robot_idle_pct", "time_slowed_s", "violations_total",
+             "protective_stops", "products")
+
+
 def run_cell(scenario_path, kind: str, seed: int, duration: float) -> dict:
     """One run of the cell with motion model `kind`: robot cycles, true distance, override.
 
@@ -239,14 +330,18 @@ def run_cell(scenario_path, kind: str, seed: int, duration: float) -> dict:
     stores = sorted(e.time for e in log.events
                     if getattr(e, "action", "") == "L_store" and getattr(e, "kind", "") == "end")
     distances = np.asarray(log.distances, dtype=float)
+    overrides = np.asarray(log.overrides, dtype=float)
     return {
         "kind": kind, "seed": int(seed), "duration": duration, "wall_s": time.perf_counter() - start,
         "store_ends": [round(t, 2) for t in stores], "cycles": np.diff(stores).round(2).tolist(),
         "robot_actions_finished": sum(1 for e in log.events if getattr(e, "agent", "").startswith("yumi")
                                       and getattr(e, "kind", "") == "end"),
         "min_human_robot_distance": float(result.metrics["min_human_robot_distance"]),
+        "median_distance_m": float(np.median(distances)),
+        "robot_idle_pct": float(100.0 * np.mean(overrides < 0.01)),
         "time_below_0.05m_s": float(np.sum(distances < 0.05) * np.mean(np.diff(log.times))),
         "mean_speed_override": float(result.metrics["mean_speed_override"]),
+        **judge_figures(result.metrics),
     }
 
 
@@ -259,17 +354,22 @@ def cycle_time_comparison(scenario_path, seeds, duration, kinds=("gp_c", "worst_
     """Robot cycle time on box_pcb_coexistence, model C vs [107] (thesis: 8.59 % shorter with C).
 
     Every (kind, seed) runs for `duration` s; per kind: all cycles pooled, their mean, the
-    number of boards stored, the smallest true human-robot distance. The reduction is
-    1 - mean cycle C / mean cycle [107] (None when [107] completes fewer than two stores).
+    number of boards stored, the smallest true human-robot distance, the medians over runs of
+    the median distance and of robot idle % (override < 1 %), and the judge's figures
+    (`judge_summary`). The reduction is 1 - mean cycle C / mean cycle [107] (None when [107]
+    completes fewer than two stores); `same_runs` says whether the two kinds ran identically
+    seed by seed (the motion model then did not influence the robot).
     """
     jobs = [(str(scenario_path), kind, seed, duration) for kind in kinds for seed in seeds]
+    runs = []
     if workers > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(workers) as pool:
-            runs = list(pool.map(_run_cell_args, jobs))
+            for job, run in zip(jobs, pool.map(_run_cell_args, jobs), strict=True):
+                runs.append(run)
+                print(f"  {job[1]:<11} seed {job[2]}: done ({run['wall_s']:.0f} s wall)", flush=True)
     else:
-        runs = []
         for job in jobs:
             runs.append(run_cell(*job))
             print(f"  {job[1]:<11} seed {job[2]}: stores at {runs[-1]['store_ends']}", flush=True)
@@ -281,11 +381,15 @@ def cycle_time_comparison(scenario_path, seeds, duration, kinds=("gp_c", "worst_
             "mean_cycle_s": float(np.mean(cycles)) if cycles else None,
             "cycles": len(cycles), "boards_stored": int(sum(len(r["store_ends"]) for r in mine)),
             "min_distance_m": float(min(r["min_human_robot_distance"] for r in mine)),
+            "median_distance_median_m": float(np.median([r["median_distance_m"] for r in mine])),
+            "robot_idle_pct": float(np.median([r["robot_idle_pct"] for r in mine])),
             "robot_actions_finished": int(sum(r["robot_actions_finished"] for r in mine)),
             "mean_override": float(np.mean([r["mean_speed_override"] for r in mine])),
+            "judge": judge_summary(mine),
         }
     a, b = results[kinds[0]]["mean_cycle_s"], results[kinds[1]]["mean_cycle_s"]
     results["reduction_percent"] = None if a is None or b is None else 100.0 * (1.0 - a / b)
+    results["same_runs"] = same_runs(runs, kinds)
     return results
 
 
@@ -298,7 +402,7 @@ def run_proactive_cell(proactive: bool, seed: int, duration: float) -> dict:
 
     Distance: the true human-robot distance of every recorded sample; robot idle: the percentage
     of samples whose applied speed override is below 1 % (8.2.4: robot speed below 1 % of its
-    nominal value).
+    nominal value); the ISO/TS 15066 judge's figures, time slowed and products (`judge_figures`).
     """
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
@@ -318,7 +422,7 @@ def run_proactive_cell(proactive: bool, seed: int, duration: float) -> dict:
     row = {"proactive": proactive, "seed": int(seed), "wall_s": time.perf_counter() - start,
            "min_distance_m": float(np.min(distances)), "median_distance_m": float(np.median(distances)),
            "robot_idle_pct": float(100.0 * np.mean(overrides < 0.01)),
-           "products": int(result.metrics.get("products_finished", 0) or 0), "replannings": [],
+           **judge_figures(result.metrics), "replannings": [],
            # per-sample trace for the figures after the first replanning (dropped from the JSON)
            "_trace": (np.asarray(result.log.times, dtype=float), distances, overrides)}
     if proactive:
@@ -369,33 +473,93 @@ def proactive_comparison(seeds, duration: float, workers: int = 2) -> dict:
     """Proactive vs nominal paths on the 8.2.4 cell (thesis: distance up, p = 1 - 1e-7 in its
     notation; idle time down, p = 0.9984), one run per (arm, seed). The test is a one-sided
     Wilcoxon rank-sum on the runs' median distances (proactive greater)."""
-    from scipy.stats import mannwhitneyu
-
     jobs = [(arm, seed, duration) for arm in (True, False) for seed in seeds]
     from concurrent.futures import ProcessPoolExecutor
 
+    runs = []
     with ProcessPoolExecutor(workers) as pool:
-        runs = list(pool.map(_run_proactive_args, jobs))
+        for job, run in zip(jobs, pool.map(_run_proactive_args, jobs), strict=True):
+            runs.append(run)
+            print(f"  {'proactive' if job[0] else 'nominal':<9} seed {job[1]}: done "
+                  f"({run['wall_s']:.0f} s wall)", flush=True)
+    return summarise_proactive(runs, seeds, duration)
+
+
+def summarise_proactive(runs: list[dict], seeds, duration: float) -> dict:
+    """The figures of `proactive_comparison` from its runs (`run_proactive_cell` rows): per arm
+    the distances, robot idle and the judge's figures (`judge_summary`), the one-sided rank-sum
+    on the median distances, the figures after the first replanning, and the replannings' times
+    and cost ratios (`plan_figures`). Drops each run's per-sample trace."""
+    from scipy.stats import mannwhitneyu
+
     out = {"scenario": PROACTIVE_SCENARIO.name, "duration_s": duration, "seeds": list(seeds),
            "runs": runs}
     for name, arm in (("proactive", True), ("nominal", False)):
         mine = [r for r in runs if r["proactive"] is arm]
-        out[name] = {"min_distance_median_m": float(np.median([r["min_distance_m"] for r in mine])),
+        out[name] = {"runs": len(mine),
+                     "min_distance_median_m": float(np.median([r["min_distance_m"] for r in mine])),
+                     "min_distance_m": float(np.min([r["min_distance_m"] for r in mine])),
                      "median_distance_median_m": float(np.median([r["median_distance_m"] for r in mine])),
-                     "robot_idle_pct": float(np.median([r["robot_idle_pct"] for r in mine]))}
+                     "robot_idle_pct": float(np.median([r["robot_idle_pct"] for r in mine])),
+                     "judge": judge_summary(mine)}
     pro = [r["median_distance_m"] for r in runs if r["proactive"]]
     nom = [r["median_distance_m"] for r in runs if not r["proactive"]]
     out["proactive"]["wilcoxon_p_distance"] = float(mannwhitneyu(pro, nom, alternative="greater").pvalue)
     after_first_plan(runs, out)
     for r in runs:
         r.pop("_trace", None)
-    plans = [p for r in runs for p in r["replannings"]]
-    out["replannings"] = len(plans)
-    out["cloud_ms_G25"] = float(np.median([p["cloud_ms"] for p in plans])) if plans else None
-    out["stomp_path_ms_G25"] = float(np.median([p["stomp_ms"] for p in plans])) if plans else None
-    ratios = [p["proactive_cost"] / p["nominal_cost"] for p in plans]
-    out["stomp_cost_ratio_median"] = float(np.median(ratios)) if plans else None
+    out.update(plan_figures([p for r in runs for p in r["replannings"]]))
     return out
+
+
+def plan_figures(plans: list[dict]) -> dict:
+    """Replannings: their number, median cloud and STOMP times (ms), and the median of
+    J(proactive) / J(nominal) over the replannings whose nominal path has a cost (a nominal
+    cost of 0 leaves the ratio undefined: counted in `zero_nominal_cost`, left out)."""
+    ratios = [p["proactive_cost"] / p["nominal_cost"] for p in plans if p["nominal_cost"] > 0]
+    return {
+        "replannings": len(plans),
+        "cloud_ms_G25": float(np.median([p["cloud_ms"] for p in plans])) if plans else None,
+        "stomp_path_ms_G25": float(np.median([p["stomp_ms"] for p in plans])) if plans else None,
+        "stomp_cost_ratio_median": float(np.median(ratios)) if ratios else None,
+        "zero_nominal_cost": sum(1 for p in plans if not p["nominal_cost"] > 0),
+    }
+
+
+def print_proactive(comparison: dict) -> None:
+    """The table of `summarise_proactive`: every run, every arm, the p-values."""
+    for run in comparison["runs"]:
+        own = "" if run["own_model_violations"] is None else f" (own model {run['own_model_violations']})"
+        print(f"  {'proactive' if run['proactive'] else 'nominal':<9} seed {run['seed']}: min distance "
+              f"{run['min_distance_m']:.3f} m, median {run['median_distance_m']:.3f} m, robot idle "
+              f"{run['robot_idle_pct']:.1f} %, {run['products']} products, "
+              f"{len(run['replannings'])} replannings, judge {run['verdict_code']}: "
+              f"{run['violations_total']} violations{own}, {run['protective_stops']} stops, "
+              f"slowed {run['time_slowed_s']:.1f} s ({run['wall_s']:.0f} s wall)")
+    for name in ("proactive", "nominal"):
+        row = comparison[name]
+        print(f"  {name:<9} {row['runs']} runs: median of min distances "
+              f"{row['min_distance_median_m']:.3f} m "
+              f"(smallest {row['min_distance_m']:.3f} m), of median "
+              f"distances {row['median_distance_median_m']:.3f} m, "
+              f"robot idle {row['robot_idle_pct']:.1f} %")
+        print(f"  {'':<9} {judge_line(row['judge'])}")
+    print(f"  distance proactive > nominal: one-sided rank-sum p = "
+          f"{comparison['proactive']['wilcoxon_p_distance']:.3g} (thesis: evidence that it increases)")
+    for name in ("proactive", "nominal"):
+        row = comparison[name]["after_first_plan"]
+        if row:
+            print(f"  {name:<9} after the first replanning ({row['seeds']} seeds): median distance "
+                  f"{row['median_distance_median_m']:.3f} m, min {row['min_distance_median_m']:.3f} m, "
+                  f"robot idle {row['robot_idle_pct']:.1f} %")
+    after = comparison["proactive"]["after_first_plan"]
+    if after and "wilcoxon_p_distance" in after:
+        print(f"  after the first replanning: distance up p = {after['wilcoxon_p_distance']:.3g}, "
+              f"idle down p = {after['wilcoxon_p_idle']:.3g}")
+    ratio = comparison["stomp_cost_ratio_median"]
+    print(f"  {comparison['replannings']} replannings, J proactive / nominal median "
+          + ("n/a" if ratio is None else f"{ratio:.2f}")
+          + f" ({comparison['zero_nominal_cost']} with a nominal cost of 0 left out)")
 
 
 def proactive_timings(repeats: int = 3) -> dict:
@@ -463,6 +627,46 @@ def hyperparameter_sweep(sequences, orders, n_trials, horizon) -> dict:
               f"{100 * row['violation_rate_over_0.01']:>8.2f} {row['eps_plus_median']:>9.4f} "
               f"{row['eps_minus_median']:>9.4f} {row['model_update_ms_mean']:>10.1f}", flush=True)
     return out
+
+
+def cycle_time_section(scenario, seeds, duration, workers) -> dict:
+    """Run `cycle_time_comparison` on one scenario and print its table: every run, every kind
+    (cycle, boards, products, distances, idle, the judge's figures), the reduction, and whether
+    the two kinds ran identically seed by seed."""
+    print(f"\ncycle-time comparison on {scenario.name}: seeds {list(seeds)}, {duration:.0f} s each ...",
+          flush=True)
+    comparison = cycle_time_comparison(scenario, seeds, duration, workers=workers)
+    for run in comparison["runs"]:
+        own = "" if run["own_model_violations"] is None else f" (own model {run['own_model_violations']})"
+        print(f"  {run['kind']:<11} seed {run['seed']}: {run['robot_actions_finished']} robot actions, "
+              f"L_store ends {run['store_ends']}  cycles "
+              f"{run['cycles']}  min true distance {run['min_human_robot_distance']:.3f} m  "
+              f"median {run['median_distance_m']:.3f} m  idle {run['robot_idle_pct']:.1f} %  "
+              f"mean override {run['mean_speed_override']:.2f}  {run['products']} products  "
+              f"judge {run['verdict_code']}: {run['violations_total']} violations{own}, "
+              f"{run['protective_stops']} stops, slowed {run['time_slowed_s']:.1f} s  "
+              f"({run['wall_s']:.0f} s wall)")
+    for kind in ("gp_c", "worst_case"):
+        row = comparison[kind]
+        cycle = "n/a" if row["mean_cycle_s"] is None else f"{row['mean_cycle_s']:.2f} s"
+        print(f"  {kind:<11} {row['judge']['runs']} runs: mean robot cycle {cycle} over {row['cycles']} "
+              f"cycles, {row['boards_stored']} boards stored, {row['robot_actions_finished']} robot "
+              f"actions, min true distance {row['min_distance_m']:.3f} m, median distance "
+              f"{row['median_distance_median_m']:.3f} m, robot idle {row['robot_idle_pct']:.1f} % "
+              f"(medians over runs)")
+        print(f"  {'':<11} {judge_line(row['judge'])}")
+    reduction = comparison["reduction_percent"]
+    print(f"  cycle time with C vs [107] on {scenario.name}: "
+          + ("n/a (too few [107] cycles)" if reduction is None else f"{reduction:.2f} % shorter")
+          + " (thesis: 8.59 %)")
+    same = comparison["same_runs"]
+    if same["identical"]:
+        print(f"  model C and [107] gave identical runs on all {same['seeds_paired']} seeds: the motion "
+              f"model did not influence the robot here")
+    else:
+        print(f"  model C and [107] runs differ on seeds {same['seeds_differing']} "
+              f"of {same['seeds_paired']}")
+    return comparison
 
 
 def main() -> None:
@@ -553,31 +757,20 @@ def main() -> None:
         print(f"violations (model C, P=4): distance of real arm points outside the swept volumes: "
               f"{figures['violation_distance_m']}")
 
-    # the thesis's experiment: SSM on the swept volumes (the shipped cell runs ISO 13855's speeds)
-    scenario = REPO / "diagrams" / "variants" / "box_pcb_coexistence_swept_volumes.yaml"
-    if args.no_cell or not scenario.exists():
-        print(f"cycle-time comparison on {scenario.name}: switched off")
-        figures["cycle_time"] = None
-    else:
-        seeds, duration = ((5,), 12.0) if args.quick else (tuple(range(5, 15)), 75.0)  # 10 per arm
-        print(f"\ncycle-time comparison on {scenario.name}: seeds {list(seeds)}, {duration:.0f} s each ...",
-              flush=True)
-        comparison = cycle_time_comparison(scenario, seeds, duration, workers=1 if args.quick else 2)
-        for run in comparison["runs"]:
-            print(f"  {run['kind']:<11} seed {run['seed']}: {run['robot_actions_finished']} robot actions, "
-                  f"L_store ends {run['store_ends']}  cycles "
-                  f"{run['cycles']}  min true distance {run['min_human_robot_distance']:.3f} m  "
-                  f"mean override {run['mean_speed_override']:.2f}  ({run['wall_s']:.0f} s wall)")
-        for kind in ("gp_c", "worst_case"):
-            row = comparison[kind]
-            cycle = "n/a" if row["mean_cycle_s"] is None else f"{row['mean_cycle_s']:.2f} s"
-            print(f"  {kind:<11} mean robot cycle {cycle} over {row['cycles']} cycles, "
-                  f"{row['boards_stored']} boards stored, {row['robot_actions_finished']} robot actions, "
-                  f"min true distance {row['min_distance_m']:.3f} m")
-        reduction = comparison["reduction_percent"]
-        print("  cycle time with C vs [107]: " + ("n/a (too few [107] cycles)" if reduction is None
-                                                  else f"{reduction:.1f} % shorter") + " (thesis: 8.59 %)")
-        figures["cycle_time"] = comparison
+    # 8.1.3 twice: the thesis's experiment, SSM on the swept volumes (a declared departure, the
+    # judge's verdict NON-CONFORMING), and the shipped cell in its declared ISO mode (ISO 13855's
+    # speeds), where the motion model can only act through the speed scaler under the SSM.
+    cell_scenarios = {
+        "cycle_time": REPO / "diagrams" / "variants" / "box_pcb_coexistence_swept_volumes.yaml",
+        "cycle_time_declared": REPO / "diagrams" / "box_pcb_coexistence.yaml",
+    }
+    seeds, duration = ((5,), 12.0) if args.quick else (tuple(range(5, 15)), 75.0)  # 10 per arm
+    for key, scenario in cell_scenarios.items():
+        if args.no_cell or not scenario.exists():
+            print(f"cycle-time comparison on {scenario.name}: switched off")
+            figures[key] = None
+            continue
+        figures[key] = cycle_time_section(scenario, seeds, duration, workers=1 if args.quick else 2)
 
     timings = proactive_timings()
     print(f"\nproactive pipeline (hand-made YuMi problem): cloud at G = 25 "
@@ -593,28 +786,7 @@ def main() -> None:
         print(f"proactive vs nominal paths on {PROACTIVE_SCENARIO.name}: seeds {list(seeds)}, "
               f"{duration:.0f} s each ...", flush=True)
         comparison = proactive_comparison(seeds, duration)
-        for run in comparison["runs"]:
-            print(f"  {'proactive' if run['proactive'] else 'nominal':<9} seed {run['seed']}: min distance "
-                  f"{run['min_distance_m']:.3f} m, median {run['median_distance_m']:.3f} m, robot idle "
-                  f"{run['robot_idle_pct']:.1f} %, {run['products']} products, "
-                  f"{len(run['replannings'])} replannings ({run['wall_s']:.0f} s wall)")
-        for name in ("proactive", "nominal"):
-            row = comparison[name]
-            print(f"  {name:<9} median of min distances {row['min_distance_median_m']:.3f} m, of median "
-                  f"distances {row['median_distance_median_m']:.3f} m, "
-                  f"robot idle {row['robot_idle_pct']:.1f} %")
-        print(f"  distance proactive > nominal: one-sided rank-sum p = "
-              f"{comparison['proactive']['wilcoxon_p_distance']:.3g} (thesis: evidence that it increases)")
-        for name in ("proactive", "nominal"):
-            row = comparison[name]["after_first_plan"]
-            if row:
-                print(f"  {name:<9} after the first replanning ({row['seeds']} seeds): median distance "
-                      f"{row['median_distance_median_m']:.3f} m, min {row['min_distance_median_m']:.3f} m, "
-                      f"robot idle {row['robot_idle_pct']:.1f} %")
-        after = comparison["proactive"]["after_first_plan"]
-        if after and "wilcoxon_p_distance" in after:
-            print(f"  after the first replanning: distance up p = {after['wilcoxon_p_distance']:.3g}, "
-                  f"idle down p = {after['wilcoxon_p_idle']:.3g}")
+        print_proactive(comparison)
         figures["proactive"] = comparison["proactive"]
         figures["nominal"] = comparison["nominal"]
         figures["proactive_runs"] = comparison
