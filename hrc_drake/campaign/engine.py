@@ -482,7 +482,10 @@ class ClusterClient:
         return self.client
 
     def __exit__(self, exc_type, exc, traceback):
-        if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+        if exc_type is not None and issubclass(exc_type, (KeyboardInterrupt, SchedulerLost)):
+            # the user has the stop (or the lost scheduler) in words and the finished runs are
+            # saved: the client's cancelled reconnection tasks are not news (under load they log
+            # a CancelledError traceback while the client closes)
             quiet_interrupted_shutdown()
         self.client.close()
         if self.cluster is not None:
