@@ -596,8 +596,11 @@ def build_cell(
     )
     plugins.add_proactive_planner(builder, scenario, named_poses, estimate_port, decision_events, executor,
                                   systems, seed(6))
+    # the analytic camera's frame is the measurement with the layout's noise_std, which the
+    # controller takes as its spread; a rendered camera's skeleton (extracted from a depth image)
+    # has no such bound: there the controller keeps the tracker's estimate and its spread
     frame_port = None
-    if estimate_port is not None and camera.HasOutputPort("skeleton_frame"):
+    if estimate_port is not None and systems.get("camera_model") is not None:
         frame_port = camera.GetOutputPort("skeleton_frame")
     _add_safety(builder, scenario, scenario_path, plant, capsule_kin, body, follower, positions_port,
                 estimate_port, human_capsules, systems, frame_port)
