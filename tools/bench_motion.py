@@ -526,16 +526,20 @@ def plan_figures(plans: list[dict]) -> dict:
     }
 
 
+def judge_words(run: dict) -> str:
+    """One run's judge figures in words: verdict, violations (and the own model's), stops, slowed."""
+    own = "" if run["own_model_violations"] is None else f" (own model {run['own_model_violations']})"
+    return (f"judge {run['verdict_code']}: {run['violations_total']} violations{own}, "
+            f"{run['protective_stops']} stops, slowed {run['time_slowed_s']:.1f} s")
+
+
 def print_proactive(comparison: dict) -> None:
     """The table of `summarise_proactive`: every run, every arm, the p-values."""
     for run in comparison["runs"]:
-        own = "" if run["own_model_violations"] is None else f" (own model {run['own_model_violations']})"
         print(f"  {'proactive' if run['proactive'] else 'nominal':<9} seed {run['seed']}: min distance "
               f"{run['min_distance_m']:.3f} m, median {run['median_distance_m']:.3f} m, robot idle "
               f"{run['robot_idle_pct']:.1f} %, {run['products']} products, "
-              f"{len(run['replannings'])} replannings, judge {run['verdict_code']}: "
-              f"{run['violations_total']} violations{own}, {run['protective_stops']} stops, "
-              f"slowed {run['time_slowed_s']:.1f} s ({run['wall_s']:.0f} s wall)")
+              f"{len(run['replannings'])} replannings, {judge_words(run)} ({run['wall_s']:.0f} s wall)")
     for name in ("proactive", "nominal"):
         row = comparison[name]
         print(f"  {name:<9} {row['runs']} runs: median of min distances "
@@ -637,15 +641,12 @@ def cycle_time_section(scenario, seeds, duration, workers) -> dict:
           flush=True)
     comparison = cycle_time_comparison(scenario, seeds, duration, workers=workers)
     for run in comparison["runs"]:
-        own = "" if run["own_model_violations"] is None else f" (own model {run['own_model_violations']})"
         print(f"  {run['kind']:<11} seed {run['seed']}: {run['robot_actions_finished']} robot actions, "
               f"L_store ends {run['store_ends']}  cycles "
               f"{run['cycles']}  min true distance {run['min_human_robot_distance']:.3f} m  "
               f"median {run['median_distance_m']:.3f} m  idle {run['robot_idle_pct']:.1f} %  "
               f"mean override {run['mean_speed_override']:.2f}  {run['products']} products  "
-              f"judge {run['verdict_code']}: {run['violations_total']} violations{own}, "
-              f"{run['protective_stops']} stops, slowed {run['time_slowed_s']:.1f} s  "
-              f"({run['wall_s']:.0f} s wall)")
+              f"{judge_words(run)}  ({run['wall_s']:.0f} s wall)")
     for kind in ("gp_c", "worst_case"):
         row = comparison[kind]
         cycle = "n/a" if row["mean_cycle_s"] is None else f"{row['mean_cycle_s']:.2f} s"

@@ -412,18 +412,18 @@ class SafetyController(LeafSystem):
         self._clamped = slice(len(_STATE) + 13, None)
         declare_periodic_discrete_update(self, self.period, 0.0, self._update)
 
-    def _command(self, context, seen, head_offset, clamped_until, budget: bool = False,
+    def _command(self, context, measurement, seen, head_offset, clamped_until, budget: bool = False,
                  backing: bool = False):
         """(rules' override, binding clearance, its S_p, the fastest robot point's speed at full
         path speed now and the most it reaches within `lookahead` of path time, the largest
         override of backing off along the path (0 unless `backing`), the predictive profile's
-        override (1 when reactive)) for the inputs of `context`; `seen` (8,): the time each point
-        was last
-        measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
+        override (1 when reactive)) for the inputs of `context`; measurement: `_measurement`'s
+        (estimate, measurement times), or None without an estimate; `seen` (8,): the time each point
+        was last measured; head_offset: head - thorax when last both seen; clamped_until (K, R): updated
         in place (`SafetyRules.override`); budget: as `SafetyRules.override` (after a contact)."""
         human = None
-        if self._estimate.HasValue(context):
-            estimate, measured_at = self._measurement(context)
+        if measurement is not None:
+            estimate, measured_at = measurement
             human = self.regions(estimate, context.get_time() - seen, head_offset,
                                  age=context.get_time() - measured_at)
         if human is None:
@@ -558,8 +558,9 @@ class SafetyController(LeafSystem):
     def _update(self, context, discrete_state):
         x = np.array(context.get_discrete_state(self._state).get_value())
         seen, head_offset = x[self._seen], x[self._head]
-        if self._estimate.HasValue(context):
-            estimate, _ = self._measurement(context)
+        measurement = self._measurement(context) if self._estimate.HasValue(context) else None
+        if measurement is not None:
+            estimate = measurement[0]
             measured = (np.isfinite(np.asarray(estimate.spread, dtype=float))
                         & np.asarray(estimate.tracked, bool))
             if measured.shape == (8,):
@@ -572,7 +573,7 @@ class SafetyController(LeafSystem):
         backing_until, hold_until, touched = self._contact_step(context, float(x[0]), *x[self._contact])
         backing = now < backing_until
         command, distance, separation, fastest, next_fastest, back, planned = self._command(
-            context, seen, head_offset, clamped_until, budget=now < hold_until, backing=backing)
+            context, measurement, seen, head_offset, clamped_until, budget=now < hold_until, backing=backing)
         deceleration = self.rules.config.deceleration
         if touched:
             applied, command, stopped = 0.0, 0.0, True
