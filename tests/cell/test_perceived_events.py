@@ -20,8 +20,8 @@ pytestmark = pytest.mark.slow
 
 
 def _box_usb(diagrams_dir, **regions):
-    """box_usb with the goal-region detector, without its safety mode: its robot's arms pass the
-    operator's head, where ISO/TS 15066 holds them (README "Safety"), and the operator would wait."""
+    """box_usb with the goal-region detector, without its safety mode: these tests read the
+    operator's events, which protective stops would only delay."""
     from hrc_drake.safety.config import NoSafety
 
     path = diagrams_dir / "box_usb.yaml"
