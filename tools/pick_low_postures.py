@@ -7,16 +7,17 @@ This tool takes the tool position of each of the arm's poses (its target, or whe
 the tool; --home moves the home), solves each from many seeds
 (`solve_tool_position`, tool pointing down; seeds drawn with `numpy.random.default_rng(--seed)`),
 keeps the distinct solutions, and picks one per pose (the same one wherever a pose recurs) that
-maximises the smallest clearance, along every segment of every action (home, its poses, home), of
-the arm's links beyond the shoulder from the operator standing at rest and from the camera's sight
-lines to the operator's skeleton points (max-min, by branch and bound; ties go to the smaller
-total joint step).
+maximises the smallest clearance, along every line the arm may travel (`arm_segments`), of its
+links beyond the shoulder from the operator standing at rest and from the camera's sight lines to
+the operator's skeleton points; ties go to the smaller total joint step. The search is local
+(coordinate descent from --restarts starts: each pose's clearest posture, then random ones), so
+the pick is good, not proven best.
 
 Prints each pose's joints as a YAML pose line and each segment's highest point; the last line is
 one JSON object {"arm", "clearance_m", "poses": {name: joints}, "segments": [[from, to, m]]}.
 
 Usage: PYTHONPATH=. python3 tools/pick_low_postures.py SCENARIO ARM [--home X,Y,Z]
-       [--candidates N] [--seed S] [--samples N]
+       [--candidates N] [--seed S] [--samples N] [--restarts N]
 """
 
 from __future__ import annotations
@@ -92,6 +93,16 @@ def tool_position(plant, context, instance, robot, arm, arm_joints) -> list[floa
     return [round(float(v), 4) for v in frame.CalcPoseInWorld(context).translation()]
 
 
+def arm_segments(home: str, actions: list[list[str]]) -> list[tuple[str, str]]:
+    """The joint-space lines an arm may travel: along each action's poses, from the home to each
+    action's first pose, and from each action's last pose to any action's first (a program or a
+    scheduler may put any action after any other)."""
+    pairs = {(a, b) for poses in actions for a, b in zip(poses[:-1], poses[1:], strict=True)}
+    pairs |= {(home, poses[0]) for poses in actions}
+    pairs |= {(before[-1], after[0]) for before in actions for after in actions}
+    return sorted((a, b) for a, b in pairs if a != b)
+
+
 def candidates(plant, context, instance, model, arm, target, count, rng):
     """Distinct IK solutions (tool pointing down) of `target` from `count` random seeds."""
     lower, upper, _ = arm_joint_limits(plant, instance, model, arm)
@@ -117,6 +128,7 @@ def main(argv=None) -> int:
     parser.add_argument("--candidates", type=int, default=40, help="IK seeds per target (default 40)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the IK seeds")
     parser.add_argument("--samples", type=int, default=21, help="points checked along each segment")
+    parser.add_argument("--restarts", type=int, default=20, help="starts of the local search (default 20)")
     args = parser.parse_args(argv)
     home = None
     if args.home is not None:
@@ -142,8 +154,9 @@ def main(argv=None) -> int:
                for name in poses}
     if args.home is not None:
         targets[arm_agent.home] = home
-    sequences = [[arm_agent.home, *a.poses, arm_agent.home] for a in actions]
-    targets = {name: targets[name] for name in dict.fromkeys(p for s in sequences for p in s)}
+    segments = arm_segments(arm_agent.home, [list(a.poses) for a in actions])
+    order = list(dict.fromkeys([arm_agent.home] + [p for a in actions for p in a.poses]))
+    targets = {name: targets[name] for name in order}
     rng = np.random.default_rng(args.seed)
     solved = {}
     for name, xyz in targets.items():
@@ -175,29 +188,30 @@ def main(argv=None) -> int:
             clearance = min(clearance, float(point_segment_distances(points, *keep_clear).min()))
         return -clearance
 
-    segments = sorted({(a, b) for s in sequences for a, b in zip(s[:-1], s[1:], strict=True) if a != b})
-    order = list(dict.fromkeys(p for s in sequences for p in s))
-    best = [math.inf, math.inf, None]
+    def score(chosen: dict) -> tuple[float, float]:
+        """(worst intrusion over every segment, total joint step) of an assignment."""
+        worst = max(intrusion(a, chosen[a], b, chosen[b]) for a, b in segments)
+        step = sum(float(np.abs(solved[a][chosen[a]] - solved[b][chosen[b]]).max()) for a, b in segments)
+        return worst, step
 
-    def search(k: int, chosen: dict, worst: float, step: float):
-        if worst > best[0] or (worst == best[0] and step >= best[1]):
-            return
-        if k == len(order):
-            best[:] = [worst, step, dict(chosen)]
-            return
-        name = order[k]
-        for j in range(len(solved[name])):
-            chosen[name] = j
-            w, d = worst, step
-            for a, b in segments:
-                if name in (a, b) and a in chosen and b in chosen:
-                    w = max(w, intrusion(a, chosen[a], b, chosen[b]))
-                    d += float(np.abs(solved[a][chosen[a]] - solved[b][chosen[b]]).max())
-            search(k + 1, chosen, w, d)
-            del chosen[name]
-
-    search(0, {}, -math.inf, 0.0)
-    worst, _, chosen = best
+    best = None
+    for restart in range(args.restarts):
+        # the first start: each pose's own clearest posture; then random ones
+        chosen = ({n: min(range(len(solved[n])), key=lambda j, n=n: intrusion(n, j, n, j)) for n in order}
+                  if restart == 0 else {n: int(rng.integers(len(solved[n]))) for n in order})
+        current = score(chosen)
+        improved = True
+        while improved:  # coordinate descent: one pose's posture at a time, the others kept
+            improved = False
+            for name in order:
+                for j in range(len(solved[name])):
+                    trial = chosen | {name: j}
+                    value = score(trial)
+                    if value < current:
+                        chosen, current, improved = trial, value, True
+        if best is None or current < best[0]:
+            best = (current, chosen)
+    (worst, _), chosen = best
     lower, upper, _ = arm_joint_limits(plant, instance, robot.model, args.arm)
     # rounded for the scenario file, and kept inside the limits the rounding may cross
     rounded = {n: np.clip(np.round(solved[n][j], 3), lower, upper) for n, j in chosen.items()}
