@@ -11,12 +11,13 @@ maximises the smallest clearance, along every line the arm may travel (`arm_segm
 links beyond the shoulder from the operator standing at rest and from the camera's sight lines to
 the operator's skeleton points; ties go to the smaller total joint step. The search is local
 (coordinate descent from --restarts starts: each pose's clearest posture, then random ones), so
-the pick is good, not proven best.
+the pick is good, not proven best. A pose with an `approach` keeps its posture (the one of lowest
+effective mass along it, docs/safety.md "Approach postures").
 
 Prints each pose's joints as a YAML pose line and each segment's highest point; the last line is
 one JSON object {"arm", "clearance_m", "poses": {name: joints}, "segments": [[from, to, m]]}.
 
-Usage: PYTHONPATH=. python3 tools/pick_low_postures.py SCENARIO ARM [--home X,Y,Z]
+Usage: PYTHONPATH=. python3 tools/pick_low_postures.py SCENARIO ARM [--robot NAME] [--home X,Y,Z]
        [--candidates N] [--seed S] [--samples N] [--restarts N]
 """
 
@@ -123,6 +124,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario", type=Path)
     parser.add_argument("arm")
+    parser.add_argument("--robot", default=None, help="the robot's name (default: the scenario's first)")
     parser.add_argument("--home", default=None,
                         help="a new tool position X,Y,Z (world, m) for the arm's home (default: where it is)")
     parser.add_argument("--candidates", type=int, default=40, help="IK seeds per target (default 40)")
@@ -141,7 +143,12 @@ def main(argv=None) -> int:
 
     scenario = load_scenario(args.scenario)
     plant = MultibodyPlant(0.0)
-    instance, robot = add_robots(plant, scenario.robots)[0]
+    instances = add_robots(plant, scenario.robots)
+    names = [r.name for _, r in instances]
+    robot_name = args.robot if args.robot is not None else names[0]
+    if robot_name not in names:
+        parser.error(f"--robot: no robot {robot_name!r} in {args.scenario} (robots: {', '.join(names)})")
+    instance, robot = instances[names.index(robot_name)]
     plant.Finalize()
     context = plant.CreateDefaultContext()
     poses = {p.name: p for p in robot.poses if p.arm == args.arm}
@@ -160,7 +167,12 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(args.seed)
     solved = {}
     for name, xyz in targets.items():
-        solved[name] = candidates(plant, context, instance, robot.model, args.arm, xyz, args.candidates, rng)
+        if name in poses and poses[name].approach:
+            # a hand-over posture chosen for its lowest effective mass along `approach`: kept
+            solved[name] = [np.asarray(named[(robot.name, name)], float)]
+        else:
+            solved[name] = candidates(plant, context, instance, robot.model, args.arm, xyz, args.candidates,
+                                      rng)
         print(f"{name:12s} {xyz}: {len(solved[name])} distinct solutions", flush=True)
         if not solved[name]:
             print(f"no IK solution of {name} at {xyz}", file=sys.stderr)
