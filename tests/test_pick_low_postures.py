@@ -15,7 +15,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def tool():
-    spec = importlib.util.spec_from_file_location("pick_low_postures", REPO / "tools" / "pick_low_postures.py")
+    path = REPO / "tools" / "pick_low_postures.py"
+    spec = importlib.util.spec_from_file_location("pick_low_postures", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -51,3 +52,17 @@ def test_picks_reach_the_tool_positions_with_the_reported_clearance(tool, capsys
         picked = tool.tool_position(plant, context, instance, robot, "right", np.array(joints))
         wanted = tool.tool_position(plant, context, instance, robot, "right", shipped[("yumi", name)])
         assert np.linalg.norm(np.subtract(picked, wanted)) < 0.01, name
+
+
+@pytest.mark.parametrize("args, message", [
+    (["right", "--home", "0.2,nan,0.9"], "--home: three finite numbers"),
+    (["right", "--home", "0.2,0.9"], "--home: three finite numbers"),
+    (["right", "--home", "a,b,c"], "--home: three finite numbers"),
+    (["right", "--robot", "ur5"], "--robot: no robot 'ur5'"),
+    (["elbow"], "arm 'elbow' needs a home and an action"),
+])
+def test_bad_arguments_are_refused_with_the_reason(tool, capsys, args, message):
+    with pytest.raises(SystemExit) as exit_info:
+        tool.main([str(REPO / "diagrams" / "box_usb.yaml"), *args])
+    assert exit_info.value.code == 2
+    assert message in capsys.readouterr().err
