@@ -1,4 +1,4 @@
-"""tools/pick_low_postures.py: its distance helper by hand, and its picks on box_usb's right arm
+"""tools/pick_clear_postures.py: its distance helper by hand, and its picks on box_usb's right arm
 reach the poses' tool positions with the clearance it reports."""
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ REPO = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def tool():
-    path = REPO / "tools" / "pick_low_postures.py"
-    spec = importlib.util.spec_from_file_location("pick_low_postures", path)
+    path = REPO / "tools" / "pick_clear_postures.py"
+    spec = importlib.util.spec_from_file_location("pick_clear_postures", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -60,6 +60,8 @@ def test_picks_reach_the_tool_positions_with_the_reported_clearance(tool, capsys
     (["right", "--home", "a,b,c"], "--home: three finite numbers"),
     (["right", "--robot", "ur5"], "--robot: no robot 'ur5'"),
     (["elbow"], "arm 'elbow' needs a home and an action"),
+    (["right", "--restarts", "0"], "--restarts: at least 1"),
+    (["right", "--samples", "1"], "--samples: at least 2"),
 ])
 def test_bad_arguments_are_refused_with_the_reason(tool, capsys, args, message):
     with pytest.raises(SystemExit) as exit_info:

@@ -4,8 +4,8 @@ A robot action moves its arm along straight lines in joint space between IK solu
 after the other from the previous pose, two neighbouring solutions can lie far apart and the line
 between them swing a link up in front of the operator's head or the camera (issue 52: box_usb).
 This tool takes the tool position of each of the arm's poses (its target, or where its joints put
-the tool; --home moves the home), solves each from many seeds
-(`solve_tool_position`, tool pointing down; seeds drawn with `numpy.random.default_rng(--seed)`),
+the tool; --home moves the home), solves each from many seeds (`solve_tool_position`, the tool
+pointing down unless the pose orients it; seeds drawn with `numpy.random.default_rng(--seed)`),
 keeps the distinct solutions, and picks one per pose (the same one wherever a pose recurs) that
 maximises the smallest clearance, along every line the arm may travel (`arm_segments`), of its
 links beyond the shoulder from the operator standing at rest and from the camera's sight lines to
@@ -17,7 +17,7 @@ effective mass along it, docs/safety.md "Approach postures").
 Prints each pose's joints as a YAML pose line and each segment's highest point; the last line is
 one JSON object {"arm", "clearance_m", "poses": {name: joints}, "segments": [[from, to, m]]}.
 
-Usage: PYTHONPATH=. python3 tools/pick_low_postures.py SCENARIO ARM [--robot NAME] [--home X,Y,Z]
+Usage: PYTHONPATH=. python3 tools/pick_clear_postures.py SCENARIO ARM [--robot NAME] [--home X,Y,Z]
        [--candidates N] [--seed S] [--samples N] [--restarts N]
 """
 
@@ -104,15 +104,17 @@ def arm_segments(home: str, actions: list[list[str]]) -> list[tuple[str, str]]:
     return sorted((a, b) for a, b in pairs if a != b)
 
 
-def candidates(plant, context, instance, model, arm, target, count, rng):
-    """Distinct IK solutions (tool pointing down) of `target` from `count` random seeds."""
+def candidates(plant, context, instance, model, arm, target, count, rng, target_rpy=None):
+    """Distinct IK solutions of `target` from `count` random seeds: the tool at `target_rpy`
+    where the pose orients it, else pointing down (as `solve_named_poses` solves a target)."""
     lower, upper, _ = arm_joint_limits(plant, instance, model, arm)
     solutions: list[np.ndarray] = []
     for attempt in range(count):
         try:
             q = np.asarray(solve_tool_position(plant, context, instance, model, arm, target,
-                                               q_seed=rng.uniform(lower, upper), tool_z_down=True,
-                                               attempts=1, seed=attempt), float)
+                                               target_rpy=target_rpy, q_seed=rng.uniform(lower, upper),
+                                               tool_z_down=target_rpy is None, attempts=1, seed=attempt),
+                           float)
         except InfeasibleTarget:
             continue
         if all(np.abs(q - s).max() > DISTINCT_RAD for s in solutions):
@@ -132,6 +134,9 @@ def main(argv=None) -> int:
     parser.add_argument("--samples", type=int, default=21, help="points checked along each segment")
     parser.add_argument("--restarts", type=int, default=20, help="starts of the local search (default 20)")
     args = parser.parse_args(argv)
+    for option, least in (("candidates", 1), ("samples", 2), ("restarts", 1)):
+        if getattr(args, option) < least:
+            parser.error(f"--{option}: at least {least}, got {getattr(args, option)}")
     home = None
     if args.home is not None:
         try:
@@ -171,8 +176,10 @@ def main(argv=None) -> int:
             # a hand-over posture chosen for its lowest effective mass along `approach`: kept
             solved[name] = [np.asarray(named[(robot.name, name)], float)]
         else:
+            pose = poses.get(name)
+            rpy = pose.target.rpy if pose is not None and pose.target is not None and pose.orient else None
             solved[name] = candidates(plant, context, instance, robot.model, args.arm, xyz, args.candidates,
-                                      rng)
+                                      rng, rpy)
         print(f"{name:12s} {xyz}: {len(solved[name])} distinct solutions", flush=True)
         if not solved[name]:
             print(f"no IK solution of {name} at {xyz}", file=sys.stderr)
