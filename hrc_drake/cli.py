@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -355,31 +354,55 @@ def _validate(args) -> int:
 def _import(args) -> int:
     from hrc_drake.errors import check_input_file
     from hrc_drake.human.importers import import_recording
+    from hrc_drake.staged_files import StagedFiles, check_outputs_apart
 
     out = Path(args.out)
-    scenario_path = out.with_suffix(".yaml")
+    scenario_path = out.with_suffix(".yaml") if args.cell else None
     if args.replay and not args.cell:
         raise ScenarioError("", "--replay", "needs --cell SCENARIO: the cell the recording replays in "
                                             "(e.g. diagrams/box_pcb_coexistence.yaml)")
-    if args.cell:
-        check_input_file(Path(args.cell))
-        if scenario_path == out:
-            raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .yaml: the "
-                                              "scenario of --cell is written beside it as .yaml")
-    if args.replay:
-        _check_writable_file("--replay", Path(args.replay))
-    summary = import_recording(args.format, Path(args.source), out, source_rate=args.rate,
-                               person=args.person, columns=args.columns, units=args.units,
-                               delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
-                               camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y),
-                               facing=args.facing, table_height=args.table_height)
+    if out.suffix.lower() == ".json":
+        raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .json: its provenance "
+                                          "is written beside it as .json")
+    if args.cell and scenario_path == out:
+        raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .yaml: the "
+                                          "scenario of --cell is written beside it as .yaml")
+    source = Path(args.source)
+    check_input_file(source, "recording")
+    columns = Path(args.columns) if args.columns else None
+    if columns is not None:
+        check_input_file(columns, "column map")
+    cell = Path(args.cell) if args.cell else None
+    if cell is not None:
+        check_input_file(cell)
+    replay = Path(args.replay) if args.replay else None
+    if replay is not None:
+        _check_writable_file("--replay", replay)
+    check_outputs_apart(
+        {"the recording": source, "--columns": columns, "--cell": cell},
+        {"--out": out, "--out's provenance JSON": out.with_suffix(".json"),
+         "--out's scenario (with --cell)": scenario_path, "--replay": replay})
+    with StagedFiles() as staged:
+        skeleton = staged.path_for(out)
+        summary = import_recording(
+            args.format, source, out, source_rate=args.rate, person=args.person, columns=args.columns,
+            units=args.units, delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
+            camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y), facing=args.facing,
+            table_height=args.table_height, write_to=(skeleton, staged.path_for(out.with_suffix(".json"))))
+        if cell is not None:
+            # checked as written, with the skeleton under its temporary name, before anything is kept
+            draft = staged.path_for(scenario_path)
+            _write_recorded_scenario(draft, cell, skeleton, summary[0], named_skeleton=skeleton, check=True)
+            staged.discard(draft)
+            duration = _write_recorded_scenario(staged.path_for(scenario_path), cell, skeleton, summary[0],
+                                                named_skeleton=out)
+        staged.commit()
     for line in summary:
-        print(line)
-    if not args.cell:
+        print(_one_line(line))  # the source's name may hold control characters (a terminal's too)
+    if cell is None:
         print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
               "with --cell SCENARIO [--replay FILE.html]")
         return 0
-    duration = _write_recorded_scenario(scenario_path, Path(args.cell), out, summary[0])
     print(f"scenario: {scenario_path} (the recording as the operator of {args.cell}, {duration:g} s); "
           f"run it with: hrc-drake simulate {scenario_path}")
     if not args.replay:
@@ -390,33 +413,43 @@ def _import(args) -> int:
     return _simulate(replay)
 
 
-def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str) -> float:
-    """A scenario that extends `cell` with the skeleton CSV as its operator for the recording's
-    length (paths relative to the scenario's folder); checked by loading it. Returns the duration."""
+def _one_line(text: str) -> str:
+    """`text` with every character that is not printable (line breaks of any kind, controls)
+    shown as its escape: safe inside a YAML comment, which only a line break ends."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str,
+                             named_skeleton: Path, check: bool = False) -> float:
+    """A scenario that extends `cell` with the skeleton CSV (read from `skeleton`, named in the
+    scenario as `named_skeleton`) as its operator for the recording's length (paths relative to
+    the scenario's folder), written by the YAML emitter; with `check`, loaded (ScenarioError if
+    the cell refuses it). Returns the duration."""
+    import yaml
+
     from hrc_drake.cell.scenario import load_scenario
     from hrc_drake.human.recorded import load_skeleton_csv
 
     times, _, _ = load_skeleton_csv(skeleton)
     duration = max(math.ceil(float(times[-1]) * 10.0) / 10.0, 0.1)
-    folder = path.parent.resolve()
+    folder = Path(os.path.abspath(path)).parent.resolve()
 
     def named(target: Path) -> str:  # relative when both lie under one folder below the root
-        target = target.resolve()
+        target = Path(os.path.abspath(target)).resolve()
         shared = os.path.commonpath([target, folder])
         return os.path.relpath(target, folder) if shared != os.path.dirname(shared) else str(target)
 
-    base, recorded = named(cell), named(skeleton)
-    comment = provenance.replace("\n", " ")
-    path.write_text(
-        f"# A recorded person as the operator of {cell.name}, written by `hrc-drake import`:\n"
-        f"# {comment}\n"
-        "# The recording holds no actions: the operator's flow actions do not happen, the robot's do.\n"
-        f"extends: {json.dumps(base)}\n"
-        f"description: {json.dumps(f'Recorded operator ({skeleton.name}) in {cell.stem}')}\n"
-        f"duration: {duration:g}\n"
-        f"operator:\n  recorded: {json.dumps(recorded)}\n",
-        encoding="utf-8")
-    load_scenario(path)
+    document = {"extends": named(cell),
+                "description": f"Recorded operator ({Path(named_skeleton).name}) in {cell.stem}",
+                "duration": duration, "operator": {"recorded": named(named_skeleton)}}
+    header = (f"# A recorded person as the operator of {_one_line(cell.name)}, written by "
+              f"`hrc-drake import`:\n# {_one_line(provenance)}\n"
+              "# The recording holds no actions: the operator's flow actions do not happen, the robot's "
+              "do.\n")
+    path.write_text(header + yaml.safe_dump(document, sort_keys=False, default_flow_style=False, width=1000),
+                    encoding="utf-8")
+    if check:
+        load_scenario(path)
     return duration
 
 

@@ -368,10 +368,12 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
                      person: str = "giver", columns: str | None = None, units: str = "m",
                      delimiter: str | None = None, header_rows: int = 0, up: str = "0,0,1",
                      camera_rate: float = 30.0, operator_xy=(1.0, 0.0), facing: float = math.pi,
-                     table_height: float = 0.75) -> list[str]:
+                     table_height: float = 0.75, write_to: tuple[Path, Path] | None = None) -> list[str]:
     """Read a real recording (`kind` lego, kth or table), synthesise what it lacks, place it in a
     cell, resample it to `camera_rate` and write it as a skeleton CSV (`recorded.save_skeleton_csv`)
-    with a JSON of its provenance beside it; returns summary lines. ScenarioError on bad input."""
+    with a JSON of its provenance beside it; returns summary lines. ScenarioError on bad input.
+    write_to: the (CSV, JSON) files to write instead (the command's temporary files, renamed to
+    `out` and its .json once every output is ready); the summary names the final files."""
     import json
 
     from hrc_drake.errors import ScenarioError
@@ -406,8 +408,11 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
             refusal.args = (str(err),)
         raise refusal from None
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    save_skeleton_csv(out, resampled.times, resampled.points, resampled.tracked)
+    sidecar = out.with_suffix(".json")
+    if write_to is None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_to = (out, sidecar)
+    save_skeleton_csv(write_to[0], resampled.times, resampled.points, resampled.tracked)
     untracked = {name: int((~resampled.tracked[:, k]).sum()) for k, name in enumerate(SKELETON_POINTS)}
     provenance = {"source": recording.source, "kind": kind, "frames_recorded": recording.frames,
                   "recorded_rate_hz": recording.rate, "frames_written": resampled.frames,
@@ -415,8 +420,7 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
                   "untracked_frames": untracked, "rotation": rotation.round(6).tolist(),
                   "translation_m": shift.round(6).tolist(), "placement": {"operator_xy": list(operator_xy),
                   "facing_rad": facing, "table_height_m": table_height}, "notes": list(recording.notes)}
-    sidecar = out.with_suffix(".json")
-    sidecar.write_text(json.dumps(provenance, indent=2))
+    Path(write_to[1]).write_text(json.dumps(provenance, indent=2))
     lines = [f"{out}: {resampled.frames} frames at {resampled.rate:g} Hz from {recording.frames} at "
              f"{recording.rate:g} Hz ({recording.source})",
              f"synthesised: {', '.join(recording.synthesized) or 'none'}; untracked frames: "

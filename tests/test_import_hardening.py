@@ -1,0 +1,115 @@
+"""`hrc-drake import` treats its inputs as untrusted (issue 55, items 1 and 2): a recording's file
+name cannot inject YAML into the scenario it writes, nothing it reads is overwritten, its outputs
+never overwrite one another, and a refusal leaves no file behind."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from hrc_drake.cell.scenario import load_scenario
+from hrc_drake.cli import EXIT_BAD_INPUT, main
+from hrc_drake.datasets import dataset_dir
+from tests.conftest import DIAGRAMS
+
+TRIAL = dataset_dir("lego_assembly_arm") / "Task2" / "Human1" / "trial1.txt"
+CELL = DIAGRAMS / "box_pcb_coexistence.yaml"
+
+
+def _recording(folder, name="rec.txt", lines=90):
+    path = folder / name
+    path.write_text("\n".join(TRIAL.read_text().splitlines()[:lines]) + "\n")
+    return path
+
+
+def _files(folder):
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
+
+
+# every line break YAML knows (1.1: NEL, LS and PS too), and CR alone, which the old comment let through
+@pytest.mark.parametrize("line_break", ["\r", "\n", "\r\n", "\x85", "\u2028", "\u2029"])
+def test_a_recording_s_file_name_cannot_inject_yaml_into_the_scenario(tmp_path, capsys, line_break):
+    name = f"rec{line_break}safety: !NoSafety {{}}{line_break}duration: 1{line_break}#.txt"
+    source = _recording(tmp_path, name)
+    out = tmp_path / "out" / "rec.csv"
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out), "--cell", str(CELL)]) == 0
+    written = out.with_suffix(".yaml")
+    scenario, cell = load_scenario(written), load_scenario(CELL)
+    assert type(scenario.safety) is type(cell.safety) and scenario.safety == cell.safety
+    assert scenario.duration > 1.0
+    document = yaml.safe_load(written.read_text(encoding="utf-8"))
+    assert set(document) == {"extends", "description", "duration", "operator"}
+    # the name is still there for a reader, its breaks shown as escapes
+    assert "safety: !NoSafety {}" in written.read_text(encoding="utf-8")
+
+
+def test_free_text_in_the_written_scenario_goes_through_the_yaml_emitter(tmp_path, capsys):
+    source = _recording(tmp_path)
+    out = tmp_path / "weird: {a: !NoSafety x}'\"#.csv"
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out), "--cell", str(CELL)]) == 0
+    scenario = load_scenario(out.with_suffix(".yaml"))
+    assert scenario.operator.recorded.endswith("weird: {a: !NoSafety x}'\"#.csv")
+    assert scenario.description == ("Recorded operator (weird: {a: !NoSafety x}'\"#.csv) in "
+                                    "box_pcb_coexistence")
+
+
+def _refused(capsys, args, reason):
+    assert main(["import", *args]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert reason in err, err
+
+
+def test_the_skeleton_and_its_provenance_are_never_one_file(tmp_path, capsys):
+    source = _recording(tmp_path)
+    before = _files(tmp_path)
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(tmp_path / "o" / "same.json")],
+             "same.json")
+    assert _files(tmp_path) == before
+
+
+def test_the_source_is_never_overwritten(tmp_path, capsys):
+    source = _recording(tmp_path, "rec.csv")
+    text = source.read_bytes()
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(source)], "the recording")
+    assert source.read_bytes() == text and _files(tmp_path) == ["rec.csv"]
+    # nor through another name for the same file
+    link = tmp_path / "link.csv"
+    link.symlink_to(source)
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(link)], "the recording")
+    assert source.read_bytes() == text
+
+
+def test_the_column_map_and_the_cell_are_never_overwritten(tmp_path, capsys):
+    source = _recording(tmp_path)
+    columns = tmp_path / "map3.yaml"
+    columns.write_text("left_wrist: [0, 1, 2]\nright_wrist: [3, 4, 5]\n")
+    column_text = columns.read_bytes()
+    cell = tmp_path / "cellcopy.yaml"
+    cell.write_text(f"extends: {CELL}\n")
+    cell_text = cell.read_bytes()
+    before = _files(tmp_path)
+    _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns),
+                      "--out", str(tmp_path / "map3.csv"), "--cell", str(cell)], "--columns")
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(tmp_path / "cellcopy.csv"),
+                      "--cell", str(cell)], "--cell")
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(tmp_path / "r.csv"),
+                      "--cell", str(cell), "--replay", str(cell)], "--replay")
+    assert columns.read_bytes() == column_text and cell.read_bytes() == cell_text
+    assert _files(tmp_path) == before
+
+
+def test_a_refused_cell_leaves_nothing_behind(tmp_path, capsys):
+    source = _recording(tmp_path)
+    out = tmp_path / "new" / "deeper" / "rec.csv"
+    # pcb_ic perceives the operator's actions: a recording, which has none, cannot drive it
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out),
+                 "--cell", str(DIAGRAMS / "pcb_ic.yaml")]) == EXIT_BAD_INPUT
+    assert "no true actions" in capsys.readouterr().err
+    assert _files(tmp_path) == [source.name]
+
+
+def test_the_summary_shows_a_control_character_as_its_escape(tmp_path, capsys):
+    source = _recording(tmp_path, "rec\x1b[2Jx.txt")
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(tmp_path / "r.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "rec\\x1b[2Jx.txt" in out
