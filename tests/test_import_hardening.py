@@ -113,3 +113,53 @@ def test_the_summary_shows_a_control_character_as_its_escape(tmp_path, capsys):
     assert main(["import", "lego", str(source), "--rate", "15", "--out", str(tmp_path / "r.csv")]) == 0
     out = capsys.readouterr().out
     assert "\x1b" not in out and "rec\\x1b[2Jx.txt" in out
+
+
+# item 3: bounded reads, each refused before the file is read
+def test_a_device_or_a_fifo_is_refused_unread(tmp_path, capsys):
+    import os
+
+    _refused(capsys, ["lego", "/dev/zero", "--rate", "15", "--out", str(tmp_path / "z.csv")], "a device")
+    fifo = tmp_path / "pipe.txt"
+    os.mkfifo(fifo)
+    _refused(capsys, ["lego", str(fifo), "--rate", "15", "--out", str(tmp_path / "f.csv")], "a FIFO")
+    assert _files(tmp_path) == ["pipe.txt"]
+
+
+def test_a_recording_larger_than_the_bound_is_refused_unread(tmp_path, capsys):
+    from hrc_drake.human.importers import MAX_RECORDING_BYTES
+
+    huge = tmp_path / "huge.txt"
+    with huge.open("wb") as handle:  # sparse: no disk used, no byte read
+        handle.truncate(MAX_RECORDING_BYTES + 1)
+    _refused(capsys, ["lego", str(huge), "--rate", "15", "--out", str(tmp_path / "h.csv")],
+             f"recordings up to {MAX_RECORDING_BYTES // 2**20} MiB")
+    edge = tmp_path / "edge.txt"
+    with edge.open("wb") as handle:  # exactly the bound: read (and refused for its content, not size)
+        handle.truncate(MAX_RECORDING_BYTES)
+    args = ["import", "lego", str(edge), "--rate", "15", "--out", str(tmp_path / "e.csv")]
+    assert main(args) == EXIT_BAD_INPUT
+    assert "MiB" not in capsys.readouterr().err
+
+
+def test_a_rate_that_would_explode_the_resampled_array_is_refused(tmp_path, capsys):
+    from hrc_drake.human.importers import MAX_RESAMPLED_FRAMES
+
+    source = _recording(tmp_path, lines=900)
+    _refused(capsys, ["lego", str(source), "--rate", "0.1", "--camera-rate", "120",
+                      "--out", str(tmp_path / "r.csv")], f"at most {MAX_RESAMPLED_FRAMES:,} are written")
+    assert _files(tmp_path) == [source.name]
+
+
+@pytest.mark.parametrize("option, value, reason", [
+    ("--delimiter", "", "the delimiter must be one printable character"),
+    ("--delimiter", "ab", "the delimiter must be one printable character"),
+    ("--delimiter", '"', "the delimiter must be one printable character"),
+    ("--header-rows", "-1", "header rows must be a whole number >= 0"),
+])
+def test_table_options_out_of_their_range_are_refused(tmp_path, capsys, option, value, reason):
+    source = _recording(tmp_path)
+    columns = tmp_path / "map.yaml"
+    columns.write_text("left_wrist: [0, 1, 2]\nright_wrist: [3, 4, 5]\n")
+    _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns), f"{option}={value}",
+                      "--out", str(tmp_path / "t.csv")], reason)

@@ -29,6 +29,11 @@ from hrc_drake.messages import (
 
 #: metres per unit of a recording's coordinates
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: the largest recording file read (bytes): the shipped ones are under 1 MB, and parsing text costs
+#: several times its size in memory (a 200 MB file took 3 GB): larger ones are refused unread
+MAX_RECORDING_BYTES = 32 * 1024 * 1024
+#: the most frames a resampled recording holds (an hour at 60 Hz, ~0.3 GB while resampling)
+MAX_RESAMPLED_FRAMES = 216_000
 
 
 @dataclass(frozen=True)
@@ -97,6 +102,14 @@ def read_joint_table(path, columns: dict, units: str = "m", rate: float = 30.0, 
 
 
 def _table_rows(path: Path, delimiter, header_rows: int) -> list[tuple[int, list[str]]]:
+    one_character = isinstance(delimiter, str) and len(delimiter) == 1
+    if delimiter is not None and not (delimiter == "\t" or one_character and delimiter.isprintable()
+                                      and delimiter != '"'):
+        raise ValueError(f"{path}: the delimiter must be one printable character other than a quote, or "
+                         f"a tab; got {delimiter!r}")
+    if isinstance(header_rows, bool) or not isinstance(header_rows, int) or header_rows < 0:
+        raise ValueError(f"{path}: header rows must be a whole number >= 0, got {header_rows!r}")
+    check_recording_size(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as err:
@@ -323,6 +336,11 @@ def resample(recording: Recording, rate: float) -> Recording:
     """The recording at `rate` Hz (e.g. the camera's): each point interpolated linearly between
     the two recorded frames around a time when both hold it, untracked otherwise (gaps stay)."""
     rate = _check_rate(rate, recording.source or "resample")
+    frames = math.floor(float(recording.times[-1]) * rate + 1e-9) + 1
+    if frames > MAX_RESAMPLED_FRAMES:
+        raise ValueError(f"{recording.source or 'resample'}: {recording.times[-1]:.6g} s at {rate:g} Hz "
+                         f"would be {frames:,} frames; at most {MAX_RESAMPLED_FRAMES:,} are written (check "
+                         "the recording's rate, or a lower --camera-rate)")
     times = np.arange(0.0, recording.times[-1] + 1e-9, 1.0 / rate)
     after = np.clip(np.searchsorted(recording.times, times, side="right"), 1, recording.frames - 1)
     before = after - 1
@@ -381,6 +399,7 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
 
     if kind in ("lego", "table") and source_rate is None:
         raise ScenarioError(source, "--rate", f"a {kind} recording needs its frame rate (Hz)")
+
     try:
         if kind == "lego":
             recording = read_lego(source, source_rate)
@@ -427,6 +446,18 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
              + (", ".join(f"{k} {v}" for k, v in untracked.items() if v) or "none"),
              f"provenance: {sidecar}"]
     return lines + [f"note: {note}" for note in recording.notes]
+
+
+def check_recording_size(path: Path) -> None:
+    """`path` is a regular readable file (not a FIFO or a device, which reading would block on or
+    never end) of at most MAX_RECORDING_BYTES; else ScenarioError, before any of it is read."""
+    from hrc_drake.errors import ScenarioError, check_input_file
+
+    check_input_file(path, "recording")
+    size = path.stat().st_size
+    if size > MAX_RECORDING_BYTES:
+        raise ScenarioError(path, "", f"is {size / 2**20:.1f} MiB; recordings up to "
+                                      f"{MAX_RECORDING_BYTES // 2**20} MiB are read: cut it into parts")
 
 
 def _vector(text: str, option: str) -> tuple[float, float, float]:
