@@ -163,3 +163,53 @@ def test_table_options_out_of_their_range_are_refused(tmp_path, capsys, option, 
     columns.write_text("left_wrist: [0, 1, 2]\nright_wrist: [3, 4, 5]\n")
     _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns), f"{option}={value}",
                       "--out", str(tmp_path / "t.csv")], reason)
+
+
+# item 4: garbage that used to be written as "tracked" frames
+def _table(folder, rows, name="t.txt"):
+    path = folder / name
+    path.write_text("\n".join(" ".join(repr(float(v)) for v in row) for row in rows) + "\n")
+    columns = folder / "map.yaml"
+    columns.write_text("left_shoulder: [0, 1, 2]\nleft_elbow: [3, 4, 5]\nleft_wrist: [6, 7, 8]\n"
+                       "right_shoulder: [9, 10, 11]\n")
+    return path, columns
+
+
+def _arm(scale=1.0, shoulder_width=0.38):
+    shoulder, elbow, wrist = (0.0, 0.0, 1.4), (0.0, 0.05, 1.1), (0.25, 0.05, 1.05)
+    right = (shoulder_width, 0.0, 1.4)
+    return [[scale * v for p in (shoulder, elbow, wrist, right) for v in p]] * 40
+
+
+@pytest.mark.parametrize("rows, units, reason", [
+    ([[0.0] * 12] * 40, "m", "the upper arm (left_shoulder to left_elbow) is 0 m long"),
+    (_arm(shoulder_width=0.0), "m", "the shoulder width"),
+    (_arm(scale=1e300), "m", "upper arm"),
+    (_arm(scale=100.0), "m", "(in cm? it would be 0.304 m)"),
+    (_arm(), "mm", "(in m? it would be 0.304 m)"),
+])
+def test_a_recording_no_person_could_make_is_refused(tmp_path, capsys, rows, units, reason):
+    source, columns = _table(tmp_path, rows)
+    _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns), "--units", units,
+                      "--out", str(tmp_path / "t.csv")], reason)
+    assert not (tmp_path / "t.csv").exists()
+
+
+def test_the_edge_of_the_segment_range_is_accepted(tmp_path, capsys):
+    from hrc_drake.human.importers import SEGMENT_RANGES_M
+
+    low = SEGMENT_RANGES_M["shoulder width"][0]
+    source, columns = _table(tmp_path, _arm(shoulder_width=low + 1e-9))
+    assert main(["import", "table", str(source), "--rate", "15", "--columns", str(columns),
+                 "--out", str(tmp_path / "t.csv")]) == 0
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--up", "0,0,1e-320"), ("--operator-x", "nan"), ("--operator-y", "inf"), ("--operator-x", "1e6"),
+    ("--facing", "nan"), ("--table-height", "1e308"), ("--table-height", "0"),
+])
+def test_placement_options_out_of_the_cell_are_refused(tmp_path, capsys, option, value):
+    source, columns = _table(tmp_path, _arm())
+    _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns), f"{option}={value}",
+                      "--out", str(tmp_path / "t.csv")], option)
+    assert not (tmp_path / "t.csv").exists()

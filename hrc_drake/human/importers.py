@@ -34,6 +34,15 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 MAX_RECORDING_BYTES = 32 * 1024 * 1024
 #: the most frames a resampled recording holds (an hour at 60 Hz, ~0.3 GB while resampling)
 MAX_RESAMPLED_FRAMES = 216_000
+#: median segment lengths (m) a recorded adult can have: well outside the anthropometric 1st-99th
+#: percentiles (upper arm ~0.26-0.38 m, forearm ~0.23-0.32 m, biacromial ~0.32-0.45 m, DIN 33402),
+#: wide enough for fitted models (LEGO Human1's upper arm is 0.214 m); units or data that put a
+#: segment outside are refused with the measured length
+SEGMENT_RANGES_M = {"upper arm": (0.12, 0.55), "forearm": (0.12, 0.50), "shoulder width": (0.15, 0.70)}
+#: where the operator may be placed: within this distance (m) of the cell's origin
+MAX_PLACEMENT_M = 20.0
+#: the table top's height range (m)
+TABLE_HEIGHT_RANGE_M = (0.3, 1.5)
 
 
 @dataclass(frozen=True)
@@ -415,8 +424,9 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
                                          header_rows, up_axis)
         else:
             raise ScenarioError(source, "", f"unknown recording kind {kind!r}")
+        check_segment_lengths(recording, units)
         recording = synthesize_missing(recording)
-        placement = Placement(tuple(operator_xy), facing, table_height)
+        placement = _placement(operator_xy, facing, table_height)
         placed, rotation, shift = place_in_cell(recording, placement)
         resampled = resample(placed, camera_rate)
     except ValueError as err:
@@ -448,6 +458,56 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
     return lines + [f"note: {note}" for note in recording.notes]
 
 
+def _segment_pairs():
+    return {"upper arm": ((L_SHOULDER, L_ELBOW), (R_SHOULDER, R_ELBOW)),
+            "forearm": ((L_ELBOW, L_WRIST), (R_ELBOW, R_WRIST)),
+            "shoulder width": ((L_SHOULDER, R_SHOULDER),)}
+
+
+def check_segment_lengths(recording: Recording, units: str = "m") -> None:
+    """ScenarioError unless each recorded segment's median length (over the frames that hold both
+    ends) lies in SEGMENT_RANGES_M: zeros, coincident shoulders, 1e308 values or centimetres read
+    as metres give a person no one is."""
+    from hrc_drake.errors import ScenarioError
+
+    for segment, pairs in _segment_pairs().items():
+        low, high = SEGMENT_RANGES_M[segment]
+        for a, b in pairs:
+            both = recording.tracked[:, a] & recording.tracked[:, b]
+            if not both.any():
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                length = float(np.median(np.linalg.norm(recording.points[both, a] - recording.points[both, b],
+                                                        axis=1)))
+            if not (math.isfinite(length) and low <= length <= high):
+                # the same numbers read in another unit
+                hint = next((f" (in {u}? it would be {length * UNITS[u] / UNITS[units]:.3g} m)"
+                             for u in UNITS if u != units and math.isfinite(length)
+                             and low <= length * UNITS[u] / UNITS[units] <= high), "")
+                raise ScenarioError(recording.source, "--units" if hint else "",
+                                    f"the {segment} ({SKELETON_POINTS[a]} to {SKELETON_POINTS[b]}) is "
+                                    f"{length:.4g} m long in the median frame, outside an adult's "
+                                    f"{low}-{high} m{hint}: not a person's recording in {units}")
+
+
+def _placement(operator_xy, facing, table_height) -> Placement:
+    """The placement options checked: finite, the operator within MAX_PLACEMENT_M of the origin,
+    the table top within TABLE_HEIGHT_RANGE_M."""
+    from hrc_drake.errors import ScenarioError
+
+    x, y = (float(v) for v in operator_xy)
+    for option, value in (("--operator-x", x), ("--operator-y", y)):
+        if not (math.isfinite(value) and abs(value) <= MAX_PLACEMENT_M):
+            raise ScenarioError("", option, f"must be a finite number of m within +/-{MAX_PLACEMENT_M:g} of "
+                                            f"the cell's origin, got {value!r}")
+    if not math.isfinite(float(facing)):
+        raise ScenarioError("", "--facing", f"must be a finite angle (rad), got {facing!r}")
+    low, high = TABLE_HEIGHT_RANGE_M
+    if not (math.isfinite(float(table_height)) and low <= table_height <= high):
+        raise ScenarioError("", "--table-height", f"must be within {low}-{high} m, got {table_height!r}")
+    return Placement((x, y), float(facing), float(table_height))
+
+
 def check_recording_size(path: Path) -> None:
     """`path` is a regular readable file (not a FIFO or a device, which reading would block on or
     never end) of at most MAX_RECORDING_BYTES; else ScenarioError, before any of it is read."""
@@ -467,6 +527,6 @@ def _vector(text: str, option: str) -> tuple[float, float, float]:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values) or not any(values):
-        raise ScenarioError("", option, f"must be three numbers x,y,z, not all 0, got {text!r}")
+    if len(values) != 3 or not all(math.isfinite(v) for v in values) or math.hypot(*values) < 1e-6:
+        raise ScenarioError("", option, f"must be three finite numbers x,y,z, not all (near) 0, got {text!r}")
     return values
