@@ -185,8 +185,8 @@ def _arm(scale=1.0, shoulder_width=0.38):
     ([[0.0] * 12] * 40, "m", "the upper arm (left_shoulder to left_elbow) is 0 m long"),
     (_arm(shoulder_width=0.0), "m", "the shoulder width"),
     (_arm(scale=1e300), "m", "upper arm"),
-    (_arm(scale=100.0), "m", "(in cm? it would be 0.304 m)"),
-    (_arm(), "mm", "(in m? it would be 0.304 m)"),
+    (_arm(scale=100.0), "m", "(in cm? it would be 0.304 m: --units cm)"),
+    (_arm(), "mm", "(in m? it would be 0.304 m: --units m)"),
 ])
 def test_a_recording_no_person_could_make_is_refused(tmp_path, capsys, rows, units, reason):
     source, columns = _table(tmp_path, rows)

@@ -424,7 +424,7 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
                                          header_rows, up_axis)
         else:
             raise ScenarioError(source, "", f"unknown recording kind {kind!r}")
-        check_segment_lengths(recording, units)
+        check_segment_lengths(recording.points, recording.tracked, str(source), units)
         recording = synthesize_missing(recording)
         placement = _placement(operator_xy, facing, table_height)
         placed, rotation, shift = place_in_cell(recording, placement)
@@ -464,30 +464,26 @@ def _segment_pairs():
             "shoulder width": ((L_SHOULDER, R_SHOULDER),)}
 
 
-def check_segment_lengths(recording: Recording, units: str = "m") -> None:
-    """ScenarioError unless each recorded segment's median length (over the frames that hold both
-    ends) lies in SEGMENT_RANGES_M: zeros, coincident shoulders, 1e308 values or centimetres read
-    as metres give a person no one is."""
-    from hrc_drake.errors import ScenarioError
-
+def check_segment_lengths(points, tracked, where: str, units: str = "m") -> None:
+    """ValueError naming `where` unless each segment's median length (over the frames that hold
+    both ends; points (T, 8, 3) m, tracked (T, 8)) lies in SEGMENT_RANGES_M: zeros, coincident
+    shoulders, 1e308 values or centimetres read as metres give a person no one is."""
     for segment, pairs in _segment_pairs().items():
         low, high = SEGMENT_RANGES_M[segment]
         for a, b in pairs:
-            both = recording.tracked[:, a] & recording.tracked[:, b]
+            both = tracked[:, a] & tracked[:, b]
             if not both.any():
                 continue
             with np.errstate(over="ignore", invalid="ignore"):
-                length = float(np.median(np.linalg.norm(recording.points[both, a] - recording.points[both, b],
-                                                        axis=1)))
+                length = float(np.median(np.linalg.norm(points[both, a] - points[both, b], axis=1)))
             if not (math.isfinite(length) and low <= length <= high):
                 # the same numbers read in another unit
-                hint = next((f" (in {u}? it would be {length * UNITS[u] / UNITS[units]:.3g} m)"
+                hint = next((f" (in {u}? it would be {length * UNITS[u] / UNITS[units]:.3g} m: --units {u})"
                              for u in UNITS if u != units and math.isfinite(length)
                              and low <= length * UNITS[u] / UNITS[units] <= high), "")
-                raise ScenarioError(recording.source, "--units" if hint else "",
-                                    f"the {segment} ({SKELETON_POINTS[a]} to {SKELETON_POINTS[b]}) is "
-                                    f"{length:.4g} m long in the median frame, outside an adult's "
-                                    f"{low}-{high} m{hint}: not a person's recording in {units}")
+                raise ValueError(f"{where}: the {segment} ({SKELETON_POINTS[a]} to {SKELETON_POINTS[b]}) is "
+                                 f"{length:.4g} m long in the median frame, outside an adult's {low}-{high} m"
+                                 f"{hint}: not a person's recording in {units}")
 
 
 def _placement(operator_xy, facing, table_height) -> Placement:

@@ -15,6 +15,9 @@ import numpy as np
 
 from hrc_drake.messages import SKELETON_POINTS
 
+#: the farthest (m, along any axis) a recorded skeleton's point may lie from the cell's origin
+MAX_COORDINATE_M = 100.0
+
 HEADER: tuple[str, ...] = (
     ("time",)
     + tuple(f"{name}_{axis}" for name in SKELETON_POINTS for axis in "xyz")
@@ -90,7 +93,23 @@ def _read_skeleton_csv(path: Path):
             tracked.append(flags)
     if not times:
         raise ValueError(f"{path}: no data rows after the header")
-    return np.array(times), np.array(points), np.array(tracked, dtype=bool)
+    times, points, tracked = np.array(times), np.array(points), np.array(tracked, dtype=bool)
+    _check_plausible(path, points, tracked)
+    return times, points, tracked
+
+
+def _check_plausible(path: Path, points: np.ndarray, tracked: np.ndarray) -> None:
+    """ValueError unless every tracked point lies within MAX_COORDINATE_M of the cell's origin and
+    the arms' segments have an adult's lengths (`importers.check_segment_lengths`)."""
+    from hrc_drake.human.importers import check_segment_lengths
+
+    far = tracked & (np.abs(np.nan_to_num(points)).max(axis=2) > MAX_COORDINATE_M)
+    if far.any():
+        row, point = np.argwhere(far)[0]
+        raise ValueError(f"{path}: data row {row + 1}: point {SKELETON_POINTS[point]!r} is "
+                         f"{np.abs(points[row, point]).max():.4g} m from the cell's origin along an axis; "
+                         f"a recorded person stays within {MAX_COORDINATE_M:g} m")
+    check_segment_lengths(points, tracked, str(path))
 
 
 def save_skeleton_csv(path, times, points, tracked=None) -> None:

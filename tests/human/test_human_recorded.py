@@ -7,9 +7,13 @@ from hrc_drake.human.recorded import HEADER, frame_at, load_skeleton_csv, save_s
 
 
 def sample(T=5, seed=0):
+    """A standing person's skeleton (the body model at rest) with 1 cm noise, some points untracked."""
+    from hrc_drake.human.body import BodyModel
+
     rng = np.random.default_rng(seed)
     times = np.cumsum(rng.uniform(0.02, 0.05, T))
-    points = rng.normal(0, 1, (T, 8, 3))
+    body = BodyModel()
+    points = body.points(body.rest_q((1.0, 0.0), np.pi))[None] + rng.normal(0, 0.01, (T, 8, 3))
     tracked = rng.uniform(size=(T, 8)) > 0.3
     points[~tracked] = np.nan
     return times, points, tracked
@@ -46,8 +50,16 @@ def write_rows(tmp_path, rows):
     return path
 
 
+def _person() -> list[str]:
+    """The 24 coordinates of a standing person (the body model at rest), as CSV cells."""
+    from hrc_drake.human.body import BodyModel
+
+    body = BodyModel()
+    return [repr(float(v)) for v in body.points(body.rest_q((1.0, 0.0), np.pi)).reshape(-1)]
+
+
 def good_row(t=0.0):
-    return ",".join([str(t)] + ["0.5"] * 24 + ["1"] * 8)
+    return ",".join([str(t)] + _person() + ["1"] * 8)
 
 
 @pytest.mark.parametrize(
@@ -69,7 +81,7 @@ def test_bad_rows(tmp_path, row, message):
 
 
 def test_nan_allowed_when_untracked(tmp_path):
-    row = ",".join(["0.1"] + ["nan"] * 3 + ["0.5"] * 21 + ["0"] + ["1"] * 7)
+    row = ",".join(["0.1"] + ["nan"] * 3 + _person()[3:] + ["0"] + ["1"] * 7)
     times, points, tracked = load_skeleton_csv(write_rows(tmp_path, [good_row(0.0), row]))
     assert not tracked[1, 0] and tracked[1, 1:].all()
 
@@ -100,3 +112,16 @@ def test_save_errors(tmp_path):
 def test_frame_at():
     times = np.array([0.0, 0.1, 0.2])
     assert [frame_at(times, t) for t in (-1.0, 0.0, 0.05, 0.1, 0.25)] == [0, 0, 0, 1, 2]
+
+
+@pytest.mark.parametrize("scale, reason", [
+    (1e300, "from the cell's origin"), (100.0, "from the cell's origin"), (0.01, "outside an adult's")])
+def test_a_skeleton_no_person_could_make_is_refused(tmp_path, scale, reason):
+    times, points, tracked = sample()
+    tracked[:] = True
+    with np.errstate(over="ignore"):
+        points = np.where(np.isfinite(points), points, 1.0) * scale
+    path = tmp_path / "scaled.csv"
+    save_skeleton_csv(path, times, points, tracked)
+    with pytest.raises(ValueError, match=reason):
+        load_skeleton_csv(path)
