@@ -213,3 +213,41 @@ def test_placement_options_out_of_the_cell_are_refused(tmp_path, capsys, option,
     _refused(capsys, ["table", str(source), "--rate", "15", "--columns", str(columns), f"{option}={value}",
                       "--out", str(tmp_path / "t.csv")], option)
     assert not (tmp_path / "t.csv").exists()
+
+
+# item 4: an operator faster than a person
+def _box_usb_with_fill(tmp_path, duration: str):
+    text = (DIAGRAMS / "box_usb.yaml").read_text()
+    old = "duration: {kind: normal, mean: 4.0, std: 0.6, low: 2.0}}"
+    assert text.count(old) == 1  # the operator's fill (the flow's has no low)
+    path = tmp_path / "fast.yaml"
+    path.write_text(text.replace(old, f"duration: {duration}}}", 1))
+    return path
+
+
+def test_an_operator_action_too_short_for_a_person_is_refused(tmp_path):
+    from hrc_drake.cell.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError, match=r"operator.actions\[0\].duration.*peaks at .* m/s"):
+        load_scenario(_box_usb_with_fill(tmp_path, "{kind: fixed, mean: 0.001}"))
+
+
+def test_the_wrist_speed_limit_by_hand(tmp_path):
+    """fill's goals g5_boxes [0.80, 0.36, 0.82] and g1_home [0.80, 0.00, 0.90]; the pattern ends with
+    tape, whose last goal is g1_home: the first reach is 0.369 m, the second as long. With 2 goals a
+    phase is D / 2, its reach 0.75 (D / 2 - 0.3) for D >= 3 s: peak 1.875 x 0.369 / reach = 4 m/s
+    at D = 2 (1.875 x 0.369 / (4 x 0.75) + 0.3) = 1.0612 s (below 3 s the head lead is 0.2 phase:
+    reach = 0.75 x 0.8 x D / 2 = 0.3 D, D = 1.875 x 0.369 / 1.2 = 0.5766 s)."""
+    import math
+
+    from hrc_drake.cell.scenario import ScenarioError
+
+    distance = math.hypot(0.36, 0.08)
+    edge = 1.875 * distance / (4.0 * 0.3)
+    load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: fixed, mean: {edge * 1.001}}}"))
+    with pytest.raises(ScenarioError, match="peaks at 4 m/s"):
+        load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: fixed, mean: {edge * 0.999}}}"))
+    # a normal's shortest likely duration is mean - 3 std (or its low, when larger)
+    load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: normal, mean: {edge + 0.31}, std: 0.1}}"))
+    with pytest.raises(ScenarioError, match="peaks at"):
+        load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: normal, mean: {edge + 0.29}, std: 0.1}}"))

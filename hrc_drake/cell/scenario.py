@@ -51,6 +51,9 @@ HUMAN_EVENT_SOURCES = ("auto", "perceived", "truth")
 
 #: longest recording of the operator for the segmenter's library (s of simulated work)
 SEGMENTER_LIBRARY_SECONDS = 1800.0
+#: m/s, the fastest a synthetic operator's wrist may reach (its peak): fast human reaching peaks
+#: near 3-4 m/s; ISO 13855's 2.0 m/s is the approach speed S_p assumes, not a bound on the hand
+MAX_WRIST_SPEED = 4.0
 #: the operator's wrist stops this far above a buffer's base when picking or placing a part
 HAND_ABOVE_BUFFER = np.array([0.0, 0.0, 0.06])
 
@@ -658,12 +661,53 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         for k, name in enumerate(op.pattern):
             if name not in op_actions:
                 raise ScenarioError(file, f"operator.pattern[{k}]", f"unknown operator action '{name}'")
+        _check_operator_reach_speeds(sc, file)
     _check_operator_behaviour(sc, file)
 
     _check_flow(sc, file, agents, buffers)
     _check_names_apart(sc, file, places)
     _check_programs_cover_the_flow(sc, file)
     _check_systems(sc, file)
+
+
+def shortest_likely_duration(dist: Distribution) -> float:
+    """The shortest duration (s) `dist` gives but rarely: fixed its mean; normal its truncation
+    `low` or mean - 3 std, the larger; uniform and triangular `low`; lognormal its 0.13 %
+    quantile (-3 sigma); empirical its smallest sample."""
+    if dist.kind == "fixed" or (dist.kind == "normal" and dist.std == 0):
+        return float(dist.mean)
+    if dist.kind == "normal":
+        return max(float(dist.low), dist.mean - 3.0 * dist.std)
+    if dist.kind in ("uniform", "triangular"):
+        return float(dist.low)
+    if dist.kind == "lognormal":
+        sigma2 = math.log1p((dist.std / dist.mean) ** 2)
+        return math.exp(math.log(dist.mean) - 0.5 * sigma2 - 3.0 * math.sqrt(sigma2))
+    return float(min(dist.samples))
+
+
+def _check_operator_reach_speeds(sc: Scenario, file) -> None:
+    """No reach of the synthetic operator's pattern is faster than MAX_WRIST_SPEED at its peak:
+    each phase of an action of duration D and n goals reaches its goal from the previous one in
+    REACH_FRACTION (D / n - head lead) (`human.operator`), along a minimum-jerk motion whose peak
+    speed is 1.875 x distance / time; D is the duration's shortest likely value."""
+    from hrc_drake.human.operator import HEAD_LEAD, REACH_FRACTION
+
+    places = operator_places(sc)
+    actions = {a.name: (i, a) for i, a in enumerate(sc.operator.actions)}
+    sequence = [(name, goal) for name in sc.operator.pattern for goal in actions[name][1].goals]
+    for k, (name, goal) in enumerate(sequence):
+        i, action = actions[name]
+        distance = float(np.linalg.norm(places[goal] - places[sequence[k - 1][1]]))
+        phase = shortest_likely_duration(action.duration) / len(action.goals)
+        reach = REACH_FRACTION * (phase - min(HEAD_LEAD, 0.2 * phase))
+        peak = 1.875 * distance / reach if reach > 0 else math.inf
+        if peak > MAX_WRIST_SPEED:
+            raise ScenarioError(file, f"operator.actions[{i}].duration",
+                                f"{name}'s reach to {goal} ({distance:.2f} m from {sequence[k - 1][1]}) in "
+                                f"{reach:.3g} s peaks at {peak:.3g} m/s (a duration of "
+                                f"{shortest_likely_duration(action.duration):.3g} s, its shortest likely); a "
+                                f"person's wrist moves at most {MAX_WRIST_SPEED:g} m/s: a longer duration")
 
 
 def _check_operator_behaviour(sc: Scenario, file) -> None:
