@@ -355,6 +355,7 @@ def _import(args) -> int:
     from hrc_drake.errors import check_input_file
     from hrc_drake.human.importers import import_recording
     from hrc_drake.staged_files import StagedFiles, check_outputs_apart
+    from hrc_drake.untrusted import one_line
 
     out = Path(args.out)
     scenario_path = out.with_suffix(".yaml") if args.cell else None
@@ -398,7 +399,7 @@ def _import(args) -> int:
                                                 named_skeleton=out)
         staged.commit()
     for line in summary:
-        print(_one_line(line))  # the source's name may hold control characters (a terminal's too)
+        print(one_line(line))  # the source's name may hold control characters (a terminal's too)
     if cell is None:
         print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
               "with --cell SCENARIO [--replay FILE.html]")
@@ -413,12 +414,6 @@ def _import(args) -> int:
     return _simulate(replay)
 
 
-def _one_line(text: str) -> str:
-    """`text` with every character that is not printable (line breaks of any kind, controls)
-    shown as its escape: safe inside a YAML comment, which only a line break ends."""
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
-
-
 def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str,
                              named_skeleton: Path, check: bool = False) -> float:
     """A scenario that extends `cell` with the skeleton CSV (read from `skeleton`, named in the
@@ -429,6 +424,7 @@ def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance:
 
     from hrc_drake.cell.scenario import load_scenario
     from hrc_drake.human.recorded import load_skeleton_csv
+    from hrc_drake.untrusted import one_line
 
     times, _, _ = load_skeleton_csv(skeleton)
     duration = max(math.ceil(float(times[-1]) * 10.0) / 10.0, 0.1)
@@ -442,8 +438,8 @@ def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance:
     document = {"extends": named(cell),
                 "description": f"Recorded operator ({Path(named_skeleton).name}) in {cell.stem}",
                 "duration": duration, "operator": {"recorded": named(named_skeleton)}}
-    header = (f"# A recorded person as the operator of {_one_line(cell.name)}, written by "
-              f"`hrc-drake import`:\n# {_one_line(provenance)}\n"
+    header = (f"# A recorded person as the operator of {one_line(cell.name)}, written by "
+              f"`hrc-drake import`:\n# {one_line(provenance)}\n"
               "# The recording holds no actions: the operator's flow actions do not happen, the robot's "
               "do.\n")
     path.write_text(header + yaml.safe_dump(document, sort_keys=False, default_flow_style=False, width=1000),

@@ -25,6 +25,7 @@ import numpy as np
 
 from hrc_drake.campaign.spec import expand_metrics, larger_is_better
 from hrc_drake.campaign.worker import KEY_COLUMNS, RUN_COLUMNS
+from hrc_drake.untrusted import csv_cell, file_name_part
 
 #: bootstrap resamples of the 95 % confidence interval of a mean
 BOOTSTRAP_RESAMPLES = 2000
@@ -287,10 +288,9 @@ def metric_label(metric: str) -> str:
 def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> list[Path]:
     """One box plot and one ECDF figure per metric with values, a box / curve per (scenario,
     variant); a group without values is named in the panel with the reason ("no ok runs", "all NaN")."""
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
 
     groups = [
         (f"{s}\n{v}" if runs["scenario"].nunique() > 1 else str(v), ok_rows)
@@ -304,7 +304,7 @@ def plot_metrics(runs, metrics: list[str], out_dir: Path, title: str = "") -> li
             data.append((label, values, group_note(len(ok_rows), len(values))))
         if not any(len(values) for _, values, _ in data):
             continue
-        stem = metric.replace(".", "_")
+        stem = file_name_part(metric.replace(".", "_"))
         fig = box_figure(data, metric, title)
         paths.append(Path(out_dir) / f"box_{stem}.png")
         fig.savefig(paths[-1], dpi=100)
@@ -420,12 +420,23 @@ def pooled_tables(runs, pooled: list[dict], expect: list[dict], seed: int = 0):
     return pd.DataFrame(summary), pd.DataFrame(tests)
 
 
+def _formula_free(table):
+    """`table` with every text cell that starts like a spreadsheet formula quoted (`csv_cell`):
+    scenario, variant and metric names come from the user's files."""
+    import pandas as pd
+
+    table = table.copy()
+    for column in table.columns:
+        if not pd.api.types.is_numeric_dtype(table[column]):
+            table[column] = table[column].map(csv_cell)
+    return table
+
+
 def plot_pooled(runs, pooled: list[dict], out_dir: Path, title: str = "") -> list[Path]:
     """A box plot per pooled metric, a box per group (as thesis Fig. 7.27)."""
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
 
     from hrc_drake.campaign.spec import PooledSamples
 
@@ -440,7 +451,7 @@ def plot_pooled(runs, pooled: list[dict], out_dir: Path, title: str = "") -> lis
         if not any(len(values) for _, values, _ in data):
             continue
         fig = box_figure(data, sample.label, title)
-        paths.append(Path(out_dir) / f"box_{sample.metric.replace('.', '_')}_pooled.png")
+        paths.append(Path(out_dir) / f"box_{file_name_part(sample.metric.replace('.', '_'))}_pooled.png")
         fig.savefig(paths[-1], dpi=100)
         plt.close(fig)
     return paths
@@ -463,8 +474,8 @@ def analyze_campaign(runs, description: dict, out_dir: Path) -> list[Path]:
         summary = pd.concat([summary, pooled_summary.reindex(columns=summary.columns)], ignore_index=True)
         tests = pd.concat([tests, pooled_tests.reindex(columns=tests.columns)], ignore_index=True)
     summary_path, tests_path = out_dir / "summary.csv", out_dir / "tests.csv"
-    summary.to_csv(summary_path, index=False, float_format="%.6g")
-    tests.to_csv(tests_path, index=False, float_format="%.6g")
+    _formula_free(summary).to_csv(summary_path, index=False, float_format="%.6g")
+    _formula_free(tests).to_csv(tests_path, index=False, float_format="%.6g")
     title = description.get("name", "")
     return [summary_path, tests_path, *plot_metrics(runs, metrics, out_dir, title),
             *plot_pooled(runs, pooled, out_dir, title)]

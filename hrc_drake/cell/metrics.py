@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from hrc_drake.traces import AppendOnly, DecimatedTrace  # noqa: F401 (re-exported: the recorder's logs)
+from hrc_drake.untrusted import csv_cell
 
 
 @dataclass
@@ -339,7 +340,9 @@ def write_events_csv(path: Path, events, perceived_events=(), violations=()) -> 
         writer.writerow(["time", "agent", "action", "kind", "seq", "source", "source_seq", "duration",
                          "detail"])
         for k, (time, source, agent, action, kind, source_seq, duration, detail) in enumerate(rows, 1):
-            writer.writerow([f"{time:.3f}", agent, action, kind, k, source, source_seq, duration, detail])
+            # names come from the scenario: none is run as a spreadsheet formula
+            writer.writerow([f"{time:.3f}", csv_cell(agent), csv_cell(action), csv_cell(kind), k, source,
+                             source_seq, duration, csv_cell(detail)])
 
 
 #: the Gantt chart's palette: one colour per action of the scenario's action list, in that
@@ -412,10 +415,9 @@ def gantt_figure(log: MetricsLog, end_time: float, agents: list[str], title: str
     title carries the safety verdict (`safety_line` of metrics.json's `safety`). A bar shows its
     action's name where the name fits, else its key (the legend pairs keys and names), else
     nothing: labels never run into each other."""
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
     from matplotlib.patches import Patch
 
     spans = intervals(log.events, end_time)
@@ -583,10 +585,9 @@ def collaboration_figure(log: MetricsLog, end_time: float, human: str, robot: st
     red, `collaborative_actions` and the request green, waits hatched) and the predicted time to
     the next collaboration request, the band between the forecast's lowest and highest
     percentile and its middle level, against the true time (bottom); each panel has its legend."""
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
     from matplotlib.patches import Patch
 
     spans = [i for i in intervals(log.events, end_time) if i.agent in (human, robot)]

@@ -34,10 +34,9 @@ def plot_safety(path: str | Path, trace, episodes, summary: dict, title: str = "
     """Write the report: `trace` [(t, min clearance, clearance and S_p of the SSM pair nearest its
     S_p, in breach)] of the judge, `episodes` (its `Violation`s and logged contacts), `summary`
     (metrics.json's `safety`)."""
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
 
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 7), gridspec_kw={"height_ratios": [2, 1]})
     if trace:

@@ -9,10 +9,9 @@ from pathlib import Path
 
 
 def _pyplot():
-    import matplotlib
+    from hrc_drake.untrusted import headless_pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
 
     return plt
 
