@@ -509,6 +509,14 @@ def _parameter(node, where: str, raw: dict, path: Path, scenario_path: Path) -> 
             raise ScenarioError(path, f"{where}.step", "must be > 0, and cannot be used with log")
         if isinstance(spec, Int) and spec.step < 1:
             raise ScenarioError(path, f"{where}.step", f"must be an integer >= 1, got {spec.step!r}")
+        if spec.step:
+            # Optuna's grid runs from low by step to high: a step that does not divide the range
+            # only warns there, and every candidate got the range's low end
+            count = (high - low) / spec.step
+            if count < 1 - 1e-9 or abs(count - round(count)) > 1e-9 * max(1.0, count):
+                raise ScenarioError(path, f"{where}.step", f"{spec.step!r} does not divide the range "
+                                                           f"[{low!r}, {high!r}] into whole steps "
+                                                           f"({count:.6g} of them): change step, low or high")
         if current is not None and (isinstance(current, bool) or not isinstance(current, (int, float))):
             raise ScenarioError(path, f"{where}.path", f"'{spec.path}' holds {current!r}, not a number")
         p.low, p.high, p.log, p.step = low, high, spec.log, spec.step
