@@ -330,3 +330,22 @@ def test_every_candidate_is_in_its_ranges_and_written_exactly(tmp_path, optimize
         assert type(scenario.safety).__name__ == values["safety"].tag
         assert scenario.operator.pattern == values["order"]
     assert safeties <= {"SpeedSeparationMonitoring", "PowerForceLimiting", "NoSafety"} and len(safeties) >= 2
+
+
+@pytest.mark.parametrize("old, new, accepted", [
+    ("low: 3.0, high: 8.0, step: 0.5", "low: 3.0, high: 8.0, step: 0.7", False),  # 7.14 steps
+    ("low: 3.0, high: 8.0, step: 0.5", "low: 3.0, high: 8.0, step: 6.0", False),  # less than one
+    ("low: 3.0, high: 8.0, step: 0.5", "low: 3.0, high: 8.0, step: 5.0", True),  # exactly one
+    ("low: 3.0, high: 8.0, step: 0.5", "low: 0.1, high: 0.7, step: 0.1", True),  # 6, in floats 5.999..
+    ("low: 1, high: 7, step: 2", "low: 1, high: 8, step: 2", False),  # 3.5 integer steps
+])
+def test_a_step_must_divide_its_range(tmp_path, old, new, accepted):
+    """Optuna's grid starts at low: a step that does not divide the range only warned there, and
+    every candidate got the range's low end (issue 55, item 8)."""
+    assert old in RANGES
+    path = write_spec(tmp_path, RANGES.replace(old, new).replace("OPTIMIZER", "!Random {seed: 1}"))
+    if accepted:
+        load_search(path)
+        return
+    with pytest.raises(ScenarioError, match=r"parameters\[\d\]\.step: .* does not divide the range"):
+        load_search(path)
