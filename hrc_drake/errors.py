@@ -62,3 +62,13 @@ def check_input_file(path: Path, kind: str = "scenario") -> None:
         raise ScenarioError(path, "", f"is {what}, not a {kind} file: give the YAML file's path")
     if not os.access(path, os.R_OK):
         raise ScenarioError(path, "", "cannot be read (permission denied)")
+
+
+def yaml_error_reason(err) -> str:
+    """A YAML error's problem and where (line, column), without PyYAML's snippet of the text: the
+    file may be anything (`extends: /etc/shadow` printed its first line)."""
+    mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
+    problem = getattr(err, "problem", None) or getattr(err, "context", None) or type(err).__name__
+    where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+    text = "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(problem))
+    return text + where

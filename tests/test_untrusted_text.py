@@ -73,3 +73,40 @@ def test_a_file_name_part_stays_in_its_folder(tmp_path, text):
 def test_one_line_escapes_every_line_break():
     for brk in ("\n", "\r", "\x85", "\u2028", "\u2029", "\x0b", "\x0c", "\x1c"):
         assert "\\" in one_line(f"a{brk}b") and brk not in one_line(f"a{brk}b")
+
+
+SECRET = "topsecret:*:20228:0:99999:7:::\ndaemon:*:20228:0:99999:7:::\nsecret: [unclosed\n"
+
+
+def test_an_error_never_echoes_a_foreign_file_s_content(tmp_path, capsys):
+    """`extends:`, `--columns` and `--cell` naming a file that is not ours (/etc/shadow) printed
+    its first line in the error (issue 55, item 9)."""
+    from hrc_drake.cli import EXIT_BAD_INPUT, main
+    from hrc_drake.datasets import dataset_dir
+
+    secret = tmp_path / "shadow"
+    secret.write_text(SECRET)
+    scenario = tmp_path / "cell.yaml"
+    scenario.write_text(f"extends: {secret}\n")
+    trial = tmp_path / "rec.txt"
+    trial.write_text("\n".join((dataset_dir("lego_assembly_arm") / "Task2" / "Human1" / "trial1.txt")
+                               .read_text().splitlines()[:60]) + "\n")
+    for args in (["validate", str(scenario)],
+                 ["import", "table", str(trial), "--rate", "15", "--columns", str(secret),
+                  "--out", str(tmp_path / "a.csv")],
+                 ["import", "lego", str(trial), "--rate", "15", "--cell", str(secret),
+                  "--out", str(tmp_path / "b.csv")]):
+        assert main(args) == EXIT_BAD_INPUT
+        err = capsys.readouterr().err
+        assert "20228" not in err and "topsecret" not in err and "unclosed" not in err, (args, err)
+        assert "line" in err or "mapping" in err, err  # still says where or what
+
+
+def test_a_limits_table_that_is_not_text_is_a_clear_error(tmp_path):
+    from hrc_drake.errors import ConfigError
+    from hrc_drake.safety.limits import load_limits
+
+    binary = tmp_path / "ls"
+    binary.write_bytes(b"\x7fELF\x02\x01\x01\x00" + bytes(range(256)))
+    with pytest.raises(ConfigError, match="not UTF-8 text"):
+        load_limits(binary)

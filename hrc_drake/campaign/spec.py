@@ -34,7 +34,7 @@ from hrc_drake.cell.scenario import (
 )
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
-from hrc_drake.errors import ScenarioError, check_input_file
+from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
 
 #: the most runs one campaign may hold (scenarios x variants x seeds): 100,000 runs of a fast
 #: 120 s cell are ~3 CPU-days; a larger study is several campaigns (each folder's table and
@@ -394,7 +394,7 @@ def _read_raw(path: Path) -> dict:
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not valid YAML: {err}") from None
+        raise ScenarioError(path, "", f"not valid YAML: {yaml_error_reason(err)}") from None
     if not isinstance(raw, dict) or isinstance(raw, Tagged):
         raise ScenarioError(path, "", "the top level must be a mapping of campaign fields")
     return raw

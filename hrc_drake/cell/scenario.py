@@ -36,7 +36,7 @@ from hrc_drake.config_common import (
     MIN_TIME_STEP,
 )
 from hrc_drake.distributions import Distribution, validate_distribution
-from hrc_drake.errors import ScenarioError, check_input_file
+from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
 from hrc_drake.robots.registry import ROBOT_MODELS
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
@@ -316,7 +316,7 @@ def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: 
     try:
         raw = _raw_document(text, path)
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not valid YAML: {err}") from err
+        raise ScenarioError(path, "", f"not valid YAML: {yaml_error_reason(err)}") from None
     except RecursionError:
         raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
     if not isinstance(raw, dict):

@@ -372,14 +372,16 @@ def read_columns_file(path) -> dict:
     file and the entry at fault."""
     import yaml
 
-    from hrc_drake.errors import ScenarioError, check_input_file
+    from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
 
     path = Path(path)
     check_input_file(path, "column mapping")
     try:
         document = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise ScenarioError(path, "", f"not a YAML mapping: {err}") from None
+    except UnicodeDecodeError as err:
+        raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
+    except yaml.YAMLError as err:
+        raise ScenarioError(path, "", f"not a YAML mapping: {yaml_error_reason(err)}") from None
     if not isinstance(document, dict) or not document:
         raise ScenarioError(path, "", "must map skeleton point names to [x, y, z] column indices")
     for name, cols in document.items():

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hrc_drake.errors import ConfigError
+from hrc_drake.errors import ConfigError, yaml_error_reason
 
 #: The table shipped with the package (ISO/TS 15066:2016 Tables A.2 and A.3).
 LIMITS_FILE = "iso_ts_15066.yaml"
@@ -128,11 +128,14 @@ def load_limits(path: str | Path | None = None) -> LimitsTable:
         path = Path(path)
         if not path.is_file():
             raise ConfigError(str(path), "no such limits file")
-        text, source = path.read_text(encoding="utf-8"), str(path)
+        try:
+            text, source = path.read_text(encoding="utf-8"), str(path)
+        except UnicodeDecodeError as err:
+            raise ConfigError(str(path), f"not UTF-8 text (byte {err.start}): not a limits table") from None
     try:
         document = yaml.safe_load(text)
     except yaml.YAMLError as err:
-        raise ConfigError(source, f"not valid YAML: {err}") from None
+        raise ConfigError(source, f"not valid YAML: {yaml_error_reason(err)}") from None
     return parse_limits(document, source)
 
 
