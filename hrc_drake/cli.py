@@ -63,6 +63,15 @@ def _rate(text: str) -> float:
     return value
 
 
+def _recording_rate(text: str) -> float:
+    """`import --rate`: the recording's frame rate, as the importer accepts it."""
+    value = _number(text)
+    if not (math.isfinite(value) and 0.1 <= value <= 10_000):
+        raise argparse.ArgumentTypeError(f"the recording's frame rate must be in [0.1, 10000] Hz, "
+                                         f"got {text!r}")
+    return value
+
+
 def _number(text: str) -> float:
     try:
         return float(text)
@@ -668,7 +677,7 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("source", help="the recording's file (lego, ue, table) or folder (kth)")
     imp.add_argument("--out", required=True,
                      help="the skeleton CSV to write (a .json of provenance beside it)")
-    imp.add_argument("--rate", type=_rate, default=None,
+    imp.add_argument("--rate", type=_recording_rate, default=None,
                      help="the recording's frame rate (Hz): required for lego (its source does not state "
                           "it) and table; kth records 120 Hz")
     imp.add_argument("--person", choices=("giver", "taker"), default="giver", help="kth: whose body")

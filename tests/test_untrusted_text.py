@@ -110,3 +110,22 @@ def test_a_limits_table_that_is_not_text_is_a_clear_error(tmp_path):
     binary.write_bytes(b"\x7fELF\x02\x01\x01\x00" + bytes(range(256)))
     with pytest.raises(ConfigError, match="not UTF-8 text"):
         load_limits(binary)
+
+
+def test_messages_say_what_was_wrong(tmp_path, capsys):
+    """issue 55, item 10: `import --rate` said "(0: as fast as possible)", the realtime rate's
+    words; `duration: 1.0e12` (a string to YAML 1.1) was "expected a number"."""
+    from hrc_drake.cli import EXIT_BAD_INPUT, main
+    from tests.conftest import DIAGRAMS
+
+    with pytest.raises(SystemExit):
+        main(["import", "lego", "x.txt", "--rate", "0", "--out", str(tmp_path / "x.csv")])
+    err = capsys.readouterr().err
+    assert "frame rate must be in [0.1, 10000] Hz" in err and "as fast as possible" not in err
+    scenario = tmp_path / "long.yaml"
+    scenario.write_text(f"extends: {DIAGRAMS / 'torch_clock.yaml'}\nduration: 1.0e12\n")
+    assert main(["validate", str(scenario)]) == EXIT_BAD_INPUT
+    assert "1.0e+12" in capsys.readouterr().err
+    scenario.write_text(f"extends: {DIAGRAMS / 'torch_clock.yaml'}\nduration: nan text\n")
+    assert main(["validate", str(scenario)]) == EXIT_BAD_INPUT
+    assert "1.0e+12" not in capsys.readouterr().err  # the hint only where it applies

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -240,6 +241,11 @@ def _check_union(node, members: tuple, path: str, file: str) -> None:
     )
 
 
+def _reads_as_number(text: str) -> bool:
+    """Whether `text` is a number in exponent form that YAML 1.1 leaves a string (1e3, 1.0e12)."""
+    return re.fullmatch(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+", text.strip()) is not None
+
+
 def _check_keys(node, cls, path: str, file: str) -> None:
     """Walk the raw YAML against the dataclass tree; raise on unknown keys and wrong shapes."""
     members = _union_members(cls)
@@ -278,6 +284,9 @@ def _check_keys(node, cls, path: str, file: str) -> None:
         for key, value in node.items():
             _check_keys(value, value_type, f"{path}.{key}", file)
     elif cls in (float, int):
+        if isinstance(node, str) and _reads_as_number(node):
+            raise ScenarioError(file, path, f"expected a number, got the text {node!r}: YAML 1.1 reads an "
+                                            "exponent as a number only with a dot and a sign (1.0e+12)")
         if isinstance(node, bool) or not isinstance(node, (int, float)):
             raise ScenarioError(file, path, f"expected a number, got {node!r}")
         if cls is int and isinstance(node, float) and not node.is_integer():
