@@ -517,3 +517,20 @@ def test_the_command_leaves_the_caller_s_signal_handlers_as_they_were():
     before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
     assert main(["validate", str(TORCH)]) == 0
     assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+
+
+@pytest.mark.parametrize("damage", [b"garbage\n", b'{"scenario": "s"}\n', b"[1, 2]\n",
+                                    b'{"scenario": "s", "se\n'])
+def test_a_damaged_line_in_the_middle_of_the_journal_is_an_error_naming_it(tmp_path, damage):
+    """Issue 55, item 11: only the last line, the one a crash cut short, may be skipped; a damaged
+    line with rows after it is damage, named by its number, not a row silently lost."""
+    from hrc_drake.errors import ScenarioError
+
+    keep = store.RunStore(tmp_path, flush_every=1e9)
+    row = {"scenario": "s", "variant": "v", "duration": 10.0, "status": "ok", "error": "", "config_hash": "h"}
+    keep.add({**row, "seed": 1})
+    with open(tmp_path / store.JOURNAL_FILE, "ab") as journal:
+        journal.write(damage)
+    keep.add({**row, "seed": 2})
+    with pytest.raises(ScenarioError, match="line 2 is not a row"):
+        store.read_journal(tmp_path)

@@ -242,3 +242,12 @@ def test_an_import_drives_a_cell_and_writes_its_replay(tmp_path, capsys):
     assert "replay" in printed
     html = replay.read_text()
     assert len(html) > 1_000_000 and "meshcat" in html.lower()
+
+
+@pytest.mark.parametrize("units, value", [("m", 1.234), ("cm", 123.4), ("mm", 1234.0)])
+def test_each_unit_reads_a_known_point(tmp_path, units, value):
+    """Issue 55, item 11: each unit by a point whose metres are known (1.234 m in each unit)."""
+    path = tmp_path / f"{units}.txt"
+    path.write_text(f"{value} 0 0\n{value} 0 0\n")
+    recording = read_joint_table(path, {"left_wrist": (0, 1, 2)}, units, 10.0)
+    assert recording.points[0, L_WRIST, 0] == pytest.approx(1.234, abs=1e-12)
