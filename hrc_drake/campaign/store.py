@@ -180,6 +180,7 @@ class RunStore:
         """Journal `row` (flushed to the disk), then keep it; OSError when it cannot be written."""
         line = json.dumps(row, default=_plain, allow_nan=True) + "\n"
         if self._journal is None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)  # a store of a folder not made yet
             self._journal = open(self.journal_path, "a", encoding="utf-8")  # noqa: SIM115 - kept open
         self._journal.write(line)
         self._journal.flush()
