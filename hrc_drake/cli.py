@@ -362,11 +362,12 @@ def _validate(args) -> int:
 
 def _import(args) -> int:
     from hrc_drake.errors import check_input_file
-    from hrc_drake.human.importers import import_recording
-    from hrc_drake.staged_files import StagedFiles, check_outputs_apart
+    from hrc_drake.staged_files import check_outputs_apart
     from hrc_drake.untrusted import one_line
 
     out = Path(args.out)
+    if not out.name or out.is_dir():
+        raise ScenarioError(out, "--out", "is a folder: give the skeleton CSV's file name, e.g. out/rec.csv")
     scenario_path = out.with_suffix(".yaml") if args.cell else None
     if args.replay and not args.cell:
         raise ScenarioError("", "--replay", "needs --cell SCENARIO: the cell the recording replays in "
@@ -392,6 +393,34 @@ def _import(args) -> int:
         {"the recording": source, "--columns": columns, "--cell": cell},
         {"--out": out, "--out's provenance JSON": out.with_suffix(".json"),
          "--out's scenario (with --cell)": scenario_path, "--replay": replay})
+    try:
+        summary, duration = _import_staged(args, source, out, cell, scenario_path)
+    except OSError as err:  # a folder that cannot hold the outputs (read-only, /proc, full)
+        where = Path(err.filename) if err.filename else out
+        raise ScenarioError(where, "--out", f"cannot be written: {err.strerror or err}") from None
+    for line in summary:
+        print(one_line(line))  # the source's name may hold control characters (a terminal's too)
+    if cell is None:
+        print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
+              "with --cell SCENARIO [--replay FILE.html]")
+        return 0
+    print(f"scenario: {scenario_path} (the recording as the operator of {args.cell}, {duration:g} s); "
+          f"run it with: hrc-drake simulate {scenario_path}")
+    if not args.replay:
+        return 0
+    replay = argparse.Namespace(scenario=str(scenario_path), duration=None, seed=None, replay=args.replay,
+                                replay_fps=10.0, replay_max_frames=REPLAY_MAX_FRAMES, meshcat=False,
+                                realtime_rate=None, out=None)
+    return _simulate(replay)
+
+
+def _import_staged(args, source: Path, out: Path, cell: Path | None, scenario_path: Path | None):
+    """The import's outputs written to temporary files, checked, and renamed into place together
+    (`StagedFiles`); returns (summary lines, the scenario's duration or None)."""
+    from hrc_drake.human.importers import import_recording
+    from hrc_drake.staged_files import StagedFiles
+
+    duration = None
     with StagedFiles() as staged:
         skeleton = staged.path_for(out)
         summary = import_recording(
@@ -407,20 +436,7 @@ def _import(args) -> int:
             duration = _write_recorded_scenario(staged.path_for(scenario_path), cell, skeleton, summary[0],
                                                 named_skeleton=out)
         staged.commit()
-    for line in summary:
-        print(one_line(line))  # the source's name may hold control characters (a terminal's too)
-    if cell is None:
-        print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
-              "with --cell SCENARIO [--replay FILE.html]")
-        return 0
-    print(f"scenario: {scenario_path} (the recording as the operator of {args.cell}, {duration:g} s); "
-          f"run it with: hrc-drake simulate {scenario_path}")
-    if not args.replay:
-        return 0
-    replay = argparse.Namespace(scenario=str(scenario_path), duration=None, seed=None, replay=args.replay,
-                                replay_fps=10.0, replay_max_frames=REPLAY_MAX_FRAMES, meshcat=False,
-                                realtime_rate=None, out=None)
-    return _simulate(replay)
+    return summary, duration
 
 
 def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str,

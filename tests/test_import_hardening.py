@@ -251,3 +251,14 @@ def test_the_wrist_speed_limit_by_hand(tmp_path):
     load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: normal, mean: {edge + 0.31}, std: 0.1}}"))
     with pytest.raises(ScenarioError, match="peaks at"):
         load_scenario(_box_usb_with_fill(tmp_path, f"{{kind: normal, mean: {edge + 0.29}, std: 0.1}}"))
+
+
+# item 5: an --out that cannot be written is a clear error, not a traceback
+@pytest.mark.parametrize("out_of", [lambda f: f, lambda f: "/", lambda f: "/proc/x.csv",
+                                    lambda f: f / "file.txt" / "below.csv"])
+def test_an_out_that_cannot_be_written_is_refused(tmp_path, capsys, out_of):
+    source = _recording(tmp_path)
+    (tmp_path / "file.txt").write_text("a file, not a folder\n")
+    before = _files(tmp_path)
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(out_of(tmp_path))], "--out")
+    assert _files(tmp_path) == before
