@@ -8,6 +8,7 @@ scheduler run it once more elsewhere; a second death records the run as failed.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
@@ -428,6 +429,20 @@ class ClusterClient:
         self.client = self.cluster = None
 
     def __enter__(self):
+        try:
+            return self._enter()
+        except BaseException as err:
+            # interrupted (Ctrl-C) or failed while the cluster started: close what was started,
+            # else distributed's exit handler finds a half-started cluster (AssertionError: Status.init)
+            if isinstance(err, KeyboardInterrupt):
+                quiet_interrupted_shutdown()
+            for part in (self.client, self.cluster):
+                if part is not None:
+                    with contextlib.suppress(Exception):
+                        part.close()
+            raise
+
+    def _enter(self):
         from distributed import Client, LocalCluster
 
         if self.address:

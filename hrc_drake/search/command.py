@@ -77,11 +77,7 @@ def run_command(args) -> int:
         from hrc_drake.campaign.engine import quiet_interrupted_shutdown
 
         quiet_interrupted_shutdown()
-        print(
-            f"interrupted: the finished runs are in {out / 'runs.parquet'} and the candidates asked in "
-            f"{out / 'candidates.jsonl'}; run the same command again to resume",
-            file=sys.stderr,
-        )
+        print(f"interrupted: {_saved_words(out)}", file=sys.stderr)
         raise
     import json
 
@@ -119,3 +115,21 @@ def _paired_verdict(paired: dict) -> str:
         return "no paired test (the same figure on every fresh seed)"
     better = "better" if p < 0.05 else "not significantly better"
     return f"{better} seed by seed (one-sided Wilcoxon p = {p:.3g} over {len(differences)} pairs)"
+
+
+def _saved_words(out) -> str:
+    """What an interrupted search left in `out`, in words: only files that exist are named."""
+    from hrc_drake.campaign.store import read_runs
+
+    try:
+        runs = len(read_runs(out))
+    except Exception:  # noqa: BLE001 - the message only
+        runs = 0
+    saved = []
+    if runs:
+        saved.append(f"{runs} finished run(s) in {out / 'runs.parquet'}")
+    if (out / "candidates.jsonl").is_file():
+        saved.append(f"the candidates asked in {out / 'candidates.jsonl'}")
+    if not saved:
+        return "before any run finished: nothing was saved"
+    return " and ".join(saved) + "; run the same command again to resume"

@@ -534,3 +534,27 @@ def test_a_damaged_line_in_the_middle_of_the_journal_is_an_error_naming_it(tmp_p
     keep.add({**row, "seed": 2})
     with pytest.raises(ScenarioError, match="line 2 is not a row"):
         store.read_journal(tmp_path)
+
+
+def test_an_interrupt_while_the_cluster_starts_closes_what_was_started(monkeypatch):
+    """Issue 55, item 7: Ctrl-C while the workers warmed up left a half-started cluster, and
+    distributed's exit handler failed on it (`AssertionError: Status.init`)."""
+    import distributed
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(distributed.Client, "run", interrupted)
+    cluster_client = ClusterClient(None, 1)
+    with pytest.raises(KeyboardInterrupt):
+        cluster_client.__enter__()
+    assert cluster_client.cluster is not None and cluster_client.cluster.status.name == "closed"
+    assert cluster_client.client.status == "closed"
+
+
+def test_an_interrupted_search_names_only_what_it_saved(tmp_path):
+    from hrc_drake.search.command import _saved_words
+
+    assert _saved_words(tmp_path) == "before any run finished: nothing was saved"
+    (tmp_path / "candidates.jsonl").write_text("")
+    assert "runs.parquet" not in _saved_words(tmp_path) and "candidates.jsonl" in _saved_words(tmp_path)
