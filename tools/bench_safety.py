@@ -210,7 +210,7 @@ def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
 
     rest_reach_m: the farthest the 0.3 s worst-case volume (default limits, from rest) reaches
     ahead of the resting wrists; nearest_robot_target_m: horizontal distance from a resting
-    wrist to the nearest Cartesian target of the robots' poses.
+    wrist to the nearest tool position of the robots' poses (targets and joint poses alike).
     """
     import numpy as np
 
@@ -218,6 +218,7 @@ def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
     from hrc_drake.human.body import BodyModel
     from hrc_drake.human.operator import SyntheticOperator, tasks_from_schema
     from hrc_drake.motion.reactive import ReactiveMotionPredictor, worst_case_excursions
+    from hrc_drake.robots.poses import tool_positions
 
     scenario = load_scenario(path)
     op = scenario.operator
@@ -237,8 +238,8 @@ def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
     ends = np.vstack([volumes.start, volumes.end])
     radius = np.concatenate([volumes.radius, volumes.radius])
     reach = float((ends @ forward + radius).max() - (wrists @ forward).max())
-    targets = np.array([pose.target.xyz for robot in scenario.robots for pose in robot.poses
-                        if pose.target is not None])
+    # every pose's tool position: a Cartesian target's or a joint pose's (poses given in joints)
+    targets = np.array(list(tool_positions(scenario.robots, path).values()))
     nearest = None
     if len(targets):
         gaps = np.linalg.norm(targets[None, :, :2] - wrists[:, None, :2], axis=2)

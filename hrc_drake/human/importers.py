@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hrc_drake.human.recorded import SEGMENT_RANGES_M, UNITS, check_segment_lengths  # noqa: F401
 from hrc_drake.messages import (
     HEAD,
     L_ELBOW,
@@ -28,17 +29,11 @@ from hrc_drake.messages import (
 )
 
 #: metres per unit of a recording's coordinates
-UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 #: the largest recording file read (bytes): the shipped ones are under 1 MB, and parsing text costs
 #: several times its size in memory (a 200 MB file took 3 GB): larger ones are refused unread
 MAX_RECORDING_BYTES = 32 * 1024 * 1024
 #: the most frames a resampled recording holds (an hour at 60 Hz, ~0.3 GB while resampling)
 MAX_RESAMPLED_FRAMES = 216_000
-#: median segment lengths (m) a recorded adult can have: well outside the anthropometric 1st-99th
-#: percentiles (upper arm ~0.26-0.38 m, forearm ~0.23-0.32 m, biacromial ~0.32-0.45 m, DIN 33402),
-#: wide enough for fitted models (LEGO Human1's upper arm is 0.214 m); units or data that put a
-#: segment outside are refused with the measured length
-SEGMENT_RANGES_M = {"upper arm": (0.12, 0.55), "forearm": (0.12, 0.50), "shoulder width": (0.15, 0.70)}
 #: where the operator may be placed: within this distance (m) of the cell's origin
 MAX_PLACEMENT_M = 20.0
 #: the table top's height range (m)
@@ -458,34 +453,6 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
              + (", ".join(f"{k} {v}" for k, v in untracked.items() if v) or "none"),
              f"provenance: {sidecar}"]
     return lines + [f"note: {note}" for note in recording.notes]
-
-
-def _segment_pairs():
-    return {"upper arm": ((L_SHOULDER, L_ELBOW), (R_SHOULDER, R_ELBOW)),
-            "forearm": ((L_ELBOW, L_WRIST), (R_ELBOW, R_WRIST)),
-            "shoulder width": ((L_SHOULDER, R_SHOULDER),)}
-
-
-def check_segment_lengths(points, tracked, where: str, units: str = "m") -> None:
-    """ValueError naming `where` unless each segment's median length (over the frames that hold
-    both ends; points (T, 8, 3) m, tracked (T, 8)) lies in SEGMENT_RANGES_M: zeros, coincident
-    shoulders, 1e308 values or centimetres read as metres give a person no one is."""
-    for segment, pairs in _segment_pairs().items():
-        low, high = SEGMENT_RANGES_M[segment]
-        for a, b in pairs:
-            both = tracked[:, a] & tracked[:, b]
-            if not both.any():
-                continue
-            with np.errstate(over="ignore", invalid="ignore"):
-                length = float(np.median(np.linalg.norm(points[both, a] - points[both, b], axis=1)))
-            if not (math.isfinite(length) and low <= length <= high):
-                # the same numbers read in another unit
-                hint = next((f" (in {u}? it would be {length * UNITS[u] / UNITS[units]:.3g} m: --units {u})"
-                             for u in UNITS if u != units and math.isfinite(length)
-                             and low <= length * UNITS[u] / UNITS[units] <= high), "")
-                raise ValueError(f"{where}: the {segment} ({SKELETON_POINTS[a]} to {SKELETON_POINTS[b]}) is "
-                                 f"{length:.4g} m long in the median frame, outside an adult's {low}-{high} m"
-                                 f"{hint}: not a person's recording in {units}")
 
 
 def _placement(operator_xy, facing, table_height) -> Placement:

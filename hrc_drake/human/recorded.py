@@ -13,8 +13,15 @@ from pathlib import Path
 
 import numpy as np
 
-from hrc_drake.messages import SKELETON_POINTS
+from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST, SKELETON_POINTS
 
+#: metres per unit of a recording's coordinates
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: median segment lengths (m) a recorded adult can have: well outside the anthropometric 1st-99th
+#: percentiles (upper arm ~0.26-0.38 m, forearm ~0.23-0.32 m, biacromial ~0.32-0.45 m, DIN 33402),
+#: wide enough for fitted models (LEGO Human1's upper arm is 0.214 m); units or data that put a
+#: segment outside are refused with the measured length
+SEGMENT_RANGES_M = {"upper arm": (0.12, 0.55), "forearm": (0.12, 0.50), "shoulder width": (0.15, 0.70)}
 #: the farthest (m, along any axis) a recorded skeleton's point may lie from the cell's origin
 MAX_COORDINATE_M = 100.0
 
@@ -101,8 +108,6 @@ def _read_skeleton_csv(path: Path):
 def _check_plausible(path: Path, points: np.ndarray, tracked: np.ndarray) -> None:
     """ValueError unless every tracked point lies within MAX_COORDINATE_M of the cell's origin and
     the arms' segments have an adult's lengths (`importers.check_segment_lengths`)."""
-    from hrc_drake.human.importers import check_segment_lengths
-
     far = tracked & (np.abs(np.nan_to_num(points)).max(axis=2) > MAX_COORDINATE_M)
     if far.any():
         row, point = np.argwhere(far)[0]
@@ -142,3 +147,31 @@ def save_skeleton_csv(path, times, points, tracked=None) -> None:
 def frame_at(times: np.ndarray, t: float) -> int:
     """Index of the last sample with time <= t (0 before the first one)."""
     return max(int(np.searchsorted(times, t, side="right")) - 1, 0)
+
+
+def _segment_pairs():
+    return {"upper arm": ((L_SHOULDER, L_ELBOW), (R_SHOULDER, R_ELBOW)),
+            "forearm": ((L_ELBOW, L_WRIST), (R_ELBOW, R_WRIST)),
+            "shoulder width": ((L_SHOULDER, R_SHOULDER),)}
+
+
+def check_segment_lengths(points, tracked, where: str, units: str = "m") -> None:
+    """ValueError naming `where` unless each segment's median length (over the frames that hold
+    both ends; points (T, 8, 3) m, tracked (T, 8)) lies in SEGMENT_RANGES_M: zeros, coincident
+    shoulders, 1e308 values or centimetres read as metres give a person no one is."""
+    for segment, pairs in _segment_pairs().items():
+        low, high = SEGMENT_RANGES_M[segment]
+        for a, b in pairs:
+            both = tracked[:, a] & tracked[:, b]
+            if not both.any():
+                continue
+            with np.errstate(over="ignore", invalid="ignore"):
+                length = float(np.median(np.linalg.norm(points[both, a] - points[both, b], axis=1)))
+            if not (math.isfinite(length) and low <= length <= high):
+                # the same numbers read in another unit
+                hint = next((f" (in {u}? it would be {length * UNITS[u] / UNITS[units]:.3g} m: --units {u})"
+                             for u in UNITS if u != units and math.isfinite(length)
+                             and low <= length * UNITS[u] / UNITS[units] <= high), "")
+                raise ValueError(f"{where}: the {segment} ({SKELETON_POINTS[a]} to {SKELETON_POINTS[b]}) is "
+                                 f"{length:.4g} m long in the median frame, outside an adult's {low}-{high} m"
+                                 f"{hint}: not a person's recording in {units}")

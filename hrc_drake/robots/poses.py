@@ -15,7 +15,7 @@ from pydrake.multibody.plant import MultibodyPlant
 from hrc_drake.errors import ConfigError, ScenarioError
 from hrc_drake.robots.config import Robot
 from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
-from hrc_drake.robots.models import add_robots, arm_joint_limits
+from hrc_drake.robots.models import add_robots, arm_joint_limits, arm_position_indices
 from hrc_drake.robots.registry import get_robot_model
 
 
@@ -114,3 +114,24 @@ def solve_named_poses(
                     raise _error(file, f"{field_path}.target", f"out of reach: {err}") from err
             solved[(robot.name, pose.name)] = np.asarray(q, float)
     return solved
+
+
+def tool_positions(robots: Sequence[Robot],
+                   file: str | Path | None = None) -> dict[tuple[str, str], np.ndarray]:
+    """World position (3,) of the tool frame at every named pose {(robot name, pose name): xyz}:
+    a Cartesian target's IK solution or a joint pose, each arm's other joints at zero."""
+    solved = solve_named_poses(robots, file)
+    plant = MultibodyPlant(0.0)
+    instances = add_robots(plant, robots)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    positions = {}
+    for instance, robot in instances:
+        record = get_robot_model(robot.model)
+        for pose in robot.poses:
+            q = np.zeros(plant.num_positions())
+            q[arm_position_indices(plant, instance, robot.model, pose.arm)] = solved[(robot.name, pose.name)]
+            plant.SetPositions(context, q)
+            frame = plant.GetFrameByName(record.arm(pose.arm).tool_frame, instance)
+            positions[(robot.name, pose.name)] = frame.CalcPoseInWorld(context).translation().copy()
+    return positions

@@ -250,7 +250,8 @@ def test_bad_scenarios_name_file_field_and_reason(tmp_path, torch_raw, case):
 def test_target_out_of_reach_is_rejected(tmp_path, torch_raw):
     def edit(raw):
         pose = next(p for p in raw["robots"][0]["poses"] if p["name"] == "r_work")
-        pose["target"]["xyz"] = [2.5, 0.0, 0.9]
+        pose.pop("joints", None)  # torch_clock gives its poses in joints: this one a target
+        pose["target"] = {"xyz": [2.5, 0.0, 0.9]}
 
     path = write(tmp_path, mutate(torch_raw, edit))
     load_scenario(path)  # structure is fine; reachability needs the robot model
