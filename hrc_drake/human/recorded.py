@@ -17,10 +17,10 @@ from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER
 
 #: metres per unit of a recording's coordinates
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-#: median segment lengths (m) a recorded adult can have: well outside the anthropometric 1st-99th
-#: percentiles (upper arm ~0.26-0.38 m, forearm ~0.23-0.32 m, biacromial ~0.32-0.45 m, DIN 33402),
-#: wide enough for fitted models (LEGO Human1's upper arm is 0.214 m); units or data that put a
-#: segment outside are refused with the measured length
+#: median segment lengths (m) a recorded adult can have: generous bounds around an adult's upper arm,
+#: forearm and shoulder width of roughly 0.3, 0.25 and 0.4 m, wide enough for fitted arm models
+#: (LEGO Human1's upper arm is 0.214 m); units or data that put a segment outside are refused with
+#: the measured length
 SEGMENT_RANGES_M = {"upper arm": (0.12, 0.55), "forearm": (0.12, 0.50), "shoulder width": (0.15, 0.70)}
 #: the farthest (m, along any axis) a recorded skeleton's point may lie from the cell's origin
 MAX_COORDINATE_M = 100.0
@@ -107,7 +107,7 @@ def _read_skeleton_csv(path: Path):
 
 def _check_plausible(path: Path, points: np.ndarray, tracked: np.ndarray) -> None:
     """ValueError unless every tracked point lies within MAX_COORDINATE_M of the cell's origin and
-    the arms' segments have an adult's lengths (`importers.check_segment_lengths`)."""
+    the arms' segments have an adult's lengths (`check_segment_lengths`)."""
     far = tracked & (np.abs(np.nan_to_num(points)).max(axis=2) > MAX_COORDINATE_M)
     if far.any():
         row, point = np.argwhere(far)[0]
