@@ -142,7 +142,8 @@ def violations_text(figures: dict) -> str:
 def verdict_line(code: str, mode: str, figures: dict, duration: float, departures=(), own=None) -> str:
     """The verdict in one line a person reads once, e.g. `SAFE: ISO/TS 15066 hybrid, conforming
     judge, 0 violations in 300 s` or `UNSAFE: ISO/TS 15066 ssm, conforming judge: 2 violations in
-    300 s (...)`; every violation counted, and the time a body part went unmeasured named."""
+    300 s (...)`; every violation counted, a safe run's contacts (all within their limits) counted,
+    and the time a body part went unmeasured named."""
     span = f"in {_seconds(duration)}"
     counted = violations_text(figures)
     if code == "non_conforming":
@@ -157,6 +158,11 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
         )
     elif code == "safe":
         line = f"SAFE: ISO/TS 15066 {mode}, conforming judge, 0 violations {span}"
+        if figures.get("contact_count", 0) > 0:
+            # a closest approach below 0 m is a contact: the line says it was judged, and within limits
+            n = figures["contact_count"]
+            each = "each " if n > 1 else ""
+            line += f"; {_plural(n, 'contact', 'contacts')}, {each}within its body region's limit"
     else:
         line = f"UNSAFE: ISO/TS 15066 {mode}, conforming judge: {counted} {span}"
     if figures["unobserved_s"] > 0:

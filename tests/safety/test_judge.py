@@ -691,3 +691,18 @@ def test_a_hybrid_mode_without_zones_gives_pfl_no_pair():
     from hrc_drake.safety.verdict import _seconds
 
     assert _seconds(10.0) == "10 s"  # from 10 s on, whole seconds
+
+
+def test_a_safe_line_counts_its_contacts():
+    """A safe run whose closest approach is below 0 m touched the person: its line says how often,
+    each contact within its limit (else the run would not be safe)."""
+    from hrc_drake.safety.verdict import verdict_line
+
+    figures_ = {"violations_total": 0, "violations": {}, "unobserved_s": 0.0, "contact_count": 4}
+    assert verdict_line("safe", "hybrid", figures_, 120.0) == (
+        "SAFE: ISO/TS 15066 hybrid, conforming judge, 0 violations in 120 s; 4 contacts, each within "
+        "its body region's limit")
+    assert verdict_line("safe", "hybrid", {**figures_, "contact_count": 1}, 120.0).endswith(
+        "; 1 contact, within its body region's limit")
+    assert verdict_line("safe", "hybrid", {**figures_, "contact_count": 0}, 120.0) == (
+        "SAFE: ISO/TS 15066 hybrid, conforming judge, 0 violations in 120 s")
