@@ -1,4 +1,5 @@
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -16,6 +17,17 @@ except ImportError:  # the property tests skip without Hypothesis
 
 REPO = Path(__file__).resolve().parents[1]
 DIAGRAMS = REPO / "diagrams"
+
+
+def load_tool(name: str):
+    """The module of `tools/<name>.py` (the tools are scripts, not a package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, REPO / "tools" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # a tool's dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
 
 
 

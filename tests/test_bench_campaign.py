@@ -3,16 +3,11 @@ on a store in a folder never made, and no test noticed)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import load_tool
 
 
 def test_the_campaign_bench_runs_and_reports_its_keys(capsys):
-    spec = importlib.util.spec_from_file_location("bench_campaign", REPO / "tools" / "bench_campaign.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    bench = load_tool("bench_campaign")
     result = bench.main(["--runs", "2", "--duration", "2"])
     assert result["runs"] == 2 and result["failed"] == 0 and result["same_rows"] is True
     assert result["runs_per_min_1_worker"] > 0 and result["runs_per_min_2_workers"] > 0

@@ -3,10 +3,11 @@ is kept safe."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
+
+from tests.conftest import load_tool
 
 REPO = Path(__file__).resolve().parents[1]
 DIAGRAMS = sorted((REPO / "diagrams").glob("*.yaml"))
@@ -14,9 +15,7 @@ DIAGRAMS = sorted((REPO / "diagrams").glob("*.yaml"))
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_safety", REPO / "tools" / "bench_safety.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_tool("bench_safety")
     return module
 
 

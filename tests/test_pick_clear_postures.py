@@ -3,22 +3,20 @@ reach the poses' tool positions with the clearance it reports."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.conftest import load_tool
+
 REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
 def tool():
-    path = REPO / "tools" / "pick_clear_postures.py"
-    spec = importlib.util.spec_from_file_location("pick_clear_postures", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_tool("pick_clear_postures")
     return module
 
 

@@ -2,27 +2,20 @@
 
 from __future__ import annotations
 
-import importlib.util
 import io
-import sys
 from contextlib import redirect_stdout
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.messages import L_ELBOW, L_WRIST, R_ELBOW, R_WRIST
-
-REPO = Path(__file__).resolve().parents[1]
+from tests.conftest import load_tool
 
 
 @pytest.fixture(scope="module")
 def rt():
-    spec = importlib.util.spec_from_file_location("real_tracking", REPO / "tools" / "real_tracking.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["real_tracking"] = module  # its dataclass looks its module up
-    spec.loader.exec_module(module)
+    module = load_tool("real_tracking")
     return module
 
 

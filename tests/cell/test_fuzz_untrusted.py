@@ -4,23 +4,19 @@ changed."""
 
 from __future__ import annotations
 
-import importlib.util
 import random
-from pathlib import Path
 
 import pytest
 
 from tests.cell.fuzz_untrusted import import_cases, text_cases
+from tests.conftest import load_tool
 
-REPO = Path(__file__).resolve().parents[2]
 IMPORT_SAMPLE, TEXT_SAMPLE = 8, 3
 
 
 @pytest.fixture(scope="module")
 def fuzz():
-    spec = importlib.util.spec_from_file_location("fuzz_scenarios", REPO / "tools" / "fuzz_scenarios.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_tool("fuzz_scenarios")
     return module
 
 
