@@ -70,5 +70,6 @@ def yaml_error_reason(err) -> str:
     mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
     problem = getattr(err, "problem", None) or getattr(err, "context", None) or type(err).__name__
     where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
-    text = "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in str(problem))
-    return text + where
+    from hrc_drake.untrusted import one_line
+
+    return one_line(str(problem)) + where

@@ -33,7 +33,7 @@ def test_picks_reach_the_tool_positions_with_the_reported_clearance(tool, capsys
 
     from hrc_drake.cell.scenario import load_scenario
     from hrc_drake.robots.models import add_robots
-    from hrc_drake.robots.poses import solve_named_poses
+    from hrc_drake.robots.poses import solve_named_poses, tool_position
 
     scenario_path = REPO / "diagrams" / "box_usb.yaml"
     assert tool.main([str(scenario_path), "right", "--candidates", "6", "--samples", "5"]) == 0
@@ -47,8 +47,8 @@ def test_picks_reach_the_tool_positions_with_the_reported_clearance(tool, capsys
     context = plant.CreateDefaultContext()
     assert set(result["poses"]) == {"r_home", "r_covers", "r_wait", "r_station"}
     for name, joints in result["poses"].items():
-        picked = tool.tool_position(plant, context, instance, robot, "right", np.array(joints))
-        wanted = tool.tool_position(plant, context, instance, robot, "right", shipped[("yumi", name)])
+        picked = tool_position(plant, context, instance, robot.model, "right", np.array(joints))
+        wanted = tool_position(plant, context, instance, robot.model, "right", shipped[("yumi", name)])
         assert np.linalg.norm(np.subtract(picked, wanted)) < 0.01, name
 
 

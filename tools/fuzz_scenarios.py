@@ -49,6 +49,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from hrc_drake.untrusted import FORMULA_STARTS  # noqa: E402
 from tests.cell.fuzz import alias_sites, campaign_mutants, mutant_text, mutation_sites  # noqa: E402
 from tests.cell.fuzz_untrusted import import_cases, text_cases  # noqa: E402
 
@@ -68,7 +69,6 @@ finally:
         rss.write(str(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss))
 sys.exit(code)
 """
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 REPORT_FILES = ("metrics.json", "events.csv", "gantt.png", "safety.png")
 #: the peak RSS (MB) of every import case run (appended by the checking threads)
 _import_rss: list[float] = []

@@ -42,8 +42,7 @@ from hrc_drake.cell.scenario import load_scenario  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
 from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position  # noqa: E402
 from hrc_drake.robots.models import add_robots, arm_joint_limits, arm_position_indices  # noqa: E402
-from hrc_drake.robots.poses import solve_named_poses  # noqa: E402
-from hrc_drake.robots.registry import get_robot_model  # noqa: E402
+from hrc_drake.robots.poses import solve_named_poses, tool_positions  # noqa: E402
 
 #: solutions closer than this (rad, largest joint difference) count as one
 DISTINCT_RAD = 0.2
@@ -83,15 +82,6 @@ def point_segment_distances(points, starts, ends) -> np.ndarray:
     t = np.clip(((points[:, None, :] - starts[None]) * axis[None]).sum(axis=2) / length2, 0.0, 1.0)
     closest = starts[None] + t[..., None] * axis[None]
     return np.linalg.norm(points[:, None, :] - closest, axis=2)
-
-
-def tool_position(plant, context, instance, robot, arm, arm_joints) -> list[float]:
-    """World position of the arm's tool frame at `arm_joints` (the other joints at zero)."""
-    q = np.zeros(plant.num_positions())
-    q[arm_position_indices(plant, instance, robot.model, arm)] = arm_joints
-    plant.SetPositions(context, q)
-    frame = plant.GetFrameByName(get_robot_model(robot.model).arm(arm).tool_frame, instance)
-    return [round(float(v), 4) for v in frame.CalcPoseInWorld(context).translation()]
 
 
 def arm_segments(home: str, actions: list[list[str]]) -> list[tuple[str, str]]:
@@ -162,8 +152,8 @@ def main(argv=None) -> int:
     if not actions or arm_agent is None or not arm_agent.home:
         parser.error(f"robot {robot.name!r}: arm {args.arm!r} needs a home and an action")
     named = solve_named_poses(scenario.robots, args.scenario)
-    targets = {name: tool_position(plant, context, instance, robot, args.arm, named[(robot.name, name)])
-               for name in poses}
+    positions = tool_positions(scenario.robots, args.scenario)
+    targets = {name: [round(float(v), 4) for v in positions[(robot.name, name)]] for name in poses}
     if args.home is not None:
         targets[arm_agent.home] = home
     segments = arm_segments(arm_agent.home, [list(a.poses) for a in actions])

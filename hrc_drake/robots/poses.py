@@ -125,13 +125,15 @@ def tool_positions(robots: Sequence[Robot],
     instances = add_robots(plant, robots)
     plant.Finalize()
     context = plant.CreateDefaultContext()
-    positions = {}
-    for instance, robot in instances:
-        record = get_robot_model(robot.model)
-        for pose in robot.poses:
-            q = np.zeros(plant.num_positions())
-            q[arm_position_indices(plant, instance, robot.model, pose.arm)] = solved[(robot.name, pose.name)]
-            plant.SetPositions(context, q)
-            frame = plant.GetFrameByName(record.arm(pose.arm).tool_frame, instance)
-            positions[(robot.name, pose.name)] = frame.CalcPoseInWorld(context).translation().copy()
-    return positions
+    return {(robot.name, pose.name): tool_position(plant, context, instance, robot.model, pose.arm,
+                                                   solved[(robot.name, pose.name)])
+            for instance, robot in instances for pose in robot.poses}
+
+
+def tool_position(plant, context, instance, model: str, arm: str, arm_joints) -> np.ndarray:
+    """World position (3,) of `arm`'s tool frame at `arm_joints`, every other joint at zero."""
+    q = np.zeros(plant.num_positions())
+    q[arm_position_indices(plant, instance, model, arm)] = arm_joints
+    plant.SetPositions(context, q)
+    frame = plant.GetFrameByName(get_robot_model(model).arm(arm).tool_frame, instance)
+    return frame.CalcPoseInWorld(context).translation().copy()
