@@ -100,6 +100,16 @@ def test_the_predictive_and_reactive_modes_are_the_declared_mode_with_that_profi
         assert safety.contact_reaction == declared.contact_reaction and safety.limits == declared.limits
 
 
+def test_the_other_modes_keep_the_declared_speed_profile(bench):
+    from hrc_drake.cell.scenario import load_scenario_with
+
+    pcb_ic = str(REPO / "diagrams" / "pcb_ic.yaml")
+    assert load_scenario_with(pcb_ic, {}).safety.speed_profile == "predictive"
+    for mode in ("ssm", "pfl", "hybrid"):
+        safety = load_scenario_with(pcb_ic, bench.mode_overrides(pcb_ic, mode)).safety
+        assert safety.speed_profile == "predictive"
+
+
 def test_a_plot_from_earlier_outputs_with_the_before_bars(bench, tmp_path):
     """`--figures LOG --before LOG --plot PNG` runs nothing; a file whose last line is not the bench's
     JSON is refused with its name."""

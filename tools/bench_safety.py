@@ -2,7 +2,8 @@
 
 Issue 36, item 5. For every scenario in `diagrams/` (or those named) and every mode of
 `MODES` (`declared`: the cell as shipped; `none`, `ssm`, `pfl`, `hybrid`: its `safety` field
-replaced by that mode with default parameters, Z_d from the cell's tracker or, without one, its
+replaced by that mode with default parameters but the declared mode's `speed_profile` (issue 52:
+modes compared with the same speed planning), Z_d from the cell's tracker or, without one, its
 camera's noise; `hybrid` takes the layout's collaborative zones, or one sphere over the table
 where the layout declares none; `reactive`, `predictive` (issue 52): the declared mode with that
 `speed_profile`), runs the cell over seeds and reports products, mean cycle time,
@@ -75,7 +76,10 @@ def mode_overrides(path: str, mode: str) -> dict:
         fields = {**dataclasses.asdict(scenario.safety), "speed_profile": mode}
         return {"safety": Tagged(type(scenario.safety).__name__, fields)}
     uncertainty = "camera" if isinstance(scenario.tracker, NoTracker) else "tracker"
-    out = {"safety": Tagged(MODE_TAGS[mode], {"position_uncertainty": uncertainty})}
+    fields = {"position_uncertainty": uncertainty}
+    if not isinstance(scenario.safety, NoSafety):
+        fields["speed_profile"] = scenario.safety.speed_profile
+    out = {"safety": Tagged(MODE_TAGS[mode], fields)}
     if mode == "hybrid" and not scenario.layout.collaborative_zones:
         table = scenario.layout.table
         center = [table.center[0], table.center[1], table.height + 0.25]
