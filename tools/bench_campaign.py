@@ -16,8 +16,10 @@ load) and of the round trip (submit to result), and the load average at start an
 on 2 cores.
 
 Usage:
-    PYTHONPATH=. python3 tools/bench_campaign.py [--quick] [--runs N] [--duration S]
+    PYTHONPATH=. python3 tools/bench_campaign.py [--quick | --smoke] [--runs N] [--duration S]
 --quick: 6 runs of 40 s (under a minute on an idle machine). Default: 40 runs of 300 s.
+--smoke: 1 run of 1 s, the clusters' workers threads of this process (no worker processes to start):
+the whole path in a few seconds, figures meaningless.
 Last line: one JSON object (`runs`, `runs_per_min_1_worker`, `runs_per_min_2_workers`,
 `scaling_efficiency_2`, `overhead_per_run_ms` (= `dispatch_ms_per_run` +
 `worker_slowdown_ms_median`), `worker_cpu_slowdown_ms_median`, `peak_worker_rss_mb`, and details).
@@ -72,11 +74,13 @@ def in_process(campaign) -> tuple[list[float], list[dict]]:
 PAIRED_RUNS = 8
 
 
-def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0) -> dict:
+def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0,
+               processes: bool = True) -> dict:
     """The campaign on a warm LocalCluster of `workers` processes: wall time, rows, peak RSS; and
     for the first `paired` tasks, each run in this process then in the worker, alternately (so a
     change of the machine's load hits both alike): the in-process wall and CPU times, the round
-    trip (submit to result) and the run's own wall and CPU times in the worker."""
+    trip (submit to result) and the run's own wall and CPU times in the worker. processes=False:
+    the workers are threads of this process (no interpreter to start: the smoke setting)."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -85,7 +89,7 @@ def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0
         cluster = LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
-            processes=True,
+            processes=processes,
             dashboard_address=None,
             silence_logs=logging.ERROR,
         )
@@ -125,16 +129,19 @@ def _comparable(frame):
     return frame.sort_values(["scenario", "variant", "seed"]).reset_index(drop=True)
 
 
-def main(argv=None) -> dict:
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="6 runs of 40 s")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--runs", type=int, default=None, help="runs per measurement (default 40; quick 6)")
     parser.add_argument(
         "--duration", type=float, default=None, help="simulated s per run (default 300; quick 40)"
     )
     args = parser.parse_args(argv)
-    runs = args.runs or (6 if args.quick else 40)
-    duration = args.duration or (40.0 if args.quick else 300.0)
+    runs = args.runs or (1 if args.smoke else 6 if args.quick else 40)
+    duration = args.duration or (1.0 if args.smoke else 40.0 if args.quick else 300.0)
+    processes = not args.smoke
 
     load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
@@ -149,10 +156,11 @@ def main(argv=None) -> dict:
         walls, rows = in_process(campaign)
         print(f"in process : {np.median(walls):.3f} s per run (median; mean {np.mean(walls):.3f} s)",
               flush=True)
-        one = on_cluster(campaign, warm_campaign, 1, tmp / "one", paired=min(runs, PAIRED_RUNS))
+        one = on_cluster(campaign, warm_campaign, 1, tmp / "one", paired=min(runs, PAIRED_RUNS),
+                         processes=processes)
         rpm1 = 60.0 * runs / one["wall"]
         print(f"1 worker   : {one['wall']:.1f} s, {rpm1:.1f} runs/min", flush=True)
-        two = on_cluster(campaign, warm_campaign, 2, tmp / "two")
+        two = on_cluster(campaign, warm_campaign, 2, tmp / "two", processes=processes)
         rpm2 = 60.0 * runs / two["wall"]
         print(f"2 workers  : {two['wall']:.1f} s, {rpm2:.1f} runs/min", flush=True)
         reference_store = RunStore(tmp / "reference")  # the same column types as a campaign's table

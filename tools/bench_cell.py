@@ -64,15 +64,18 @@ scenario `rtf_<name>` (CPU RTF, current), `rtf_wall_<name>`, `baseline_rtf_<name
 `kernel_compile_s.<group>`, `first_run_s.torch_clock` (and their `baseline_` twins).
 
 Usage:
-    PYTHONPATH=. python3 tools/bench_cell.py [--quick] [--duration S] [--repeats N] [--only NAME ...]
-                                             [--baseline REV | --no-baseline] [--instructions S]
-                                             [--profile] [--breakdown] [--startup-only]
+    PYTHONPATH=. python3 tools/bench_cell.py [--quick | --smoke] [--duration S] [--repeats N]
+                                             [--only NAME ...] [--baseline REV | --no-baseline]
+                                             [--instructions S] [--profile] [--breakdown] [--startup-only]
 
 --quick: 20 s of simulated time and 1 repeat: about 45 s on a 2-core machine (4 scenarios x 2
 trees x (~2-3 s of interpreter start-up, Drake import and cell build + 0.5-6 s of simulation)).
 A full run (120 s, 3 repeats, 12 cells, two trees, --profile) took 18 minutes on 2 cores (2026-12-04).
 --startup-only: the start-up figures alone, of the current tree (and of --baseline REV when
 given), then the JSON line: about 2 minutes per tree on 2 cores.
+--smoke: the whole path once in ~12 s, figures meaningless: torch_clock for 1 s on the current tree
+only (no baseline worktree), the state copies probed after that 1 s, one interpreter per start-up
+figure, the kernel figures of one group, no first run (`SMOKE_STARTUP`).
 """
 
 from __future__ import annotations
@@ -96,7 +99,8 @@ DEFAULT_BASELINE = "71681c9"  # main before issue 18 (the realtime work)
 PROBE_DURATION = 20.0
 
 # Run in a fresh interpreter with PYTHONPATH and cwd = the tree measured. argv: scenario path,
-# duration, probe flag ("1": also time the copies of the abstract state, current code only).
+# duration, probe flag ("1": also time the copies of the abstract state, current code only), and
+# optionally the simulated s after which the probe runs (default PROBE_DURATION).
 MEASURE_CODE = r"""
 import copy, json, statistics, sys, time, warnings
 warnings.simplefilter("ignore")
@@ -105,6 +109,7 @@ from hrc_drake.cell.build import build_cell
 from hrc_drake.cell.run import simulate
 
 path, duration, probe = sys.argv[1], float(sys.argv[2]), sys.argv[3] == "1"
+probe_duration = float(sys.argv[4]) if len(sys.argv) > 4 else PROBE_DURATION
 scenario = load_scenario(path)
 cell = build_cell(scenario, path)
 try:  # kernels compile (or load) when first called: do it here, outside the timed run
@@ -163,8 +168,8 @@ def frozen_parts(value):
 
 if probe:
     from pydrake.systems.framework import LeafSystem
-    if duration != PROBE_DURATION:
-        result = simulate(cell, PROBE_DURATION, progress=None)
+    if duration != probe_duration:
+        result = simulate(cell, probe_duration, progress=None)
     states = []
     for system in cell.diagram.GetSystems():
         if not isinstance(system, LeafSystem):
@@ -206,6 +211,12 @@ FIRST_RUN_DURATION = 20.0
 
 #: fresh interpreters per start-up figure
 STARTUP_REPEATS = 7
+
+#: --smoke: one cell for 1 s on the current tree only, one interpreter per start-up figure, the
+#: kernel group quickest to compile, and no first run (from an empty cache it compiles the cell's
+#: kernels: ~15 s)
+SMOKE_SCENARIO, SMOKE_DURATION = "torch_clock", 1.0
+SMOKE_STARTUP = {"repeats": 1, "kernel_groups": ("prediction",), "first_run": False}
 
 
 def median(values: list[float]) -> float:
@@ -326,11 +337,14 @@ def format_table(names: list[str], current: dict[str, dict], baseline: dict[str,
     return "\n".join(rows)
 
 
-def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) -> dict:
-    """One measurement in a fresh subprocess running the code of `tree`."""
+def measure(tree: Path, scenario: Path, duration: float, probe: bool = False,
+            probe_duration: float = PROBE_DURATION) -> dict:
+    """One measurement in a fresh subprocess running the code of `tree`; with `probe`, the copy
+    costs of the abstract state after `probe_duration` simulated s."""
     env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
     proc = subprocess.run(
-        [sys.executable, "-c", MEASURE_CODE, str(scenario), repr(duration), "1" if probe else "0"],
+        [sys.executable, "-c", MEASURE_CODE, str(scenario), repr(duration), "1" if probe else "0",
+         repr(probe_duration)],
         cwd=tree,
         env=env,
         capture_output=True,
@@ -342,12 +356,14 @@ def measure(tree: Path, scenario: Path, duration: float, probe: bool = False) ->
     return last_json_line(proc.stdout)
 
 
-def startup_times(tree: Path, first_run: bool = True) -> dict:
-    """Medians over STARTUP_REPEATS fresh interpreters of `tree`'s code: `help_s` (wall of
+def startup_times(tree: Path, first_run: bool = True, repeats: int = STARTUP_REPEATS,
+                  kernel_groups: tuple[str, ...] | None = None) -> dict:
+    """Medians over `repeats` fresh interpreters of `tree`'s code: `help_s` (wall of
     `python -m hrc_drake.cli --help`), `import_s` (wall of `python -c "import hrc_drake"` minus
     that of `python -c pass`), `cell_import_s` (inside the interpreter, see IMPORT_CODE) and
     `interpreter_s` (wall of `python -c pass`); then the kernels' compile and load times
-    (`kernel_times`) and, with `first_run`, `first_run_s.<cell>` (`first_run_time`)."""
+    (`kernel_times` of `kernel_groups`, None: all) and, with `first_run`, `first_run_s.<cell>`
+    (`first_run_time`)."""
     env = dict(os.environ, PYTHONPATH=str(tree), PYTHONWARNINGS="ignore")
 
     def wall(cmd: list[str]) -> float:
@@ -366,14 +382,14 @@ def startup_times(tree: Path, first_run: bool = True) -> dict:
         return last_json_line(proc.stdout)["cell_import_s"]
 
     help_s, package_s, cell_import_s, interpreter_s = [], [], [], []
-    for _ in range(STARTUP_REPEATS):  # interleaved, so that load hits them alike
+    for _ in range(repeats):  # interleaved, so that load hits them alike
         help_s.append(wall([sys.executable, "-m", "hrc_drake.cli", "--help"]))
         package_s.append(wall([sys.executable, "-c", "import hrc_drake"]))
         cell_import_s.append(imported())
         interpreter_s.append(wall([sys.executable, "-c", "pass"]))
     out = {"help_s": median(help_s), "import_s": median(package_s) - median(interpreter_s),
            "cell_import_s": median(cell_import_s), "interpreter_s": median(interpreter_s),
-           **kernel_times(tree, env)}
+           **kernel_times(tree, env, kernel_groups)}
     if first_run:
         out.update(first_run_time(tree, env))
     return out
@@ -388,12 +404,13 @@ print(json.dumps({"warm_up_s": kernels.warm_up(groups) if groups else kernels.wa
 """
 
 
-def kernel_times(tree: Path, env: dict) -> dict:
+def kernel_times(tree: Path, env: dict, groups: tuple[str, ...] | None = None) -> dict:
     """`kernel_compile_s`: `kernels.warm_up()` of every kernel with an empty numba cache (all
     the kernels a fresh machine could compile); `kernel_load_s`: the same again, loading what
     it cached; `kernel_compile_s.<group>` (trees with `kernels.GROUPS`): one group's kernels from
     its own empty cache in its own interpreter, the kernels of other files it calls included
-    (a cell compiles only the groups its systems use). {} for a tree without kernels."""
+    (a cell compiles only the groups its systems use). groups: these groups only, in each figure
+    (None: all). {} for a tree without kernels."""
     if not (tree / "hrc_drake" / "kernels.py").exists():
         return {}
 
@@ -406,12 +423,14 @@ def kernel_times(tree: Path, env: dict) -> dict:
 
     out = {}
     with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
-        out["kernel_compile_s"] = warm_up(cache, [])
-        out["kernel_load_s"] = warm_up(cache, [])
+        out["kernel_compile_s"] = warm_up(cache, list(groups or []))
+        out["kernel_load_s"] = warm_up(cache, list(groups or []))
     proc = subprocess.run([sys.executable, "-c", "import json; from hrc_drake import kernels; "
                            "print(json.dumps(list(getattr(kernels, 'GROUPS', {}))))"],
                           cwd=tree, env=env, capture_output=True, text=True)
     for group in last_json_line(proc.stdout) if proc.returncode == 0 else []:
+        if groups is not None and group not in groups:
+            continue
         with tempfile.TemporaryDirectory(prefix="hrc_numba_cache_") as cache:
             out[f"kernel_compile_s.{group}"] = warm_up(cache, [group])
     return out
@@ -667,9 +686,9 @@ def _sigterm(signum, frame):
     raise SystemExit(128 + signum)
 
 
-def startup_only(rev: str | None) -> None:
+def startup_only(rev: str | None, startup_options: dict) -> None:
     """`--startup-only`: the start-up figures of the current tree (and of `rev`), a short report,
-    then one JSON line."""
+    then one JSON line. startup_options: `startup_times`'s settings."""
     load_start = os.getloadavg()[0]
     t_start = time.perf_counter()
     print(f"bench_cell --startup-only: current tree{f' and baseline {rev}' if rev else ''}, "
@@ -680,7 +699,7 @@ def startup_only(rev: str | None) -> None:
         if rev is not None:
             trees["baseline"] = stack.enter_context(baseline_tree(rev))
         for label, tree in trees.items():
-            startup[label] = startup_times(tree)
+            startup[label] = startup_times(tree, **startup_options)
             for key, value in startup[label].items():
                 print(f"  {label:8s} {key:32s} {value:8.3f} s", flush=True)
     load_end = os.getloadavg()[0]
@@ -693,6 +712,8 @@ def main(argv: list[str] | None = None) -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="20 s of simulated time, 1 repeat")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--duration", type=float, default=None, help="simulated s per run (default 120)")
     parser.add_argument("--repeats", type=int, default=None, help="runs per scenario and tree (default 3)")
     parser.add_argument("--baseline", default=None,
@@ -711,30 +732,50 @@ def main(argv: list[str] | None = None) -> None:
                              "kernel_compile_s.*) of the current code (and of --baseline REV when given "
                              "with it): ~2 minutes")
     args = parser.parse_args(argv)
-    duration = args.duration or (20.0 if args.quick else 120.0)
-    repeats = args.repeats or (1 if args.quick else 3)
+    duration = args.duration or (SMOKE_DURATION if args.smoke else 20.0 if args.quick else 120.0)
+    repeats = args.repeats or (1 if args.quick or args.smoke else 3)
     if duration <= 0 or repeats < 1:
         parser.error("--duration must be positive and --repeats at least 1")
     if not (args.instructions >= 0 and args.instructions < float("inf")):
         parser.error("--instructions takes a finite number of simulated seconds >= 0")
     if args.instructions and shutil.which("valgrind") is None:
         parser.error("--instructions needs valgrind on PATH (apt-get install valgrind)")
-    signal.signal(signal.SIGTERM, _sigterm)
-    if args.startup_only:
-        startup_only(None if args.no_baseline else args.baseline)
-        return
+    startup_options = SMOKE_STARTUP if args.smoke else {}
+    without_baseline = args.no_baseline or args.smoke  # the smoke run makes no worktree
+    # SIGTERM raises SystemExit, so that the baseline worktree is removed; the caller's handler after
+    previous_handler = signal.signal(signal.SIGTERM, _sigterm)
+    try:
+        if args.startup_only:
+            startup_only(None if without_baseline else args.baseline, startup_options)
+            return
+        names = scenario_names(parser, args.only or ([SMOKE_SCENARIO] if args.smoke else None))
+        rev = None if without_baseline else (args.baseline or DEFAULT_BASELINE)
+        # the smoke run probes the state copies after its own short run, not after PROBE_DURATION
+        probe_duration = duration if args.smoke else PROBE_DURATION
+        measure_cells(args, names, duration, repeats, rev, probe_duration, startup_options)
+    finally:
+        signal.signal(signal.SIGTERM, previous_handler)
 
+
+def scenario_names(parser: argparse.ArgumentParser, only: list[str] | None) -> list[str]:
+    """The scenarios of diagrams/ (names without .yaml), only those of `only` when given."""
     names = sorted(p.stem for p in (REPO / "diagrams").glob("*.yaml"))
     if not names:
         sys.exit(f"no scenarios in {REPO / 'diagrams'}")
-    if args.only:
-        unknown = sorted(set(args.only) - set(names))
+    if only:
+        unknown = sorted(set(only) - set(names))
         if unknown:
             parser.error(f"--only: no such scenario in diagrams/: {unknown} (there are {names})")
-        names = [n for n in names if n in args.only]
+        names = [n for n in names if n in only]
+    return names
+
+
+def measure_cells(args: argparse.Namespace, names: list[str], duration: float, repeats: int,
+                  rev: str | None, probe_duration: float, startup_options: dict) -> None:
+    """The cells' measurements (module docstring), the report and the JSON line; `rev`: the
+    baseline revision (None: the current code only)."""
     load_start = os.getloadavg()[0]
     t_start = time.perf_counter()
-    rev = None if args.no_baseline else (args.baseline or DEFAULT_BASELINE)
     print(
         f"bench_cell: {len(names)} scenarios {names}, {duration:g} s simulated, {repeats} repeat(s), "
         f"baseline {rev or 'none'}, load average {load_start:.2f}",
@@ -752,7 +793,7 @@ def main(argv: list[str] | None = None) -> None:
             print(f"baseline {rev} checked out in {trees['baseline']}", flush=True)
         startup = {}
         for label, tree in trees.items():
-            startup[label] = startup_times(tree)
+            startup[label] = startup_times(tree, **startup_options)
             print(f"  start-up {label:8s} " + "  ".join(f"{k} {v:.3f}" for k, v in startup[label].items()),
                   flush=True)
         skipped: set[tuple[str, str]] = set()
@@ -770,7 +811,7 @@ def main(argv: list[str] | None = None) -> None:
                     probe = label == "current" and k == 0
                     start = time.perf_counter()
                     try:
-                        r = measure(tree, scenario, duration, probe=probe)
+                        r = measure(tree, scenario, duration, probe=probe, probe_duration=probe_duration)
                     except RuntimeError as err:
                         if label == "current":
                             raise
@@ -805,7 +846,7 @@ def main(argv: list[str] | None = None) -> None:
               f"bare interpreter {times['interpreter_s']:.3f} s (goal: --help <= {GOAL_HELP_S:g} s)")
     by_copy, by_clone = largest_states(states)
     print()
-    print("Per-update copy cost of abstract state (current code, after 20 s), median us:")
+    print(f"Per-update copy cost of abstract state (current code, after {probe_duration:g} s), median us:")
     for s in sorted(states, key=lambda s: -s["deepcopy_us"])[:5]:
         clone = f"{s['clone_us']:9.1f}" if s["clone_us"] is not None else "        -"
         print(f"  deepcopy {s['deepcopy_us']:9.2f}  thaw {clone}  {s['system']}[{s['index']}] {s['type']}")

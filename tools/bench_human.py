@@ -1,7 +1,9 @@
 """Benchmark of hrc_drake.human: kinematics, operator, camera, Drake adapters, IK on real data.
 
 Prints a table, then as its last line one JSON object with the figures (medians).
-`--quick` finishes in well under a minute.
+
+Usage: python tools/bench_human.py [--quick | --smoke]
+`--quick` finishes in well under a minute; `--smoke` in a few seconds (figures meaningless).
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,6 +21,21 @@ from hrc_drake.human.camera import DepthCameraModel
 from hrc_drake.human.config import Segments
 from hrc_drake.human.operator import OperatorTask, SyntheticOperator
 from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST
+
+
+class Sizes(NamedTuple):
+    """How much each part measures."""
+
+    repeats: int  # timings per figure (each of `inner` calls)
+    ik_samples: int  # random postures fitted by IK
+    sim_time: float  # simulated s of the Drake diagram
+    real_files: int | None  # real recordings fitted (None: all)
+    real_frames: int | None  # first frames of each (None: every 5th frame of the whole recording)
+
+
+FULL = Sizes(repeats=50, ik_samples=100, sim_time=120.0, real_files=None, real_frames=None)
+QUICK = Sizes(repeats=15, ik_samples=20, sim_time=20.0, real_files=1, real_frames=200)
+SMOKE = Sizes(repeats=3, ik_samples=10, sim_time=1.0, real_files=1, real_frames=20)
 
 
 def median_time(fn, repeats: int, inner: int = 1) -> float:
@@ -42,10 +60,10 @@ def make_operator(seed=0):
                              np.random.default_rng(seed))
 
 
-def bench_core(quick: bool) -> dict:
+def bench_core(sizes: Sizes) -> dict:
     body = BodyModel()
     rng = np.random.default_rng(0)
-    reps = 15 if quick else 50
+    reps = sizes.repeats
     q1 = body.rest_q((1.0, 0.0), np.pi)
     q500 = rng.uniform(body.q_lower, body.q_upper, (500, 12))
     q500[:, :2] = rng.uniform(-1, 1, (500, 2))
@@ -56,7 +74,7 @@ def bench_core(quick: bool) -> dict:
     }
     low = np.array([-1, -1, -3, -0.2, -0.5, -0.3, -1.2, 0.3, -0.5, -0.3, -1.2, 0.3])
     high = np.array([1, 1, 3, 1.0, 2.5, 1.4, 1.2, 2.4, 2.5, 1.4, 1.2, 2.4])
-    qs = rng.uniform(low, high, (20 if quick else 100, 12))
+    qs = rng.uniform(low, high, (sizes.ik_samples, 12))
     errors, times = [], []
     for q in qs:
         noisy = body.points(q) + rng.normal(0, 0.01, (8, 3))
@@ -91,13 +109,13 @@ def bench_core(quick: bool) -> dict:
     return out
 
 
-def bench_drake(quick: bool) -> dict:
+def bench_drake(sizes: Sizes) -> dict:
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
 
     from hrc_drake.human.systems import DepthCamera, OperatorSource
 
-    sim_time = 20.0 if quick else 120.0
+    sim_time = sizes.sim_time
     op = make_operator()
     builder = DiagramBuilder()
     source = builder.AddSystem(OperatorSource(op, rate=50.0))
@@ -111,26 +129,29 @@ def bench_drake(quick: bool) -> dict:
     step = sim_time / 4
     for k in range(1, 5):
         simulator.AdvanceTo(k * step)
-        print(f"  drake: simulated {k * step:.0f} / {sim_time:.0f} s", flush=True)
+        print(f"  drake: simulated {k * step:g} / {sim_time:g} s", flush=True)
     wall = time.perf_counter() - start
-    actions = sum(1 for e in source.events if e.kind == "end")
+    # the operator lives in the context (the system holds only its initial copy)
+    operator = source.operator(source.GetMyContextFromRoot(simulator.get_context()))
+    actions = sum(1 for e in operator.events if e.kind == "end")
     return {"drake_operator_camera_realtime_factor": sim_time / wall, "drake_sim_s": sim_time,
             "drake_actions_done": actions}
 
 
-def bench_real_ik(quick: bool) -> dict:
+def bench_real_ik(sizes: Sizes) -> dict:
     """IK of the 12-dof model on real upper-limb frames (LEGO assembly, RealSense + OpenPose)."""
     root = data_root() / "lego_assembly_arm"
     if not root.is_dir():
         print(f"  real data: {root} absent, skipped")
         return {}
     files = sorted(root.glob("Task*/Human*/trial*.txt"))
-    files = files[:1] if quick else files
+    files = files[: sizes.real_files]
     residuals, times, frames = [], [], 0
     for path in files:
         raw = np.loadtxt(path)
         raw = raw[np.all(np.isfinite(raw), axis=1)]
-        raw = raw[:200] if quick else raw[::5]  # every 5th frame keeps the full run within minutes
+        # every 5th frame keeps the full run within minutes
+        raw = raw[: sizes.real_frames] if sizes.real_frames else raw[::5]
         # camera frame (x right, y down, z depth) -> world (x, depth, up); the subject faces -y
         cam = raw.reshape(-1, 6, 3)
         world = np.stack([cam[..., 0], cam[..., 2], -cam[..., 1]], -1)
@@ -162,16 +183,19 @@ def bench_real_ik(quick: bool) -> dict:
             "real_ik_ms": float(np.median(times)) * 1e3}
 
 
-def main():
+def main(argv: list[str] | None = None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="small run (< 1 min)")
-    args = parser.parse_args()
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    args = parser.parse_args(argv)
+    sizes = SMOKE if args.smoke else QUICK if args.quick else FULL
     print("human core ...", flush=True)
-    figures = bench_core(args.quick)
+    figures = bench_core(sizes)
     print("drake diagram ...", flush=True)
-    figures.update(bench_drake(args.quick))
+    figures.update(bench_drake(sizes))
     print("IK on real data ...", flush=True)
-    figures.update(bench_real_ik(args.quick))
+    figures.update(bench_real_ik(sizes))
     figures = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in figures.items()}
     print()
     print(f"{'figure':45s} {'value':>12s}")

@@ -33,7 +33,7 @@ and the distance before recognition (Fig. 3.9). Thesis claim (Table 3.1): with t
 fewer false positives than M2 and than [135]; `claims` says whether it holds here, from a 95 %
 bootstrap interval over test operators of the paired difference. Speed: one update, 2 hands x 5 goals.
 
-    python tools/bench_intention.py [--quick] [--operators N] [--reaches N] [--seed S] [--ideal]
+    python tools/bench_intention.py [--quick | --smoke] [--operators N] [--reaches N] [--seed S] [--ideal]
 The last line printed is one JSON object with the figures.
 """
 
@@ -315,20 +315,29 @@ def _finite(value):
     return value
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="few operators, under a minute")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--operators", type=int, default=None, help="test operators per layout")
     parser.add_argument("--reaches", type=int, default=None, help="reaches per test operator")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--ideal", action="store_true", help="ideal operators in every split (old figures)")
     args = parser.parse_args(argv)
-    n_test = args.operators or (2 if args.quick else 10)
-    n_reaches = args.reaches or (18 if args.quick else 36)
-    n_train, train_reaches, max_components = (4, 20, 4) if args.quick else (24, 40, 12)
-    n_validation, validation_reaches = (2, 20) if args.quick else (6, 40)
+    if args.smoke:  # one operator per split and layout, one cycle of the box cell
+        n_test, n_reaches, n_train, train_reaches, max_components = 1, 10, 1, 10, 1
+        n_validation, validation_reaches, n_calls = 1, 10, 50
+    elif args.quick:
+        n_test, n_reaches, n_train, train_reaches, max_components = 2, 18, 4, 20, 4
+        n_validation, validation_reaches, n_calls = 2, 20, 300
+    else:
+        n_test, n_reaches, n_train, train_reaches, max_components = 10, 36, 24, 40, 12
+        n_validation, validation_reaches, n_calls = 6, 40, 3000
+    n_test = args.operators or n_test
+    n_reaches = args.reaches or n_reaches
     load_start = os.getloadavg()
     start = time.time()
     behaviour = None if args.ideal else RealisticBehaviour()
@@ -380,7 +389,6 @@ def main(argv=None) -> int:
         for key, c in entry.items():
             print(f"  {name:>11} {key:<32} {c['diff_pct']:>7.2f} [{c['ci95'][0]:.2f}, {c['ci95'][1]:.2f}] "
                   f"{c['verdict']}")
-    n_calls = 300 if args.quick else 3000
     speed = update_speed(model, layouts[-1], n_calls)
     speed_np = update_speed(model, layouts[-1], n_calls, goal_std=0.03, n_goal_samples=20)
     print(f"\nM3 update, 2 hands x 5 goals: median {1e6 * speed:.0f} us "

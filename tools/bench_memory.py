@@ -12,8 +12,9 @@ Prints one line per run, then as its last line one JSON object with, per duratio
 
 Usage:
     PYTHONPATH=. python3 tools/bench_memory.py [--scenario diagrams/torch_clock.yaml]
-                                               [--durations 600 7200] [--no-replay]
+                                               [--durations 600 7200] [--no-replay] [--smoke]
 A 2 h torch_clock run takes ~40 s on a 2-core machine (~200x real time), ~80 s with a replay.
+--smoke: one duration of 1 s (with its replay run): the whole path in ~10 s, figures meaningless.
 """
 
 from __future__ import annotations
@@ -51,13 +52,16 @@ def measure(scenario: str, duration: float, replay: Path | None, out: Path) -> d
             "replay_mb": round(replay.stat().st_size / 1e6, 2) if replay is not None else None}
 
 
-def main(argv=None) -> dict:
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default="diagrams/torch_clock.yaml")
     parser.add_argument("--durations", type=float, nargs="+", default=[600.0, 7200.0])
     parser.add_argument("--no-replay", action="store_true", help="skip the runs that write a replay")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     args = parser.parse_args(argv)
-    durations = sorted(args.durations)
+    # one short duration: the shortest and the longest run are the same (a change of 0 %)
+    durations = [1.0] if args.smoke else sorted(args.durations)
     result: dict = {"scenario": args.scenario}
     with tempfile.TemporaryDirectory() as tmp:
         for duration in durations:

@@ -24,7 +24,8 @@ With --sweep-hyperparameters, only model C with its kernel's hyperparameters re-
 every k-th model refresh (`hyperparameter_every` k = 1, 2, 4, 8; 1 is the thesis): eps+/- and
 violation rates pooled over all joints and sequences, and the mean model update time.
 
-Usage: python tools/bench_motion.py [--quick] [--no-cell | --cell-only | --sweep-hyperparameters].
+Usage: python tools/bench_motion.py [--quick | --smoke] [--no-cell | --cell-only | --sweep-hyperparameters].
+--smoke: every part once on the shortest sequences and runs, in this process (figures meaningless).
 Last line: one JSON object.
 """
 
@@ -472,16 +473,23 @@ def after_first_plan(runs, out: dict) -> None:
 def proactive_comparison(seeds, duration: float, workers: int = 2) -> dict:
     """Proactive vs nominal paths on the 8.2.4 cell (thesis: distance up, p = 1 - 1e-7 in its
     notation; idle time down, p = 0.9984), one run per (arm, seed). The test is a one-sided
-    Wilcoxon rank-sum on the runs' median distances (proactive greater)."""
+    Wilcoxon rank-sum on the runs' median distances (proactive greater). workers = 1: the runs
+    one after the other in this process."""
     jobs = [(arm, seed, duration) for arm in (True, False) for seed in seeds]
-    from concurrent.futures import ProcessPoolExecutor
 
-    runs = []
-    with ProcessPoolExecutor(workers) as pool:
-        for job, run in zip(jobs, pool.map(_run_proactive_args, jobs), strict=True):
-            runs.append(run)
-            print(f"  {'proactive' if job[0] else 'nominal':<9} seed {job[1]}: done "
-                  f"({run['wall_s']:.0f} s wall)", flush=True)
+    def done(job, run: dict) -> dict:
+        print(f"  {'proactive' if job[0] else 'nominal':<9} seed {job[1]}: done "
+              f"({run['wall_s']:.0f} s wall)", flush=True)
+        return run
+
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(workers) as pool:
+            finished = pool.map(_run_proactive_args, jobs)
+            runs = [done(job, run) for job, run in zip(jobs, finished, strict=True)]
+    else:
+        runs = [done(job, run_proactive_cell(*job)) for job in jobs]
     return summarise_proactive(runs, seeds, duration)
 
 
@@ -670,18 +678,23 @@ def cycle_time_section(scenario, seeds, duration, workers) -> dict:
     return comparison
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small run, under a minute")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--no-cell", action="store_true", help="skip the cycle-time comparison in the cell")
     parser.add_argument("--cell-only", action="store_true", help="only the cycle-time comparison")
     parser.add_argument("--no-proactive", action="store_true",
                         help="skip the proactive-path comparison (8.2.4)")
     parser.add_argument("--sweep-hyperparameters", action="store_true",
                         help="only the sweep of hyperparameter_every (model C, P = 2 and 4)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     warnings.filterwarnings("ignore")
-    if args.quick:
+    if args.smoke:  # a few samples past the 3 s warm-up and one horizon; few Monte Carlo trials
+        orders, sim_seconds, lego_limit, lego_frames, n_trials = (4,), 4.0, 1, 55, 5
+        kinds_orders = [(k, 4) for k in KINDS] + [("gp_c_filtered", 4)]
+    elif args.quick:
         orders, sim_seconds, lego_limit, lego_frames, n_trials = (4,), 20.0, 1, 300, 30
         kinds_orders = [(k, 4) for k in KINDS] + [("gp_c", 1), ("gp_c_filtered", 4)]
     else:
@@ -765,15 +778,19 @@ def main() -> None:
         "cycle_time": REPO / "diagrams" / "variants" / "box_pcb_coexistence_swept_volumes.yaml",
         "cycle_time_declared": REPO / "diagrams" / "box_pcb_coexistence.yaml",
     }
-    seeds, duration = ((5,), 12.0) if args.quick else (tuple(range(5, 15)), 75.0)  # 10 per arm
+    if args.smoke:
+        seeds, duration = (5,), 1.0
+    else:
+        seeds, duration = ((5,), 12.0) if args.quick else (tuple(range(5, 15)), 75.0)  # 10 per arm
+    in_process = args.quick or args.smoke
     for key, scenario in cell_scenarios.items():
         if args.no_cell or not scenario.exists():
             print(f"cycle-time comparison on {scenario.name}: switched off")
             figures[key] = None
             continue
-        figures[key] = cycle_time_section(scenario, seeds, duration, workers=1 if args.quick else 2)
+        figures[key] = cycle_time_section(scenario, seeds, duration, workers=1 if in_process else 2)
 
-    timings = proactive_timings()
+    timings = proactive_timings(repeats=1 if args.smoke else 3)
     print(f"\nproactive pipeline (hand-made YuMi problem): cloud at G = 25 "
           f"{timings['cloud_ms_G25']:.0f} ms, "
           f"STOMP path of 43 waypoints {timings['stomp_path_ms_G25']:.0f} ms (thesis: 1.23 s per path "
@@ -783,10 +800,11 @@ def main() -> None:
     if args.quick or args.no_proactive or not PROACTIVE_SCENARIO.exists():
         print(f"proactive vs nominal paths on {PROACTIVE_SCENARIO.name}: switched off")
     else:
-        seeds, duration = tuple(range(11, 18)), 600.0  # the databases fill after ~250 s
+        # the databases fill after ~250 s: a smoke run ends before any replanning
+        seeds, duration = ((11,), 1.0) if args.smoke else (tuple(range(11, 18)), 600.0)
         print(f"proactive vs nominal paths on {PROACTIVE_SCENARIO.name}: seeds {list(seeds)}, "
               f"{duration:.0f} s each ...", flush=True)
-        comparison = proactive_comparison(seeds, duration)
+        comparison = proactive_comparison(seeds, duration, workers=1 if args.smoke else 2)
         print_proactive(comparison)
         figures["proactive"] = comparison["proactive"]
         figures["nominal"] = comparison["nominal"]

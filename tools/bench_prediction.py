@@ -1,6 +1,6 @@
 """Benchmark of the activity prediction (thesis Ch. 5): Fig. 5.4, Fig. 5.7, IKEA ASM data, speed.
 
-Usage: python tools/bench_prediction.py [--quick]
+Usage: python tools/bench_prediction.py [--quick | --smoke]
 Prints readable tables and, as its last line, one JSON object with the figures.
 """
 
@@ -383,13 +383,20 @@ def bench_speed(repeats: int) -> dict:
     return result
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer seeds and series (< 1 min)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--series", type=int, default=100, help="Fig. 5.7 series in the full run")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     start = time.perf_counter()
-    if args.quick:
+    if args.smoke:
+        fig54 = bench_fig54(seeds=1, lengths=[16])
+        fig57 = bench_fig57(n_series=1, orders=[2])
+        ikea = bench_ikea(max_held_out=1)
+        speed = bench_speed(repeats=7)
+    elif args.quick:
         fig54 = bench_fig54(seeds=1, lengths=[16, 256])
         fig57 = bench_fig57(n_series=2, orders=[2, 3])
         ikea = bench_ikea(max_held_out=1)

@@ -8,7 +8,10 @@ a collision-free path) and alpha, several STOMP seeds each. Per setting: J_Rep a
 nominal and the proactive path, the mean joint deformation (rad per waypoint), and the smallest
 distance of the arm's control points (elbow, tool) to the cloud points.
 
-    python tools/bench_proactive_sweep.py [--seeds 3]
+    python tools/bench_proactive_sweep.py [--seeds 3] [--smoke]
+
+--smoke: a planner that replans as soon as the operator's first cover from buffer 2 is recorded
+(`SMOKE_PLANNER`, ~20 s simulated instead of ~220 s), one setting, one seed: figures meaningless.
 
 Last line: one JSON object, `sweep` (a list of settings with their figures) and `replan_time_s`.
 """
@@ -16,6 +19,7 @@ Last line: one JSON object, `sweep` (a list of settings with their figures) and 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -30,16 +34,22 @@ sys.path.insert(0, str(REPO))
 SCENARIO = REPO / "diagrams" / "box_usb_proactive.yaml"
 RATIOS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
 ALPHAS = (5.0, 10.0, 20.0)
+#: --smoke's planner: one realisation of the operator's first cover (buffer 2, done at ~20 s) fills
+#: its only database, and it replans every 5 s (the scenario's: three of each cover, ~220 s)
+SMOKE_PLANNER = {"capacity": 1, "human_actions": ["cover_b2"], "replan_period": 5.0}
 
 
-def first_replanning(path: Path, limit: float = 900.0):
-    """The planner's core (a copy) right after its first replanning, and that time."""
+def first_replanning(path: Path, limit: float = 900.0, planner_changes: dict | None = None):
+    """The planner's core (a copy) right after its first replanning, and that time.
+    planner_changes: fields of the scenario's `ProactivePlanner` replaced before the cell is built."""
     from pydrake.systems.analysis import Simulator
 
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.scenario import load_scenario
 
     scenario = load_scenario(path)
+    if planner_changes:
+        scenario.proactive_planner = dataclasses.replace(scenario.proactive_planner, **planner_changes)
     cell = build_cell(scenario, path)
     simulator = Simulator(cell.diagram)
     context = simulator.get_mutable_context()
@@ -62,16 +72,19 @@ def nearest_cloud_distance(chain, path, points) -> float:
                      for k in range(len(control))))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3, help="STOMP seeds per setting (default 3)")
-    args = parser.parse_args()
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    args = parser.parse_args(argv)
+    ratios, alphas, seeds = ((0.5,), (10.0,), 1) if args.smoke else (RATIOS, ALPHAS, args.seeds)
     warnings.filterwarnings("ignore")
     from hrc_drake.motion.clouds import weighted_union
     from hrc_drake.motion.stomp import ProactiveCost, plan_proactive_path
 
     print(f"running {SCENARIO.name} to its first replanning ...", flush=True)
-    core, when = first_replanning(SCENARIO)
+    core, when = first_replanning(SCENARIO, planner_changes=SMOKE_PLANNER if args.smoke else None)
     weights = core.interaction.matrix(when)[0]
     clouds, _, _ = core.clouds()
     union = weighted_union(clouds, weights)
@@ -83,13 +96,13 @@ def main() -> None:
     print(f"{'l1/l2':>6} {'alpha':>6} {'J_Rep nom':>10} {'J_Rep pro':>10} {'dq rad':>7} {'dist m':>7} "
           f"{'ms':>6}")
     sweep = []
-    for alpha in ALPHAS:
-        for ratio in RATIOS:
+    for alpha in alphas:
+        for ratio in ratios:
             cost = ProactiveCost(core.chain.capsules, core.chain.points, core.nominal, points, gamma,
                                  core.boxes, ratio, 1.0, alpha)
             j_rep_nominal = float(cost.terms(core.nominal[1:-1])[1].sum())
             rows = []
-            for seed in range(args.seeds):
+            for seed in range(seeds):
                 start = time.perf_counter()
                 result = plan_proactive_path(core.nominal, cost, core.chain.joint_limits,
                                              np.random.default_rng(seed), n_rollouts=s.n_rollouts,

@@ -25,8 +25,11 @@ gpdm (8.2) `real_gpdm`: one GPDM per reach kind fitted on the same person's othe
     one out) predicts the arm 0.3 s ahead, against constant-velocity extrapolation.
 
 Usage:
-    python3 tools/bench_real.py [--quick] [--data DIR] [--parts prediction,tracking,intention,gpdm]
+    python3 tools/bench_real.py [--quick | --smoke] [--data DIR] [--parts prediction,tracking,intention,gpdm]
         [--trials N] [--seconds S]
+--smoke: every part once on the smallest setting (one trial per set, 3.5 s each, only the trials
+taken are read, 5 Monte Carlo trials, 50 particles, the other tools' quick settings): figures
+meaningless.
 Last line: one JSON object (frames_imported.<set>, prediction.<model>.*,
 prediction_synthetic.<model>.*, tracking.<tracker>.*, tracking_synthetic.<tracker>.*,
 intention.<model>.*, intention_synthetic.<model>.*, gpdm.*, gpdm_synthetic.*).
@@ -92,9 +95,11 @@ def log(text: str) -> None:
     print(text, flush=True)
 
 
-def recordings(root: Path, trials: int | None, seconds: float | None) -> tuple[dict, list]:
+def recordings(root: Path, trials: int | None, seconds: float | None,
+               read_all: bool = True) -> tuple[dict, list]:
     """(frames imported per set, [(name, points (T, 8, 3) at RATE, z up)]) of the first `trials`
-    trials of each set under `root` (None: all), each cut to `seconds` (None: whole)."""
+    trials of each set under `root` (None: all), each cut to `seconds` (None: whole). read_all:
+    every trial is read to count the frames of the sets (else only the trials taken)."""
     frames, out = {}, []
     sources = []
     try:
@@ -120,9 +125,12 @@ def recordings(root: Path, trials: int | None, seconds: float | None) -> tuple[d
     taken: dict[str, int] = {}
     for name, read in sources:
         kind = name.split(":")[0]
+        enough = trials is not None and taken.get(kind, 0) >= trials
+        if enough and not read_all:
+            continue
         recording = read()
         frames[kind] = frames.get(kind, 0) + recording.frames
-        if trials is not None and taken.get(kind, 0) >= trials:
+        if enough:
             continue
         taken[kind] = taken.get(kind, 0) + 1
         placed, _, _ = place_in_cell(synthesize_missing(recording), Placement())
@@ -282,6 +290,12 @@ def prediction_part(sequences, seconds_synthetic: float, n_trials: int) -> dict:
     return figures
 
 
+def with_particles(specs: dict, particles: int) -> dict:
+    """The tracker specs with every particle filter's particle count set to `particles`."""
+    return {name: (kind, {**options, "particles": particles} if "particles" in options else options)
+            for name, (kind, options) in specs.items()}
+
+
 def gpdm_part(root: Path, quick: bool) -> dict:
     """8.2's GPDM on the seated reaches (`real_gpdm`): the same person's other trials train it."""
     result = gpdm_figures(root, seed=0, quick=quick)
@@ -289,29 +303,37 @@ def gpdm_part(root: Path, quick: bool) -> dict:
             "gpdm_settings": result["settings"], "gpdm_sweep": result["sweep"]}
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help="one trial per set, 12 s each (about a minute)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--trials", type=int, default=None, help="trials per set (default: all)")
     parser.add_argument("--seconds", type=float, default=None,
                         help="cut each recording to this length (default: whole)")
     parser.add_argument("--data", default=None, help="a data folder laid out like data/ (default: it)")
     parser.add_argument("--parts", default=",".join(PARTS),
                         help=f"comma-separated parts to run (default: all of {','.join(PARTS)})")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     unknown = set(args.parts.split(",")) - set(PARTS)
     if unknown:
         parser.error(f"--parts: unknown {sorted(unknown)}; known: {', '.join(PARTS)}")
     warnings.filterwarnings("ignore")
-    if args.quick:
+    trackers = TRACKER_SPECS
+    if args.smoke:  # past the 3 s warm-up by a few horizons: the prediction is tested at a few steps
+        trials, seconds, n_trials, synthetic_s = 1, 3.5, 5, 3.5
+        trackers = with_particles(TRACKER_SPECS, 50)
+    elif args.quick:
         trials, seconds, n_trials, synthetic_s = 1, 12.0, 30, 12.0
     else:
         trials, seconds, n_trials, synthetic_s = args.trials, args.seconds, 50, 120.0
+    # the other tools have a quick setting, none smaller
+    quick = args.quick or args.smoke
     root = data_root(args.data)
     log(f"real recordings from {root} ({trials or 'all'} trial(s) per set, "
         f"{f'{seconds:g} s' if seconds else 'whole'} each, {RATE:g} Hz)")
-    frames, sequences = recordings(root, trials, seconds)
+    frames, sequences = recordings(root, trials, seconds, read_all=not args.smoke)
     log(f"imported frames per set: {frames}")
     figures = {
         "quick": bool(args.quick),
@@ -328,17 +350,17 @@ def main() -> None:
     if "tracking" in parts:
         log("\n== tracking (Ch. 9): real and synthetic arms through the cell's camera, occluders added")
         figures.update(tracking_figures(sequences, synthetic_points(synthetic_s, seed=7), seed=0,
-                                        quick=args.quick, trackers=TRACKER_SPECS))
+                                        quick=quick, trackers=trackers))
     if "intention" in parts:
         log("\n== intention (3.1): the seated reaches, forward / across / rest")
-        intention = intention_figures(root, seed=0, quick=args.quick)
+        intention = intention_figures(root, seed=0, quick=quick)
         figures["intention_detail"] = intention
         for key, value in intention_keys(intention).items():
             prefix, model, name = key.split(".")
             figures.setdefault(prefix, {}).setdefault(model, {})[name] = value
     if "gpdm" in parts:
         log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")
-        figures.update(gpdm_part(root, args.quick))
+        figures.update(gpdm_part(root, quick))
     print(json.dumps(figures))
 
 

@@ -1,6 +1,6 @@
 """Benchmark of the robot models: geometry checks, capsule kinematics, IK and discrete-plant speed.
 
-Usage: python tools/bench_robots.py [--quick]
+Usage: python tools/bench_robots.py [--quick | --smoke]
 Prints a table and, as its last line, one JSON object with the figures (times are medians).
 """
 
@@ -150,12 +150,19 @@ def time_discrete(time_step, sim_time):
     return sim_time / wall, float(np.max(np.abs(q - q_goal)))
 
 
-def main():
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="small sample sizes (< 1 min)")
-    args = parser.parse_args()
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    args = parser.parse_args(argv)
     rng = np.random.default_rng(0)
-    n_reach, n_caps, n_ik, sim_time = (20000, 2000, 20, 1.0) if args.quick else (200000, 20000, 100, 5.0)
+    if args.smoke:
+        n_reach, n_caps, n_ik, sim_time = 200, 20, 2, 0.05
+    elif args.quick:
+        n_reach, n_caps, n_ik, sim_time = 20000, 2000, 20, 1.0
+    else:
+        n_reach, n_caps, n_ik, sim_time = 200000, 20000, 100, 5.0
 
     plant, yumi, irb = kinematic_plant()
     results = geometry_checks(plant, yumi, irb)

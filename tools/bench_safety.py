@@ -16,6 +16,7 @@ permissible speeds).
     python tools/bench_safety.py --duration 300 --seeds 2 --declared-seeds 5 \
         --falsify OUT/falsify_pcb_ic/report.json ...   # issue 51's bench (about an hour on 2 cores)
     python tools/bench_safety.py diagrams/torch_clock.yaml --modes declared,none
+    python tools/bench_safety.py --smoke          # seconds: one small cell, 2 s, declared and none
 
 Last line: one JSON object with `cells_with_violations` (cells in whose declared mode the standard
 judge finds violations), `violations.<cell>`, `worst_ratio.<cell>` (declared mode, max over regions and seeds;
@@ -48,6 +49,7 @@ import sys
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -252,19 +254,26 @@ def separation_at_rest(path: str, horizon: float = 0.3) -> dict:
             else round(nearest, 3)}
 
 
-def main() -> None:
+#: the cell of --smoke: the quickest shipped cell to build and simulate
+SMOKE_CELL = REPO / "diagrams" / "box_usb.yaml"
+
+
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenarios", nargs="*", help="scenario files (default: every diagrams/*.yaml)")
     parser.add_argument("--duration", type=float, default=120.0, help="simulated s per run (default 120)")
     parser.add_argument("--seeds", type=int, default=2,
                         help="runs per (cell, mode): the scenario's seed, then seed + 1, ... (default 2)")
     parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated subset of {MODES}")
-    parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="worker processes (default 2; 1: the runs in this process)")
     parser.add_argument("--declared-seeds", type=int, default=None,
                         help="runs of the declared mode (default: --seeds)")
     parser.add_argument("--falsify", nargs="*", default=(), metavar="REPORT",
                         help="report.json files of falsification searches, for the falsify.* keys")
     parser.add_argument("--quick", action="store_true", help="20 s runs, one seed (under 5 minutes)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--plot", type=Path, default=None, metavar="PNG",
                         help="draw the products per cell and mode (bars) to this file")
     parser.add_argument("--before", type=Path, default=None, metavar="LOG",
@@ -272,7 +281,7 @@ def main() -> None:
                              "'before' bar beside this run's (the before/after picture)")
     parser.add_argument("--figures", type=Path, default=None, metavar="LOG",
                         help="run nothing: plot the figures of an earlier run's output (its last line)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     before = None if args.before is None else last_json(args.before)["products"]
     if args.figures is not None:
         if args.plot is None:
@@ -282,6 +291,10 @@ def main() -> None:
         return
     if args.quick:
         args.duration, args.seeds = 20.0, 1
+    if args.smoke:  # one small cell with and without its safety system, in this process
+        args.duration, args.seeds, args.declared_seeds, args.workers = 2.0, 1, 1, 1
+        args.modes = "declared,none"
+        args.scenarios = args.scenarios or [str(SMOKE_CELL)]
     modes = [m for m in args.modes.split(",") if m]
     unknown = sorted(set(modes) - set(MODES))
     if unknown:
@@ -299,8 +312,9 @@ def main() -> None:
           f"{'worst':>6} {'stops':>6} {'breach s':>8} {'contacts':>8} {'PFL cpu':>7} {'cpu s':>6}",
           flush=True)
     rows = []
-    with ProcessPoolExecutor(max(1, args.workers)) as pool:
-        for row in pool.map(_run, jobs):
+    # one worker: the runs in this process, one after the other (no process to start)
+    with nullcontext(None) if args.workers <= 1 else ProcessPoolExecutor(args.workers) as pool:
+        for row in map(_run, jobs) if pool is None else pool.map(_run, jobs):
             rows.append(row)
             worst = row["worst_ratio"]
             worst = "-" if worst is None else (worst if isinstance(worst, str) else f"{worst:.2f}")
@@ -421,7 +435,8 @@ def figures(rows: list[dict], args) -> dict:
     transient, quasi = pfl_speeds(3.0)
     out["pfl_speed_mps"] = transient
     out["pfl_speed_quasi_static_mps"] = quasi
-    out["effective_mass_us"], out["effective_mass_cached_us"] = time_effective_mass()
+    repeats = 4 if getattr(args, "smoke", False) else 400
+    out["effective_mass_us"], out["effective_mass_cached_us"] = time_effective_mass(repeats)
     return out
 
 

@@ -12,6 +12,11 @@ trials before issue 38), so each one's effect is measured side by side.
 Prints a table and, as the last line, one JSON object with the figures (latencies as medians).
 `--only SECTION ...` runs some of the sections (latency, fig7_12, use_case_a, use_case_b,
 use_case_c).
+
+    python tools/bench_scheduling.py [--quick | --smoke] [--only SECTION ...]
+
+--quick: small campaigns (about a minute); --smoke: the --quick path with one run of the fewest
+cycles, products and trials per arm (seconds; figures meaningless; the tests run it).
 """
 
 from __future__ import annotations
@@ -29,6 +34,14 @@ from hrc_drake.scheduling.baselines import BestOfRolloutsPlanPolicy, RandomEnabl
 from hrc_drake.scheduling.cellsim import simulate_cell
 from hrc_drake.scheduling.compiler import compile_flow
 from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
+
+#: the bench's sizes: "smoke" (the whole --quick path once, seconds), "quick" (about a minute), "full"
+SIZES = ("smoke", "quick", "full")
+
+
+def pick(size: str, smoke, quick, full):
+    """The setting of the bench's `size` (one of `SIZES`)."""
+    return {"smoke": smoke, "quick": quick, "full": full}[size]
 
 
 def latency_ms(net, agent, n_trials, horizon, repeats, seed=0):
@@ -183,11 +196,11 @@ def make_policy(kind, net, seed, horizon=30.0, n_trials=100, programs=None):
     raise ValueError(f"make_policy: unknown kind {kind!r}")
 
 
-def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n_products=None):
+def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n_products=None, n_trials=100):
     """Each arm over `n_runs` seeded runs of `n_cycles` human pattern cycles (a cycle is then one
     pattern), or of `n_products` products (a cycle is then the time between two successive
     products, as Fig. 7.19 measures it). kinds: a list of `make_policy` kinds, or a dict
-    arm name -> kind."""
+    arm name -> kind; n_trials: the Monte Carlo arms' trials per decision."""
     arms = kinds if isinstance(kinds, dict) else {kind: kind for kind in kinds}
     out = {}
     for arm, kind in arms.items():
@@ -195,7 +208,7 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n
         for seed in range(n_runs):
             run = simulate_cell(
                 net,
-                make_policy(kind, net, seed, horizon, programs=programs),
+                make_policy(kind, net, seed, horizon, n_trials, programs=programs),
                 np.random.default_rng(1000 + seed),
                 n_cycles=n_cycles,
                 n_products=n_products,
@@ -232,21 +245,21 @@ def campaign(net, kinds, n_runs, n_cycles, label, horizon=30.0, programs=None, n
     return out
 
 
-def sweep_best_scenario(quick: bool) -> dict:
+def sweep_best_scenario(size: str) -> dict:
     """The settings the use case a best-scenario arm uses, each varied around its value: T_wait
     (the nets' collab patience, default 5 t_w = 15 s), the percentile levels of [P_c1, P_c2]
     and the HOMM order of the predictor; time per product, mean over the runs."""
     print("  sweep of the best-scenario arm (time per product, s):")
     out = {}
-    runs, cycles = (2, 4) if quick else (10, 10)
-    patiences = (6.0, 15.0) if quick else (3.0, 6.0, 15.0, 30.0)
-    all_levels = ((0.2, 0.8), (0.2, 0.5)) if quick else ((0.2, 0.8), (0.2, 0.5), (0.5, 0.8))
+    runs, cycles = pick(size, (1, 1), (2, 4), (10, 10))
+    patiences = pick(size, (15.0,), (6.0, 15.0), (3.0, 6.0, 15.0, 30.0))
+    all_levels = pick(size, ((0.2, 0.8),), ((0.2, 0.8), (0.2, 0.5)), ((0.2, 0.8), (0.2, 0.5), (0.5, 0.8)))
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         rows = {}
         for patience in patiences:
             for levels in all_levels:
-                for order in ((2,) if quick else (1, 2)):
+                for order in ((1, 2) if size == "full" else (2,)):
                     net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0,
                                        collab_patience=patience)
                     per_product = []
@@ -294,7 +307,7 @@ def sweep_fuzzy_max_nodes(quick: bool) -> dict:
     return out
 
 
-def sweep_fuzzy_weights(quick: bool) -> dict:
+def sweep_fuzzy_weights(size: str) -> dict:
     """w_1, w_2 of eq. (7.16) (the thesis: tunable, cost per hour of worker against robots), W_R
     in seconds (the thesis) and as t_w / T_sch per wait (the variant on W_H's scale), and the
     random tie rule: at event level on the torch_clock net (T_sch 50 s, t_w 5 s, round robin as
@@ -308,25 +321,25 @@ def sweep_fuzzy_weights(quick: bool) -> dict:
     root = Path(__file__).resolve().parents[1]
     scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
     net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
-    grid = ["1_1", "1_0.1", "10_1", "1_1_random", "1_1_frac", "1_0.1_frac", "10_1_frac"]
-    if quick:
-        grid = ["1_1", "1_1_frac"]
+    grid = pick(size, ["1_1_frac"], ["1_1", "1_1_frac"],
+                ["1_1", "1_0.1", "10_1", "1_1_random", "1_1_frac", "1_0.1_frac", "10_1_frac"])
     arms = {f"w{g}": f"fuzzy_w{g}" for g in grid} | {"round_robin": "round_robin"}
-    runs = campaign(net, arms, 2 if quick else 4, None, "fuzzy w", horizon=50.0, n_products=4 if quick else 6)
+    runs = campaign(net, arms, pick(size, 1, 2, 4), None, "fuzzy w", horizon=50.0,
+                    n_products=pick(size, 1, 4, 6))
     return {arm: {"human_idle_per_product": round(r["human_idle_per_product"], 3),
                   "time_per_product": round(r["time_per_product"], 3)} for arm, r in runs.items()}
 
 
-def fuzzy_reach(quick: bool) -> dict:
+def fuzzy_reach(size: str) -> dict:
     """How far the fuzzy tree reaches on the torch_clock net at T_sch = 50 s per node cap, merged
     (exact DAG, the default) and literal (Algorithm 5's tree): nodes, depth reached, latency."""
-    caps = (300, 3000) if quick else (300, 1000, 3000, 10000)
+    caps = pick(size, (300,), (300, 3000), (300, 1000, 3000, 10000))
     out = {}
     # the full horizon (merged): 300,000 nodes reach T_sch in every tree measured, at ~35 s a
     # decision, so 3 decisions and only in the full run
-    per_cap = 3 if quick else 10
+    per_cap = pick(size, 1, 3, 10)
     runs = [(merge, cap, per_cap) for merge in (True, False) for cap in caps]
-    if not quick:
+    if size == "full":
         runs.append((True, 300_000, 3))
     for merge, cap, decisions in runs:
         f = fuzzy_latency_ms(decisions, max_nodes=cap, merge=merge)["fuzzy"]
@@ -375,12 +388,12 @@ def sweep_checked_stock(quick: bool) -> dict:
     return out
 
 
-def sweep_min_branch_samples(quick: bool) -> dict:
+def sweep_min_branch_samples(size: str) -> dict:
     """Algorithm 4's rule (b) with branch pooling: trials every child of a controllable
     branching needs (1 = as written) against the time per product on use case a (waits on the
     t_w grid)."""
-    values = (1, 20) if quick else (1, 5, 10, 20, 40)
-    runs, cycles = (2, 4) if quick else (10, 10)
+    values = pick(size, (20,), (1, 20), (1, 5, 10, 20, 40))
+    runs, cycles = pick(size, (1, 1), (2, 4), (10, 10))
     out = {}
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_a(pat)
@@ -402,14 +415,14 @@ def sweep_min_branch_samples(quick: bool) -> dict:
     return out
 
 
-def latencies(quick: bool, result: dict) -> None:
+def latencies(size: str, result: dict) -> None:
     """The decision latencies, written into `result`."""
     print("Decision latency of the Monte Carlo scheduler (median over repeats, ms)")
     flow, buffers, pattern, robots = tc.fig_7_6()
     net76 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0)
     thesis = {10: 23.9, 20: 35.4, 30: 85.0}
     for horizon in (10, 20, 30):
-        ms = latency_ms(net76, "robot", 100, float(horizon), 5 if quick else 20)
+        ms = latency_ms(net76, "robot", 100, float(horizon), pick(size, 1, 5, 20))
         result[f"latency_fig7_6_T{horizon}_ms"] = ms
         print(
             f"  Fig. 7.6, N=100, T_sch={horizon:2d} s: {ms:7.1f} ms   (thesis {thesis[horizon]} ms)",
@@ -433,7 +446,7 @@ def latencies(quick: bool, result: dict) -> None:
     m[net_b.place_index["space:tested"]] -= 1
     sched = MonteCarloPolicy(net_b, n_trials=150, horizon=30.0, random_state=0)
     times = []
-    for _ in range(5 if quick else 20):
+    for _ in range(pick(size, 1, 5, 20)):
         t0 = time.perf_counter()
         sched.decide(m, "yumi_right")
         times.append(time.perf_counter() - t0)
@@ -444,18 +457,18 @@ def latencies(quick: bool, result: dict) -> None:
     flow, buffers, pattern, robots = tc.use_case_a(1)
     net_a1 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
     programs_a1 = {"yumi_left": ["fuse", "check"]}
-    median, worst, nodes, count = bnb_latency_ms(net_a1, programs_a1, 10 if quick else 60)
+    median, worst, nodes, count = bnb_latency_ms(net_a1, programs_a1, pick(size, 2, 10, 60))
     result["latency_bnb_use_case_a_ms"] = median
     result["latency_bnb_use_case_a_max_ms"] = worst
     result["bnb_use_case_a_nodes_median"] = nodes
     print(f"  best scenario (7.2), use case a, T_sch = 60 s: {median:7.2f} ms median, {worst:.2f} ms max, "
           f"{nodes} nodes ({count} decisions; the thesis gives no figure)", flush=True)
 
-    if not quick:
-        result["sweep_fuzzy_max_nodes"] = sweep_fuzzy_max_nodes(quick)
+    if size == "full":
+        result["sweep_fuzzy_max_nodes"] = sweep_fuzzy_max_nodes(quick=False)
         print("  fuzzy node cap (decision ms, trees cut, event-level idle per product): "
               + json.dumps(result["sweep_fuzzy_max_nodes"]), flush=True)
-    fuzzy = fuzzy_latency_ms(10 if quick else 50)
+    fuzzy = fuzzy_latency_ms(pick(size, 2, 10, 50))
     result["latency_fuzzy_T50_ms"] = fuzzy["fuzzy"]["ms_median"]
     result["latency_uniform_T50_ms"] = fuzzy["uniform"]["ms_median"]
     result["fuzzy_T50"] = fuzzy
@@ -468,13 +481,13 @@ def latencies(quick: bool, result: dict) -> None:
     f = fuzzy["fuzzy"]
     result["fuzzy"] = {key: f[key] for key in ("depth_reached_s_median", "nodes_median", "ties_pct",
                                                "ms_median", "truncated", "decisions")}
-    result["fuzzy"]["reach"] = fuzzy_reach(quick)
-    result["fuzzy"]["sweep_weights"] = sweep_fuzzy_weights(quick)
+    result["fuzzy"]["reach"] = fuzzy_reach(size)
+    result["fuzzy"]["sweep_weights"] = sweep_fuzzy_weights(size)
     print("  fuzzy w_1, w_2 (event level, idle per product, time per product): "
           + json.dumps(result["fuzzy"]["sweep_weights"]), flush=True)
 
 
-def use_case_a_campaign(quick: bool) -> dict:
+def use_case_a_campaign(size: str) -> dict:
     """Use case a (7.5.1), patterns 1 and 2, and the sweeps of its best-scenario and Monte Carlo arms."""
     print(
         "Use case a (7.5.1), time per finished product (thesis, best-scenario scheduler of 7.2 vs "
@@ -488,12 +501,13 @@ def use_case_a_campaign(quick: bool) -> dict:
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_a(pat)
         net_a = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
-        runs, cycles = (2, 4) if quick else (20, 10)
+        runs, cycles = pick(size, (1, 1), (2, 4), (20, 10))
         # the literal trials (monte_carlo) wait t_w: the arms, which wait apart, never meet for the
         # two-arm check; the t_w grid lets them (T30 and pooling are measured on it)
         kinds = ["best_scenario", "monte_carlo", *MC_VARIANT_ARMS, "monte_carlo_T30+wait_grid",
                  "monte_carlo_pooled+wait_grid", "round_robin"]
-        arms = campaign(net_a, kinds, runs, cycles, f"a, pat {pat}", horizon=15.0, programs=programs[pat])
+        arms = campaign(net_a, kinds, runs, cycles, f"a, pat {pat}", horizon=15.0, programs=programs[pat],
+                        n_trials=pick(size, 10, 100, 100))
         bs, rr = arms["best_scenario"]["time_per_product_runs"], arms["round_robin"]["time_per_product_runs"]
         p_value = float(mannwhitneyu(bs, rr, alternative="less").pvalue) if len(bs) > 1 else None
         gain = 100 * (1 - arms["best_scenario"]["time_per_product"] / arms["round_robin"]["time_per_product"])
@@ -503,33 +517,36 @@ def use_case_a_campaign(quick: bool) -> dict:
         print(f"  a, pat {pat}: best scenario {gain:+.1f} % faster than round robin per product (thesis "
               f"{thesis_gain:+.1f} %), one-sided rank-sum p = {p_value}", flush=True)
         out[f"pattern{pat}"] = arms
-    out["sweep_best_scenario"] = sweep_best_scenario(quick)
-    out["sweep_min_branch_samples"] = sweep_min_branch_samples(quick)
-    if quick:  # the sweeps below are the full run's
+    out["sweep_best_scenario"] = sweep_best_scenario(size)
+    out["sweep_min_branch_samples"] = sweep_min_branch_samples(size)
+    if size != "full":  # the sweeps below are the full run's
         return out
-    out["sweep_checked_stock"] = sweep_checked_stock(quick)
+    out["sweep_checked_stock"] = sweep_checked_stock(quick=False)
     print("  checked boards in stock at the start (time per product, s): "
           + json.dumps(out["sweep_checked_stock"]), flush=True)
     return out
 
 
-def use_case_b_campaign(quick: bool) -> dict:
+def use_case_b_campaign(size: str) -> dict:
     """Use case b (7.5.2) on the reconstructed net (`thesis_cells.use_case_b`; t_w = 3 s, c_R = 0.5,
     c_H = 1.0, the carts' idle cost 0): Scheduler A (Monte Carlo on the observed delays, 7.3) against
     Scheduler B (the same on uniform delays between the smallest and the largest observed ones),
     N = 100, T_sch = 30 s, and the round robin as a reference; 9 products per run, a cycle is the
     time between two successive products (Fig. 7.19). One-sided rank-sum p of A < B on the runs'
     times per product (as use case a) and on the pooled cycle times (as Fig. 7.19)."""
-    runs = 2 if quick else 20
+    runs = pick(size, 1, 2, 20)
+    # a cycle is the time between two products: smoke makes the fewest that give one
+    n_products, n_trials = pick(size, (2, 10), (9, 100), (9, 100))
     arms = {"A": "monte_carlo", "B": "monte_carlo_uniform_support", "RR": "round_robin",
             **{f"A+{k[12:]}": k for k in MC_VARIANT_ARMS},
             "B+earlier": "monte_carlo_uniform_support+earlier"}
-    out = {"n_runs": runs, "n_products": 9, "n_trials": 100, "horizon": 30.0}
+    out = {"n_runs": runs, "n_products": n_products, "n_trials": n_trials, "horizon": 30.0}
     for pat in (1, 2):
         flow, buffers, pattern, robots = tc.use_case_b(pat)
         net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0, cost_robot=0.5,
                            cost_human=1.0, agent_costs=tc.USE_CASE_B_AGENT_COSTS)
-        result = campaign(net, arms, runs, None, f"b, pat {pat}", horizon=30.0, n_products=9)
+        result = campaign(net, arms, runs, None, f"b, pat {pat}", horizon=30.0, n_products=n_products,
+                          n_trials=n_trials)
         a, b = result["A"], result["B"]
         many = len(a["time_per_product_runs"]) > 1
         p_runs = (float(mannwhitneyu(a["time_per_product_runs"], b["time_per_product_runs"],
@@ -550,9 +567,9 @@ def use_case_b_campaign(quick: bool) -> dict:
               f"{early_b['cycle_median']:.2f} s median cycle; p (A < B) = {p_runs_early} (runs), "
               f"{p_cycles_early:.3g} (cycles)", flush=True)
         out[f"pattern{pat}"] = result
-    if quick:
+    if size != "full":
         return out
-    out["sweep"] = sweep_use_case_b(quick)
+    out["sweep"] = sweep_use_case_b(quick=False)
     print("  Scheduler A around T_sch = 30 s (time per product, s): " + json.dumps(out["sweep"]), flush=True)
     return out
 
@@ -566,37 +583,41 @@ MC_VARIANT_ARMS = ["monte_carlo+wait_grid", "monte_carlo+stratified_crn", "monte
 SECTIONS = ("latency", "fig7_12", "use_case_a", "use_case_b", "use_case_c")
 
 
-def main():
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="small campaigns, finishes in under a minute")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--only", nargs="+", choices=SECTIONS, default=list(SECTIONS), metavar="SECTION",
                         help=f"run only these sections ({', '.join(SECTIONS)}; default: all)")
-    args = parser.parse_args()
-    quick = args.quick
-    result = {"quick": quick, "sections": list(args.only),
+    args = parser.parse_args(argv)
+    size = "smoke" if args.smoke else "quick" if args.quick else "full"
+    quick = size != "full"  # the --quick path (smoke runs it too, smaller)
+    result = {"quick": args.quick, "size": size, "sections": list(args.only),
               "load_average_1min_start": round(os.getloadavg()[0], 2)}
     print(f"load average at start: {os.getloadavg()[0]:.2f} (2 cores shared)")
     if "latency" in args.only:
-        latencies(quick, result)
+        latencies(size, result)
     if "fig7_12" in args.only:
         print("Fig. 7.12 campaign on the Fig. 7.11 net (cycle = one human pattern A,A,B,B)")
         flow, buffers, pattern, robots = tc.fig_7_11()
         net711 = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
-        runs, cycles = (3, 3) if quick else (20, 10)
+        runs, cycles = pick(size, (1, 1), (3, 3), (20, 10))
         result["fig7_12"] = campaign(
             net711,
             ["monte_carlo", *MC_VARIANT_ARMS, "best_of_rollouts_plan", "random_enabled", "round_robin"],
-            runs, cycles, "Fig 7.11"
+            runs, cycles, "Fig 7.11", n_trials=pick(size, 10, 100, 100)
         )
     if "use_case_a" in args.only:
-        result["use_case_a"] = use_case_a_campaign(quick)
+        result["use_case_a"] = use_case_a_campaign(size)
     if "use_case_b" in args.only:
         print("Use case b (7.5.2, reconstructed net), 9 products per run, cycle = time between two products "
               "(thesis: Scheduler A has the lower median cycle on both patterns)")
-        result["use_case_b"] = use_case_b_campaign(quick)
+        result["use_case_b"] = use_case_b_campaign(size)
     if "use_case_c" in args.only:
         if quick:  # Drake cells: minutes per arm
-            print("Use case c (7.5.3) runs in the Drake cell: not in --quick (bench_use_case_c.py --quick)")
+            print("Use case c (7.5.3) runs in the Drake cell: not in --quick or --smoke "
+                  "(bench_use_case_c.py --quick)")
         else:
             import bench_use_case_c
 

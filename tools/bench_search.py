@@ -33,6 +33,7 @@ sections (`--only falsify|optimise` runs one).
     python tools/bench_search.py --quick      # under 5 minutes on 2 cores (2.7-4.3 min measured)
     python tools/bench_search.py --workers 2  # the full bench (51 min on 2 cores shared with other jobs)
     python tools/bench_search.py --only optimise
+    python tools/bench_search.py --smoke      # seconds, in this process; figures meaningless (the tests)
 """
 
 from __future__ import annotations
@@ -44,18 +45,21 @@ import statistics
 import sys
 import tempfile
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SEARCHES = REPO / "diagrams" / "searches"
 
-#: per cell: repeats, and the spec's changes (quick, full)
+#: per cell: repeats, and the spec's changes (smoke, quick, full)
 FALSIFY = {
     "falsify_pcb_ic": {
+        "smoke": (1, {"budget": 1, "batch": 1, "duration": 1.0, "optimizer": ("TPE", 1)}),
         "quick": (3, {"budget": 8, "batch": 4, "duration": 30.0, "optimizer": ("TPE", 4)}),
         "full": (5, {"budget": 24, "batch": 4, "duration": 60.0, "optimizer": ("TPE", 8)}),
     },
     "falsify_coexistence": {
+        "smoke": (1, {"budget": 1, "batch": 1, "duration": 1.0, "optimizer": ("TPE", 1)}),
         "quick": (2, {"budget": 4, "batch": 2, "duration": 15.0, "optimizer": ("TPE", 2)}),
         "full": (4, {"budget": 12, "batch": 4, "duration": 20.0, "optimizer": ("TPE", 4)}),
     },
@@ -63,6 +67,7 @@ FALSIFY = {
 #: the optimise preset's changes (full: longer runs than the shipped spec's 120 s, so that a mean
 #: cycle time averages about 7 products, and 6 fresh seeds per side)
 OPTIMISE = {
+    "smoke": {"budget": 1, "batch": 1, "duration": 1.0, "seeds": [1], "fresh_seeds": 1, "constraints": []},
     "quick": {"budget": 4, "batch": 2, "duration": 100.0, "seeds": [1], "fresh_seeds": 2, "constraints": []},
     "full": {"budget": 40, "duration": 240.0, "fresh_seeds": 6},
 }
@@ -91,8 +96,8 @@ def _load(name: str, **changes):
     return make_search(document, path)
 
 
-def overhead_ms(candidates: int = 40) -> float:
-    """Median wall time per candidate of a search whose runs cost nothing (3 repetitions)."""
+def overhead_ms(candidates: int = 40, repetitions: int = 3) -> float:
+    """Median wall time per candidate of a search whose runs cost nothing."""
     from hrc_drake.search.engine import FunctionEvaluator, run_search
 
     search = _load(
@@ -104,7 +109,7 @@ def overhead_ms(candidates: int = 40) -> float:
         objective={"metric": "mean_cycle_time", "direction": "minimize"},
     )
     times = []
-    for _ in range(3):
+    for _ in range(repetitions):
         with tempfile.TemporaryDirectory() as out:
             start = time.perf_counter()
             run_search(
@@ -251,6 +256,8 @@ def optimise(changes: dict, evaluator, tmp: Path, figures: dict, log) -> None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", choices=("falsify", "optimise"), default=None,
                         help="run one of the two sections (the overhead share then has no candidate run)")
@@ -258,11 +265,13 @@ def main(argv=None) -> int:
     from hrc_drake.campaign.engine import ClusterClient
     from hrc_drake.search.engine import CampaignEvaluator
 
-    mode = "quick" if args.quick else "full"
+    mode = "smoke" if args.smoke else "quick" if args.quick else "full"
     figures: dict = {}
     start = time.perf_counter()
     log = sys.stderr
-    with tempfile.TemporaryDirectory() as tmp, ClusterClient(None, args.workers) as client:
+    # smoke: the runs one after the other in this process (no Dask cluster to start)
+    cluster = nullcontext(None) if args.smoke else ClusterClient(None, args.workers)
+    with tempfile.TemporaryDirectory() as tmp, cluster as client:
         evaluator = CampaignEvaluator(client)
         timing = {}
         if args.only in (None, "falsify"):
@@ -271,7 +280,7 @@ def main(argv=None) -> int:
                 timing[name] = falsify(name, repeats, dict(changes), evaluator, Path(tmp), figures, log)
         if args.only in (None, "optimise"):
             optimise(dict(OPTIMISE[mode]), evaluator, Path(tmp), figures, log)
-    overhead = overhead_ms()
+    overhead = overhead_ms(4, 1) if args.smoke else overhead_ms()
     figures["overhead_per_candidate_ms"] = round(overhead, 2)
     if "falsify_pcb_ic" in timing:
         candidate_ms = timing["falsify_pcb_ic"]["candidate_ms"]

@@ -13,7 +13,7 @@ distances to the buffer and station centres ("buffers"), or to the camera origin
 the default) and our per-action frequencies ("frequency"). Baseline: the goal-region detector
 (each action marked by its first goal, `end_rule: next`) on the same frames.
 
-    python tools/bench_segmentation.py [--quick] [--runs N]
+    python tools/bench_segmentation.py [--quick | --smoke] [--runs N]
 
 Last line: one JSON object with `segmentation_error_buffers`, `segmentation_error_no_buffers`
 (the scenario's Phi_OjY reading), `segmentation_error_literal_phi` (buffers, counts),
@@ -103,11 +103,13 @@ def chain_bp_ms(repeats: int = 20) -> float:
     return float(np.median(times))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 test runs of one cycle (under a minute)")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--runs", type=int, default=6, help="test runs (default 6)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     warnings.filterwarnings("ignore")
     from hrc_drake.cell.plugins import (
         label_segments,
@@ -121,9 +123,13 @@ def main() -> None:
 
     scenario = load_scenario(SCENARIO)
     config = scenario.action_detector
-    if args.quick:
+    # smoke: one training cycle, a tiny genetic algorithm and a few training steps: the path, not the figures
+    fit_options = {"n_sequences": 10, "max_iter": 3} if args.smoke else {}
+    if args.smoke:
+        config = dataclasses.replace(config, training_cycles=1, population=4, generations=1)
+    elif args.quick:
         config = dataclasses.replace(config, training_cycles=2)
-    runs, cycles = (2, 1) if args.quick else (args.runs, 2)
+    runs, cycles = (1, 1) if args.smoke else (2, 1) if args.quick else (args.runs, 2)
     pattern = list(scenario.operator.pattern)
     actions = list(dict.fromkeys(pattern))
     library = segmenter_library(scenario, config, seed=1000)  # another seed and person than the tests
@@ -138,7 +144,7 @@ def main() -> None:
             start = time.perf_counter()
             variant = dataclasses.replace(config, observation_potential=kind)
             segmenters[f"{where}/{reading}"] = new_segmenter(variant, points, seed=7).fit(
-                library, pattern_precedence(pattern), actions=actions, seed=7)
+                library, pattern_precedence(pattern), actions=actions, seed=7, **fit_options)
             print(f"{where}, {reading} Phi_OjY: learnt from {len(library)} recorded actions in "
                   f"{time.perf_counter() - start:.1f} s", flush=True)
     default = next(r for r, kind in readings.items() if kind == config.observation_potential)
@@ -163,7 +169,8 @@ def main() -> None:
         return float(np.median(errors[name]))
 
     figures = {
-        "quick": bool(args.quick), "runs": runs, "cycles_per_run": cycles, "library_actions": len(library),
+        "quick": bool(args.quick), "smoke": bool(args.smoke), "runs": runs, "cycles_per_run": cycles,
+        "library_actions": len(library),
         "rate_hz": config.rate, "window_samples": segmenters[f"buffers/{default}"].window_length,
         "observation_potential": config.observation_potential,
         "segmentation_error_buffers": median(f"buffers/{default}"),
@@ -176,7 +183,7 @@ def main() -> None:
         "per_run": errors,
         "window_ms_median": float(np.median(steps)) if steps else None,
         "window_s": config.window, "batch_period_s": batch_period,
-        "bp_ms_median_chain_30": chain_bp_ms(),
+        "bp_ms_median_chain_30": chain_bp_ms(2 if args.smoke else 20),
     }
     for reading in readings:
         print(f"E_s median, {reading} Phi_OjY: buffers {median(f'buffers/{reading}'):.3f}, no buffers "

@@ -36,8 +36,11 @@ Parts:
          data/lego_assembly_arm with synthetic occluder boxes hiding the wrist and/or
          the elbow for 1-3 s (frame rate unknown: 30 Hz assumed).
 
-Usage: python tools/bench_tracking.py [--quick] [--cycles N] [--seeds N] [--duration S]
+Usage: python tools/bench_tracking.py [--quick | --smoke] [--cycles N] [--seeds N] [--duration S]
        [--workers N] [--elbow-occluders]
+--smoke: every part once in this process on the smallest setting (the cell runs cut at 1 s of
+simulated time, 1 s comparison runs, one frame, one lego window; figures meaningless; the tests
+run it).
 Last line: one JSON object with the figures.
 """
 
@@ -47,7 +50,9 @@ import argparse
 import json
 import os
 import sys
+import tempfile
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -329,6 +334,8 @@ TRACKERS = ("hold", "kf2", "kf4", "pf")
 #: The cameras compared: name -> scenario label of diagrams/campaigns/trackers.yaml.
 CAMERAS = {"analytic": "pcb_occlusion", "rendered": "pcb_occlusion_rendered"}
 CAMPAIGN = REPO / "diagrams" / "campaigns" / "trackers.yaml"
+#: the comparison campaign's folder unless --out names one
+DEFAULT_OUT = Path("/tmp/bench_tracking_campaign")
 #: Regions judged on the pf run's frames: its own, its particles' 95 % ellipsoid, a ball of its volume
 #: around the last seen point.
 PF_FRAME_REGIONS = ("own", "pf_ellipsoid", "hold_at_pf_volume")
@@ -361,8 +368,10 @@ def load_pcb_scenario(kind: str, elbow_occluders: bool, operator_x: float | None
     return scenario
 
 
-def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, operator_x: float | None) -> dict:
-    """Simulate pcb_occlusion.yaml with tracker `kind` until n_cycles robot cycles are complete."""
+def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, operator_x: float | None,
+             max_time: float | None = None) -> dict:
+    """Simulate pcb_occlusion.yaml with tracker `kind` until n_cycles robot cycles are complete, or
+    `max_time` simulated s (default: 120 s a cycle and two more, where a cell that stalls stops)."""
     from pydrake.systems.analysis import Simulator
 
     from hrc_drake.cell.build import build_cell, camera_model
@@ -388,10 +397,11 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
     simulator.set_target_realtime_rate(0.0)
     simulator.Initialize()
     start_wall = time.perf_counter()
-    max_time = 120.0 * (n_cycles + 2)  # a cycle takes ~45 s; a cell that stalls stops here
+    if max_time is None:
+        max_time = 120.0 * (n_cycles + 2)  # a cycle takes ~45 s; a cell that stalls stops here
     t, begins = 0.0, []
     while len(begins) < n_cycles + 1 and t < max_time:
-        t += 2.0
+        t = min(t + 2.0, max_time)
         simulator.AdvanceTo(t)
         new = [
             e.time
@@ -450,10 +460,10 @@ def run_cell(kind: str, n_cycles: int, named_poses, elbow_occluders: bool, opera
 RENDERED_SCENARIO = REPO / "diagrams" / "pcb_occlusion_rendered.yaml"
 
 
-def bench_render(n_frames: int, named_poses) -> dict:
+def bench_render(n_frames: int, named_poses, settle: float = 5.0) -> dict:
     """Milliseconds per depth frame of the rendered camera (RgbdSensor, RenderEngineVtk) in the
-    PCB cell (diagrams/pcb_occlusion_rendered.yaml), median over `n_frames` frames of a run,
-    at the scenario's resolution and at the Kinect v2's full 512 x 424."""
+    PCB cell (diagrams/pcb_occlusion_rendered.yaml), median over `n_frames` frames of a run from
+    `settle` s on, at the scenario's resolution and at the Kinect v2's full 512 x 424."""
     from pydrake.systems.analysis import Simulator
 
     from hrc_drake.cell.build import build_cell
@@ -468,14 +478,14 @@ def bench_render(n_frames: int, named_poses) -> dict:
         cell = build_cell(scenario, RENDERED_SCENARIO, named_poses=named_poses)
         simulator = Simulator(cell.diagram)
         simulator.Initialize()
-        simulator.AdvanceTo(5.0)  # the operator and the robot at work
+        simulator.AdvanceTo(settle)  # the operator and the robot at work
         context = simulator.get_mutable_context()
         depth_sensor = cell.system("rendered_depth_sensor")
         sensor_context = depth_sensor.GetMyContextFromRoot(context)
         port = depth_sensor.depth_image_32F_output_port()
         times = []
         for k in range(n_frames):
-            context.SetTime(5.0 + k / 30.0)  # new poses: the image is rendered again
+            context.SetTime(settle + k / 30.0)  # new poses: the image is rendered again
             cell.scene_graph.get_query_output_port().Eval(cell.scene_graph.GetMyContextFromRoot(context))
             start = time.perf_counter()
             port.Eval(sensor_context)
@@ -533,9 +543,10 @@ def nested(table: dict, fn) -> dict:
 
 def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
     """Text histogram of the cycle times of every tracker on common bins (cf. Fig. 9.7)."""
-    values = np.concatenate([np.asarray(v, float) for v in samples.values() if len(v)])
-    if not values.size:
+    values = [np.asarray(v, float) for v in samples.values() if len(v)]
+    if not values:  # no run completed a cycle
         return []
+    values = np.concatenate(values)
     edges = np.linspace(np.floor(values.min()), np.ceil(values.max()) + 1e-9, n_bins + 1)
     rows = [f"  {'cycle time (s)':>16s} " + " ".join(f"{k:>16s}" for k in samples)]
     for lo, hi in zip(edges[:-1], edges[1:], strict=True):
@@ -544,9 +555,11 @@ def histogram_rows(samples: dict, n_bins: int = 8) -> list[str]:
     return rows
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes, under a minute")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--cycles", type=int, default=None,
                         help="robot cycles per tracker run (30; --quick 1)")
     parser.add_argument(
@@ -564,17 +577,21 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=None,
                         help="simulated s of every comparison run (120; --quick 30)")
     parser.add_argument("--workers", type=int, default=2, help="campaign worker processes (0: this one)")
-    parser.add_argument("--out", type=Path, default=Path("/tmp/bench_tracking_campaign"),
-                        help="folder of the comparison campaign (runs.parquet, tests.csv, plots)")
-    args = parser.parse_args()
-    quick = args.quick
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder of the comparison campaign (runs.parquet, tests.csv, plots; default "
+                             f"{DEFAULT_OUT}, --smoke: a temporary one)")
+    args = parser.parse_args(argv)
+    smoke = args.smoke
+    quick = args.quick or smoke  # smoke: the --quick path, smaller
+    if smoke:  # the comparison runs in this process
+        args.workers = 0
     n_seeds = args.seeds if args.seeds is not None else (1 if quick else 5)
-    duration = args.duration if args.duration is not None else (30.0 if quick else 120.0)
+    duration = args.duration if args.duration is not None else (1.0 if smoke else 30.0 if quick else 120.0)
     n_cycles = args.cycles if args.cycles is not None else (1 if quick else 30)
     if n_cycles < 1:
         parser.error(f"--cycles must be >= 1, got {n_cycles}")
     print("speed (8 points x 500 particles, one update)", flush=True)
-    speed = bench_speed(100 if quick else 500)
+    speed = bench_speed(2 if smoke else 100 if quick else 500)
 
     from hrc_drake.robots.poses import solve_named_poses
 
@@ -586,20 +603,26 @@ def main() -> None:
     )
     named_poses = solve_named_poses(load_pcb_scenario("particle_filter", False).robots, SCENARIO)
     cell = {
-        kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x)
+        kind: run_cell(kind, n_cycles, named_poses, args.elbow_occluders, args.operator_x,
+                       max_time=1.0 if smoke else None)
         for kind in TRACKERS
     }
     pf, kf = cell["pf"], cell["kf4"]
 
     print(f"tracker x camera comparison ({CAMPAIGN.name}): {n_seeds} seeds x {duration:g} s per cell",
           flush=True)
-    compare = bench_compare(n_seeds, duration, args.workers, args.out)
+    if args.out is not None:
+        folder = nullcontext(args.out)
+    else:
+        folder = tempfile.TemporaryDirectory() if smoke else nullcontext(DEFAULT_OUT)
+    with folder as out:
+        compare = bench_compare(n_seeds, duration, args.workers, Path(out))
 
     print("rendered depth camera (pcb_occlusion_rendered.yaml)", flush=True)
-    render = bench_render(30 if quick else 200, named_poses)
+    render = bench_render(1 if smoke else 30 if quick else 200, named_poses, settle=0.2 if smoke else 5.0)
 
     print("lego_assembly_arm with synthetic occluders", flush=True)
-    lego = bench_lego(3 if quick else 20, 2 if quick else 5)
+    lego = bench_lego(1 if smoke else 3 if quick else 20, 1 if smoke else 2 if quick else 5)
 
     print()
     print("hidden frames per point (PF run; camera frames at 30 Hz):")
@@ -687,7 +710,8 @@ def main() -> None:
         return r4(scale * run["regions"].get(name, {}).get(field, float("nan")))
 
     figures = {
-        "quick": quick,
+        "quick": bool(args.quick),
+        "smoke": smoke,
         "elbow_occluders": args.elbow_occluders,
         "operator_x": args.operator_x,
         "render_ms_per_frame": round(next(iter(render.values())), 3),

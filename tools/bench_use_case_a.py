@@ -32,10 +32,11 @@ perceived events on the first --sweep-seeds seeds: the percentile p (sweep_perce
 check's five poses, i.e. its duration (sweep_check_dwell), each entry with the median cycles,
 the median check duration and the reactive robot's excess in %.
 
-Usage: PYTHONPATH=. python3 tools/bench_use_case_a.py [--quick] [--seeds N] [--duration S]
+Usage: PYTHONPATH=. python3 tools/bench_use_case_a.py [--quick | --smoke] [--seeds N] [--duration S]
        [--workers N] [--sweep] [--sweep-seeds N]
 --quick: 2 seeds, 150 s each (under a minute on a 2-core machine with 2 workers); the full run:
-20 seeds, 400 s (about 30 min with 2 workers).
+20 seeds, 400 s (about 30 min with 2 workers); --smoke: one seed of every arm, 1 s each, in this
+process (figures meaningless; the tests run it).
 """
 
 from __future__ import annotations
@@ -220,6 +221,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="2 seeds, 150 s each")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     parser.add_argument("--seeds", type=int, default=None, help="paired seeds per arm (default 20)")
     parser.add_argument("--duration", type=float, default=None, help="simulated s per run (default 400)")
     parser.add_argument("--warmup", type=int, default=2, help="products left out of each run's mean cycle")
@@ -232,8 +235,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="also sweep the percentile p and the check's dwell (predictive vs reactive)")
     parser.add_argument("--sweep-seeds", type=int, default=5, help="seeds of each sweep arm (the first N)")
     args = parser.parse_args(argv)
-    n_seeds = args.seeds or (2 if args.quick else 20)
-    duration = args.duration or (150.0 if args.quick else 400.0)
+    if args.smoke:  # the runs in this process, one after the other
+        args.workers = 1
+    n_seeds = args.seeds or (1 if args.smoke else 2 if args.quick else 20)
+    duration = args.duration or (1.0 if args.smoke else 150.0 if args.quick else 400.0)
     if n_seeds < 1 or not duration > 0 or args.warmup < 0 or args.workers < 1:
         parser.error("--seeds >= 1, --duration > 0, --warmup >= 0 and --workers >= 1")
     seeds = [101 + k for k in range(n_seeds)]

@@ -15,7 +15,10 @@ Prints a line per run and, as its last line, one JSON object:
 The runs go through the campaign API, as `bench_use_case_b.py`'s (`run_patterns`).
 
 Usage:
-    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick] [--workers W] [--address A] [--out DIR]
+    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick | --smoke] [--workers W] [--address A]
+        [--out DIR]
+--smoke: one seed of the best scenario and the round robin, 1 s runs (figures meaningless; the
+tests run it).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_use_case_b import add_campaign_arguments, run_patterns, summarize  # noqa: E402
+from bench_use_case_b import SMOKE_DURATION, add_campaign_arguments, run_patterns, summarize  # noqa: E402
 
 N_PRODUCTS, DURATION = 10, 600.0
 PATTERNS = {"pattern1": "[ic, collab]", "pattern2": "[ic, ic, collab, collab]"}
@@ -45,15 +48,17 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeded runs per arm and pattern")
     parser.add_argument("--quick", action="store_true", help="2 seeds, best scenario and round robin only")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     add_campaign_arguments(parser)
     args = parser.parse_args(argv)
-    seeds = 2 if args.quick else args.seeds
-    arms = ["best_scenario", "round_robin"] if args.quick else list(SCHEDULERS)
+    seeds = 1 if args.smoke else 2 if args.quick else args.seeds
+    arms = ["best_scenario", "round_robin"] if args.quick or args.smoke else list(SCHEDULERS)
     n_runs = len(PATTERNS) * seeds * len(arms)
     print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.address or args.workers} "
           "workers", flush=True)
     rows = run_patterns("use_case_a_cell", ROOT / "diagrams" / "pcb_collab.yaml", PATTERNS, SCHEDULERS, arms,
-                        seeds, N_PRODUCTS, DURATION, args)
+                        seeds, N_PRODUCTS, SMOKE_DURATION if args.smoke else DURATION, args)
     out = summarize(rows, arms, PATTERNS, test=("best_scenario", "round_robin"))
     for pattern, block in out.items():
         bs, rr = block["best_scenario"]["cycle_mean"], block["round_robin"]["cycle_mean"]

@@ -18,9 +18,10 @@ The runs go through the campaign API (`hrc_drake.campaign`): one campaign, a var
 and scheduler (`pattern1-A`, ...), the per-product samples from the `per_product` extra metrics.
 
 Usage:
-    python3 tools/bench_use_case_b.py [--seeds N] [--quick] [--workers W] [--address tcp://HOST:PORT]
-        [--out DIR]
---quick: 2 seeds, A and B only (about a minute on 2 cores). --workers 1 (default): in this
+    python3 tools/bench_use_case_b.py [--seeds N] [--quick | --smoke] [--workers W]
+        [--address tcp://HOST:PORT] [--out DIR]
+--quick: 2 seeds, A and B only (about a minute on 2 cores); --smoke: one seed of A and B, 1 s
+runs (figures meaningless; the tests run it). --workers 1 (default): in this
 process; W > 1: a Dask `LocalCluster` of W processes. --out keeps the campaign's runs.parquet (a
 rerun skips the runs done); default: a temporary folder.
 """
@@ -46,6 +47,8 @@ from hrc_drake.cell.scenario import _raw_document  # noqa: E402
 
 #: products per run (7.5.2) and the simulated time allowed for them (s)
 N_PRODUCTS, DURATION = 9, 560.0
+#: the simulated time of a --smoke run (s): the whole path, no product expected
+SMOKE_DURATION = 1.0
 PATTERNS = {"pattern1": "[pad, trim, label]", "pattern2": "[pad, pad, trim, trim, label, label]"}
 SCHEDULERS = {
     "A": "!MonteCarloScheduler {n_trials: 150, horizon: 30.0, wait_quantum: 3.0, cost_robot: 0.5, "
@@ -159,15 +162,17 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeded runs per arm and pattern")
     parser.add_argument("--quick", action="store_true", help="2 seeds, A and B only")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     add_campaign_arguments(parser)
     args = parser.parse_args(argv)
-    seeds = 2 if args.quick else args.seeds
-    arms = ["A", "B"] if args.quick else ["A", "B", "RR"]
+    seeds = 1 if args.smoke else 2 if args.quick else args.seeds
+    arms = ["A", "B"] if args.quick or args.smoke else ["A", "B", "RR"]
     n_runs = len(PATTERNS) * seeds * len(arms)
     print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.address or args.workers} "
           "workers", flush=True)
     rows = run_patterns("use_case_b", ROOT / "diagrams" / "carts.yaml", PATTERNS, SCHEDULERS, arms, seeds,
-                        N_PRODUCTS, DURATION, args)
+                        N_PRODUCTS, SMOKE_DURATION if args.smoke else DURATION, args)
     out = summarize(rows, arms)
     for pattern, block in out.items():
         print(f"{pattern}: median cycle A {block['A']['cycle_median']} s, B {block['B']['cycle_median']} s"

@@ -26,11 +26,12 @@ Prints a line per run and, as its last line, one JSON object: `use_case_c.<A|B>.
 (idle), `.wilcoxon_p_cycle`; `seeds`. (The scheduler's decision time is not measured here.)
 
 Usage:
-    PYTHONPATH=. python3 tools/bench_use_case_c.py [--seeds N] [--quick] [--workers W]
+    PYTHONPATH=. python3 tools/bench_use_case_c.py [--seeds N] [--quick | --smoke] [--workers W]
         [--address tcp://HOST:PORT] [--out DIR]
---quick: 2 seeds, fuzzy and uniform only (about a minute on 2 cores). --workers 1 (default):
-in this process, one run after the other; W > 1: a Dask `LocalCluster` of W processes. --out
-keeps the campaigns' runs.parquet (a rerun skips the runs done); default: a temporary folder.
+--quick: 2 seeds, fuzzy and uniform only (about a minute on 2 cores); --smoke: one seed of fuzzy
+and uniform, 1 s runs (figures meaningless; the tests run it). --workers 1 (default): in this
+process, one run after the other; W > 1: a Dask `LocalCluster` of W processes. --out keeps the
+campaigns' runs.parquet (a rerun skips the runs done); default: a temporary folder.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ sys.path.insert(0, str(ROOT))
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_use_case_b import _one_sided, add_campaign_arguments, run_campaigns  # noqa: E402
+from bench_use_case_b import SMOKE_DURATION, _one_sided, add_campaign_arguments, run_campaigns  # noqa: E402
 
 from hrc_drake.campaign.spec import make_campaign  # noqa: E402
 from hrc_drake.cell.scenario import _raw_document  # noqa: E402
@@ -91,11 +92,12 @@ def scheduler_overrides(arm: str) -> dict:
     return copy.deepcopy(shipped_variants()[arm])
 
 
-def experiment_campaign(experiment: str, arms: list[str], seeds: int):
+def experiment_campaign(experiment: str, arms: list[str], seeds: int, duration: float | None = None):
     """Experiment A or B as a campaign: the shipped campaign's variants (B: as shipped; A: with
-    the torch-only overrides), seeds 100, 101, ..."""
+    the torch-only overrides), seeds 100, 101, ...; `duration` (s) replaces the experiment's."""
     raw = _raw_document(CAMPAIGN.read_text())
-    duration = float(raw["duration"]) if experiment == "B" else EXPERIMENTS[experiment][1]
+    if duration is None:
+        duration = float(raw["duration"]) if experiment == "B" else EXPERIMENTS[experiment][1]
     base = experiment_overrides(experiment)
     document = {
         "name": f"use_case_c_{experiment}",
@@ -109,10 +111,12 @@ def experiment_campaign(experiment: str, arms: list[str], seeds: int):
     return make_campaign(document, ROOT / "tools" / f"use_case_c_{experiment}.campaign")
 
 
-def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out: Path) -> list[dict]:
+def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out: Path,
+             duration: float | None = None) -> list[dict]:
     """Every experiment x arm x seed through the campaign API: a row per run as the old loop's
-    (experiment, arm, seed, products, idle, cycles, wall_s, simulated_s)."""
-    campaigns = [experiment_campaign(experiment, arms, seeds) for experiment in EXPERIMENTS]
+    (experiment, arm, seed, products, idle, cycles, wall_s, simulated_s); `duration` (s) replaces
+    the experiments' own."""
+    campaigns = [experiment_campaign(experiment, arms, seeds, duration) for experiment in EXPERIMENTS]
     frames = run_campaigns(campaigns, workers, address, out)
     rows = []
     for campaign, (experiment, (n_products, _)), frame in zip(campaigns, EXPERIMENTS.items(), frames,
@@ -138,15 +142,18 @@ def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeded runs per arm and experiment")
     parser.add_argument("--quick", action="store_true", help="2 seeds, fuzzy and uniform only")
+    parser.add_argument("--smoke", action="store_true",
+                        help="a few seconds: the whole path once, figures meaningless (the tests run it)")
     add_campaign_arguments(parser)
     args = parser.parse_args(argv)
-    seeds = 2 if args.quick else args.seeds
-    arms = ["fuzzy", "uniform"] if args.quick else ["fuzzy", "uniform", "round_robin"]
+    seeds = 1 if args.smoke else 2 if args.quick else args.seeds
+    arms = ["fuzzy", "uniform"] if args.quick or args.smoke else ["fuzzy", "uniform", "round_robin"]
     n_runs = len(EXPERIMENTS) * seeds * len(arms)
     where = args.address or f"{args.workers} workers"
     print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 experiments), {where}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:
-        rows = run_rows(seeds, arms, args.workers, args.address, Path(args.out or tmp))
+        rows = run_rows(seeds, arms, args.workers, args.address, Path(args.out or tmp),
+                        SMOKE_DURATION if args.smoke else None)
     out: dict = {}
     for experiment in EXPERIMENTS:
         block: dict = {}
