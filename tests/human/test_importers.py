@@ -237,8 +237,9 @@ def test_an_import_drives_a_cell_and_writes_its_replay(tmp_path, capsys):
     times, _, _ = load_skeleton_csv(out)
     assert scenario.operator.recorded == str(out.resolve()) or scenario.operator.recorded.endswith("ue.csv")
     assert scenario.duration == pytest.approx(math.ceil(times[-1] * 10) / 10)
-    # the coexistence cell runs SSM with ISO 13855's speeds: the standard's judge, conforming
-    assert "ISO/TS 15066 ssm, conforming judge" in printed and "NON-CONFORMING" not in printed
+    # the coexistence cell runs PFL (head, face and neck under SSM at ISO 13855's speeds): the
+    # standard's judge, conforming
+    assert "ISO/TS 15066 pfl, conforming judge" in printed and "NON-CONFORMING" not in printed
     assert "replay" in printed
     html = replay.read_text()
     assert len(html) > 1_000_000 and "meshcat" in html.lower()
