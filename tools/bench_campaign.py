@@ -90,6 +90,7 @@ def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0
             n_workers=workers,
             threads_per_worker=1,
             processes=processes,
+            host="127.0.0.1",  # loopback only: the scheduler and workers are unauthenticated
             dashboard_address=None,
             silence_logs=logging.ERROR,
         )
