@@ -24,7 +24,7 @@ def main(out: Path | None = None, duration: float = 150.0, seeds: int = 2):
     out = Path(out) if out else Path(tempfile.mkdtemp(prefix="hrc-campaign-"))
     document = {
         "name": "torch_clock_safety",
-        "description": "torch_clock as shipped (hybrid ISO/TS 15066) against no safety system",
+        "description": "torch_clock as shipped (ISO/TS 15066 PFL) against no safety system",
         "duration": duration,
         "seeds": {"count": seeds, "first": 0},
         "scenarios": [str(REPO / "diagrams" / "torch_clock.yaml")],

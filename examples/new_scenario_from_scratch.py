@@ -7,7 +7,7 @@ YuMi's left arm gets a home and a program that keeps it there: an arm left out o
 at its zero pose, stretched toward the operator. Under SSM with ISO 13855's approach speeds
 (2 m/s for hands) this hand-over layout stores nothing: the robot's path to the can passes within
 the protective separation distance of the operator's hands (docs/safety.md: SSM alone stops
-every hand-over cell; the shipped hand-over cells use the hybrid mode or swept volumes).
+every hand-over cell; the shipped hand-over cells use PFL or the hybrid mode).
 
     python3 examples/new_scenario_from_scratch.py [--out DIR]
 """

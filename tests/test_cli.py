@@ -286,7 +286,7 @@ def test_the_summary_states_the_verdict_first_and_the_closest_approach(tmp_path,
     figures = next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
     assert lines[figures - 1] == safety["verdict"]
     assert safety["verdict"].startswith(VERDICT_WORDS)
-    # pcb_collab's hybrid mode is conforming: the verdict is the standard judge's count
+    # pcb_collab's PFL mode is conforming: the verdict is the standard judge's count
     total = safety["violations_total"]
     assert total == sum(safety["violations"].values())
     assert safety["verdict_code"] == ("unsafe" if total else "safe")

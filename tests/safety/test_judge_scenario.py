@@ -19,7 +19,7 @@ from hrc_drake.cell.scenario import (
 from tests.safety.test_judge import graded_by_itself
 
 REPO = Path(__file__).resolve().parents[2]
-TORCH = REPO / "diagrams" / "torch_clock.yaml"  # hybrid, camera at 30 Hz, controller at 30 Hz
+TORCH = REPO / "diagrams" / "torch_clock.yaml"  # camera at 30 Hz, controller at 30 Hz
 
 
 def test_the_controllers_tuning_does_not_tune_the_judge():

@@ -170,19 +170,19 @@ def test_a_cell_reports_its_safety_verdict_and_writes_the_safety_report(tmp_path
                 "safety_distance"):
         assert key in safety
     assert "time_below_sp_moving_s" not in safety
-    assert safety["mode"] == "hybrid"
+    assert safety["mode"] == "pfl"  # its declared mode since issue 52
     assert set(safety["violations"]) == set(VIOLATION_KINDS)
     assert safety["violations_total"] == sum(safety["violations"].values()) == len(safety["events"])
-    # torch_clock's hybrid mode is conforming: safe or unsafe by the standard judge's count
+    # torch_clock's PFL mode is conforming: safe or unsafe by the standard judge's count
     assert safety["verdict_code"] == ("unsafe" if safety["violations_total"] else "safe")
     if safety["violations_total"]:
-        assert safety["verdict"].startswith("UNSAFE: ISO/TS 15066 hybrid, conforming judge: ")
+        assert safety["verdict"].startswith("UNSAFE: ISO/TS 15066 pfl, conforming judge: ")
         assert f"{safety['violations_total']} violation" in safety["verdict"]
     else:
-        assert safety["verdict"].startswith("SAFE: ISO/TS 15066 hybrid, conforming judge, 0 violations")
+        assert safety["verdict"].startswith("SAFE: ISO/TS 15066 pfl, conforming judge, 0 violations")
     paths = write_report(cell, result, tmp_path)
     assert (tmp_path / "safety.png") in paths and (tmp_path / "safety.png").stat().st_size > 10_000
-    assert json.loads((tmp_path / "metrics.json").read_text())["safety"]["mode"] == "hybrid"
+    assert json.loads((tmp_path / "metrics.json").read_text())["safety"]["mode"] == "pfl"
 
 
 def test_the_controller_keeps_the_separation_at_its_next_tick_where_the_path_turns_toward_the_operator():
