@@ -500,6 +500,8 @@ def plot_products(figures_out: dict, path: Path, before: dict | None = None) -> 
                 label = verdict.upper() + ("" if kept is None else f" {kept:.0f} %")
                 ax.text(x, h, label, rotation=90, ha="center", va="bottom", fontsize=7)
     ax.set_xticks(range(len(cells)), cells, rotation=45, ha="right", fontsize=8)
+    tallest = max((products[c].get(m) or 0.0 for c in cells for m, _ in modes), default=0.0)
+    ax.set_ylim(0.0, 1.3 * tallest + 1.0)  # room for the verdict labels above the tallest bars
     ax.set_ylabel("products per run")
     ax.set_title(f"The cost of safety ({figures_out.get('duration_s', 0):.0f} s runs)")
     ax.legend(fontsize=8)
