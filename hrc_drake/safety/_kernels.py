@@ -194,22 +194,26 @@ def _pair_geometry(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, k, 
 
 
 @njit(cache=True, inline="always")
-def _clamped_one(point, direction, reach, lower, upper):
-    """Whether a part at `point` pushed `reach` m along `direction` meets a fixed box (the slab
-    test of `regions.clamped`)."""
+def _box_distance(point, lower, upper, b):
+    """Distance from `point` to box b (0 inside)."""
+    total = 0.0
+    for c in range(3):
+        gap = max(lower[b, c] - point[c], 0.0) + max(point[c] - upper[b, c], 0.0)
+        total += gap * gap
+    return math.sqrt(total)
+
+
+@njit(cache=True, inline="always")
+def _clamped_one(point, direction, radius, margin, lower, upper):
+    """Whether a part, a ball of `radius` at `point` pushed along `direction`, is clamped: moved
+    `margin` on, it comes nearer a fixed box within its radius, or it is in one (`regions.clamped`)."""
+    moved = np.empty(3)
+    for c in range(3):
+        moved[c] = point[c] + margin * direction[c]
     for b in range(lower.shape[0]):
-        t_near, t_far = -math.inf, math.inf
-        for c in range(3):
-            start = point[c]
-            delta = (start + direction[c] * reach) - start
-            if abs(delta) < 1e-12:
-                inside = start >= lower[b, c] and start <= upper[b, c]
-                near, far = (-math.inf, math.inf) if inside else (math.inf, -math.inf)
-            else:
-                t_a, t_b = (lower[b, c] - start) / delta, (upper[b, c] - start) / delta
-                near, far = min(t_a, t_b), max(t_a, t_b)
-            t_near, t_far = max(t_near, near), min(t_far, far)
-        if t_near <= t_far and t_far >= 0.0 and t_near <= 1.0:
+        now = _box_distance(point, lower, upper, b)
+        then = _box_distance(moved, lower, upper, b)
+        if then < radius and (then < now - 1e-9 or now <= 0.0):
             return True
     return False
 
@@ -236,7 +240,7 @@ def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, o
                     break
         zone[n] = pfl
         if pfl and use_clamping:
-            pfl = not _clamped_one(on_body[n], direction[n], region_radius[r[n]] + margin, lower, upper)
+            pfl = not _clamped_one(on_body[n], direction[n], region_radius[r[n]], margin, lower, upper)
         governed[n] = pfl
     return zone, governed
 

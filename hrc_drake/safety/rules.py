@@ -303,7 +303,7 @@ class SafetyRules:
         if self.compiled and not (lost_radius is not None and self.pfl and self.config.lost_parts_clamped
                                   and self.fixed_boxes and np.isfinite(lost_radius).any()):
             return self._override_compiled(robot, robot_velocity, regions, z_d, effective_mass, covered_time,
-                                           clamped_until, now, budget)
+                                           clamped_until, now, budget, lost_radius)
         distance, k, r = self.screen(robot, robot_velocity, regions, z_d, covered_time)
         if not len(k):
             return FREE, None
@@ -314,7 +314,7 @@ class SafetyRules:
         if (lost_radius is not None and self.pfl and self.config.lost_parts_clamped and self.fixed_boxes
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
-        governed = self.governed_by_pfl(pairs, clamping_radius(regions[2], z_d), lost)
+        governed = self.governed_by_pfl(pairs, clamping_radius(regions[2], z_d, lost_radius), lost)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
@@ -362,7 +362,7 @@ class SafetyRules:
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
     def _override_compiled(self, robot, robot_velocity, regions, z_d, effective_mass, covered_time,
-                           clamped_until, now, budget: bool = False):
+                           clamped_until, now, budget: bool = False, lost_radius=None):
         """`override` by the kernels (no lost parts judged clamped): the same decisions in the same
         order, the robot masses of the PFL pairs left after the floor and the skip from the plant."""
         z_d = _kernels._arrays(z_d)[0]
@@ -371,7 +371,7 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
-        zone, governed = self._governed(pairs, clamping_radius(regions[2], z_d))
+        zone, governed = self._governed(pairs, clamping_radius(regions[2], z_d, lost_radius))
         clamped = zone & ~governed
         if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
@@ -473,12 +473,17 @@ class SafetyRules:
         return out
 
 
-def clamping_radius(region_radius, z_d) -> np.ndarray:
+def clamping_radius(region_radius, z_d, lost_radius=None) -> np.ndarray:
     """(R,) each region's radius for the controller's clamping test: its own grown by its Z_d, as the
     part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand the estimate put
     clear of the table, and the robot approached at the free contact's transient speed, was pressed
-    onto it at 12.7x its quasi-static limit)."""
-    return np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)
+    onto it at 12.7x its quasi-static limit); -inf (never clamped by that test) for a region that is
+    a reachable set (`lost_radius` finite): the part is somewhere in it, not a ball that size, and
+    `lost_parts_clamped` judges it."""
+    out = np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)
+    if lost_radius is not None:
+        out = np.where(np.isfinite(np.asarray(lost_radius, dtype=float)), -np.inf, out)
+    return out
 
 
 def fastest_speed(robot_velocity) -> float:

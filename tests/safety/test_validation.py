@@ -36,7 +36,8 @@ def test_swept_volumes_need_a_motion_model():
 
 
 def test_a_hybrid_mode_needs_collaborative_zones():
-    err = _refused(TORCH, {"layout": {"collaborative_zones": []}})
+    hybrid = Tagged("Hybrid", {"position_uncertainty": "camera"})
+    err = _refused(TORCH, {"layout": {"collaborative_zones": []}, "safety": hybrid})
     assert err.field == "safety" and "collaborative_zones" in err.reason
 
 
