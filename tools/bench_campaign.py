@@ -90,7 +90,8 @@ def on_cluster(campaign, warm_campaign, workers: int, out: Path, paired: int = 0
             n_workers=workers,
             threads_per_worker=1,
             processes=processes,
-            host="127.0.0.1",  # loopback only: the scheduler and workers are unauthenticated
+            # loopback only: the scheduler and workers are unauthenticated (threads talk in-process)
+            host="127.0.0.1" if processes else None,
             dashboard_address=None,
             silence_logs=logging.ERROR,
         )
