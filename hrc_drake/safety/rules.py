@@ -314,7 +314,8 @@ class SafetyRules:
         if (lost_radius is not None and self.pfl and self.config.lost_parts_clamped and self.fixed_boxes
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
-        governed = self.governed_by_pfl(pairs, clamping_radius(regions[2], z_d, lost_radius), lost)
+        radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
+        governed = self.governed_by_pfl(pairs, radius, lost)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
@@ -361,6 +362,12 @@ class SafetyRules:
                                     covered_time, fastest)[0])
         return float(scale[n]), (pairs, n, str(rule[n]), sp)
 
+    def _judged_lost(self, lost_radius):
+        """`lost_radius` where `lost_parts_clamped` judges the lost parts (their reachable sets then
+        leave the ball test), else None: the default tests each set as a ball its size, a hand
+        hidden on the table under a robot coming down onto the set counting as clamped."""
+        return lost_radius if self.pfl and self.config.lost_parts_clamped else None
+
     def _override_compiled(self, robot, robot_velocity, regions, z_d, effective_mass, covered_time,
                            clamped_until, now, budget: bool = False, lost_radius=None):
         """`override` by the kernels (no lost parts judged clamped): the same decisions in the same
@@ -371,7 +378,8 @@ class SafetyRules:
             return FREE, None
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
-        zone, governed = self._governed(pairs, clamping_radius(regions[2], z_d, lost_radius))
+        radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
+        zone, governed = self._governed(pairs, radius)
         clamped = zone & ~governed
         if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
@@ -478,8 +486,8 @@ def clamping_radius(region_radius, z_d, lost_radius=None) -> np.ndarray:
     part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand the estimate put
     clear of the table, and the robot approached at the free contact's transient speed, was pressed
     onto it at 12.7x its quasi-static limit); -inf (never clamped by that test) for a region that is
-    a reachable set (`lost_radius` finite): the part is somewhere in it, not a ball that size, and
-    `lost_parts_clamped` judges it."""
+    a reachable set (`lost_radius` finite, given where `lost_parts_clamped` judges lost parts by the
+    robot's clearance to the surfaces instead)."""
     out = np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)
     if lost_radius is not None:
         out = np.where(np.isfinite(np.asarray(lost_radius, dtype=float)), -np.inf, out)

@@ -320,3 +320,28 @@ def test_the_controller_takes_the_judges_effective_mass_never_less_than_the_stan
     heavy = rules.robot_masses(pairs, lambda k, p, u: np.full(len(k), 5.0))
     assert light == pytest.approx(np.full(len(pairs.k), 3.17 + 0.2))
     assert heavy == pytest.approx(np.full(len(pairs.k), 5.0 + 0.2))
+
+
+def test_a_lost_hand_under_a_robot_coming_down_onto_its_reachable_set_counts_as_clamped():
+    """Default config (no `lost_parts_clamped`): a lost wrist's reachable set (0.5 m around the
+    elbow) reaches the table; a gripper coming down onto the set may press the hidden hand onto
+    the table, so the pair is clamped (the set tested as a ball its size), compiled and numpy. An
+    adversarial review found the first version of the judge's clamping test leaving every
+    reachable set free here (override 1.0)."""
+    table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95
+    start, end = np.full((len(CUTTER), 3), 9.0), np.full((len(CUTTER), 3), 9.0)
+    radius = np.full(len(CUTTER), 0.05)
+    lost = [INDEX["right_lower_arm"], INDEX["right_hand"]]
+    start[lost] = end[lost] = [0.0, 0.6, 1.2]
+    radius[lost] = 0.05 + 0.45
+    lost_radius = np.full(len(CUTTER), np.nan)
+    lost_radius[lost] = 0.05
+    robot = (np.array([[0.0, 0.6, 1.70]]), np.array([[0.0, 0.6, 1.75]]), np.array([0.03]))
+    down = np.array([[0.0, 0.0, -0.5]])
+    mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
+    for compiled in (True, False):
+        rules = SafetyRules(PowerForceLimiting(), LIMITS, CUTTER.regions, fixed_boxes=(table,),
+                            compiled=compiled)
+        override, (_, _, rule, _) = rules.override(robot, (down, down), (start, end, radius),
+                                                   np.full(len(CUTTER), 0.03), mass, lost_radius=lost_radius)
+        assert rule == "clamped" and override < 1.0
