@@ -139,6 +139,22 @@ def violations_text(figures: dict) -> str:
     return f"{_plural(total, 'violation', 'violations')} ({', '.join(parts)})"
 
 
+def _safe_contacts_text(figures: dict) -> str:
+    """The contacts of a safe run in words: a closest approach below 0 m is a contact, so the line
+    says each was judged; those over a limit (or where none is permitted) were logged, not held
+    against the robot: the person moved into a robot that was not approaching."""
+    n = figures["contact_count"]
+    # a ratio is a number, or null / "inf" where no contact is permitted (`judge._round`)
+    logged = sum(1 for c in figures.get("contacts", ())
+                 if not (isinstance(c.get("worst"), (int, float)) and c["worst"] <= 1.0))
+    if not logged:
+        each = "each " if n > 1 else ""
+        return f"{_plural(n, 'contact', 'contacts')}, {each}within its body region's limit"
+    return (f"{_plural(n, 'contact', 'contacts')}: {n - logged} within their body regions' limits, "
+            f"{logged} over a limit but logged, not held against the robot (the person moved into a "
+            f"robot that was not approaching)")
+
+
 def verdict_line(code: str, mode: str, figures: dict, duration: float, departures=(), own=None) -> str:
     """The verdict in one line a person reads once, e.g. `SAFE: ISO/TS 15066 hybrid, conforming
     judge, 0 violations in 300 s` or `UNSAFE: ISO/TS 15066 ssm, conforming judge: 2 violations in
@@ -159,10 +175,7 @@ def verdict_line(code: str, mode: str, figures: dict, duration: float, departure
     elif code == "safe":
         line = f"SAFE: ISO/TS 15066 {mode}, conforming judge, 0 violations {span}"
         if figures.get("contact_count", 0) > 0:
-            # a closest approach below 0 m is a contact: the line says it was judged, and within limits
-            n = figures["contact_count"]
-            each = "each " if n > 1 else ""
-            line += f"; {_plural(n, 'contact', 'contacts')}, {each}within its body region's limit"
+            line += "; " + _safe_contacts_text(figures)
     else:
         line = f"UNSAFE: ISO/TS 15066 {mode}, conforming judge: {counted} {span}"
     if figures["unobserved_s"] > 0:
