@@ -194,25 +194,23 @@ def _pair_geometry(r_start, r_end, r_radius, v_start, v_end, h_start, h_end, k, 
 
 
 @njit(cache=True, inline="always")
-def _box_distance(point, lower, upper, b):
-    """Distance from `point` to box b (0 inside)."""
-    total = 0.0
-    for c in range(3):
-        gap = max(lower[b, c] - point[c], 0.0) + max(point[c] - upper[b, c], 0.0)
-        total += gap * gap
-    return math.sqrt(total)
+def _box_distance(x, y, z, lower, upper, b):
+    """Distance from the point (x, y, z) to box b (0 inside)."""
+    gx = max(lower[b, 0] - x, 0.0) + max(x - upper[b, 0], 0.0)
+    gy = max(lower[b, 1] - y, 0.0) + max(y - upper[b, 1], 0.0)
+    gz = max(lower[b, 2] - z, 0.0) + max(z - upper[b, 2], 0.0)
+    return math.sqrt(gx * gx + gy * gy + gz * gz)
 
 
 @njit(cache=True, inline="always")
 def _clamped_one(point, direction, radius, margin, lower, upper):
     """Whether a part, a ball of `radius` at `point` pushed along `direction`, is clamped: moved
     `margin` on, it comes nearer a fixed box within its radius, or it is in one (`regions.clamped`)."""
-    moved = np.empty(3)
-    for c in range(3):
-        moved[c] = point[c] + margin * direction[c]
+    x, y, z = point[0], point[1], point[2]
+    mx, my, mz = x + margin * direction[0], y + margin * direction[1], z + margin * direction[2]
     for b in range(lower.shape[0]):
-        now = _box_distance(point, lower, upper, b)
-        then = _box_distance(moved, lower, upper, b)
+        now = _box_distance(x, y, z, lower, upper, b)
+        then = _box_distance(mx, my, mz, lower, upper, b)
         if then < radius and (then < now - 1e-9 or now <= 0.0):
             return True
     return False

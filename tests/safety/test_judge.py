@@ -709,7 +709,7 @@ def test_a_safe_line_counts_its_contacts():
 
 
 def test_a_safe_line_never_calls_a_logged_contact_over_its_limit_within_it():
-    """3 contacts: two at 0.40x and 0.95x of their limits, one at 1.70x where the operator's neck
+    """4 contacts: two at 0.40x and 0.95x of their limits, one at 1.70x where the operator's neck
     walked into a still arm (logged, not a violation; docs/search.md found such a contact at 334 N)
     and one where no contact is permitted (worst "inf"): 2 within, 2 logged."""
     from hrc_drake.safety.verdict import verdict_line
