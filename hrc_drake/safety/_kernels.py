@@ -218,10 +218,11 @@ def _clamped_one(point, direction, radius, margin, lower, upper):
 
 @njit(cache=True)
 def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, on_body, direction,
-                     region_radius, use_clamping, lower, upper, margin):
+                     region_radius, region_near, use_clamping, lower, upper, margin):
     """(zone PFL (N,), governed (N,)): the pairs whose region PFL governs in a collaborative zone
     (hybrid: where the middle of the closest points lies in one), and of those the ones whose
-    part no fixed box clamps (`SafetyRules.governed_by_pfl`)."""
+    part no fixed box clamps: neither near one whatever the push (region_near (R,),
+    `regions.near_surfaces`) nor pushed onto one (`SafetyRules.governed_by_pfl`)."""
     size = r.shape[0]
     zone = np.empty(size, dtype=np.bool_)
     governed = np.empty(size, dtype=np.bool_)
@@ -238,7 +239,8 @@ def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, o
                     break
         zone[n] = pfl
         if pfl and use_clamping:
-            pfl = not _clamped_one(on_body[n], direction[n], region_radius[r[n]], margin, lower, upper)
+            pfl = not (region_near[r[n]]
+                       or _clamped_one(on_body[n], direction[n], region_radius[r[n]], margin, lower, upper))
         governed[n] = pfl
     return zone, governed
 
@@ -336,8 +338,8 @@ def _warm_up_steps() -> list:
     return [
         lambda: screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0, 1.0),
         lambda: pair_geometry(capsules, (one, one), capsules, pair, pair),
-        lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), True, one,
-                                 one + 1.0, 0.02),
+        lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), ~flags, True,
+                                 one, one + 1.0, 0.02),
         lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
         lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0, approach, 1.0),
         lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,

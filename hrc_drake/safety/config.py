@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 from hrc_drake.config_common import check_number as _number
 from hrc_drake.errors import check
+from hrc_drake.safety.regions import CLAMP_MARGIN
 
 #: Highest update rate of a Python system (DESIGN.md, performance rules).
 MAX_RATE = 50.0
@@ -163,8 +164,10 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
     payload: float = 0.0
     #: Contact area A (cm^2) of the pressure form of eq. (A.6); 0: the force form only.
     contact_area: float = 1.0
-    #: A fixed surface within the part's radius plus this (m) behind it along the push clamps it.
-    clamp_margin: float = 0.02
+    #: A fixed surface within a part's radius plus this (m) behind it along the push clamps it, and
+    #: one within its radius plus Z_d plus this of an uncertain part's axis (`regions.near_surfaces`);
+    #: at least the judge's `regions.CLAMP_MARGIN`, so that the controller clamps no fewer parts.
+    clamp_margin: float = CLAMP_MARGIN
     #: A (robot capsule, region) pair judged clamped stays clamped for this long (s): the estimate's
     #: noise flips a hand resting near a surface between clamped and free from one period to the
     #: next, and a free judgement lets the robot approach at the transient speed. Swept over carts,
@@ -219,7 +222,7 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
               f"must be one of {ROBOT_MASS_MODELS}, got {self.robot_mass!r}")
         _number(self.payload, path, "payload", 0.0, 100.0)
         _number(self.contact_area, path, "contact_area", 0.0, 1000.0)
-        _number(self.clamp_margin, path, "clamp_margin", 0.0, 0.5)
+        _number(self.clamp_margin, path, "clamp_margin", CLAMP_MARGIN, 0.5)
         _number(self.clamp_hold, path, "clamp_hold", 0.0, 10.0)
         check(isinstance(self.lost_parts_clamped, bool), f"{path}.lost_parts_clamped",
               f"must be true or false, got {self.lost_parts_clamped!r}")

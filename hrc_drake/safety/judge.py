@@ -48,7 +48,7 @@ from hrc_drake.messages import Immutable
 from hrc_drake.safety import _kernels
 from hrc_drake.safety.config import LIMB_REGIONS, NO_CONTACT_REGIONS, Hybrid, NoSafety, PowerForceLimiting
 from hrc_drake.safety.limits import BODY_REGIONS, LimitsTable, load_limits
-from hrc_drake.safety.regions import FixedBox
+from hrc_drake.safety.regions import CLAMP_MARGIN, FixedBox
 from hrc_drake.traces import AppendOnly, DecimatedTrace
 
 #: ISO 13855:2010 eq. (1): the upper limbs' approach speed K while S <= 0.5 m ...
@@ -62,8 +62,6 @@ APPROACH_TOLERANCE = 1e-3
 TRANSIENT_DURATION = 0.5
 #: m^2: the area the pressures of Table A.2 are taken over (1 cm^2).
 CONTACT_AREA = 1e-4
-#: m: a rigid body this far behind a part (beyond its radius) along the push clamps it.
-CLAMP_MARGIN = 0.02
 #: m: a stop may travel this much beyond what S_p assumed before it counts (the samples' rounding).
 STOP_DISTANCE_TOLERANCE = 5e-4
 #: m/s: a stopping robot may be this much faster than braking at a from its command allows.

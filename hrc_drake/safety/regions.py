@@ -21,6 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: m: a rigid body this far behind a part (beyond its radius) along the push clamps it (the judge's
+#: `judge.CLAMP_MARGIN`; the controller's margin is never below it).
+CLAMP_MARGIN = 0.02
 #: lower fraction of the torso capsule (hip -> thorax) that is abdomen
 ABDOMEN_FRACTION = 0.45
 #: lower fraction of the head capsule (thorax -> head) that is neck
@@ -140,7 +143,7 @@ class FixedBox:
     size: tuple[float, float, float]
 
 
-def clamped(points, directions, radius, boxes, margin: float = 0.02) -> np.ndarray:
+def clamped(points, directions, radius, boxes, margin: float = CLAMP_MARGIN) -> np.ndarray:
     """(N,) whether a body part, a ball of `radius` (N,) at `points` (N, 3), pushed along `directions`
     (N, 3) (unit, from the robot toward the body), is clamped (ISO/TS 15066 quasi-static contact):
     the ball moved `margin` on along the push comes nearer a fixed box and lies within its radius
@@ -157,6 +160,22 @@ def clamped(points, directions, radius, boxes, margin: float = 0.02) -> np.ndarr
                                 axis=2) for p in (points, moved))
     within = then < np.asarray(radius, dtype=float)[:, None]
     return np.any(within & ((then < now - 1e-9) | (now <= 0.0)), axis=1)
+
+
+def near_surfaces(start, end, radius, z_d, boxes, margin: float = CLAMP_MARGIN) -> np.ndarray:
+    """(R,) whether each region (capsules start, end (R, 3), radius (R,)) may be clamped whatever
+    the push, as its estimate is uncertain by Z_d (R,) > 0: its axis comes within radius + Z_d +
+    margin of a fixed box. A superset of the judge's test on the true body: the judge's ball, moved
+    `margin` along the true push, lies within its radius of a box, so its axis point lies within
+    radius + margin, and the estimated axis, each point within Z_d of the true one, within radius
+    + margin + Z_d (`surface_clearances`, a lower bound, keeps it a superset). Direction is left
+    out because the true push may tilt any way from the estimate's: near a surface the estimate's
+    direction to it turns by up to asin(Z_d / distance), which for a hand on a table is 90 degrees."""
+    z_d = np.asarray(z_d, dtype=float)
+    if not boxes:
+        return np.zeros(len(z_d), dtype=bool)
+    axis_gap = surface_clearances(start, end, np.zeros(len(z_d)), boxes)
+    return (z_d > 0.0) & (axis_gap < np.asarray(radius, dtype=float) + z_d + margin)
 
 
 def surface_clearances(start, end, radius, boxes, samples: int = 17) -> np.ndarray:

@@ -34,7 +34,7 @@ from hrc_drake.safety.config import (
     mode_name,
 )
 from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
-from hrc_drake.safety.regions import FixedBox, clamped, surface_clearances
+from hrc_drake.safety.regions import CLAMP_MARGIN, FixedBox, clamped, near_surfaces, surface_clearances
 from hrc_drake.safety.ssm import SeparationParameters, path_stop, permissible_speed, protective_separation
 
 #: Override of a pair with no constraint.
@@ -157,8 +157,9 @@ class SafetyRules:
         centers = np.array([b.center for b in self.fixed_boxes], dtype=float).reshape(-1, 3)
         halves = np.array([np.multiply(b.size, 0.5) for b in self.fixed_boxes], dtype=float).reshape(-1, 3)
         self._box_lower, self._box_upper = centers - halves, centers + halves
-        #: the clamping test's margin behind a part (`clamped`)
-        self.clamp_margin = config.clamp_margin if self.pfl else 0.02
+        #: the margin of the clamping tests that need not push (`regions.near_surfaces`, a lost part's),
+        #: at least the judge's; the push test takes the judge's own (`regions.clamped`)
+        self.clamp_margin = max(config.clamp_margin, CLAMP_MARGIN) if self.pfl else CLAMP_MARGIN
         self._params = tuple(np.array([p.reaction_time, p.deceleration, p.intrusion, p.robot_uncertainty,
                                        p.human_speed, p.actuation_period])
                              for p in (self.separation, self.body_separation))
@@ -195,34 +196,48 @@ class SafetyRules:
         gaps = np.linalg.norm(points[:, None, :] - self.zone_centers[None], axis=2)
         return np.any(gaps <= self.zone_radii[None], axis=1)
 
-    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None, lost=None) -> np.ndarray:
+    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None, lost=None, near=None) -> np.ndarray:
         """(N,) whether each pair is under PFL (else SSM); in a hybrid mode only where the pair's
         contact would be, the middle of its closest points, lies in a collaborative zone. With the
         regions' radii, a part clamped against a fixed surface is under SSM: the simulated robot
         is position-controlled, without the force sensing that would stop it within the
         F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all
-        (`clamped`; `lost` as there)."""
+        (`clamped`; `lost` and `near` as there)."""
         if self.compiled and lost is None:
-            return self._governed(pairs, region_radius)[1]
+            return self._governed(pairs, region_radius, near)[1]
         pfl = self.pfl_region[pairs.r]
         if self.hybrid and np.any(pfl):
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
         if region_radius is not None and self.fixed_boxes and np.any(pfl):
             at = np.nonzero(pfl)[0]
-            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost)
+            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost, near)
         return pfl
 
-    def _governed(self, pairs: PairGeometry, region_radius=None):
+    def _governed(self, pairs: PairGeometry, region_radius=None, near=None):
         """(PFL's region in a zone (N,), governed by PFL (N,)) by `_kernels._governed_by_pfl`."""
         clamping = region_radius is not None and bool(self.fixed_boxes)
         radius = _kernels._arrays(region_radius)[0] if clamping else self._pfl_floor
+        near = np.zeros(len(self.pfl_region), dtype=np.bool_) if near is None else \
+            np.ascontiguousarray(near, dtype=np.bool_)
         return _kernels._governed_by_pfl(
             pairs.r, self.pfl_region, self.hybrid, self.zone_centers, self.zone_radii, pairs.robot_point,
-            pairs.body_point, pairs.direction, radius, clamping, self._box_lower, self._box_upper,
-            self.clamp_margin)
+            pairs.body_point, pairs.direction, radius, near, clamping, self._box_lower, self._box_upper,
+            CLAMP_MARGIN)
 
-    def clamped(self, pairs: PairGeometry, region_radius, lost=None) -> np.ndarray:
-        """(N,) whether the body part of each pair is clamped against a fixed surface.
+    def near_surfaces(self, regions, z_d, lost_radius=None) -> np.ndarray:
+        """(R,) the regions an uncertain estimate puts near a fixed surface, clamped whatever the
+        push (`regions.near_surfaces`); a lost part's reachable set is left to `clamped`'s tests."""
+        if not (self.fixed_boxes and self.pfl_region.any()):
+            return np.zeros(len(self.pfl_region), dtype=bool)
+        near = near_surfaces(*regions, z_d, self.fixed_boxes, self.clamp_margin)
+        if lost_radius is not None:
+            near &= ~np.isfinite(np.asarray(lost_radius, dtype=float))
+        return near
+
+    def clamped(self, pairs: PairGeometry, region_radius, lost=None, near=None) -> np.ndarray:
+        """(N,) whether the body part of each pair is clamped against a fixed surface: its region
+        is near one (near (R,), `near_surfaces`), or pushed onto one (`regions.clamped`, the
+        judge's test on the estimate, region_radius (R,) grown by Z_d).
 
         lost: (lost_radius (R,), robot_clearance (K,)): a region's own radius where its capsule
         is a reachable set (the estimate lost an arm point, `regions.reach_bounded`), NaN
@@ -230,9 +245,11 @@ class SafetyRules:
         (`regions.surface_clearances`). A lost part may lie anywhere in its set, so also between
         the robot and a surface: it counts as clamped wherever the robot capsule passes within
         the part's diameter plus the margin of a surface."""
-        margin = self.config.clamp_margin if self.pfl else 0.02
         radius = np.asarray(region_radius)[pairs.r]
-        out = clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, margin)
+        out = clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, CLAMP_MARGIN)
+        if near is not None:
+            out |= np.asarray(near, dtype=bool)[pairs.r]
+        margin = self.clamp_margin
         if lost is not None:
             lost_radius, robot_clearance = lost
             own = np.asarray(lost_radius, dtype=float)[pairs.r]
@@ -315,7 +332,7 @@ class SafetyRules:
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        governed = self.governed_by_pfl(pairs, radius, lost)
+        governed = self.governed_by_pfl(pairs, radius, lost, self.near_surfaces(regions, z_d, lost_radius))
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
@@ -379,7 +396,7 @@ class SafetyRules:
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        zone, governed = self._governed(pairs, radius)
+        zone, governed = self._governed(pairs, radius, self.near_surfaces(regions, z_d, lost_radius))
         clamped = zone & ~governed
         if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
@@ -482,10 +499,11 @@ class SafetyRules:
 
 
 def clamping_radius(region_radius, z_d, lost_radius=None) -> np.ndarray:
-    """(R,) each region's radius for the controller's clamping test: its own grown by its Z_d, as the
-    part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand the estimate put
-    clear of the table, and the robot approached at the free contact's transient speed, was pressed
-    onto it at 12.7x its quasi-static limit); -inf (never clamped by that test) for a region that is
+    """(R,) each region's radius for the controller's push test (`regions.clamped`): its own grown by
+    its Z_d, as the part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand
+    the estimate put clear of the table, and the robot approached at the free contact's transient
+    speed, was pressed onto it at 12.7x its quasi-static limit; an uncertain part near a surface is
+    clamped whatever the push, `SafetyRules.near_surfaces`); -inf (never clamped by that test) for a region that is
     a reachable set (`lost_radius` finite, given where `lost_parts_clamped` judges lost parts by the
     robot's clearance to the surfaces instead)."""
     out = np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)

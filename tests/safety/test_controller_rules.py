@@ -154,7 +154,8 @@ def test_a_hand_the_estimate_puts_clear_of_the_table_but_within_its_z_d_counts_a
 def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     """A lost right wrist: its forearm and hand are a reachable set around the elbow. A robot
     capsule sweeping 3 cm over the table inside that set might press the hand onto the table, so
-    the pair is clamped (SSM: stop); the same set of a seen hand, unclamped, is free under PFL
+    the pair is clamped (SSM: stop); the same set of a seen hand placed exactly (Z_d 0: an
+    uncertain one this near the table is clamped whatever the push), unclamped, is free under PFL
     (the sweep is slower than the hand's PFL speed). Without `lost_parts_clamped` (the default) the
     lost hand counts as free."""
     table = FixedBox((0.0, 0.5, 0.9), (1.0, 1.0, 0.1))  # top at z = 0.95
@@ -170,8 +171,10 @@ def test_a_lost_hand_may_lie_under_a_robot_that_sweeps_over_the_table():
     z_d = np.full(len(CUTTER), 0.03)
     mass = lambda k, p, u: np.full(len(k), ROBOT_MASS)  # noqa: E731
     lost_radius = np.full(len(CUTTER), np.nan)
-    assert rules.override(robot, (velocity, velocity), (start, end, radius), z_d, mass,
+    assert rules.override(robot, (velocity, velocity), (start, end, radius), 0.0 * z_d, mass,
                           lost_radius=lost_radius)[0] == 1.0
+    assert rules.override(robot, (velocity, velocity), (start, end, radius), z_d, mass,
+                          lost_radius=lost_radius)[0] < 1.0
     lost_radius[lost] = 0.05
     override, (pairs, n, rule, _) = rules.override(robot, (velocity, velocity), (start, end, radius), z_d,
                                                    mass, lost_radius=lost_radius)

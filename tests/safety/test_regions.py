@@ -252,3 +252,55 @@ def test_the_controllers_clamping_test_holds_every_part_the_judge_finds_clamped(
     by_controller = clamped(points, directions, radius, boxes, 0.02)
     assert by_judge.sum() > 200  # the cases exist
     assert not np.any(by_judge & ~by_controller), np.nonzero(by_judge & ~by_controller)[0][:5]
+
+
+def test_under_estimate_error_the_controller_clamps_every_contact_the_judge_finds_clamped():
+    """Issue 52's gap: the judge tests the true hand, the controller its estimate, off by up to
+    Z_d (3 cm). Over random hand-robot contacts near the table and a fixture, with the estimate's
+    end points moved up to Z_d, every contact the judge finds clamped against a fixed surface the
+    controller holds clamped (`SafetyRules.clamped` with `near_surfaces`). Without the near test,
+    the push test alone (the judge's on the estimate, its radius grown by Z_d) misses some: the
+    estimate's push tilts away from the surface the true push comes nearer."""
+    from hrc_drake.safety.config import PowerForceLimiting
+    from hrc_drake.safety.judge import Judge, declared_mode, standard_values
+    from hrc_drake.safety.limits import load_limits
+    from hrc_drake.safety.rules import SafetyRules, clamping_radius, pair_geometry
+
+    fixture = FixedBox((0.6, 0.0, 0.85), (0.1, 0.3, 0.2))
+    boxes = (TABLE, fixture)
+    judge = Judge(standard_values(reaction_time=0.1, deceleration=5.0), declared_mode(PowerForceLimiting(), None),
+                  ("tool",), ("right_hand",), ("hand_fingers",), (6.0,), None, boxes)
+    rules = SafetyRules(PowerForceLimiting(), load_limits(), ("hand_fingers",), None, boxes)
+    rng = np.random.default_rng(520)
+    z_d = np.array([0.03])
+    still = (np.zeros((1, 3)), np.zeros((1, 3)))
+    judged = missed = missed_by_push_alone = 0
+    for _ in range(3000):
+        centre = np.array([rng.uniform(0.3, 0.7), rng.uniform(-0.3, 0.3), rng.uniform(0.76, 0.9)])
+        axis = rng.normal(size=3)
+        axis *= rng.uniform(0.0, 0.05) / np.linalg.norm(axis)
+        radius = np.array([rng.uniform(0.03, 0.05)])
+        truth = (centre[None] - axis, centre[None] + axis, radius)
+        push = rng.normal(size=3)
+        push /= np.linalg.norm(push)
+        tool_radius = 0.04
+        at = centre - push * (radius[0] + tool_radius - 0.002)  # 2 mm deep: a contact
+        across = np.cross(push, rng.normal(size=3))
+        across *= rng.uniform(0.0, 0.08) / np.linalg.norm(across)
+        robot = ((at - across)[None], (at + across)[None], np.array([tool_radius]))
+        k = r = np.zeros(1, dtype=np.int64)
+        true_pair = pair_geometry(robot, still, truth, k, r, np.zeros(1))
+        if judge.clamped_against(0, radius[0], true_pair.body_point[0], true_pair.direction[0],
+                                 robot) != "a fixed surface":
+            continue
+        judged += 1
+        error = rng.normal(size=(2, 3))
+        error *= (z_d[0] * rng.uniform(0.5, 1.0, (2, 1)) ** (1 / 3)) / np.linalg.norm(error, axis=1)[:, None]
+        estimate = (truth[0] + error[:1], truth[1] + error[1:], radius)
+        pair = pair_geometry(robot, still, estimate, k, r, np.zeros(1))
+        grown = clamping_radius(radius, z_d)
+        missed += not rules.clamped(pair, grown, near=rules.near_surfaces(estimate, z_d))[0]
+        missed_by_push_alone += not rules.clamped(pair, grown)[0]
+    assert judged > 300  # the cases exist
+    assert missed_by_push_alone > 0  # the near test is what closes the gap
+    assert missed == 0
