@@ -503,9 +503,9 @@ def clamping_radius(region_radius, z_d, lost_radius=None) -> np.ndarray:
     its Z_d, as the part may lie up to Z_d nearer a surface than estimated (falsify_pcb_ic: a hand
     the estimate put clear of the table, and the robot approached at the free contact's transient
     speed, was pressed onto it at 12.7x its quasi-static limit; an uncertain part near a surface is
-    clamped whatever the push, `SafetyRules.near_surfaces`); -inf (never clamped by that test) for a region that is
-    a reachable set (`lost_radius` finite, given where `lost_parts_clamped` judges lost parts by the
-    robot's clearance to the surfaces instead)."""
+    clamped whatever the push, `SafetyRules.near_surfaces`); -inf (never clamped by that test) for a
+    region that is a reachable set (`lost_radius` finite, given where `lost_parts_clamped` judges
+    lost parts by the robot's clearance to the surfaces instead)."""
     out = np.asarray(region_radius, dtype=float) + np.asarray(z_d, dtype=float)
     if lost_radius is not None:
         out = np.where(np.isfinite(np.asarray(lost_radius, dtype=float)), -np.inf, out)

@@ -268,8 +268,9 @@ def test_under_estimate_error_the_controller_clamps_every_contact_the_judge_find
 
     fixture = FixedBox((0.6, 0.0, 0.85), (0.1, 0.3, 0.2))
     boxes = (TABLE, fixture)
-    judge = Judge(standard_values(reaction_time=0.1, deceleration=5.0), declared_mode(PowerForceLimiting(), None),
-                  ("tool",), ("right_hand",), ("hand_fingers",), (6.0,), None, boxes)
+    values = standard_values(reaction_time=0.1, deceleration=5.0)
+    judge = Judge(values, declared_mode(PowerForceLimiting(), None), ("tool",), ("right_hand",),
+                  ("hand_fingers",), (6.0,), None, boxes)
     rules = SafetyRules(PowerForceLimiting(), load_limits(), ("hand_fingers",), None, boxes)
     rng = np.random.default_rng(520)
     z_d = np.array([0.03])
