@@ -216,13 +216,44 @@ def _clamped_one(point, direction, radius, margin, lower, upper):
     return False
 
 
+@njit(cache=True, inline="always")
+def _segment_distance(x, y, z, start, end, j):
+    """Distance from the point (x, y, z) to the segment j of (start, end)."""
+    ax, ay, az = end[j, 0] - start[j, 0], end[j, 1] - start[j, 1], end[j, 2] - start[j, 2]
+    length2 = ax * ax + ay * ay + az * az
+    t = 0.0
+    if length2 > 0.0:
+        along = (x - start[j, 0]) * ax + (y - start[j, 1]) * ay + (z - start[j, 2]) * az
+        t = min(max(along / length2, 0.0), 1.0)
+    return _norm3(x - start[j, 0] - t * ax, y - start[j, 1] - t * ay, z - start[j, 2] - t * az)
+
+
+@njit(cache=True, inline="always")
+def _clamped_by_capsule(point, direction, radius, margin, k, r_start, r_end, r_radius):
+    """Whether a part, a ball of `radius` at `point` pushed along `direction` by robot capsule k,
+    moved `margin` on, reaches into another robot capsule and comes nearer it (the judge's
+    `Judge.clamped_against`; `regions.clamped_by_capsules`)."""
+    x, y, z = point[0], point[1], point[2]
+    mx, my, mz = x + margin * direction[0], y + margin * direction[1], z + margin * direction[2]
+    for j in range(r_radius.shape[0]):
+        if j == k:
+            continue
+        now = _segment_distance(x, y, z, r_start, r_end, j) - r_radius[j]
+        then = _segment_distance(mx, my, mz, r_start, r_end, j) - r_radius[j]
+        if then < radius and then < now - 1e-9:
+            return True
+    return False
+
+
 @njit(cache=True)
 def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, on_body, direction,
-                     region_radius, region_near, use_clamping, lower, upper, margin):
+                     region_radius, region_near, use_clamping, lower, upper, margin, k, r_start, r_end,
+                     r_radius):
     """(zone PFL (N,), governed (N,)): the pairs whose region PFL governs in a collaborative zone
     (hybrid: where the middle of the closest points lies in one), and of those the ones whose
-    part no fixed box clamps: neither near one whatever the push (region_near (R,),
-    `regions.near_surfaces`) nor pushed onto one (`SafetyRules.governed_by_pfl`)."""
+    part nothing clamps: neither near a fixed box whatever the push (region_near (R,),
+    `regions.near_surfaces`) nor pushed onto one or into another robot capsule of (r_start,
+    r_end, r_radius) than the pair's k (`SafetyRules.governed_by_pfl`)."""
     size = r.shape[0]
     zone = np.empty(size, dtype=np.bool_)
     governed = np.empty(size, dtype=np.bool_)
@@ -239,8 +270,11 @@ def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, o
                     break
         zone[n] = pfl
         if pfl and use_clamping:
+            radius = region_radius[r[n]]
             pfl = not (region_near[r[n]]
-                       or _clamped_one(on_body[n], direction[n], region_radius[r[n]], margin, lower, upper))
+                       or _clamped_one(on_body[n], direction[n], radius, margin, lower, upper)
+                       or _clamped_by_capsule(on_body[n], direction[n], radius, margin, k[n], r_start, r_end,
+                                              r_radius))
         governed[n] = pfl
     return zone, governed
 
@@ -339,7 +373,7 @@ def _warm_up_steps() -> list:
         lambda: screen(capsules, (one, one), capsules, np.zeros(1), params, params, 0.0, 1.0),
         lambda: pair_geometry(capsules, (one, one), capsules, pair, pair),
         lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), ~flags, True,
-                                 one, one + 1.0, 0.02),
+                                 one, one + 1.0, 0.02, pair, one, one, np.ones(1)),
         lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
         lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0, approach, 1.0),
         lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hrc_drake.kernels import capsule_clearances
+
 #: m: a rigid body this far behind a part (beyond its radius) along the push clamps it (the judge's
 #: `judge.CLAMP_MARGIN`; the controller's margin is never below it).
 CLAMP_MARGIN = 0.02
@@ -160,6 +162,23 @@ def clamped(points, directions, radius, boxes, margin: float = CLAMP_MARGIN) -> 
                                 axis=2) for p in (points, moved))
     within = then < np.asarray(radius, dtype=float)[:, None]
     return np.any(within & ((then < now - 1e-9) | (now <= 0.0)), axis=1)
+
+
+def clamped_by_capsules(points, directions, radius, pushed_by, capsules,
+                        margin: float = CLAMP_MARGIN) -> np.ndarray:
+    """(N,) whether a body part, a ball of `radius` (N,) at `points` (N, 3) pushed along
+    `directions` (N, 3) by robot capsule `pushed_by` (N,), is clamped against another robot capsule
+    of `capsules` (start, end, radius) (another robot, a cart, the robot's own other links): the
+    ball moved `margin` on reaches into it and comes nearer it (the judge's `Judge.clamped_against`)."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    start, end, capsule_radius = (np.asarray(x, dtype=float) for x in capsules)
+    moved = points + margin * np.atleast_2d(np.asarray(directions, dtype=float))
+    # (N, K): each ball's centre to each capsule's surface
+    now, then = (capsule_clearances(p, p, np.zeros(len(p)), start, end, capsule_radius)
+                 for p in (points, moved))
+    behind = (then < np.asarray(radius, dtype=float)[:, None]) & (then < now - 1e-9)
+    behind[np.arange(len(points)), np.asarray(pushed_by, dtype=int)] = False
+    return behind.any(axis=1)
 
 
 def near_surfaces(start, end, radius, z_d, boxes, margin: float = CLAMP_MARGIN) -> np.ndarray:

@@ -34,7 +34,14 @@ from hrc_drake.safety.config import (
     mode_name,
 )
 from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
-from hrc_drake.safety.regions import CLAMP_MARGIN, FixedBox, clamped, near_surfaces, surface_clearances
+from hrc_drake.safety.regions import (
+    CLAMP_MARGIN,
+    FixedBox,
+    clamped,
+    clamped_by_capsules,
+    near_surfaces,
+    surface_clearances,
+)
 from hrc_drake.safety.ssm import SeparationParameters, path_stop, permissible_speed, protective_separation
 
 #: Override of a pair with no constraint.
@@ -196,33 +203,40 @@ class SafetyRules:
         gaps = np.linalg.norm(points[:, None, :] - self.zone_centers[None], axis=2)
         return np.any(gaps <= self.zone_radii[None], axis=1)
 
-    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None, lost=None, near=None) -> np.ndarray:
+    def governed_by_pfl(self, pairs: PairGeometry, region_radius=None, lost=None, near=None,
+                        robot=None) -> np.ndarray:
         """(N,) whether each pair is under PFL (else SSM); in a hybrid mode only where the pair's
         contact would be, the middle of its closest points, lies in a collaborative zone. With the
         regions' radii, a part clamped against a fixed surface is under SSM: the simulated robot
         is position-controlled, without the force sensing that would stop it within the
         F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all
-        (`clamped`; `lost` and `near` as there)."""
+        (`clamped`; `lost`, `near` and `robot`, the robot capsules, as there)."""
         if self.compiled and lost is None:
-            return self._governed(pairs, region_radius, near)[1]
+            return self._governed(pairs, region_radius, near, robot)[1]
         pfl = self.pfl_region[pairs.r]
         if self.hybrid and np.any(pfl):
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
-        if region_radius is not None and self.fixed_boxes and np.any(pfl):
+        if region_radius is not None and self.can_clamp(robot) and np.any(pfl):
             at = np.nonzero(pfl)[0]
-            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost, near)
+            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost, near, robot)
         return pfl
 
-    def _governed(self, pairs: PairGeometry, region_radius=None, near=None):
+    def can_clamp(self, robot=None) -> bool:
+        """Whether something can clamp a part: a fixed surface, or a second robot capsule."""
+        return bool(self.fixed_boxes) or (robot is not None and len(robot[2]) > 1)
+
+    def _governed(self, pairs: PairGeometry, region_radius=None, near=None, robot=None):
         """(PFL's region in a zone (N,), governed by PFL (N,)) by `_kernels._governed_by_pfl`."""
-        clamping = region_radius is not None and bool(self.fixed_boxes)
+        clamping = region_radius is not None and self.can_clamp(robot)
         radius = _kernels._arrays(region_radius)[0] if clamping else self._pfl_floor
         near = np.zeros(len(self.pfl_region), dtype=np.bool_) if near is None else \
             np.ascontiguousarray(near, dtype=np.bool_)
+        if robot is None:
+            robot = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
         return _kernels._governed_by_pfl(
             pairs.r, self.pfl_region, self.hybrid, self.zone_centers, self.zone_radii, pairs.robot_point,
             pairs.body_point, pairs.direction, radius, near, clamping, self._box_lower, self._box_upper,
-            CLAMP_MARGIN)
+            CLAMP_MARGIN, np.ascontiguousarray(pairs.k, dtype=np.int64), *_kernels._arrays(*robot))
 
     def near_surfaces(self, regions, z_d, lost_radius=None) -> np.ndarray:
         """(R,) the regions an uncertain estimate puts near a fixed surface, clamped whatever the
@@ -234,10 +248,12 @@ class SafetyRules:
             near &= ~np.isfinite(np.asarray(lost_radius, dtype=float))
         return near
 
-    def clamped(self, pairs: PairGeometry, region_radius, lost=None, near=None) -> np.ndarray:
-        """(N,) whether the body part of each pair is clamped against a fixed surface: its region
-        is near one (near (R,), `near_surfaces`), or pushed onto one (`regions.clamped`, the
-        judge's test on the estimate, region_radius (R,) grown by Z_d).
+    def clamped(self, pairs: PairGeometry, region_radius, lost=None, near=None, robot=None) -> np.ndarray:
+        """(N,) whether the body part of each pair is clamped against a fixed surface or another
+        robot capsule: its region is near a surface (near (R,), `near_surfaces`), or pushed onto
+        one (`regions.clamped`) or into another capsule of `robot` (start, end, radius)
+        (`regions.clamped_by_capsules`), the judge's tests on the estimate, region_radius (R,)
+        grown by Z_d.
 
         lost: (lost_radius (R,), robot_clearance (K,)): a region's own radius where its capsule
         is a reachable set (the estimate lost an arm point, `regions.reach_bounded`), NaN
@@ -249,6 +265,9 @@ class SafetyRules:
         out = clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, CLAMP_MARGIN)
         if near is not None:
             out |= np.asarray(near, dtype=bool)[pairs.r]
+        if robot is not None and len(robot[2]) > 1:
+            out |= clamped_by_capsules(pairs.body_point, pairs.direction, radius, pairs.k, robot,
+                                       CLAMP_MARGIN)
         margin = self.clamp_margin
         if lost is not None:
             lost_radius, robot_clearance = lost
@@ -332,11 +351,13 @@ class SafetyRules:
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        governed = self.governed_by_pfl(pairs, radius, lost, self.near_surfaces(regions, z_d, lost_radius))
+        governed = self.governed_by_pfl(pairs, radius, lost, self.near_surfaces(regions, z_d, lost_radius),
+                                        robot)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
-        clamped = (self.governed_by_pfl(pairs) & ~governed) if self.fixed_boxes else np.zeros(len(k), bool)
-        if clamped_until is not None and self.pfl and self.fixed_boxes:
+        can_clamp = self.can_clamp(robot)
+        clamped = (self.governed_by_pfl(pairs) & ~governed) if can_clamp else np.zeros(len(k), bool)
+        if clamped_until is not None and self.pfl and can_clamp:
             clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
             held = governed & (clamped_until[k, r] > now)
             governed, clamped = governed & ~held, clamped | held
@@ -396,13 +417,14 @@ class SafetyRules:
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        zone, governed = self._governed(pairs, radius, self.near_surfaces(regions, z_d, lost_radius))
+        zone, governed = self._governed(pairs, radius, self.near_surfaces(regions, z_d, lost_radius), robot)
         clamped = zone & ~governed
-        if (clamped_until is not None and self.pfl and self.fixed_boxes and clamped_until.dtype == np.float64
+        can_clamp = self.can_clamp(robot)
+        if (clamped_until is not None and self.pfl and can_clamp and clamped_until.dtype == np.float64
                 and clamped_until.flags.carray):
             _kernels._hold_clamps(k, r, governed, clamped, clamped_until, float(now),
                                   float(self.config.clamp_hold))
-        elif clamped_until is not None and self.pfl and self.fixed_boxes:
+        elif clamped_until is not None and self.pfl and can_clamp:
             clamped_until[k[clamped], r[clamped]] = now + self.config.clamp_hold
             held = governed & (clamped_until[k, r] > now)
             governed, clamped = governed & ~held, clamped | held

@@ -90,9 +90,11 @@ def test_screen_geometry_rules_and_separations_equal_numpy(name):
         numpy_pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r], compiled=False)
         assert_same_pairs(pairs, numpy_pairs)
         near = reference.near_surfaces(regions, z_d)
-        for radius, uncertain in ((None, None), (regions[2], None), (regions[2], near)):
-            np.testing.assert_array_equal(compiled.governed_by_pfl(pairs, radius, near=uncertain),
-                                          reference.governed_by_pfl(pairs, radius, near=uncertain))
+        for radius, uncertain, capsules in ((None, None, None), (regions[2], None, None),
+                                            (regions[2], near, None), (regions[2], near, robot)):
+            np.testing.assert_array_equal(
+                compiled.governed_by_pfl(pairs, radius, near=uncertain, robot=capsules),
+                reference.governed_by_pfl(pairs, radius, near=uncertain, robot=capsules))
         for z in (0.0, z_d[r]):
             np.testing.assert_allclose(compiled.separations(pairs, pairs.approach, z, covered),
                                        reference.separations(pairs, pairs.approach, z, covered), rtol=RTOL)
@@ -111,7 +113,8 @@ def test_override_and_clamp_holds_equal_numpy(name):
         return mass(k, points, u)
 
     for step in range(300):
-        robot, velocity, regions, z_d = scene(rng)
+        # one robot capsule too: with two or more a part may be clamped between them
+        robot, velocity, regions, z_d = scene(rng, robots=int(rng.choice([1, 3, 8])))
         covered = float(rng.choice([0.0, 0.3]))
         now = 0.05 * step
         got, want = (rules.override(robot, velocity, regions, z_d, counted_mass, covered, until[rules], now)
@@ -129,9 +132,9 @@ def test_override_and_clamp_holds_equal_numpy(name):
         kinds.add(rule)
     assert bound > 20 or name == "none"
     if name.startswith(("pfl", "hybrid")):
-        # every rule binds somewhere: SSM, PFL's speed and (with fixed surfaces) a clamped part's
-        # compression budget
-        budget = CONFIGS[name][1] and CONFIGS[name][0].clamped_approach == "compression_budget"
+        # every rule binds somewhere: SSM, PFL's speed and a clamped part's compression budget (a
+        # fixed surface or another robot capsule clamps it)
+        budget = CONFIGS[name][0].clamped_approach == "compression_budget"
         assert kinds == ({"ssm", "pfl", "clamped"} if budget else {"ssm", "pfl"})
         assert np.isfinite(until[compiled]).any() or not CONFIGS[name][1]  # clamps held
     if name in ("pfl", "pfl_area"):

@@ -305,3 +305,39 @@ def test_under_estimate_error_the_controller_clamps_every_contact_the_judge_find
     assert judged > 300  # the cases exist
     assert missed_by_push_alone > 0  # the near test is what closes the gap
     assert missed == 0
+
+
+def test_a_hand_pushed_against_a_cart_is_clamped_as_the_judge_holds_it():
+    """The audit's crushed hand: a gripper pushes a hand toward a cart (another robot capsule). The
+    controller's test is the judge's (`Judge.clamped_against`) on the robot's capsules: over random
+    hands between a pushing capsule and two others, every hand the judge finds clamped against a
+    capsule the controller holds clamped, and one pushed away from the cart is free."""
+    from hrc_drake.safety.config import PowerForceLimiting
+    from hrc_drake.safety.judge import Judge, declared_mode, standard_values
+    from hrc_drake.safety.regions import clamped_by_capsules
+
+    hand = np.array([[0.0, 0.0, 1.0]])
+    cart = (np.array([[0.0, 0.1, 0.8], [0.0, 0.0, 1.0]]), np.array([[0.0, 0.1, 1.2], [0.0, 0.0, 1.0]]),
+            np.array([0.05, 0.04]))  # capsule 0: the cart's post 10 cm beside the hand; 1: the gripper
+    toward = np.array([[0.0, 1.0, 0.0]])
+    assert clamped_by_capsules(hand, toward, np.array([0.05]), np.array([1]), cart)[0]
+    assert not clamped_by_capsules(hand, -toward, np.array([0.05]), np.array([1]), cart)[0]
+    # the capsule that pushes does not clamp against itself
+    assert not clamped_by_capsules(hand, toward, np.array([0.05]), np.array([0]), cart)[0]
+
+    values = standard_values(reaction_time=0.1, deceleration=5.0)
+    judge = Judge(values, declared_mode(PowerForceLimiting(), None), ("gripper", "cart", "link"),
+                  ("right_hand",), ("hand_fingers",), (6.0, 20.0, 6.0), None, ())
+    rng = np.random.default_rng(521)
+    n = 3000
+    points = rng.uniform(-0.15, 0.15, (n, 3)) + [0.0, 0.0, 1.0]
+    directions = rng.normal(size=(n, 3))
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    radius = rng.uniform(0.03, 0.06, n)
+    robot = (np.array([[0.5, 0.0, 1.0], [0.0, 0.1, 0.8], [-0.1, -0.1, 1.0]]),
+             np.array([[0.6, 0.0, 1.0], [0.0, 0.1, 1.2], [-0.1, 0.1, 1.0]]), np.array([0.04, 0.05, 0.03]))
+    by_controller = clamped_by_capsules(points, directions, radius, np.zeros(n, dtype=int), robot)
+    by_judge = np.array([judge.clamped_against(0, radius[i], points[i], directions[i], robot) != ""
+                         for i in range(n)])
+    assert by_judge.sum() > 200
+    np.testing.assert_array_equal(by_controller, by_judge)
