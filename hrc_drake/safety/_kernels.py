@@ -247,12 +247,12 @@ def _clamped_by_capsule(point, direction, radius, margin, k, r_start, r_end, r_r
 
 @njit(cache=True)
 def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, on_body, direction,
-                     region_radius, region_near, use_clamping, lower, upper, margin, k, r_start, r_end,
+                     region_radius, pair_near, use_clamping, lower, upper, margin, k, r_start, r_end,
                      r_radius):
     """(zone PFL (N,), governed (N,)): the pairs whose region PFL governs in a collaborative zone
     (hybrid: where the middle of the closest points lies in one), and of those the ones whose
-    part nothing clamps: neither near a fixed box whatever the push (region_near (R,),
-    `regions.near_surfaces`) nor pushed onto one or into another robot capsule of (r_start,
+    part nothing clamps: neither near something that clamps it whatever the push (pair_near (N,),
+    `SafetyRules.near_pairs`) nor pushed onto a fixed box or into another robot capsule of (r_start,
     r_end, r_radius) than the pair's k (`SafetyRules.governed_by_pfl`)."""
     size = r.shape[0]
     zone = np.empty(size, dtype=np.bool_)
@@ -271,7 +271,7 @@ def _governed_by_pfl(r, pfl_region, hybrid, zone_centers, zone_radii, surface, o
         zone[n] = pfl
         if pfl and use_clamping:
             radius = region_radius[r[n]]
-            pfl = not (region_near[r[n]]
+            pfl = not (pair_near[n]
                        or _clamped_one(on_body[n], direction[n], radius, margin, lower, upper)
                        or _clamped_by_capsule(on_body[n], direction[n], radius, margin, k[n], r_start, r_end,
                                               r_radius))

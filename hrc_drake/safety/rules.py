@@ -120,13 +120,17 @@ class SafetyRules:
     fixed surfaces (`FixedBox`) for clamping; arm_masses: M of the arm of each robot capsule (K,)
     for the "iso" robot mass; payloads: m_L of the arm of each robot capsule (K,), the parts it
     carries (the config's `payload` is the least); compiled: the kernels of `safety._kernels`
-    (False: numpy, the reference they are tested against).
+    (False: numpy, the reference they are tested against); capsule_robots (K,): the robot (a
+    plant's model instance) of each capsule, and joined_capsules (K, K): the capsules on one body
+    or on two bodies a joint joins (`near_pairs`; None: capsules that touch count as joined).
     """
 
     def __init__(self, config, limits: LimitsTable | None, regions: tuple[str, ...], zones=None,
                  fixed_boxes: tuple[FixedBox, ...] = (), arm_masses=None, compiled: bool = True,
-                 payloads=None):
+                 payloads=None, capsule_robots=None, joined_capsules=None):
         self.config = config
+        self.capsule_robots = None if capsule_robots is None else np.asarray(capsule_robots)
+        self.joined_capsules = None if joined_capsules is None else np.asarray(joined_capsules, dtype=bool)
         self.compiled = bool(compiled)
         self.mode = mode_name(config)
         self.regions = tuple(regions)
@@ -210,7 +214,7 @@ class SafetyRules:
         regions' radii, a part clamped against a fixed surface is under SSM: the simulated robot
         is position-controlled, without the force sensing that would stop it within the
         F_qs / k (2 mm for a hand) a clamped part takes, so it must not press one at all
-        (`clamped`; `lost`, `near` and `robot`, the robot capsules, as there)."""
+        (`clamped`; `lost`, `near` (N,) and `robot`, the robot capsules, as there)."""
         if self.compiled and lost is None:
             return self._governed(pairs, region_radius, near, robot)[1]
         pfl = self.pfl_region[pairs.r]
@@ -218,7 +222,8 @@ class SafetyRules:
             pfl = pfl & self.in_zone(0.5 * (pairs.robot_point + pairs.body_point))
         if region_radius is not None and self.can_clamp(robot) and np.any(pfl):
             at = np.nonzero(pfl)[0]
-            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost, near, robot)
+            pfl[at] = ~self.clamped(subset_pairs(pairs, at), region_radius, lost,
+                                    None if near is None else np.asarray(near)[at], robot)
         return pfl
 
     def can_clamp(self, robot=None) -> bool:
@@ -229,7 +234,7 @@ class SafetyRules:
         """(PFL's region in a zone (N,), governed by PFL (N,)) by `_kernels._governed_by_pfl`."""
         clamping = region_radius is not None and self.can_clamp(robot)
         radius = _kernels._arrays(region_radius)[0] if clamping else self._pfl_floor
-        near = np.zeros(len(self.pfl_region), dtype=np.bool_) if near is None else \
+        near = np.zeros(len(pairs.r), dtype=np.bool_) if near is None else \
             np.ascontiguousarray(near, dtype=np.bool_)
         if robot is None:
             robot = (np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
@@ -248,9 +253,34 @@ class SafetyRules:
             near &= ~np.isfinite(np.asarray(lost_radius, dtype=float))
         return near
 
+    def near_pairs(self, pairs: PairGeometry, regions, z_d, distance, robot, lost_radius=None) -> np.ndarray:
+        """(N,) the pairs whose part an uncertain estimate puts near something that clamps it
+        whatever the push: a fixed surface (`near_surfaces`), or a robot capsule apart from the
+        pushing one within Z_d + `clamp_margin` of the region's surface (distance (K, R): the
+        screen's clearances). The judge's clamped ball, moved the margin along the true push, lies
+        within its radius of the capsule, so the true region within the margin of it and the
+        estimate within the margin + Z_d. Apart: another robot's (a cart's) capsule, or one of the
+        same robot neither joined to the pushing one (`joined_capsules`) nor touching it; the
+        pushing capsule's neighbouring links take the push test alone (`clamped`), as near a
+        joint every part would be near both. Lost parts' reachable sets are left out."""
+        near = self.near_surfaces(regions, z_d, lost_radius)[pairs.r]
+        if robot is None or len(robot[2]) < 2 or not self.pfl_region.any():
+            return near
+        z_d = np.broadcast_to(np.asarray(z_d, dtype=float), self.pfl_region.shape)
+        close = (np.asarray(distance) < z_d[None, :] + self.clamp_margin) & (z_d > 0.0)[None, :]  # (K, R)
+        if lost_radius is not None:
+            close &= ~np.isfinite(np.asarray(lost_radius, dtype=float))[None, :]
+        apart = capsule_clearances(*robot, *robot) > 0.0  # (K, K); a capsule is not apart from itself
+        count = len(robot[2])
+        if self.joined_capsules is not None and self.joined_capsules.shape == (count, count):
+            apart &= ~self.joined_capsules
+        if self.capsule_robots is not None and self.capsule_robots.shape == (count,):
+            apart |= self.capsule_robots[:, None] != self.capsule_robots[None, :]
+        return near | (apart[pairs.k] & close[:, pairs.r].T).any(axis=1)
+
     def clamped(self, pairs: PairGeometry, region_radius, lost=None, near=None, robot=None) -> np.ndarray:
         """(N,) whether the body part of each pair is clamped against a fixed surface or another
-        robot capsule: its region is near a surface (near (R,), `near_surfaces`), or pushed onto
+        robot capsule: it is near one (near (N,), `near_pairs`), or pushed onto
         one (`regions.clamped`) or into another capsule of `robot` (start, end, radius)
         (`regions.clamped_by_capsules`), the judge's tests on the estimate, region_radius (R,)
         grown by Z_d.
@@ -264,7 +294,7 @@ class SafetyRules:
         radius = np.asarray(region_radius)[pairs.r]
         out = clamped(pairs.body_point, pairs.direction, radius, self.fixed_boxes, CLAMP_MARGIN)
         if near is not None:
-            out |= np.asarray(near, dtype=bool)[pairs.r]
+            out |= np.asarray(near, dtype=bool)
         if robot is not None and len(robot[2]) > 1:
             out |= clamped_by_capsules(pairs.body_point, pairs.direction, radius, pairs.k, robot,
                                        CLAMP_MARGIN)
@@ -351,8 +381,8 @@ class SafetyRules:
                 and np.isfinite(lost_radius).any()):
             lost = (lost_radius, surface_clearances(*robot, self.fixed_boxes))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        governed = self.governed_by_pfl(pairs, radius, lost, self.near_surfaces(regions, z_d, lost_radius),
-                                        robot)
+        near = self.near_pairs(pairs, regions, z_d, distance, robot, lost_radius)
+        governed = self.governed_by_pfl(pairs, radius, lost, near, robot)
         # a clamped part (PFL's region, but pressed against a fixed surface) takes no creeping
         # either: any approach toward it counts
         can_clamp = self.can_clamp(robot)
@@ -417,7 +447,8 @@ class SafetyRules:
         pairs = pair_geometry(robot, robot_velocity, regions, k, r, distance[k, r])
         pairs = replace(pairs, approach=approach_within(pairs, z_d))
         radius = clamping_radius(regions[2], z_d, self._judged_lost(lost_radius))
-        zone, governed = self._governed(pairs, radius, self.near_surfaces(regions, z_d, lost_radius), robot)
+        near = self.near_pairs(pairs, regions, z_d, distance, robot, lost_radius)
+        zone, governed = self._governed(pairs, radius, near, robot)
         clamped = zone & ~governed
         can_clamp = self.can_clamp(robot)
         if (clamped_until is not None and self.pfl and can_clamp and clamped_until.dtype == np.float64

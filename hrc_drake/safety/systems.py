@@ -45,6 +45,20 @@ from hrc_drake.safety.verdict import summarize
 from hrc_drake.systems import declare_periodic_discrete_update
 
 
+def capsule_structure(plant, bodies) -> tuple[np.ndarray, np.ndarray]:
+    """(robot (K,), joined (K, K)) of the capsules on `bodies`: each one's model instance, and
+    whether two lie on one body or on two bodies a joint (welds too) joins (`SafetyRules.near_pairs`)."""
+    bodies = [int(b) for b in bodies]
+    robots = np.array([int(plant.get_body(BodyIndex(b)).model_instance()) for b in bodies])
+    links = set()
+    for index in plant.GetJointIndices():
+        joint = plant.get_joint(index)
+        parent, child = int(joint.parent_body().index()), int(joint.child_body().index())
+        links |= {(parent, child), (child, parent)}
+    joined = np.array([[a == b or (a, b) in links for b in bodies] for a in bodies], dtype=bool)
+    return robots, joined
+
+
 def arm_masses(plant, bodies) -> np.ndarray:
     """M per body (kg): the mass of the moving subtree it belongs to (the bodies outboard of the
     innermost movable joint above it), for the standard's m_R = M/2 + m_L."""
@@ -812,7 +826,9 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
     config.validate("safety")
     region_names = RegionCapsules().regions
     masses = arm_masses(plant, kinematics.capsule_bodies)
-    rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses, payloads=payloads)
+    robots, joined = capsule_structure(plant, kinematics.capsule_bodies)
+    rules = SafetyRules(config, limits, region_names, zones, fixed_boxes, masses, payloads=payloads,
+                        capsule_robots=robots, joined_capsules=joined)
     input_size = positions.size()
     controller = None
     # one for both systems: they read the same positions at most samples (`RobotPointDynamics`)

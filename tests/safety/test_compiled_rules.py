@@ -89,7 +89,7 @@ def test_screen_geometry_rules_and_separations_equal_numpy(name):
         pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r])
         numpy_pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r], compiled=False)
         assert_same_pairs(pairs, numpy_pairs)
-        near = reference.near_surfaces(regions, z_d)
+        near = reference.near_pairs(pairs, regions, z_d, distance, robot)
         for radius, uncertain, capsules in ((None, None, None), (regions[2], None, None),
                                             (regions[2], near, None), (regions[2], near, robot)):
             np.testing.assert_array_equal(

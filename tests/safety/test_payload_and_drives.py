@@ -69,6 +69,15 @@ def test_the_judge_and_the_controller_of_a_built_cell_carry_the_parts():
     assert payload["yumi/gripper_l_base"] == 0.0
     controller = cell.diagram.GetSubsystemByName("safety_controller")
     np.testing.assert_allclose(controller.rules.payloads, judge.payloads)
+    # the capsules' structure for the clamping test (`SafetyRules.near_pairs`): one robot, and a
+    # gripper joined to its wrist link only
+    index = {name: k for k, name in enumerate(names)}
+    joined = controller.rules.joined_capsules
+    gripper = index["yumi/gripper_r_base"]
+    assert len(set(controller.rules.capsule_robots.tolist())) == 1
+    assert joined[gripper, index["yumi/yumi_link_7_r"]] and joined[gripper, gripper]
+    assert not joined[gripper, index["yumi/yumi_link_6_r"]]
+    assert not joined[gripper, index["yumi/gripper_l_base"]]
 
 
 @pytest.mark.parametrize("mass", [-0.1, 101.0, float("nan")])

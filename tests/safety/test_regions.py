@@ -300,7 +300,8 @@ def test_under_estimate_error_the_controller_clamps_every_contact_the_judge_find
         estimate = (truth[0] + error[:1], truth[1] + error[1:], radius)
         pair = pair_geometry(robot, still, estimate, k, r, np.zeros(1))
         grown = clamping_radius(radius, z_d)
-        missed += not rules.clamped(pair, grown, near=rules.near_surfaces(estimate, z_d))[0]
+        near = rules.near_pairs(pair, estimate, z_d, np.zeros((1, 1)), robot)
+        missed += not rules.clamped(pair, grown, near=near)[0]
         missed_by_push_alone += not rules.clamped(pair, grown)[0]
     assert judged > 300  # the cases exist
     assert missed_by_push_alone > 0  # the near test is what closes the gap
@@ -341,3 +342,57 @@ def test_a_hand_pushed_against_a_cart_is_clamped_as_the_judge_holds_it():
                          for i in range(n)])
     assert by_judge.sum() > 200
     np.testing.assert_array_equal(by_controller, by_judge)
+
+
+def test_under_estimate_error_the_controller_clamps_every_hand_the_judge_finds_clamped_against_a_cart():
+    """As for fixed surfaces, with the estimate off by up to Z_d (3 cm): over random hands at a
+    cart's post pushed by a gripper, every contact the judge finds clamped against the post the
+    controller holds clamped (`SafetyRules.near_pairs`: an uncertain part within Z_d + the margin of
+    a capsule apart from the pushing one), where the push test alone misses some."""
+    from hrc_drake.safety.config import PowerForceLimiting
+    from hrc_drake.safety.judge import Judge, declared_mode, standard_values
+    from hrc_drake.safety.limits import load_limits
+    from hrc_drake.safety.rules import SafetyRules, clamping_radius, pair_geometry
+
+    values = standard_values(reaction_time=0.1, deceleration=5.0)
+    judge = Judge(values, declared_mode(PowerForceLimiting(), None), ("gripper", "cart"), ("right_hand",),
+                  ("hand_fingers",), (6.0, 20.0), None, ())
+    rules = SafetyRules(PowerForceLimiting(), load_limits(), ("hand_fingers",), None, (),
+                        capsule_robots=[0, 1])  # the gripper's robot and the cart
+    rng = np.random.default_rng(522)
+    z_d = np.array([0.03])
+    still = (np.zeros((2, 3)), np.zeros((2, 3)))
+    post = (np.array([0.0, 0.0, 0.6]), np.array([0.0, 0.0, 1.4]), 0.06)
+    judged = missed = missed_by_push_alone = 0
+    for _ in range(4000):
+        radius = np.array([rng.uniform(0.03, 0.05)])
+        side = np.append(rng.normal(size=2), 0.0)
+        side /= np.linalg.norm(side)
+        centre = [0.0, 0.0, rng.uniform(0.8, 1.2)] + side * (post[2] + radius[0] + rng.uniform(-0.005, 0.04))
+        axis = rng.normal(size=3)
+        axis *= rng.uniform(0.0, 0.05) / np.linalg.norm(axis)
+        truth = (centre[None] - axis, centre[None] + axis, radius)
+        push = rng.normal(size=3)
+        push /= np.linalg.norm(push)
+        at = centre - push * (radius[0] + 0.04 - 0.002)  # the gripper 2 mm deep: a contact
+        across = np.cross(push, rng.normal(size=3))
+        across *= rng.uniform(0.0, 0.08) / np.linalg.norm(across)
+        robot = (np.array([at - across, post[0]]), np.array([at + across, post[1]]),
+                 np.array([0.04, post[2]]))
+        k = r = np.zeros(1, dtype=np.int64)
+        true_pair = pair_geometry(robot, still, truth, k, r, np.zeros(1))
+        if judge.clamped_against(0, radius[0], true_pair.body_point[0], true_pair.direction[0], robot) == "":
+            continue
+        judged += 1
+        error = rng.normal(size=(2, 3))
+        error *= (z_d[0] * rng.uniform(0.5, 1.0, (2, 1)) ** (1 / 3)) / np.linalg.norm(error, axis=1)[:, None]
+        estimate = (truth[0] + error[:1], truth[1] + error[1:], radius)
+        distance, _, _ = rules.screen(robot, still, estimate, z_d)
+        pair = pair_geometry(robot, still, estimate, k, r, distance[k, r])
+        grown = clamping_radius(radius, z_d)
+        near = rules.near_pairs(pair, estimate, z_d, distance, robot)
+        missed += not rules.clamped(pair, grown, near=near, robot=robot)[0]
+        missed_by_push_alone += not rules.clamped(pair, grown, robot=robot)[0]
+    assert judged > 300
+    assert missed_by_push_alone > 0
+    assert missed == 0
