@@ -164,9 +164,10 @@ class PowerForceLimiting(SpeedSeparationMonitoring):
     payload: float = 0.0
     #: Contact area A (cm^2) of the pressure form of eq. (A.6); 0: the force form only.
     contact_area: float = 1.0
-    #: A fixed surface within a part's radius plus this (m) behind it along the push clamps it, and
-    #: one within its radius plus Z_d plus this of an uncertain part's axis (`regions.near_surfaces`);
-    #: at least the judge's `regions.CLAMP_MARGIN`, so that the controller clamps no fewer parts.
+    #: An uncertain part (Z_d > 0) whose axis comes within its radius plus Z_d plus this (m) of a
+    #: fixed surface, or whose capsule within Z_d plus this of another robot capsule, is clamped
+    #: whatever the push (`regions.near_surfaces`, `rules.SafetyRules.near_pairs`); at least the
+    #: judge's `regions.CLAMP_MARGIN`, which the push test itself takes (the judge's test).
     clamp_margin: float = CLAMP_MARGIN
     #: A (robot capsule, region) pair judged clamped stays clamped for this long (s): the estimate's
     #: noise flips a hand resting near a surface between clamped and free from one period to the

@@ -260,9 +260,9 @@ class SafetyRules:
         screen's clearances). The judge's clamped ball, moved the margin along the true push, lies
         within its radius of the capsule, so the true region within the margin of it and the
         estimate within the margin + Z_d. Apart: another robot's (a cart's) capsule, or one of the
-        same robot neither joined to the pushing one (`joined_capsules`) nor touching it; the
-        pushing capsule's neighbouring links take the push test alone (`clamped`), as near a
-        joint every part would be near both. Lost parts' reachable sets are left out."""
+        same robot neither joined to the pushing one (`joined_capsules`) nor touching it; near a
+        neighbouring link (an elbow, where every part is near both links) only if the push may
+        come nearer it (`_pushed_toward`). Lost parts' reachable sets are left out."""
         near = self.near_surfaces(regions, z_d, lost_radius)[pairs.r]
         if robot is None or len(robot[2]) < 2 or not self.pfl_region.any():
             return near
@@ -272,11 +272,45 @@ class SafetyRules:
             close &= ~np.isfinite(np.asarray(lost_radius, dtype=float))[None, :]
         apart = capsule_clearances(*robot, *robot) > 0.0  # (K, K); a capsule is not apart from itself
         count = len(robot[2])
-        if self.joined_capsules is not None and self.joined_capsules.shape == (count, count):
+        for name, given, shape in (("joined_capsules", self.joined_capsules, (count, count)),
+                                   ("capsule_robots", self.capsule_robots, (count,))):
+            if given is not None and given.shape != shape:
+                raise ValueError(f"SafetyRules.{name}: shape {given.shape} for {count} robot capsules")
+        if self.joined_capsules is not None:
             apart &= ~self.joined_capsules
-        if self.capsule_robots is not None and self.capsule_robots.shape == (count,):
+        if self.capsule_robots is not None:
             apart |= self.capsule_robots[:, None] != self.capsule_robots[None, :]
-        return near | (apart[pairs.k] & close[:, pairs.r].T).any(axis=1)
+        close = close[:, pairs.r].T  # (N, K)
+        near = near | (apart[pairs.k] & close).any(axis=1)
+        neighbours = close & ~apart[pairs.k]
+        neighbours[np.arange(len(pairs.k)), pairs.k] = False
+        if neighbours.any():
+            n, j = np.nonzero(neighbours)
+            near[n[self._pushed_toward(pairs, n, j, robot, z_d)]] = True
+        return near
+
+    @staticmethod
+    def _pushed_toward(pairs: PairGeometry, n, j, robot, z_d) -> np.ndarray:
+        """Whether the push of pair n may come nearer the neighbouring capsule j (a link joined to
+        or touching the pushing one: an elbow's pinch) once the estimate is off by Z_d: the
+        moved part comes nearer j only if the true push u has a component toward j's axis, and
+        u and the direction to j each turn by up to asin(Z_d / distance) from the estimate's (the
+        projection onto a segment is 1-Lipschitz), so: u . n_j < sin(sum of the two angles), n_j
+        the unit vector from j's axis to the part. A bound on the estimated directions, sampled in
+        tests/safety/test_regions.py, not proven for the closest points' sliding along the axes."""
+        start, end, radius = (np.asarray(x, dtype=float) for x in robot)
+        point, push = pairs.body_point[n], pairs.direction[n]
+        along = end[j] - start[j]
+        t = np.clip(np.einsum("ij,ij->i", point - start[j], along)
+                    / np.maximum(np.einsum("ij,ij->i", along, along), 1e-12), 0.0, 1.0)
+        from_j = point - (start[j] + t[:, None] * along)
+        to_j_length = np.linalg.norm(from_j, axis=1)
+        on_k = pairs.robot_point[n] - radius[pairs.k[n]][:, None] * push  # the pushing capsule's axis
+        to_k_length = np.linalg.norm(point - on_k, axis=1)
+        z = np.asarray(z_d, dtype=float)[pairs.r[n]]
+        tilt = (np.arcsin(np.minimum(1.0, z / np.maximum(to_j_length, 1e-12)))
+                + np.arcsin(np.minimum(1.0, z / np.maximum(to_k_length, 1e-12))))
+        return np.einsum("ij,ij->i", push, from_j) <= np.sin(np.minimum(tilt, 0.5 * np.pi)) * to_j_length
 
     def clamped(self, pairs: PairGeometry, region_radius, lost=None, near=None, robot=None) -> np.ndarray:
         """(N,) whether the body part of each pair is clamped against a fixed surface or another
