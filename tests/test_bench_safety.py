@@ -89,6 +89,15 @@ def test_the_kept_percentage_and_the_products_plot(bench, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 5000
 
 
+def test_a_cell_that_plans_its_speed_reports_its_declared_figures_as_predictive(bench):
+    out = {key: {"a": {"declared": 6.0, "none": 8.0}, "b": {"declared": 2.0, "predictive": 3.0},
+                 "c": {"declared": 1.0}} for key in ("products", "cycle_s", "stops", "slowed_s")}
+    bench.add_predictive_figures(out, {"a": "predictive", "b": "predictive", "c": "reactive"})
+    assert out["products"]["a"]["predictive"] == 6.0 and out["slowed_s"]["a"]["predictive"] == 6.0
+    assert out["stops"]["b"]["predictive"] == 3.0  # run itself: kept
+    assert "predictive" not in out["cycle_s"]["c"]
+
+
 def test_the_predictive_and_reactive_modes_are_the_declared_mode_with_that_profile(bench):
     from hrc_drake.cell.scenario import load_scenario_with
 

@@ -36,7 +36,9 @@ candidate of each `--falsify` report) and `.candidates_with_violations.<search>`
 m_R = 3 kg), `effective_mass_us` (one evaluation on a fresh YuMi state: Jacobian, mass matrix,
 factorisation) and `effective_mass_cached_us` (another point of the same body and state), and
 `kept_pct.<cell>` (issue 52: declared-mode products as a percentage of the products without a
-safety system; null without both). `--plot FILE` draws the products per cell and mode as bars,
+safety system; null without both); a cell whose declared mode plans its speed
+(`speed_profile: predictive`) has its declared figures under `predictive` too, unless that mode
+was run itself. `--plot FILE` draws the products per cell and mode as bars,
 each declared bar labelled with its verdict (the before/after picture of docs/safety.md).
 """
 
@@ -146,6 +148,7 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
     safety = metrics["safety"]
     ratios = [v for v in safety["worst_ratio"].values() if v != 0.0]  # 0: no contact with that region
     return {"scenario": Path(path).stem, "mode": mode, "declared": safety["mode"], "seed": scenario.seed,
+            "speed_profile": getattr(scenario.safety, "speed_profile", None),
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
             "judge_share": round(judge_time[0] / cpu, 4) if cpu > 0 else None,
             "stop_ratio_worst": safety.get("stop_ratio_worst"),
@@ -428,6 +431,7 @@ def figures(rows: list[dict], args) -> dict:
     out["stop_ratio_worst"] = {c: max((r["stop_ratio_worst"] for r in rs
                                        if r["stop_ratio_worst"] is not None),
                                       default=None) for c, rs in declared.items() if rs}
+    add_predictive_figures(out, {c: rs[0].get("speed_profile") for c, rs in declared.items() if rs})
     out["kept_pct"] = {c: kept_percentage(out["products"][c]) for c in cells}
     out["effective_mass_kg"] = gripper_effective_mass()
     for report in getattr(args, "falsify", None) or ():
@@ -438,6 +442,19 @@ def figures(rows: list[dict], args) -> dict:
     repeats = 4 if getattr(args, "smoke", False) else 400
     out["effective_mass_us"], out["effective_mass_cached_us"] = time_effective_mass(repeats)
     return out
+
+
+def add_predictive_figures(out: dict, profiles: dict) -> None:
+    """The declared mode of a cell that plans its speed (`profiles[cell] == "predictive"`) is its
+    predictive mode: its products, cycle, stops and time slowed are also given under `predictive`
+    (the issue-52 keys), unless that mode was run itself."""
+    for cell, profile in profiles.items():
+        if profile != "predictive":
+            continue
+        for key in ("products", "cycle_s", "stops", "slowed_s"):
+            figures = out[key][cell]
+            if "declared" in figures:
+                figures.setdefault("predictive", figures["declared"])
 
 
 def kept_percentage(products: dict):
