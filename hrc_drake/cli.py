@@ -184,56 +184,19 @@ def _load_scenario(name: str, check_reachability: bool = False):
         raise hinted from None
 
 
-#: the package holding the example scenarios (diagrams/ of the repository, shipped as package data)
-EXAMPLES_PACKAGE = "hrc_drake.diagrams"
+def _resolved(name: str, kind: str) -> str:
+    """`name` as given when a file is there, else the shipped example of `kind` of that bare name
+    (`cell.shipped.resolve`, as `load_scenario` and `import --cell`: `hrc-drake simulate
+    torch_clock`); else ScenarioError naming where it looked and the examples there are."""
+    from hrc_drake.cell.shipped import resolve
 
-
-def example_names(campaign: bool = False) -> list[str]:
-    """The names of the shipped example scenarios (or campaign specs), sorted."""
-    folder = _examples_folder(campaign)
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder is not None else []
-
-
-def example_path(name: str, campaign: bool = False) -> Path | None:
-    """The shipped example scenario (campaign spec) called `name` (no suffix), None if there is none."""
-    folder = _examples_folder(campaign)
-    if folder is None or not name or name.startswith("."):
-        return None
-    path = folder / f"{name}.yaml"
-    return path if path.is_file() else None
-
-
-def _examples_folder(campaign: bool) -> Path | None:
-    """The folder of the shipped examples on disk (a namespace package: no __init__.py)."""
-    from importlib.resources import files
-
-    try:
-        # the entries of a namespace package's MultiplexedPath are file-system paths
-        entry = next(iter(files(EXAMPLES_PACKAGE).iterdir()), None)
-    except (ModuleNotFoundError, TypeError, OSError):
-        return None
-    if entry is None:
-        return None
-    folder = Path(str(entry)).parent
-    folder = folder / "campaigns" if campaign else folder
-    return folder if folder.is_dir() else None
-
-
-def _looks_like_a_path(name: str) -> bool:
-    return Path(name).exists() or os.sep in name or "/" in name or name.endswith((".yaml", ".yml"))
+    found = resolve(name, kind)
+    return name if found == Path(name) else str(found)
 
 
 def _scenario_path(name: str) -> str:
-    """`name` itself when it is a file (or looks like a path: has a folder or a .yaml suffix);
-    else the example scenario of that name shipped with the package (`hrc-drake simulate
-    torch_clock`); else ScenarioError naming the examples there are."""
-    if _looks_like_a_path(name):
-        return name
-    found = example_path(name)
-    if found is None:
-        raise ScenarioError(name, "", "no such file, and no shipped example scenario of that name (examples: "
-                                      f"{', '.join(example_names()) or 'none installed'})")
-    return str(found)
+    """The scenario file `name` means (`_resolved`)."""
+    return _resolved(name, "scenario")
 
 
 def _print_files(paths) -> None:
@@ -245,7 +208,9 @@ def _print_files(paths) -> None:
             print(f"  {p}")
 
 
-def _simulate(args) -> int:
+def _simulate(args, written: list | None = None) -> int:
+    """`hrc-drake simulate`; the files it wrote are listed at its end, or added to `written` (a
+    command that runs it as its last step lists them with its own)."""
     from hrc_drake.cell.build import kernel_groups
     from hrc_drake.kernels import compile_ahead
 
@@ -259,10 +224,10 @@ def _simulate(args) -> int:
         scenario.seed = args.seed
     # a first run compiles the cell's kernels in other processes while this one builds
     with compile_ahead(kernel_groups(scenario)) as ahead:
-        return _build_and_simulate(args, scenario, scenario_path, ahead)
+        return _build_and_simulate(args, scenario, scenario_path, ahead, written)
 
 
-def _build_and_simulate(args, scenario, scenario_path, ahead) -> int:
+def _build_and_simulate(args, scenario, scenario_path, ahead, listed: list | None = None) -> int:
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate, write_replay, write_report
 
@@ -322,7 +287,10 @@ def _build_and_simulate(args, scenario, scenario_path, ahead) -> int:
         written.append(Path(args.replay))
     if args.out:
         written += write_report(cell, result, Path(args.out))
-    _print_files(written)
+    if listed is None:
+        _print_files(written)
+    else:
+        listed.extend(written)
     if result.interrupted:
         import signal
 
@@ -371,7 +339,7 @@ def _import(args) -> int:
     scenario_path = out.with_suffix(".yaml") if args.cell else None
     if args.replay and not args.cell:
         raise ScenarioError("", "--replay", "needs --cell SCENARIO: the cell the recording replays in "
-                                            "(e.g. diagrams/box_pcb_coexistence.yaml)")
+                                            "(e.g. box_pcb_coexistence or a scenario file)")
     if out.suffix.lower() == ".json":
         raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .json: its provenance "
                                           "is written beside it as .json")
@@ -383,7 +351,7 @@ def _import(args) -> int:
     columns = Path(args.columns) if args.columns else None
     if columns is not None:
         check_input_file(columns, "column map")
-    cell = Path(args.cell) if args.cell else None
+    cell = Path(_scenario_path(args.cell)) if args.cell else None  # a file, or a shipped cell's name
     if cell is not None:
         check_input_file(cell)
     replay = Path(args.replay) if args.replay else None
@@ -398,61 +366,78 @@ def _import(args) -> int:
     except OSError as err:  # a folder that cannot hold the outputs (read-only, /proc, full)
         where = Path(err.filename) if err.filename else out
         raise ScenarioError(where, "--out", f"cannot be written: {err.strerror or err}") from None
+    written = [out, out.with_suffix(".json")] + ([scenario_path] if scenario_path is not None else [])
     for line in summary:
         print(one_line(line))  # the source's name may hold control characters (a terminal's too)
     if cell is None:
         print(f"drive a cell with it: set `operator: {{recorded: {out}}}` in a scenario, or import again "
               "with --cell SCENARIO [--replay FILE.html]")
+        _print_files(written)
         return 0
-    print(f"scenario: {scenario_path} (the recording as the operator of {args.cell}, {duration:g} s); "
+    print(f"scenario: {scenario_path} (the recording as the operator of {cell}, {duration:g} s); "
           f"run it with: hrc-drake simulate {scenario_path}")
     if not args.replay:
+        _print_files(written)
         return 0
-    replay = argparse.Namespace(scenario=str(scenario_path), duration=None, seed=None, replay=args.replay,
-                                replay_fps=10.0, replay_max_frames=REPLAY_MAX_FRAMES, meshcat=False,
-                                realtime_rate=None, out=None)
-    return _simulate(replay)
+    replay_args = argparse.Namespace(
+        scenario=str(scenario_path), duration=None, seed=None, replay=args.replay, replay_fps=10.0,
+        replay_max_frames=REPLAY_MAX_FRAMES, meshcat=False, realtime_rate=None, out=None)
+    try:
+        return _simulate(replay_args, written=written)
+    finally:
+        _print_files(written)  # the replay with the rest, whether the run ended or was stopped
 
 
 def _import_staged(args, source: Path, out: Path, cell: Path | None, scenario_path: Path | None):
-    """The import's outputs written to temporary files, checked, and renamed into place together
-    (`StagedFiles`); returns (summary lines, the scenario's duration or None)."""
-    from hrc_drake.human.importers import import_recording
+    """The recording read and the scenario of --cell checked in memory, so that a refusal writes
+    nothing; then the outputs written to temporary files, checked as written, and renamed into
+    place together (`StagedFiles`). Returns (summary lines, the scenario's duration or None)."""
+    from hrc_drake.human.importers import read_recording, write_recording
     from hrc_drake.staged_files import StagedFiles
 
+    imported = read_recording(
+        args.format, source, source_rate=args.rate, person=args.person, columns=args.columns,
+        units=args.units, delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
+        camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y), facing=args.facing,
+        table_height=args.table_height)
+    provenance = imported.summary(out)[0]
     duration = None
+    if cell is not None:
+        duration = _recorded_duration(imported.resampled.times)
+        text = _recorded_scenario_text(scenario_path, cell, out, provenance, duration)
+        _check_recorded_scenario(text, scenario_path, cell, out)
     with StagedFiles() as staged:
         skeleton = staged.path_for(out)
-        summary = import_recording(
-            args.format, source, out, source_rate=args.rate, person=args.person, columns=args.columns,
-            units=args.units, delimiter=args.delimiter, header_rows=args.header_rows, up=args.up,
-            camera_rate=args.camera_rate, operator_xy=(args.operator_x, args.operator_y), facing=args.facing,
-            table_height=args.table_height, write_to=(skeleton, staged.path_for(out.with_suffix(".json"))))
+        sidecar = staged.path_for(out.with_suffix(".json"))
+        summary = write_recording(imported, out, write_to=(skeleton, sidecar))
         if cell is not None:
-            # checked as written, with the skeleton under its temporary name, before anything is kept
+            from hrc_drake.cell.scenario import load_scenario
+
+            # checked again as written, with the skeleton under its temporary name, before anything is kept
             draft = staged.path_for(scenario_path)
-            _write_recorded_scenario(draft, cell, skeleton, summary[0], named_skeleton=skeleton, check=True)
+            draft.write_text(_recorded_scenario_text(draft, cell, skeleton, provenance, duration,
+                                                     shown_skeleton=out), encoding="utf-8")
+            load_scenario(draft)
             staged.discard(draft)
-            duration = _write_recorded_scenario(staged.path_for(scenario_path), cell, skeleton, summary[0],
-                                                named_skeleton=out)
+            staged.path_for(scenario_path).write_text(text, encoding="utf-8")
         staged.commit()
     return summary, duration
 
 
-def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance: str,
-                             named_skeleton: Path, check: bool = False) -> float:
-    """A scenario that extends `cell` with the skeleton CSV (read from `skeleton`, named in the
-    scenario as `named_skeleton`) as its operator for the recording's length (paths relative to
-    the scenario's folder), written by the YAML emitter; with `check`, loaded (ScenarioError if
-    the cell refuses it). Returns the duration."""
+def _recorded_duration(times) -> float:
+    """A recorded operator's scenario duration: its last frame's time, up to a tenth of a second."""
+    return max(math.ceil(float(times[-1]) * 10.0) / 10.0, 0.1)
+
+
+def _recorded_scenario_text(path: Path, cell: Path, skeleton: Path, provenance: str, duration: float,
+                            shown_skeleton: Path | None = None) -> str:
+    """The YAML of a scenario at `path` that extends `cell` with the skeleton CSV `skeleton` as its
+    operator for `duration` s (paths relative to the scenario's folder), written by the YAML
+    emitter; its description names `shown_skeleton` (default: `skeleton`)."""
     import yaml
 
-    from hrc_drake.cell.scenario import load_scenario
-    from hrc_drake.human.recorded import load_skeleton_csv
     from hrc_drake.untrusted import one_line
 
-    times, _, _ = load_skeleton_csv(skeleton)
-    duration = max(math.ceil(float(times[-1]) * 10.0) / 10.0, 0.1)
     folder = Path(os.path.abspath(path)).parent.resolve()
 
     def named(target: Path) -> str:  # relative when both lie under one folder below the root
@@ -461,17 +446,29 @@ def _write_recorded_scenario(path: Path, cell: Path, skeleton: Path, provenance:
         return os.path.relpath(target, folder) if shared != os.path.dirname(shared) else str(target)
 
     document = {"extends": named(cell),
-                "description": f"Recorded operator ({Path(named_skeleton).name}) in {cell.stem}",
-                "duration": duration, "operator": {"recorded": named(named_skeleton)}}
+                "description": f"Recorded operator ({Path(shown_skeleton or skeleton).name}) in {cell.stem}",
+                "duration": duration, "operator": {"recorded": named(skeleton)}}
     header = (f"# A recorded person as the operator of {one_line(cell.name)}, written by "
               f"`hrc-drake import`:\n# {one_line(provenance)}\n"
               "# The recording holds no actions: the operator's flow actions do not happen, the robot's "
               "do.\n")
-    path.write_text(header + yaml.safe_dump(document, sort_keys=False, default_flow_style=False, width=1000),
-                    encoding="utf-8")
-    if check:
-        load_scenario(path)
-    return duration
+    return header + yaml.safe_dump(document, sort_keys=False, default_flow_style=False, width=1000)
+
+
+def _check_recorded_scenario(text: str, path: Path, cell: Path, skeleton: Path) -> None:
+    """The scenario `text` checked as the file `path` before anything is written (the skeleton it
+    names is not written yet, so not opened): ScenarioError naming --cell, the field at fault and
+    the reason when the cell refuses a recorded operator; the cell's own problems named in its file."""
+    from hrc_drake.cell.scenario import check_scenario_text
+
+    try:
+        check_scenario_text(text, path, unwritten=[skeleton])
+    except ScenarioError as err:
+        if err.file != str(path):
+            raise  # a problem of the cell itself (or of a file it extends), named there
+        reason = (f"a recording cannot drive this cell: the scenario {path} would be refused at "
+                  f"{err.field or '<top>'}: {err.reason}; nothing was written")
+        raise ScenarioError(cell, "--cell", reason) from None
 
 
 def _workers(text: str) -> int:
@@ -581,14 +578,8 @@ def _search(args) -> int:
 
 
 def _campaign_path(name: str) -> str:
-    """`name`, or the campaign spec of that name shipped with the package (`_scenario_path`)."""
-    if _looks_like_a_path(name):
-        return name
-    found = example_path(name, campaign=True)
-    if found is None:
-        raise ScenarioError(name, "", "no such file, and no shipped example campaign of that name (examples: "
-                                      f"{', '.join(example_names(campaign=True)) or 'none installed'})")
-    return str(found)
+    """`name`, or the campaign spec of that name shipped with the package (`_resolved`)."""
+    return _resolved(name, "campaign")
 
 
 def _compare(args) -> int:
@@ -712,8 +703,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the operator's facing yaw (rad; default pi: toward a robot at the origin)")
     imp.add_argument("--table-height", type=_number, default=0.75, help="the table top (m, default 0.75)")
     imp.add_argument("--cell", default=None,
-                     help="a cell scenario to drive with the recording: writes OUT with .yaml, a scenario "
-                          "that extends it with the recording as its operator")
+                     help="a cell scenario to drive with the recording (a file, or a shipped example's name, "
+                          "e.g. box_pcb_coexistence): writes OUT with .yaml, a scenario that extends it with "
+                          "the recording as its operator, checked before any file is written")
     imp.add_argument("--replay", default=None,
                      help="with --cell: simulate that scenario for the recording's length and write its "
                           "self-contained HTML replay to this file")

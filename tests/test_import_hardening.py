@@ -108,6 +108,70 @@ def test_a_refused_cell_leaves_nothing_behind(tmp_path, capsys):
     assert _files(tmp_path) == [source.name]
 
 
+# issue "One way to name things", item 4: --cell takes a shipped name; the scenario is checked
+# before anything is written; every file written is listed
+def test_a_cell_a_recording_cannot_drive_is_refused_before_any_file_is_written(tmp_path, capsys, monkeypatch):
+    from hrc_drake import staged_files
+
+    staged = []
+    real_path_for = staged_files.StagedFiles.path_for
+    monkeypatch.setattr(staged_files.StagedFiles, "path_for",
+                        lambda self, final: staged.append(final) or real_path_for(self, final))
+    monkeypatch.chdir(tmp_path)
+    source = _recording(tmp_path)
+    out = tmp_path / "new" / "rec.csv"
+    # pcb_ic (by its shipped name) perceives the operator's actions, which a recording has not
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out), "--cell", "pcb_ic"]) \
+        == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "--cell" in err and "pcb_ic.yaml" in err and "action_detector" in err and "no true actions" in err
+    assert "nothing was written" in err and "Traceback" not in err
+    assert staged == [] and _files(tmp_path) == [source.name]  # not even a temporary file
+
+
+def test_a_broken_cell_is_named_in_its_own_file_and_nothing_is_written(tmp_path, capsys):
+    source = _recording(tmp_path)
+    cell = tmp_path / "cell.yaml"
+    cell.write_text(f"extends: {CELL}\nduration: -1\n")
+    _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(tmp_path / "o" / "r.csv"),
+                      "--cell", str(cell)], f"{cell}: duration")
+    assert _files(tmp_path) == sorted([source.name, cell.name])
+
+
+def _listed(out: str) -> list[str]:
+    lines = out.splitlines()
+    assert sum(line.startswith("files written") for line in lines) == 1, out  # one list, at the end
+    at = next(k for k, line in enumerate(lines) if line.startswith("files written"))
+    assert lines[at] == f"files written ({len(lines) - at - 1}):"
+    return [line.strip() for line in lines[at + 1:]]
+
+
+def test_import_by_a_shipped_cell_name_lists_every_file_it_wrote(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # not the repository: the name is no path here
+    source = _recording(tmp_path)
+    out = tmp_path / "o" / "rec.csv"
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out)]) == 0
+    assert _listed(capsys.readouterr().out) == [str(out), str(out.with_suffix(".json"))]
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out),
+                 "--cell", "box_pcb_coexistence"]) == 0
+    written = [out, out.with_suffix(".json"), out.with_suffix(".yaml")]
+    assert _listed(capsys.readouterr().out) == [str(p) for p in written]
+    scenario = load_scenario(out.with_suffix(".yaml"))
+    assert scenario.source_path == out.with_suffix(".yaml")
+    assert scenario.safety == load_scenario("box_pcb_coexistence").safety
+    assert sorted(p.name for p in out.parent.iterdir()) == sorted(p.name for p in written)
+
+
+def test_an_import_with_a_replay_lists_its_four_files(tmp_path, capsys):
+    source = _recording(tmp_path, lines=30)  # 2 s at 15 Hz: a short replay
+    out, replay = tmp_path / "o" / "rec.csv", tmp_path / "o" / "rec.html"
+    assert main(["import", "lego", str(source), "--rate", "15", "--out", str(out), "--cell", str(CELL),
+                 "--replay", str(replay)]) == 0
+    written = [out, out.with_suffix(".json"), out.with_suffix(".yaml"), replay]
+    assert _listed(capsys.readouterr().out) == [str(p) for p in written]
+    assert all(p.is_file() for p in written)
+
+
 def test_the_summary_shows_a_control_character_as_its_escape(tmp_path, capsys):
     source = _recording(tmp_path, "rec\x1b[2Jx.txt")
     assert main(["import", "lego", str(source), "--rate", "15", "--out", str(tmp_path / "r.csv")]) == 0

@@ -530,17 +530,24 @@ def _add_meshcat(builder, scenario: Scenario, scene_graph, meshcat, systems, rep
 
 def build_cell(
     scenario: Scenario,
-    scenario_path: str | Path = "<scenario>",
+    scenario_path: str | Path | None = None,
     meshcat=None,
     replay_fps: float = 10.0,
     named_poses: dict | None = None,
 ) -> Cell:
     """Build the cell diagram of `scenario`; with `meshcat`, also a MeshcatVisualizer (live or replay).
 
+    scenario_path: the file whose folder the scenario's file names (a recording, a model) are read
+    from, and that reports name; by default the file `load_scenario` read it from
+    (`Scenario.source_path`), so `build_cell(load_scenario(path))` needs no second path; for a
+    scenario made in code, "<scenario>" (names read from the working folder).
+
     Also keeps freed heap memory in the process (`allocator.keep_freed_memory`), for simulators
     the caller makes. The numba kernels compile (or load from the disk cache) when a system first
     calls them (`hrc_drake.kernels`): only those of the cell's systems.
     """
+    if scenario_path is None:
+        scenario_path = scenario.source_path or "<scenario>"
     keep_freed_memory()
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(scenario.seed).spawn(8)]
 

@@ -1,4 +1,4 @@
-"""Run a cell: simulate with progress output, gather metrics, write the replay and report."""
+"""Run a cell: simulate (with progress output when asked), gather metrics, write the replay and report."""
 
 from __future__ import annotations
 
@@ -40,12 +40,14 @@ class RunResult:
 def simulate(
     cell: Cell,
     duration: float,
-    progress=sys.stderr,
+    progress=None,
     record: bool = False,
     chunks: int = 50,
     realtime_rate: float = 0.0,
 ) -> RunResult:
-    """Simulate `cell` for `duration` s; print a progress line to `progress` (None: silent).
+    """Simulate `cell` for `duration` s, silently unless asked: `progress` a text stream (e.g.
+    `sys.stderr`, as `hrc-drake simulate` passes) or True (stderr) prints its progress there, a
+    line every 10 % (one line rewritten in place on a terminal); None or False: nothing printed.
 
     realtime_rate: 0 runs as fast as possible; 1 paces the run with the wall clock (live view).
     Every call runs in a new Context: one built cell can be simulated again. Ctrl-C stops the
@@ -54,6 +56,10 @@ def simulate(
     """
     if duration <= 0:
         raise ValueError(f"duration must be positive, got {duration}")
+    if progress is True:
+        progress = sys.stderr
+    elif progress is False:
+        progress = None
     keep_freed_memory()
     simulator = Simulator(cell.diagram)
     context = simulator.get_context()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import re
 import types
 import typing
@@ -306,8 +307,13 @@ MAX_EXTENDS = 8
 
 
 def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
-    """Read, type and check a scenario file; raise `ScenarioError` on any problem."""
-    path = Path(path)
+    """Read, type and check a scenario file; raise `ScenarioError` on any problem.
+
+    `path` is a file, or the bare name of a shipped example (`load_scenario("torch_clock")`,
+    `shipped.resolve`: an existing file of that name wins). The scenario remembers the file it was
+    read from (`Scenario.source_path`), so that `build_cell(load_scenario(path))` reads the files
+    it names from that file's folder."""
+    path = resolve_scenario(path) if not _chain else Path(path)
     check_input_file(path)
     size = path.stat().st_size
     if size > MAX_SCENARIO_BYTES:
@@ -320,8 +326,10 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
     return _load_text(path, text, check_reachability, _chain)
 
 
-def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: tuple = ()) -> Scenario:
-    """`load_scenario`'s steps on `text`, read as the file `path` (relative names from its folder)."""
+def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: tuple = (),
+               _unwritten: frozenset = frozenset()) -> Scenario:
+    """`load_scenario`'s steps on `text`, read as the file `path` (relative names from its folder);
+    files in `_unwritten` (resolved paths a command has yet to write) are not opened."""
     try:
         raw = _raw_document(text, path)
     except yaml.YAMLError as err:
@@ -344,13 +352,34 @@ def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: 
     except (RuntimeError, ValueError, TypeError) as err:
         raise ScenarioError(path, "", f"cannot be read as a scenario: {err}") from err
     scenario.extends = ""  # the fields are merged in: the result stands alone
+    # not a field (a file cannot set it): the file read, whatever the base it extends
+    scenario.source_path = Path(os.path.abspath(path))
     check_scenario(scenario, path)
-    check_referenced_files(scenario, path)
+    check_referenced_files(scenario, path, _unwritten)
     if check_reachability:
         from hrc_drake.robots.poses import solve_named_poses  # IK: pydrake's solvers, only when asked
 
         solve_named_poses(scenario.robots, path)
     return scenario
+
+
+def check_scenario_text(text: str, path: str | Path, unwritten=()) -> Scenario:
+    """The scenario the YAML `text` would be as the file `path`, read, typed and checked as
+    `load_scenario` would, before anything is written (`hrc-drake import --cell`); relative names
+    resolve from `path`'s folder, which need not exist yet. Files in `unwritten` (outputs the
+    caller has yet to write, such as the recorded skeleton) are not opened. ScenarioError on any
+    problem, naming `path` (or the file `extends` names, for its own)."""
+    path = Path(path)
+    pending = frozenset(Path(os.path.abspath(p)).resolve() for p in unwritten)
+    return _load_text(path, text, _unwritten=pending)
+
+
+def resolve_scenario(name: str | Path) -> Path:
+    """The scenario file `name` means: itself, or the shipped example of that bare name
+    (`shipped.resolve`); ScenarioError naming where it looked and the examples there are."""
+    from hrc_drake.cell.shipped import resolve
+
+    return resolve(name, "scenario")
 
 
 def load_typed(schema, text: str):
@@ -390,8 +419,9 @@ def load_scenario_with(
     typed load and the checks, as if the file said so; relative names resolve from its folder.
 
     check_file_alone: load the file without the overrides first, so that its own problems are
-    named as its own; a caller that has just loaded it (a campaign) skips that second load."""
-    path = Path(path)
+    named as its own; a caller that has just loaded it (a campaign) skips that second load.
+    `path` may be the bare name of a shipped example, as for `load_scenario`."""
+    path = resolve_scenario(path)
     if not overrides:
         return load_scenario(path, check_reachability)
     if not isinstance(overrides, dict) or isinstance(overrides, Tagged):
@@ -420,11 +450,12 @@ def _extended(path: Path, extends, chain: tuple) -> Scenario | None:
     return copy.deepcopy(load_scenario(base, _chain=chain))
 
 
-def check_referenced_files(sc: Scenario, file: str | Path) -> None:
+def check_referenced_files(sc: Scenario, file: str | Path, unwritten=frozenset()) -> None:
     """Open the files a scenario names and check their contents as the build would: the
     recorded skeleton CSV (`human.recorded.load_skeleton_csv`) and the intention model
-    (`IntentionModel.load`), each relative to the scenario's folder."""
-    if sc.operator.recorded:
+    (`IntentionModel.load`), each relative to the scenario's folder. A file in `unwritten`
+    (resolved paths a command is about to write, `check_scenario_text`) is not opened."""
+    if sc.operator.recorded and scenario_relative(file, sc.operator.recorded) not in unwritten:
         from hrc_drake.human.recorded import load_skeleton_csv
 
         recorded = scenario_relative(file, sc.operator.recorded)
@@ -435,7 +466,7 @@ def check_referenced_files(sc: Scenario, file: str | Path) -> None:
         except ValueError as err:
             raise ScenarioError(file, "operator.recorded", str(err)) from None
     model = getattr(sc.intention, "model", "")
-    if model:
+    if model and scenario_relative(file, model) not in unwritten:
         from hrc_drake.intention.likelihood import IntentionModel
 
         try:

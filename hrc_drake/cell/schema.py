@@ -155,6 +155,12 @@ class Scenario:
     #: Any change makes the verdict NON-CONFORMING
     judge: JudgeChanges = field(default_factory=JudgeChanges)
 
+    #: Not a field (no annotation: the loaders know only the annotated fields, so a file that
+    #: says `source_path:` is refused as an unknown key): the file `load_scenario` read this
+    #: scenario from, absolute (not the base it `extends`); None for one made in code.
+    #: `build_cell` reads the files it names from that file's folder.
+    source_path = None
+
 
 #: the scenario fields that choose a system by tag
 SYSTEM_FIELDS = ("tracker", "intention", "action_detector", "predictor", "scheduler", "motion_model",

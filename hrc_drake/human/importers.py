@@ -388,20 +388,38 @@ def read_columns_file(path) -> dict:
     return {name: tuple(cols) for name, cols in document.items()}
 
 
-def import_recording(kind: str, source: Path, out: Path, source_rate: float | None = None,
-                     person: str = "giver", columns: str | None = None, units: str = "m",
-                     delimiter: str | None = None, header_rows: int = 0, up: str = "0,0,1",
-                     camera_rate: float = 30.0, operator_xy=(1.0, 0.0), facing: float = math.pi,
-                     table_height: float = 0.75, write_to: tuple[Path, Path] | None = None) -> list[str]:
-    """Read a real recording (`kind` lego, kth or table), synthesise what it lacks, place it in a
-    cell, resample it to `camera_rate` and write it as a skeleton CSV (`recorded.save_skeleton_csv`)
-    with a JSON of its provenance beside it; returns summary lines. ScenarioError on bad input.
-    write_to: the (CSV, JSON) files to write instead (the command's temporary files, renamed to
-    `out` and its .json once every output is ready); the summary names the final files."""
-    import json
+@dataclass(frozen=True)
+class ImportedRecording:
+    """A recording read, placed in a cell and resampled (`read_recording`), not yet written:
+    `resampled` is what the skeleton CSV holds, `recording` what was read (synthesised points
+    named), `provenance` the JSON written beside the CSV."""
 
+    recording: Recording
+    resampled: Recording
+    provenance: dict
+
+    def summary(self, out: Path) -> list[str]:
+        """The lines `import_recording` returns for the CSV `out` (its first one: frames, rates,
+        source)."""
+        out = Path(out)
+        untracked = self.provenance["untracked_frames"]
+        lines = [f"{out}: {self.resampled.frames} frames at {self.resampled.rate:g} Hz from "
+                 f"{self.recording.frames} at {self.recording.rate:g} Hz ({self.recording.source})",
+                 f"synthesised: {', '.join(self.recording.synthesized) or 'none'}; untracked frames: "
+                 + (", ".join(f"{k} {v}" for k, v in untracked.items() if v) or "none"),
+                 f"provenance: {out.with_suffix('.json')}"]
+        return lines + [f"note: {note}" for note in self.recording.notes]
+
+
+def read_recording(kind: str, source: Path, source_rate: float | None = None, person: str = "giver",
+                   columns: str | None = None, units: str = "m", delimiter: str | None = None,
+                   header_rows: int = 0, up: str = "0,0,1", camera_rate: float = 30.0,
+                   operator_xy=(1.0, 0.0), facing: float = math.pi,
+                   table_height: float = 0.75) -> ImportedRecording:
+    """Read a real recording (`kind` lego, kth, ue or table), synthesise what it lacks, place it in
+    a cell and resample it to `camera_rate`, writing nothing (`write_recording` writes it).
+    ScenarioError on bad input."""
     from hrc_drake.errors import ScenarioError
-    from hrc_drake.human.recorded import save_skeleton_csv
 
     if kind in ("lego", "table") and source_rate is None:
         raise ScenarioError(source, "--rate", f"a {kind} recording needs its frame rate (Hz)")
@@ -433,12 +451,6 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
         if str(err).startswith(str(source)):  # the reader named the file (and line) already
             refusal.args = (str(err),)
         raise refusal from None
-    out = Path(out)
-    sidecar = out.with_suffix(".json")
-    if write_to is None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_to = (out, sidecar)
-    save_skeleton_csv(write_to[0], resampled.times, resampled.points, resampled.tracked)
     untracked = {name: int((~resampled.tracked[:, k]).sum()) for k, name in enumerate(SKELETON_POINTS)}
     provenance = {"source": recording.source, "kind": kind, "frames_recorded": recording.frames,
                   "recorded_rate_hz": recording.rate, "frames_written": resampled.frames,
@@ -446,13 +458,43 @@ def import_recording(kind: str, source: Path, out: Path, source_rate: float | No
                   "untracked_frames": untracked, "rotation": rotation.round(6).tolist(),
                   "translation_m": shift.round(6).tolist(), "placement": {"operator_xy": list(operator_xy),
                   "facing_rad": facing, "table_height_m": table_height}, "notes": list(recording.notes)}
-    Path(write_to[1]).write_text(json.dumps(provenance, indent=2))
-    lines = [f"{out}: {resampled.frames} frames at {resampled.rate:g} Hz from {recording.frames} at "
-             f"{recording.rate:g} Hz ({recording.source})",
-             f"synthesised: {', '.join(recording.synthesized) or 'none'}; untracked frames: "
-             + (", ".join(f"{k} {v}" for k, v in untracked.items() if v) or "none"),
-             f"provenance: {sidecar}"]
-    return lines + [f"note: {note}" for note in recording.notes]
+    return ImportedRecording(recording, resampled, provenance)
+
+
+def write_recording(imported: ImportedRecording, out: Path,
+                    write_to: tuple[Path, Path] | None = None) -> list[str]:
+    """Write an imported recording as the skeleton CSV `out` (`recorded.save_skeleton_csv`) with
+    the JSON of its provenance beside it; returns the summary lines (`ImportedRecording.summary`).
+    write_to: the (CSV, JSON) files to write instead (a command's temporary files, renamed to
+    `out` and its .json once every output is ready); the summary names the final files."""
+    import json
+
+    from hrc_drake.human.recorded import save_skeleton_csv
+
+    out = Path(out)
+    if write_to is None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_to = (out, out.with_suffix(".json"))
+    resampled = imported.resampled
+    save_skeleton_csv(write_to[0], resampled.times, resampled.points, resampled.tracked)
+    Path(write_to[1]).write_text(json.dumps(imported.provenance, indent=2))
+    return imported.summary(out)
+
+
+def import_recording(kind: str, source: Path, out: Path, source_rate: float | None = None,
+                     person: str = "giver", columns: str | None = None, units: str = "m",
+                     delimiter: str | None = None, header_rows: int = 0, up: str = "0,0,1",
+                     camera_rate: float = 30.0, operator_xy=(1.0, 0.0), facing: float = math.pi,
+                     table_height: float = 0.75, write_to: tuple[Path, Path] | None = None) -> list[str]:
+    """Read a real recording (`kind` lego, kth, ue or table), synthesise what it lacks, place it in
+    a cell, resample it to `camera_rate` and write it as a skeleton CSV (`recorded.save_skeleton_csv`)
+    with a JSON of its provenance beside it; returns summary lines. ScenarioError on bad input.
+    `read_recording` then `write_recording` (write_to: the files to write instead, see there)."""
+    imported = read_recording(kind, source, source_rate=source_rate, person=person, columns=columns,
+                              units=units, delimiter=delimiter, header_rows=header_rows, up=up,
+                              camera_rate=camera_rate, operator_xy=operator_xy, facing=facing,
+                              table_height=table_height)
+    return write_recording(imported, out, write_to)
 
 
 def _placement(operator_xy, facing, table_height) -> Placement:

@@ -5,48 +5,21 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-#: the package holding the shipped examples; the search specs are its searches/*.yaml
-EXAMPLES_PACKAGE = "hrc_drake.diagrams"
-
-
-def shipped_searches_folder() -> Path | None:
-    """diagrams/searches as installed (package data of `hrc_drake.diagrams`, a namespace package;
-    in a source tree hrc_drake/diagrams is a symlink to ../diagrams), None when not installed."""
-    from importlib.resources import files
-
-    try:
-        # the entries of a namespace package's MultiplexedPath are file-system paths
-        entry = next(iter(files(EXAMPLES_PACKAGE).iterdir()), None)
-    except (ModuleNotFoundError, TypeError, OSError):
-        entry = None
-    folder = Path(str(entry)).parent / "searches" if entry is not None else None
-    return folder if folder is not None and folder.is_dir() else None
-
 
 def shipped_search_names() -> list[str]:
-    folder = shipped_searches_folder()
-    return sorted(p.stem for p in folder.glob("*.yaml")) if folder is not None else []
+    """The bare names of the search specs shipped in diagrams/searches (`cell.shipped`)."""
+    from hrc_drake.cell.shipped import example_names
+
+    return example_names("search")
 
 
 def search_path(name: str) -> Path:
-    """`name` itself when it is a file (or looks like a path: a folder or a .yaml suffix), else the
-    search spec of that name shipped in diagrams/searches (`hrc-drake search falsify_pcb_ic`);
-    else ScenarioError naming the shipped ones."""
-    from hrc_drake.errors import ScenarioError
+    """`name` itself when a file is there, else the search spec of that bare name shipped in
+    diagrams/searches (`hrc-drake search falsify_pcb_ic`), as `cell.shipped.resolve` finds every
+    shipped example; else ScenarioError ("no such file") naming the shipped ones."""
+    from hrc_drake.cell.shipped import resolve
 
-    path = Path(name)
-    if path.exists() or "/" in name or path.suffix in (".yaml", ".yml"):
-        return path
-    folder = shipped_searches_folder()
-    shipped = folder / f"{name}.yaml" if folder is not None and name and not name.startswith(".") else None
-    if shipped is None or not shipped.is_file():
-        raise ScenarioError(
-            name,
-            "",
-            "no such file, and no shipped search spec of that name (examples: "
-            f"{', '.join(shipped_search_names()) or 'none installed'})",
-        )
-    return shipped
+    return resolve(name, "search")
 
 
 def run_command(args) -> int:
