@@ -78,12 +78,13 @@ def resolve(name: str | os.PathLike, kind: str = "scenario") -> Path:
         text = os.fsdecode(text)
     if _present(text):
         return Path(text)
-    label = LABELS[kind]
-    names = ", ".join(example_names(kind)) or "none installed"
     if is_bare_name(text):
         found = example_path(text, kind)
         if found is not None:
             return found
+    label = LABELS[kind]
+    names = ", ".join(example_names(kind)) or "none installed"
+    if is_bare_name(text):
         reason = f"no such file{_where(text)}, and no shipped {label} of that name (examples: {names})"
     else:
         reason = f"no such file{_where(text)} (or give the bare name of a shipped {label}: {names})"

@@ -216,8 +216,31 @@ def _clamped_one(point, direction, radius, margin, lower, upper):
     return False
 
 
+@njit(cache=True)
+def _near_surfaces(start, end, radius, z_d, lower, upper, margin, samples):
+    """(R,) `regions.near_surfaces` (its reference): Z_d > 0 and the axis, sampled at `samples`
+    points less half their spacing (a lower bound), within radius + Z_d + margin of a box."""
+    count = radius.shape[0]
+    near = np.zeros(count, dtype=np.bool_)
+    for i in range(count):
+        if not z_d[i] > 0.0:
+            continue
+        ax, ay, az = end[i, 0] - start[i, 0], end[i, 1] - start[i, 1], end[i, 2] - start[i, 2]
+        reach = radius[i] + z_d[i] + margin + 0.5 * _norm3(ax, ay, az) / (samples - 1)
+        for s in range(samples):
+            t = s / (samples - 1)
+            x, y, z = start[i, 0] + t * ax, start[i, 1] + t * ay, start[i, 2] + t * az
+            for b in range(lower.shape[0]):
+                if _box_distance(x, y, z, lower, upper, b) < reach:
+                    near[i] = True
+                    break
+            if near[i]:
+                break
+    return near
+
+
 @njit(cache=True, inline="always")
-def _segment_distance(x, y, z, start, end, j):
+def _point_to_segment(x, y, z, start, end, j):
     """Distance from the point (x, y, z) to the segment j of (start, end)."""
     ax, ay, az = end[j, 0] - start[j, 0], end[j, 1] - start[j, 1], end[j, 2] - start[j, 2]
     length2 = ax * ax + ay * ay + az * az
@@ -238,8 +261,8 @@ def _clamped_by_capsule(point, direction, radius, margin, k, r_start, r_end, r_r
     for j in range(r_radius.shape[0]):
         if j == k:
             continue
-        now = _segment_distance(x, y, z, r_start, r_end, j) - r_radius[j]
-        then = _segment_distance(mx, my, mz, r_start, r_end, j) - r_radius[j]
+        now = _point_to_segment(x, y, z, r_start, r_end, j) - r_radius[j]
+        then = _point_to_segment(mx, my, mz, r_start, r_end, j) - r_radius[j]
         if then < radius and then < now - 1e-9:
             return True
     return False
@@ -374,6 +397,7 @@ def _warm_up_steps() -> list:
         lambda: pair_geometry(capsules, (one, one), capsules, pair, pair),
         lambda: _governed_by_pfl(pair, flags, True, one, np.ones(1), one, one, one, np.ones(1), ~flags, True,
                                  one, one + 1.0, 0.02, pair, one, one, np.ones(1)),
+        lambda: _near_surfaces(one, one, np.ones(1), np.ones(1), one, one + 1.0, 0.02, 17),
         lambda: _hold_clamps(pair, pair, flags.copy(), ~flags, np.zeros((1, 1)), 0.0, 0.5),
         lambda: _separations(pair, approach, flags, params, params, np.zeros(1), 0.0, approach, 1.0),
         lambda: _ssm_scales(pair, np.zeros(1), approach, flags.copy(), ~flags, np.zeros(1), flags, params,

@@ -26,6 +26,8 @@ from hrc_drake.kernels import capsule_clearances
 #: m: a rigid body this far behind a part (beyond its radius) along the push clamps it (the judge's
 #: `judge.CLAMP_MARGIN`; the controller's margin is never below it).
 CLAMP_MARGIN = 0.02
+#: points along a capsule's axis at which `surface_clearances` measures the distance to a box
+SURFACE_SAMPLES = 17
 #: lower fraction of the torso capsule (hip -> thorax) that is abdomen
 ABDOMEN_FRACTION = 0.45
 #: lower fraction of the head capsule (thorax -> head) that is neck
@@ -197,7 +199,7 @@ def near_surfaces(start, end, radius, z_d, boxes, margin: float = CLAMP_MARGIN) 
     return (z_d > 0.0) & (axis_gap < np.asarray(radius, dtype=float) + z_d + margin)
 
 
-def surface_clearances(start, end, radius, boxes, samples: int = 17) -> np.ndarray:
+def surface_clearances(start, end, radius, boxes, samples: int = SURFACE_SAMPLES) -> np.ndarray:
     """(K,) a lower bound on the clearance between each capsule (start, end (K, 3), radius (K,))
     and the nearest fixed box: the distance of `samples` points along the axis, less half their
     spacing (distance to a box is 1-Lipschitz along the axis), less the radius; inf without boxes."""

@@ -36,6 +36,7 @@ from hrc_drake.safety.config import (
 from hrc_drake.safety.limits import LimitsTable, iso_robot_mass, reduced_mass
 from hrc_drake.safety.regions import (
     CLAMP_MARGIN,
+    SURFACE_SAMPLES,
     FixedBox,
     clamped,
     clamped_by_capsules,
@@ -248,7 +249,13 @@ class SafetyRules:
         push (`regions.near_surfaces`); a lost part's reachable set is left to `clamped`'s tests."""
         if not (self.fixed_boxes and self.pfl_region.any()):
             return np.zeros(len(self.pfl_region), dtype=bool)
-        near = near_surfaces(*regions, z_d, self.fixed_boxes, self.clamp_margin)
+        if self.compiled:
+            start, end, radius = _kernels._arrays(*regions)
+            near = _kernels._near_surfaces(start, end, radius, _kernels._arrays(
+                np.broadcast_to(np.asarray(z_d, dtype=float), radius.shape))[0], self._box_lower,
+                self._box_upper, float(self.clamp_margin), SURFACE_SAMPLES)
+        else:
+            near = near_surfaces(*regions, z_d, self.fixed_boxes, self.clamp_margin)
         if lost_radius is not None:
             near &= ~np.isfinite(np.asarray(lost_radius, dtype=float))
         return near

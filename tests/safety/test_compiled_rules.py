@@ -89,6 +89,8 @@ def test_screen_geometry_rules_and_separations_equal_numpy(name):
         pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r])
         numpy_pairs = pair_geometry(robot, velocity, regions, k, r, distance[k, r], compiled=False)
         assert_same_pairs(pairs, numpy_pairs)
+        np.testing.assert_array_equal(compiled.near_surfaces(regions, z_d),
+                                      reference.near_surfaces(regions, z_d))
         near = reference.near_pairs(pairs, regions, z_d, distance, robot)
         for radius, uncertain, capsules in ((None, None, None), (regions[2], None, None),
                                             (regions[2], near, None), (regions[2], near, robot)):
