@@ -58,7 +58,8 @@ def test_an_unknown_body_region_is_refused():
                                           ("preview_step", 0.0), ("preview_horizon", 0.05),
                                           ("preview_horizon", 5.5), ("planning_deceleration", 0.0),
                                           ("planning_deceleration", 5.01), ("clamped_approach", "push"),
-                                          ("preview_human", "oracle")])
+                                          ("preview_human", "oracle"), ("clamp_margin", 0.0199),
+                                          ("clamp_margin", 0.5001)])
 def test_bad_numbers_and_names_are_refused(field, value):
     err = _refused(TORCH, {"safety": Tagged("Hybrid", {"position_uncertainty": "camera", field: value})})
     assert err.field == f"safety.{field}"
@@ -118,3 +119,12 @@ def test_swept_volumes_in_the_preview_need_a_motion_model():
                                                        "speed_profile": "predictive",
                                                        "preview_human": "swept_volumes"})})
     assert err.field == "safety.preview_human" and "motion_model" in err.reason
+
+
+def test_the_clamp_margin_may_not_be_below_the_judges():
+    """A scenario cannot weaken the controller's clamping tests below the judge's 2 cm margin: the
+    edges of [0.02, 0.5] m are accepted, just outside them refused (above)."""
+    from hrc_drake.safety.config import PowerForceLimiting
+
+    for margin in (0.02, 0.5):
+        PowerForceLimiting(clamp_margin=margin).validate("safety")
