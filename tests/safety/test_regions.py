@@ -453,3 +453,19 @@ def test_under_estimate_error_the_controller_clamps_a_part_pinched_in_the_robot_
     assert missed_by_push_alone > 0
     assert missed == 0
     assert clamped_free < 0.8 * free  # not every part near both links: the push's direction counts
+
+
+def test_an_uncertain_part_is_near_the_table_within_its_radius_plus_z_d_plus_the_margin():
+    """By hand: the table's top at z = 0.75, a hand of radius 0.05 with Z_d = 0.03 and the 2 cm
+    margin is near it while its (level, 0.1 m long) axis is under 0.75 + 0.05 + 0.03 + 0.02 = 0.85 m,
+    plus half the spacing of the 17 points the axis is sampled at (0.1 / 16 / 2 = 3.1 mm: a lower
+    bound on the distance keeps the test a superset); an exact estimate (Z_d 0) is never near (the
+    push test alone decides)."""
+    from hrc_drake.safety.regions import near_surfaces
+
+    def near(height, z_d):
+        start, end = np.array([[0.4, 0.0, height]]), np.array([[0.5, 0.0, height]])
+        return near_surfaces(start, end, np.array([0.05]), np.array([z_d]), (TABLE,))[0]
+
+    assert near(0.849, 0.03) and near(0.853, 0.03) and not near(0.854, 0.03)
+    assert not near(0.80, 0.0)
