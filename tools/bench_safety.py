@@ -185,13 +185,14 @@ def time_effective_mass(repeats: int = 400) -> tuple[float, float]:
 
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.robots.description import robot_record
     from hrc_drake.robots.models import RobotCapsuleKinematics
     from hrc_drake.safety.systems import RobotPointDynamics
 
     path = REPO / "diagrams" / "torch_clock.yaml"
     scenario = load_scenario(path)
     plant = build_cell(scenario, path).plant
-    kinematics = RobotCapsuleKinematics(plant, [(plant.GetModelInstanceByName(r.name), r.model)
+    kinematics = RobotCapsuleKinematics(plant, [(plant.GetModelInstanceByName(r.name), robot_record(r, path))
                                                 for r in scenario.robots])
     dynamics = RobotPointDynamics(plant, kinematics)
     rng = np.random.default_rng(0)
@@ -352,8 +353,8 @@ def gripper_effective_mass() -> dict:
 
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.scenario import load_scenario
+    from hrc_drake.robots.description import robot_record
     from hrc_drake.robots.models import RobotCapsuleKinematics
-    from hrc_drake.robots.registry import get_robot_model
     from hrc_drake.safety.systems import RobotPointDynamics, arm_masses
 
     path = REPO / "diagrams" / "torch_clock.yaml"
@@ -361,11 +362,11 @@ def gripper_effective_mass() -> dict:
     plant = build_cell(scenario, path).plant
     robot = scenario.robots[0]
     instance = plant.GetModelInstanceByName(robot.name)
-    kinematics = RobotCapsuleKinematics(plant, [(instance, robot.model)])
+    kinematics = RobotCapsuleKinematics(plant, [(instance, robot_record(robot, path))])
     dynamics = RobotPointDynamics(plant, kinematics)
     q = plant.GetPositions(plant.CreateDefaultContext())
     poses = {p.name: p for p in robot.poses}
-    model = get_robot_model(robot.model)
+    model = robot_record(robot, path)
     for arm in robot.arms:
         for name, value in zip(model.arm(arm.arm).joints, poses[arm.home].joints, strict=True):
             q[plant.GetJointByName(name, instance).position_start()] = value

@@ -40,6 +40,7 @@ from pydrake.multibody.plant import MultibodyPlant  # noqa: E402
 
 from hrc_drake.cell.scenario import load_scenario  # noqa: E402
 from hrc_drake.human.body import BodyModel  # noqa: E402
+from hrc_drake.robots.description import robot_record  # noqa: E402
 from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position  # noqa: E402
 from hrc_drake.robots.models import add_robots, arm_joint_limits, arm_position_indices  # noqa: E402
 from hrc_drake.robots.poses import solve_named_poses, tool_positions  # noqa: E402
@@ -138,7 +139,7 @@ def main(argv=None) -> int:
 
     scenario = load_scenario(args.scenario)
     plant = MultibodyPlant(0.0)
-    instances = add_robots(plant, scenario.robots)
+    instances = add_robots(plant, scenario.robots, args.scenario)
     names = [r.name for _, r in instances]
     robot_name = args.robot if args.robot is not None else names[0]
     if robot_name not in names:
@@ -168,14 +169,14 @@ def main(argv=None) -> int:
         else:
             pose = poses.get(name)
             rpy = pose.target.rpy if pose is not None and pose.target is not None and pose.orient else None
-            solved[name] = candidates(plant, context, instance, robot.model, args.arm, xyz, args.candidates,
-                                      rng, rpy)
+            solved[name] = candidates(plant, context, instance, robot_record(robot, args.scenario), args.arm,
+                                      xyz, args.candidates, rng, rpy)
         print(f"{name:12s} {xyz}: {len(solved[name])} distinct solutions", flush=True)
         if not solved[name]:
             print(f"no IK solution of {name} at {xyz}", file=sys.stderr)
             return 1
 
-    index = arm_position_indices(plant, instance, robot.model, args.arm)
+    index = arm_position_indices(plant, instance, robot_record(robot, args.scenario), args.arm)
     links = arm_links(plant, instance, args.arm)
     base_q = plant.GetPositions(context).copy()
 
@@ -221,7 +222,7 @@ def main(argv=None) -> int:
         if best is None or current < best[0]:
             best = (current, chosen)
     (worst, _), chosen = best
-    lower, upper, _ = arm_joint_limits(plant, instance, robot.model, args.arm)
+    lower, upper, _ = arm_joint_limits(plant, instance, robot_record(robot, args.scenario), args.arm)
     # rounded for the scenario file, and kept inside the limits the rounding may cross
     rounded = {n: np.clip(np.round(solved[n][j], 3), lower, upper) for n, j in chosen.items()}
     result = {"arm": args.arm, "clearance_m": round(-worst, 3),

@@ -531,7 +531,10 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
     judged += [f"violations.{kind}" for kind in VIOLATION_KINDS]
     judged += [f"worst_ratio.{region}" for region in BODY_REGIONS]
     names += [f"safety.{name}" for name in judged]
-    if scenario.judge.changed() or controller_departures(scenario.safety):
+    from hrc_drake.cell.scenario import judge_values
+
+    changed_judge = judge_values(scenario, scenario.source_path or "<scenario>")[1] is not None
+    if changed_judge or controller_departures(scenario.safety):
         names += [f"safety.own_model.{name}" for name in judged]
     else:
         names.append("safety.own_model")

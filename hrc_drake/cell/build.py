@@ -42,6 +42,7 @@ from hrc_drake.intention.config import NoActionDetector, NoIntention
 from hrc_drake.messages import EventLog
 from hrc_drake.motion.config import NoMotionModel, NoProactivePlanner
 from hrc_drake.perception.config import NoTracker
+from hrc_drake.robots.description import robot_record
 from hrc_drake.robots.executor import ArmAgent, RobotMove, TaskExecutor
 from hrc_drake.robots.models import (
     RobotCapsuleKinematics,
@@ -137,8 +138,8 @@ class Cell:
 CELL_RATE = 30.0
 #: period (s) of the robot task executor's decisions
 EXECUTOR_PERIOD = 0.1
-def _add_robots(plant, scenario: Scenario):
-    return add_robots(plant, scenario.robots)
+def _add_robots(plant, scenario: Scenario, scenario_path):
+    return add_robots(plant, scenario.robots, scenario_path)
 
 
 def _product_actions(scenario: Scenario) -> dict[str, tuple[str, ...]]:
@@ -179,26 +180,26 @@ def _recorded_source(scenario: Scenario, scenario_path):
     return RecordedSkeletonSource(times, points, tracked)
 
 
-def _add_plant(builder, scenario: Scenario):
+def _add_plant(builder, scenario: Scenario, scenario_path):
     """The robots' plant: kinematic (positions imposed, no dynamics) or a discrete plant with PD joints."""
     if any(r.mode == "dynamic" for r in scenario.robots):
         plant, scene_graph = AddMultibodyPlantSceneGraph(
             builder, time_step=min(r.time_step for r in scenario.robots)
         )
-        robots = _add_robots(plant, scenario)
+        robots = _add_robots(plant, scenario, scenario_path)
         for instance, robot in robots:
-            set_pd_gains(plant, instance, model=robot.model)
+            set_pd_gains(plant, instance, model=robot_record(robot, scenario_path))
         plant.Finalize()
         return plant, scene_graph, robots, True
     scene_graph = builder.AddSystem(SceneGraph())
     plant = MultibodyPlant(0.0)
     plant.RegisterAsSourceForSceneGraph(scene_graph)
-    robots = _add_robots(plant, scenario)
+    robots = _add_robots(plant, scenario, scenario_path)
     plant.Finalize()
     return plant, scene_graph, robots, False
 
 
-def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses, use_scheduler, flow,
+def _add_robot_motion(builder, plant, scene_graph, robots, records, dynamic, named_poses, use_scheduler, flow,
                       hold_new_paths: bool = False, preview: dict | None = None):
     """Task executor and path follower of every arm agent, driving the plant. An arm on a
     flow action of several agents stays on it until all are done, unless released early.
@@ -210,8 +211,8 @@ def _add_robot_motion(builder, plant, scene_graph, robots, dynamic, named_poses,
     arm_indices, v_max, agents, moves = [], [], [], {}
     for instance, robot in robots:
         for arm in robot.arms:
-            idx = arm_position_indices(plant, instance, robot.model, arm.arm)
-            _, _, vel = arm_joint_limits(plant, instance, robot.model, arm.arm)
+            idx = arm_position_indices(plant, instance, records[robot.name], arm.arm)
+            _, _, vel = arm_joint_limits(plant, instance, records[robot.name], arm.arm)
             if arm.home:
                 q0[idx] = named_poses[(robot.name, arm.home)]
             agents.append(ArmAgent(arm.agent, len(arm_indices), list(arm.program)))
@@ -425,18 +426,16 @@ def _add_speed_override(builder, overrides, follower, systems) -> None:
     systems["speed_override"] = follower.GetOutputPort("speed_override_applied")
 
 
-def capsule_payloads(scenario: Scenario, plant, capsule_kin) -> np.ndarray:
+def capsule_payloads(scenario: Scenario, plant, capsule_kin, scenario_path=None) -> np.ndarray:
     """m_L (K,) of each robot capsule: the payload of the arm whose chain moves it
     (`scenario.arm_payloads`), 0 for a capsule no arm moves (a robot's body)."""
     from hrc_drake.cell.scenario import arm_payloads
-    from hrc_drake.robots.registry import get_robot_model
-
     payload = arm_payloads(scenario)
     bodies = [int(b) for b in capsule_kin.capsule_bodies]
     out = np.zeros(len(bodies))
     for robot in scenario.robots:
         instance = plant.GetModelInstanceByName(robot.name)
-        model = get_robot_model(robot.model)
+        model = robot_record(robot, scenario_path or scenario.source_path)
         for arm in robot.arms:
             first = plant.GetJointByName(model.arm(arm.arm).joints[0], instance)
             moved = {int(b) for b in plant.GetBodiesKinematicallyAffectedBy([first.index()])}
@@ -481,7 +480,8 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         path_preview=follower.GetOutputPort("path_preview"),
         skeleton_estimate=estimate_port, skeleton_frame=frame_port,
         human_capsules=human_capsules.GetOutputPort("capsules"), requested_override=None,
-        judge_values=standard, judge_changes=changed, payloads=capsule_payloads(scenario, plant, capsule_kin),
+        judge_values=standard, judge_changes=changed,
+        payloads=capsule_payloads(scenario, plant, capsule_kin, scenario_path),
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
         swept_horizon=float(getattr(scenario.motion_model, "horizon", 0.0)),
         camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)
@@ -557,12 +557,14 @@ def build_cell(
     if named_poses is None:
         named_poses = solve_named_poses(scenario.robots, scenario_path)
     builder = DiagramBuilder()
-    plant, scene_graph, robots, dynamic = _add_plant(builder, scenario)
+    plant, scene_graph, robots, dynamic = _add_plant(builder, scenario, scenario_path)
+    records = {robot.name: robot_record(robot, scenario_path) for _, robot in robots}
     executor, follower, agents, positions_port, positions_size = _add_robot_motion(
         builder,
         plant,
         scene_graph,
         robots,
+        records,
         dynamic,
         named_poses,
         not isinstance(scenario.scheduler, NoScheduler),
@@ -571,7 +573,7 @@ def build_cell(
         hold_new_paths=has_safety_controller(scenario),
         preview=_preview_of(scenario.safety),
     )
-    capsule_kin = RobotCapsuleKinematics(plant, [(inst, r.model) for inst, r in robots])
+    capsule_kin = RobotCapsuleKinematics(plant, [(inst, records[r.name]) for inst, r in robots])
     robot_capsules = builder.AddSystem(RobotCapsules(plant, capsule_kin, positions_size))
     robot_capsules.set_name("robot_capsules")
     builder.Connect(positions_port, robot_capsules.get_input_port())
@@ -601,8 +603,8 @@ def build_cell(
     plugins.add_motion(
         builder, scenario, body, estimate_port, robot_capsules, follower, systems, overrides, seed(4)
     )
-    plugins.add_proactive_planner(builder, scenario, named_poses, estimate_port, decision_events, executor,
-                                  systems, seed(6))
+    plugins.add_proactive_planner(builder, scenario, records, named_poses, estimate_port, decision_events,
+                                  executor, systems, seed(6))
     # the analytic camera's frame is the measurement with the layout's noise_std, which the
     # controller takes as its spread; a rendered camera's skeleton (extracted from a depth image)
     # has no such bound: there the controller keeps the tracker's estimate and its spread

@@ -294,7 +294,7 @@ def add_motion(
     systems["speed_scaler"] = scaler
 
 
-def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_port, human_events_port,
+def add_proactive_planner(builder, scenario: Scenario, records, named_poses, estimate_port, human_events_port,
                           executor, systems, seed):
     """Proactive paths of thesis 8.2 for the scenario's robot action, if it has a planner: the
     robot arm's chain (its base pose), the nominal path from `start_pose` to the action's last
@@ -310,7 +310,8 @@ def add_proactive_planner(builder, scenario: Scenario, named_poses, estimate_por
     from hrc_drake.robots.chain import SerialChain
     robot, action = next((r, a) for r in scenario.robots for a in r.actions if a.name == config.robot_action)
     agent = next(arm.agent for arm in robot.arms if arm.arm == action.arm)
-    chain = SerialChain.from_model(robot.model, action.arm, base_pose=(robot.base.xyz, robot.base.rpy))
+    chain = SerialChain.from_model(records[robot.name], action.arm,
+                                   base_pose=(robot.base.xyz, robot.base.rpy))
     nominal = nominal_path(named_poses[(robot.name, config.start_pose)],
                            named_poses[(robot.name, action.poses[-1])], config.waypoints)
     table = scenario.layout.table

@@ -39,7 +39,6 @@ from hrc_drake.config_common import (
 )
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
-from hrc_drake.robots.registry import ROBOT_MODELS
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
@@ -508,6 +507,32 @@ def check_distribution(file, field: str, dist: Distribution) -> None:
         raise ScenarioError(file, err.field, err.reason) from None
 
 
+def _robot_record(robot, file, field):
+    """The `RobotModel` of `robots[i]` (a shipped model or its own URDF; ScenarioError naming the field)."""
+    from hrc_drake.robots.description import DescriptionError, robot_record
+
+    try:
+        return robot_record(robot, None if str(file) == "<scenario>" else file)
+    except DescriptionError as err:
+        raise ScenarioError(file, f"{field}.{err.field}", err.reason) from None
+    except ValueError as err:
+        raise ScenarioError(file, f"{field}.model", f"{err} (or give `urdf:`, your own robot)") from None
+
+
+def _check_own_robot(robot, model, file, field) -> None:
+    """A robot of the scenario's own URDF can run in its mode: a dynamic plant needs an actuator
+    (a URDF <transmission>) on every joint of its arms and grippers."""
+    from hrc_drake.robots.urdf import read_urdf_transmissions
+
+    if not robot.urdf or robot.mode != "dynamic":
+        return
+    driven = read_urdf_transmissions(model.urdf_text())
+    missing = [j for a in model.arms for j in (*a.joints, *a.gripper_joints) if j not in driven]
+    if missing:
+        raise ScenarioError(file, f"{field}.mode", "a dynamic plant drives joints through actuators; the "
+                            f"URDF declares no <transmission> for {missing} (add them, or mode: kinematic)")
+
+
 def _unique(file, field, names):
     seen = set()
     for i, name in enumerate(names):
@@ -598,14 +623,9 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _unique(file, "robots", [r.name for r in sc.robots])
     for i, robot in enumerate(sc.robots):
         field = f"robots[{i}]"
-        if robot.model not in ROBOT_MODELS:
-            raise ScenarioError(
-                file,
-                f"{field}.model",
-                f"unknown robot model '{robot.model}' (known models: {', '.join(sorted(ROBOT_MODELS))})",
-            )
-        model = ROBOT_MODELS[robot.model]
+        model = _robot_record(robot, file, field)
         _kind(file, f"{field}.mode", robot.mode, ROBOT_MODES)
+        _check_own_robot(robot, model, file, field)
         _check_pose(file, f"{field}.base", robot.base)
         if robot.mode == "dynamic":
             _in_range(file, f"{field}.time_step", robot.time_step, MIN_TIME_STEP, MAX_TIME_STEP, "s")
@@ -618,7 +638,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
             pf = f"{field}.poses[{j}]"
             if pose.arm not in arm_names:
                 raise ScenarioError(
-                    file, f"{pf}.arm", f"unknown arm '{pose.arm}' of {robot.model} ({arm_names})"
+                    file, f"{pf}.arm", f"unknown arm '{pose.arm}' of {model.name} ({arm_names})"
                 )
             if bool(pose.joints) == (pose.target is not None):
                 raise ScenarioError(file, pf, "give exactly one of 'joints' or 'target'")
@@ -906,20 +926,27 @@ def reaction_time(sc: Scenario) -> float:
 def judge_values(sc: Scenario, file):
     """(the standard judge's `JudgeValues` of this cell, the scenario's changed judge or None):
     T_r from the cell's chain (`reaction_time`), the stop of its robots' models (the slowest);
-    `ScenarioError` naming a bad `judge.limits` table."""
+    `ScenarioError` naming a bad `judge.limits` table.
+
+    A robot of the scenario's own URDF is judged with at most the shipped robots' assumed
+    deceleration: a faster stop it declares is the scenario's claim, a changed judge (the verdict
+    NON-CONFORMING names it), never the standard's."""
     from dataclasses import replace
 
-    from hrc_drake.robots.registry import get_robot_model
+    from hrc_drake.robots.description import DEFAULT_STOPPING_DECELERATION
     from hrc_drake.safety.judge import standard_values
     from hrc_drake.safety.limits import load_limits
 
-    decelerations = [get_robot_model(r.model).stopping_deceleration for r in sc.robots]
-    deceleration = min(decelerations) if decelerations else 5.0
+    records = [_robot_record(r, file, f"robots[{i}]") for i, r in enumerate(sc.robots)]
+    declared = min((r.stopping_deceleration for r in records), default=DEFAULT_STOPPING_DECELERATION)
+    deceleration = min((r.stopping_deceleration if r.shipped else
+                        min(r.stopping_deceleration, DEFAULT_STOPPING_DECELERATION) for r in records),
+                       default=DEFAULT_STOPPING_DECELERATION)
     standard = standard_values(reaction_time(sc), deceleration)
     changes = sc.judge
-    if not changes.changed():
+    if not changes.changed() and declared == deceleration:
         return standard, None
-    values = standard
+    values = replace(standard, deceleration=declared)
     if changes.limits:
         path = scenario_relative(file, changes.limits) if str(file) != "<scenario>" else Path(changes.limits)
         try:

@@ -11,80 +11,12 @@ configurations are a handful of stacked 4x4 products, one per body of the chain.
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from importlib.resources import files
 
 import numpy as np
 
-from hrc_drake.robots.registry import get_robot_model
-
-#: the package holding the URDF model files (package data)
-MODELS_PACKAGE = "hrc_drake.models"
-
-
-def rpy_matrix(rpy) -> np.ndarray:
-    """Rotation matrix (3, 3) of URDF roll-pitch-yaw angles: Rz(yaw) Ry(pitch) Rx(roll)."""
-    r, p, y = (float(a) for a in rpy)
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def pose_matrix(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """Homogeneous transform (4, 4) of a translation xyz (m) and URDF rpy angles (rad)."""
-    X = np.eye(4)
-    X[:3, :3] = rpy_matrix(rpy)
-    X[:3, 3] = np.asarray(xyz, dtype=float).reshape(3)
-    return X
-
-
-def _floats(text: str | None, default: str) -> np.ndarray:
-    return np.array([float(v) for v in (text or default).split()], dtype=float)
-
-
-@dataclass(frozen=True)
-class UrdfJoint:
-    """One URDF joint: kind 'fixed' / 'revolute' / 'prismatic', X_PJ (4, 4), unit axis (3,), limits."""
-
-    name: str
-    kind: str
-    parent: str
-    child: str
-    origin: np.ndarray
-    axis: np.ndarray
-    lower: float
-    upper: float
-
-
-def read_urdf_joints(text: str) -> dict[str, UrdfJoint]:
-    """The joints of a URDF document, by child link ('continuous' counts as revolute)."""
-    joints = {}
-    for element in ET.fromstring(text).findall("joint"):
-        kind = element.get("type")
-        kind = "revolute" if kind == "continuous" else kind
-        if kind not in ("fixed", "revolute", "prismatic"):
-            raise ValueError(f"URDF joint {element.get('name')!r}: unsupported type {kind!r}")
-        origin, axis, limit = element.find("origin"), element.find("axis"), element.find("limit")
-        xyz = _floats(origin.get("xyz") if origin is not None else None, "0 0 0")
-        rpy = _floats(origin.get("rpy") if origin is not None else None, "0 0 0")
-        a = _floats(axis.get("xyz") if axis is not None else None, "1 0 0")
-        lower = float(limit.get("lower", "-inf")) if limit is not None else -np.inf
-        upper = float(limit.get("upper", "inf")) if limit is not None else np.inf
-        if element.get("type") == "continuous":
-            lower, upper = -np.inf, np.inf
-        child = element.find("child").get("link")
-        joints[child] = UrdfJoint(
-            element.get("name"), kind, element.find("parent").get("link"), child,
-            pose_matrix(xyz, rpy), a / np.linalg.norm(a), lower, upper,
-        )
-    return joints
+from hrc_drake.robots.registry import RobotModel, get_robot_model
+from hrc_drake.robots.urdf import UrdfJoint, pose_matrix, read_urdf_joints, rpy_matrix  # noqa: F401 (re-exported)
 
 
 def _base_matrix(base_pose) -> np.ndarray:
@@ -125,7 +57,8 @@ class SerialChain:
     name -> (body index, offset (3,) in the body frame) for `points`.
     """
 
-    def __init__(self, model: str, arm: str, urdf_text: str, base_pose=None, include_static: bool = False,
+    def __init__(self, model: str | RobotModel, arm: str, urdf_text: str, base_pose=None,
+                 include_static: bool = False,
                  extra_points: Mapping[str, tuple[str, Sequence[float]]] | None = None):
         record = get_robot_model(model)
         arm_record = record.arm(arm)
@@ -133,14 +66,16 @@ class SerialChain:
         chain, link = [], arm_record.tool_frame
         while link != record.root_link:
             if link not in by_child:
-                raise ValueError(f"{model}: link {link!r} is not connected to root {record.root_link!r}")
+                raise ValueError(f"{record.name}: link {link!r} is not connected to root "
+                                 f"{record.root_link!r}")
             chain.append(by_child[link])
             link = by_child[link].parent
         chain.reverse()
         actuated = tuple(j.name for j in chain if j.kind != "fixed")
         if actuated != arm_record.joints:
-            raise ValueError(f"{model}/{arm}: URDF chain joints {actuated} != registry {arm_record.joints}")
-        self.model, self.arm, self.tool_frame = model, arm, arm_record.tool_frame
+            raise ValueError(f"{record.name}/{arm}: URDF chain joints {actuated} != the record's "
+                             f"{arm_record.joints}")
+        self.model, self.arm, self.tool_frame = record.name, arm, arm_record.tool_frame
         self.bodies: tuple[str, ...] = (record.root_link, *(j.child for j in chain))
         self.joints: tuple[str, ...] = actuated
         self.base = _base_matrix(base_pose)
@@ -154,16 +89,17 @@ class SerialChain:
         self._init_points(moving, extra_points or {})
 
     @classmethod
-    def from_model(cls, model: str = "yumi", arm: str = "left", base_pose=None, include_static: bool = False,
+    def from_model(cls, model: str | RobotModel = "yumi", arm: str = "left", base_pose=None,
+                   include_static: bool = False,
                    extra_points: Mapping[str, tuple[str, Sequence[float]]] | None = None) -> SerialChain:
-        """The chain of `arm` of registry model `model`, its URDF read from `hrc_drake.models`.
+        """The chain of `arm` of robot `model` (a shipped name or a record), its URDF read from the record.
 
         base_pose: world pose of the root link, None (identity), a (4, 4) matrix or (xyz, rpy) as
         `add_robot` takes it; include_static: `capsules` also returns the capsules of the static
         bodies on the chain (e.g. the YuMi body); extra_points: more named control points,
         name -> (chain body, offset (3,) in its frame).
         """
-        text = (files(MODELS_PACKAGE) / get_robot_model(model).urdf).read_text()
+        text = get_robot_model(model).urdf_text()
         return cls(model, arm, text, base_pose, include_static, extra_points)
 
     def _init_capsules(self, record, include_static: bool) -> None:

@@ -53,14 +53,56 @@ class Arm:
 
 
 @dataclass
-class Robot:
-    """A robot in the cell.
+class ArmChain:
+    """One arm of a robot described by its URDF: the chain from the root link to `tool_frame`.
 
-    model: yumi | irb140. mode: kinematic (positions imposed) | dynamic (discrete plant, PD).
+    joints: the chain's moving joints, base to tool, as a check (empty: read from the URDF);
+    gripper_joints: prismatic finger joints (0 closed, `gripper_stroke` m open per finger)."""
+
+    name: str = ""
+    tool_frame: str = ""
+    joints: list[str] = field(default_factory=list)
+    gripper_joints: list[str] = field(default_factory=list)
+    gripper_stroke: float = 0.0
+
+
+@dataclass
+class CapsuleSpec:
+    """A distance capsule in a link's frame: segment start -> end (m) swept by radius (m)."""
+
+    body: str = ""
+    start: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    end: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    radius: float = 0.0
+
+
+@dataclass
+class Robot:
+    """A robot in the cell: a shipped `model` (yumi, irb140, cart, ur5e, panda; "" is yumi) or a
+    robot of your own from `urdf` (a file relative to the scenario, or `package://<python
+    package>/<path>`) with its `chains`.
+
+    mode: kinematic (positions imposed) | dynamic (discrete plant, PD).
     """
 
     name: str = ""
-    model: str = "yumi"
+    model: str = ""
+    #: your own robot: its URDF; then `chains` names its arm(s) and `model` stays empty
+    urdf: str = ""
+    #: the URDF link welded to the world at `base`; "": the URDF's root
+    root_link: str = ""
+    chains: list[ArmChain] = field(default_factory=list)
+    #: distance capsules; empty: fitted to each link's collision geometry (cylinders, capsules,
+    #: spheres, boxes), or to the segment between its joint origins with `capsule_radius`
+    capsules: list[CapsuleSpec] = field(default_factory=list)
+    capsule_radius: float = 0.06
+    #: links welded to the base (their capsules never move); empty with fitted capsules: the root's
+    static_bodies: list[str] = field(default_factory=list)
+    #: (kp, kd) per actuated joint of a dynamic plant; a joint not named: from its load (docs)
+    pd_gains: dict[str, list[float]] = field(default_factory=dict)
+    #: a of the robot's protective stop (m/s^2) for the judge; null: the shipped robots' 5.0.
+    #: Above 5.0 the verdict is NON-CONFORMING (a faster stop than assumed is the integrator's claim)
+    stopping_deceleration: float | None = None
     base: Pose = field(default_factory=Pose)
     mode: str = "kinematic"
     time_step: float = 0.01

@@ -56,7 +56,7 @@ def solve_tool_position(
     plant: MultibodyPlant,
     plant_context: Context,
     instance: ModelInstanceIndex,
-    model: str,
+    model,
     arm: str,
     target_xyz: Sequence[float],
     target_rpy: Sequence[float] | None = None,

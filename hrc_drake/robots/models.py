@@ -1,7 +1,8 @@
 """Robot models of the cell (ABB YuMi IRB 14000, ABB IRB 140, ...), built from primitives.
 
 Which robots exist, their arms, tools, grippers, PD gains and capsules is the registry
-`hrc_drake.robots.registry.ROBOT_MODELS`; their URDFs are the `hrc_drake.models` package data
+`hrc_drake.robots.registry.ROBOT_MODELS` (read from `models/<name>.yaml`); their URDFs are the
+`hrc_drake.models` package data
 (the top-level `models/` folder, mapped into the package by pyproject.toml), read with
 `importlib.resources`. The URDFs follow docs/KINEMATICS.md (joint origins, axes,
 limits and velocities of the public ROS descriptions); masses, inertias and capsule radii are
@@ -26,7 +27,14 @@ from pydrake.multibody.tree import JacobianWrtVariable, ModelInstanceIndex, PdCo
 from pydrake.systems.framework import Context
 
 from hrc_drake.robots.config import Robot
-from hrc_drake.robots.registry import ROBOT_MODELS, ArmModel, RobotModel, capsule_arrays, get_robot_model
+from hrc_drake.robots.description import robot_record
+from hrc_drake.robots.registry import (
+    ArmModel,
+    RobotModel,
+    capsule_arrays,
+    get_robot_model,
+    shipped_robot_models,
+)
 
 #: the package holding the URDF / SDF model files (package data)
 MODELS_PACKAGE = "hrc_drake.models"
@@ -47,23 +55,24 @@ def model_file(name: str) -> Iterator[Path]:
         yield path
 
 
-def _arm(model: str, arm: str) -> ArmModel:
+def _arm(model: str | RobotModel, arm: str) -> ArmModel:
     return get_robot_model(model).arm(arm)
 
 
-def robot_model(model: str) -> RobotModel:
+def robot_model(model: str | RobotModel) -> RobotModel:
     """The registry record of `model` (ValueError listing the known models)."""
     return get_robot_model(model)
 
 
 def add_robot(
     plant: MultibodyPlant,
-    model: str,
+    model: str | RobotModel,
     name: str,
     base_xyz: Sequence[float] = (0.0, 0.0, 0.0),
     base_rpy: Sequence[float] = (0.0, 0.0, 0.0),
 ) -> ModelInstanceIndex:
-    """Parse `model`'s URDF as a model instance called `name` and weld its root link to the world.
+    """Parse `model`'s URDF (a shipped name or a record) as a model instance called `name` and weld
+    its root link to the world.
 
     base_xyz (m) and base_rpy (rad, roll-pitch-yaw) place the root link: for the YuMi the root is
     its foot plane, so welding it at the table top gives the true geometry. Call before Finalize.
@@ -72,22 +81,17 @@ def add_robot(
     if not name:
         raise ValueError("add_robot: the model instance name must not be empty")
     if plant.is_finalized():
-        raise ValueError(f"add_robot({model!r}, {name!r}): the plant is already finalized")
+        raise ValueError(f"add_robot({record.name!r}, {name!r}): the plant is already finalized")
     if plant.HasModelInstanceNamed(name):
         raise ValueError(f"add_robot: a model instance named {name!r} already exists in the plant")
     xyz = np.asarray(base_xyz, dtype=float).reshape(-1)
     rpy = np.asarray(base_rpy, dtype=float).reshape(-1)
     if xyz.shape != (3,) or rpy.shape != (3,) or not (np.all(np.isfinite(xyz)) and np.all(np.isfinite(rpy))):
         raise ValueError(
-            f"add_robot({model!r}, {name!r}): base_xyz and base_rpy must be 3 finite numbers, "
+            f"add_robot({record.name!r}, {name!r}): base_xyz and base_rpy must be 3 finite numbers, "
             f"got {list(base_xyz)} and {list(base_rpy)}"
         )
-    text = model_resource(record.urdf).read_text()
-    marker = f'<robot name="{model}"'
-    if marker not in text:
-        raise ValueError(f"{MODELS_PACKAGE}/{record.urdf} does not declare {marker}")
-    text = text.replace(marker, f'<robot name="{name}"', 1)
-    (instance,) = Parser(plant).AddModelsFromString(text, "urdf")
+    instance = _parse_urdf(plant, record, name)
     plant.WeldFrames(
         plant.world_frame(),
         plant.GetFrameByName(record.root_link, instance),
@@ -96,7 +100,33 @@ def add_robot(
     return instance
 
 
-def arm_joint_limits(plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str):
+def _parse_urdf(plant: MultibodyPlant, record: RobotModel, name: str) -> ModelInstanceIndex:
+    """The record's URDF as one model instance called `name`."""
+    if record.urdf_path:
+        # a robot of the user's: parsed from its file so that its meshes' relative paths and a
+        # ROS package around it resolve; auto-renaming lets two robots share one URDF
+        parser = Parser(plant)
+        parser.SetAutoRenaming(True)
+        folder = Path(record.urdf_path).parent
+        for candidate in (folder, *folder.parents[:3]):
+            if (candidate / "package.xml").is_file():
+                parser.package_map().PopulateFromFolder(str(candidate))
+                break
+        instances = parser.AddModels(record.urdf_path)
+        if len(instances) != 1:
+            raise ValueError(f"{record.urdf_path}: expected one robot, the file holds {len(instances)} "
+                             "models")
+        plant.RenameModelInstance(instances[0], name)
+        return instances[0]
+    text = record.urdf_text()
+    marker = f'<robot name="{record.name}"'
+    if marker not in text:
+        raise ValueError(f"{MODELS_PACKAGE}/{record.urdf} does not declare {marker}")
+    (instance,) = Parser(plant).AddModelsFromString(text.replace(marker, f'<robot name="{name}"', 1), "urdf")
+    return instance
+
+
+def arm_joint_limits(plant: MultibodyPlant, instance: ModelInstanceIndex, model: str | RobotModel, arm: str):
     """(lower, upper, velocity) limits of the arm's joints in chain order, each shape (n,)."""
     joints = [plant.GetJointByName(j, instance) for j in _arm(model, arm).joints]
     lower = np.array([j.position_lower_limits()[0] for j in joints])
@@ -111,29 +141,29 @@ def _joint_starts(plant: MultibodyPlant, instance: ModelInstanceIndex, joints, s
 
 
 def arm_position_indices(
-    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
+    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str | RobotModel, arm: str
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full position vector q."""
     return _joint_starts(plant, instance, _arm(model, arm).joints, "position_start")
 
 
 def arm_velocity_indices(
-    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
+    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str | RobotModel, arm: str
 ) -> np.ndarray:
     """Indices of the arm's joints (chain order) into the plant's full velocity vector v."""
     return _joint_starts(plant, instance, _arm(model, arm).joints, "velocity_start")
 
 
 def gripper_position_indices(
-    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str, arm: str
+    plant: MultibodyPlant, instance: ModelInstanceIndex, model: str | RobotModel, arm: str
 ) -> np.ndarray:
     """Indices of the arm's finger joints into the plant's full position vector (empty if none)."""
     return _joint_starts(plant, instance, _arm(model, arm).gripper_joints, "position_start")
 
 
-def _default_gains(joint: str, model: str | None) -> tuple[float, float]:
+def _default_gains(joint: str, model: str | RobotModel | None) -> tuple[float, float]:
     """(kp, kd) of `joint` from the registry (of `model`, or of the one model naming the joint)."""
-    records = [get_robot_model(model)] if model is not None else list(ROBOT_MODELS.values())
+    records = [get_robot_model(model)] if model is not None else list(shipped_robot_models().values())
     found = [r.pd_gains[joint] for r in records if joint in r.pd_gains]
     if not found:
         where = f"robot model {model!r}" if model is not None else "any robot model of the registry"
@@ -146,7 +176,7 @@ def set_pd_gains(
     instance: ModelInstanceIndex,
     kp: float | Sequence[float] | None = None,
     kd: float | Sequence[float] | None = None,
-    model: str | None = None,
+    model: str | RobotModel | None = None,
 ) -> None:
     """Give every actuator of `instance` an implicit PD controller (discrete plants; before Finalize).
 
@@ -180,7 +210,8 @@ def set_pd_gains(
         actuator.set_controller_gains(PdControllerGains(p=float(p), d=float(d)))
 
 
-def link_capsules(model: str, include_static: bool = True) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
+def link_capsules(model: str | RobotModel,
+                  include_static: bool = True) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
     """Capsules (body name, p_start (3,), p_end (3,), radius) in body frames (thesis Fig. 8.18).
 
     include_static=False drops the capsules of the bodies welded to the base (`RobotModel.static_bodies`).
@@ -247,9 +278,12 @@ class RobotCapsuleKinematics:
         return start, end, self.radius.copy()
 
 
-def add_robots(plant: MultibodyPlant, robots: Sequence[Robot]) -> list[tuple[ModelInstanceIndex, Robot]]:
-    """`add_robot` for every robot config (model, name, base pose); [(instance, config)] in order."""
-    return [(add_robot(plant, r.model, r.name, r.base.xyz, r.base.rpy), r) for r in robots]
+def add_robots(plant: MultibodyPlant, robots: Sequence[Robot],
+               scenario_file=None) -> list[tuple[ModelInstanceIndex, Robot]]:
+    """`add_robot` for every robot config (its record, name, base pose; a `urdf` relative to
+    `scenario_file`); [(instance, config)] in order."""
+    return [(add_robot(plant, robot_record(r, scenario_file), r.name, r.base.xyz, r.base.rpy), r)
+            for r in robots]
 
 
 def effective_mass(plant, context, body, point_in_body, direction) -> float:

@@ -14,6 +14,7 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from hrc_drake.errors import ConfigError, ScenarioError
 from hrc_drake.robots.config import Robot
+from hrc_drake.robots.description import DescriptionError, robot_record
 from hrc_drake.robots.ik import InfeasibleTarget, solve_tool_position
 from hrc_drake.robots.models import add_robots, arm_joint_limits, arm_position_indices
 from hrc_drake.robots.registry import get_robot_model
@@ -49,19 +50,22 @@ def solve_named_poses(
     model or arm, a joint outside its limits, a target out of reach); `ConfigError` (no file)
     when `file` is None.
     """
+    records = {}
     for i, robot in enumerate(robots):
         try:
-            record = get_robot_model(robot.model)
+            record = records[robot.name] = robot_record(robot, file)
+        except DescriptionError as err:
+            raise _error(file, f"{field}[{i}].{err.field}", err.reason) from None
         except ValueError as err:
             raise _error(file, f"{field}[{i}].model", str(err)) from None
         for j, pose in enumerate(robot.poses):
             if pose.arm not in record.arm_names:
                 raise _error(
                     file, f"{field}[{i}].poses[{j}].arm",
-                    f"unknown arm '{pose.arm}' of {robot.model} {record.arm_names}",
+                    f"unknown arm '{pose.arm}' of {record.name} {record.arm_names}",
                 )
     plant = MultibodyPlant(0.0)
-    instances = add_robots(plant, robots)
+    instances = add_robots(plant, robots, file)
     plant.Finalize()
     context = plant.CreateDefaultContext()
     solved: dict[tuple[str, str], np.ndarray] = {}
@@ -70,7 +74,7 @@ def solve_named_poses(
         for j, pose in enumerate(robot.poses):
             field_path = f"{field}[{i}].poses[{j}]"
             if pose.arm not in limits:
-                limits[pose.arm] = arm_joint_limits(plant, instance, robot.model, pose.arm)
+                limits[pose.arm] = arm_joint_limits(plant, instance, records[robot.name], pose.arm)
             lower, upper, _ = limits[pose.arm]
             approach = _approach(pose, file, field_path)
             if pose.joints:
@@ -101,7 +105,7 @@ def solve_named_poses(
                         plant,
                         context,
                         instance,
-                        robot.model,
+                        records[robot.name],
                         pose.arm,
                         pose.target.xyz,
                         target_rpy=pose.target.rpy if pose.orient else None,
@@ -122,15 +126,15 @@ def tool_positions(robots: Sequence[Robot],
     a Cartesian target's IK solution or a joint pose, each arm's other joints at zero."""
     solved = solve_named_poses(robots, file)
     plant = MultibodyPlant(0.0)
-    instances = add_robots(plant, robots)
+    instances = add_robots(plant, robots, file)
     plant.Finalize()
     context = plant.CreateDefaultContext()
-    return {(robot.name, pose.name): tool_position(plant, context, instance, robot.model, pose.arm,
-                                                   solved[(robot.name, pose.name)])
+    return {(robot.name, pose.name): tool_position(plant, context, instance, robot_record(robot, file),
+                                                   pose.arm, solved[(robot.name, pose.name)])
             for instance, robot in instances for pose in robot.poses}
 
 
-def tool_position(plant, context, instance, model: str, arm: str, arm_joints) -> np.ndarray:
+def tool_position(plant, context, instance, model, arm: str, arm_joints) -> np.ndarray:
     """World position (3,) of `arm`'s tool frame at `arm_joints`, every other joint at zero."""
     q = np.zeros(plant.num_positions())
     q[arm_position_indices(plant, instance, model, arm)] = arm_joints

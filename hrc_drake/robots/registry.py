@@ -1,8 +1,9 @@
 """The robot models a cell can hold: one `RobotModel` record per model, in `ROBOT_MODELS`.
 
-Adding a robot is one URDF in `models/` (installed as `hrc_drake.models` package data) plus one
-record here. Nothing else in the package names a model: the cell's scenario checks, the
-plant builder, IK and the capsule kinematics all read these records.
+Adding a robot is one URDF and one description `<name>.yaml` in `models/` (installed as
+`hrc_drake.models` package data), read by `hrc_drake.robots.description`; a scenario's own robot
+(`robots[i].urdf`) becomes the same record. Nothing else in the package names a model: the
+cell's scenario checks, the plant builder, IK and the capsule kinematics all read these records.
 
 Numbers follow docs/KINEMATICS.md (joint names and chain order of the public ROS
 descriptions; capsule radii after the median mesh distances of 1.4 / 2.6; PD gains chosen so
@@ -11,8 +12,11 @@ that gravity sag stays below ~0.01 rad on a 1-10 ms discrete plant). Plain data:
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from importlib.resources import files
+from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
@@ -51,8 +55,10 @@ class ArmModel:
 class RobotModel:
     """Everything the package needs to know about one robot model.
 
-    name: the model's name in scenarios (`robots[i].model`) and the URDF's `<robot name=...>`;
-    urdf: resource name of the URDF in the `hrc_drake.models` package data;
+    name: the model's name in scenarios (`robots[i].model`), or a scenario robot's name;
+    urdf: resource name of the URDF in the `hrc_drake.models` package data, or, with `urdf_path`
+    set, the name the scenario gave; urdf_path: the absolute path of a URDF outside the package;
+    described_by: the file the record was read from (a shipped `models/<name>.yaml` or a scenario);
     root_link: the link welded to the world at the robot's base pose;
     arms: the arms, in a fixed order; pd_gains: (kp, kd) of the implicit PD controller of each
     actuated joint (arm and finger joints) of a dynamic plant; capsules: collision/distance
@@ -70,6 +76,8 @@ class RobotModel:
     capsules: tuple[Capsule, ...] = ()
     static_bodies: frozenset[str] = frozenset()
     stopping_deceleration: float = 0.0
+    urdf_path: str = ""
+    described_by: str = ""
 
     def __post_init__(self):
         if not self.arms:
@@ -102,106 +110,45 @@ class RobotModel:
         """Number of joints of `arm` (the length of its named poses' joint vectors)."""
         return self.arm(arm).num_joints
 
+    @property
+    def shipped(self) -> bool:
+        """Whether the robot is one of the package's (its facts reviewed in docs/KINEMATICS.md)."""
+        return not self.urdf_path
 
-# ABB YuMi IRB 14000 (KINEMATICS.md 1): URDF joint names follow the ABB axis numbers, whose
-# physical order from the body is 1, 2, 7, 3, 4, 5, 6.
-_YUMI_ABB_ORDER = ("1", "2", "7", "3", "4", "5", "6")
-_YUMI_SEGMENTS = (  # (link index, next joint origin in the link frame, radius)
-    (1, (0.03, 0.0, 0.1), 0.060),
-    (2, (-0.03, 0.17283, 0.0), 0.055),
-    (3, (-0.04188, 0.0, 0.07873), 0.055),
-    (4, (0.0405, 0.16461, 0.0), 0.055),
-    (5, (-0.027, 0.0, 0.10039), 0.050),
-    (6, (0.027, 0.029, 0.0), 0.050),
-    (7, (0.0, 0.0, 0.007), 0.035),
-)
-#: YuMi tool centre point: the finger tips, this far from the gripper base along its z
-YUMI_TOOL_OFFSET = 0.136
-#: stroke of each YuMi finger (m), KINEMATICS.md 1.3
-YUMI_GRIPPER_STROKE = 0.025
+    def urdf_text(self) -> str:
+        """The URDF document of the robot."""
+        if self.urdf_path:
+            return Path(self.urdf_path).read_text(encoding="utf-8")
+        return (files(MODELS_PACKAGE) / self.urdf).read_text(encoding="utf-8")
 
 
-def _yumi() -> RobotModel:
-    arms, capsules = [], [Capsule("yumi_body", (-0.12, 0.0, 0.10), (-0.12, 0.0, 0.27), 0.20)]
-    for arm, s in (("right", "r"), ("left", "l")):
-        arms.append(
-            ArmModel(
-                arm,
-                tuple(f"yumi_joint_{k}_{s}" for k in _YUMI_ABB_ORDER),
-                f"yumi_tool_{s}",
-                (f"gripper_{s}_joint", f"gripper_{s}_joint_m"),
-                YUMI_GRIPPER_STROKE,
-            )
-        )
-    for s in ("r", "l"):
-        for index, end, radius in _YUMI_SEGMENTS:
-            capsules.append(Capsule(f"yumi_link_{index}_{s}", (0.0, 0.0, 0.0), end, radius))
-        capsules.append(Capsule(f"gripper_{s}_base", (0.0, 0.0, 0.0), (0.0, 0.0, YUMI_TOOL_OFFSET), 0.045))
-    gains = {j: (400.0, 40.0) for a in arms for j in a.joints}
-    gains.update({j: (400.0, 10.0) for a in arms for j in a.gripper_joints})
-    return RobotModel(
-        name="yumi",
-        urdf="yumi.urdf",
-        root_link="yumi_base_link",  # the foot plane, 0.1 m below the body frame
-        arms=tuple(arms),
-        pd_gains=gains,
-        capsules=tuple(capsules),
-        static_bodies=frozenset({"yumi_body"}),
-        # ABB publishes no stopping distances for the YuMi (IRB 14000): 5 m/s^2 is an assumption,
-        # the deceleration its safety controller has used since stop 48 (docs/safety.md)
-        stopping_deceleration=5.0,
-    )
+#: the package holding the URDF files and the shipped robots' descriptions (`<name>.yaml`)
+MODELS_PACKAGE = "hrc_drake.models"
 
 
-def _irb140() -> RobotModel:
-    segments = (  # (body, next joint origin in the body frame, radius), KINEMATICS.md 2.2 / 2.6
-        ("irb140_base_link", (0.0, 0.0, 0.104), 0.16),
-        ("irb140_link_1", (0.07, 0.0, 0.248), 0.12),
-        ("irb140_link_2", (0.0, 0.0, 0.360), 0.11),
-        ("irb140_link_3", (0.239, 0.0, 0.0), 0.085),
-        ("irb140_link_4", (0.141, 0.0, 0.0), 0.065),
-        ("irb140_link_5", (0.065, 0.0, 0.0), 0.045),
-        ("irb140_link_6", (0.0, 0.0, 0.0), 0.035),
-    )
-    joints = tuple(f"irb140_joint_{k}" for k in range(1, 7))
-    # the IRB 140 links are heavier than the YuMi's, hence its stiffer proximal joints
-    kp_kd = ((8000.0, 400.0), (8000.0, 400.0), (4000.0, 200.0), (500.0, 25.0), (500.0, 25.0), (100.0, 5.0))
-    return RobotModel(
-        name="irb140",
-        urdf="irb140.urdf",
-        root_link="irb140_base_link",
-        arms=(ArmModel("arm", joints, "irb140_tool"),),
-        pd_gains=dict(zip(joints, kp_kd, strict=True)),
-        capsules=tuple(Capsule(body, (0.0, 0.0, 0.0), end, r) for body, end, r in segments),
-        static_bodies=frozenset({"irb140_base_link"}),
-        # an assumption, as the YuMi's: the IRB 140's stop category 1 distances are not public here
-        stopping_deceleration=5.0,
-    )
+@functools.cache
+def shipped_robot_models() -> dict[str, RobotModel]:
+    """Every shipped robot model a scenario may name, by name (read once from models/*.yaml)."""
+    from hrc_drake.robots.description import shipped_models
+
+    return shipped_models()
 
 
-def _cart() -> RobotModel:
-    """A transport cart on a rail (6.3.4): one prismatic joint; its "arm" is the rail."""
-    return RobotModel(
-        name="cart",
-        urdf="cart.urdf",
-        root_link="cart_rail",
-        arms=(ArmModel("rail", ("cart_joint",), "cart_tool"),),
-        pd_gains={"cart_joint": (2000.0, 200.0)},
-        capsules=(Capsule("cart_platform", (-0.05, 0.0, 0.03), (0.05, 0.0, 0.03), 0.08),),
-        stopping_deceleration=5.0,  # an assumption: a rail cart braked as the arms
-    )
+def __getattr__(name: str):
+    # ROBOT_MODELS is read on first use: the descriptions' reader imports this module's records
+    if name == "ROBOT_MODELS":
+        return shipped_robot_models()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-#: every robot model a scenario may name, by name
-ROBOT_MODELS: dict[str, RobotModel] = {m.name: m for m in (_yumi(), _irb140(), _cart())}
-
-
-def get_robot_model(name: str) -> RobotModel:
-    """The record of robot model `name` (ValueError listing the known models)."""
+def get_robot_model(name: str | RobotModel) -> RobotModel:
+    """The record of robot model `name` (ValueError listing the known models); a record as is."""
+    if isinstance(name, RobotModel):
+        return name
     try:
-        return ROBOT_MODELS[name]
+        return shipped_robot_models()[name]
     except (KeyError, TypeError):
-        known = ", ".join(sorted(ROBOT_MODELS))
+        known = ", ".join(sorted(shipped_robot_models()))
         raise ValueError(f"unknown robot model {name!r}; known models: {known}") from None
 
 

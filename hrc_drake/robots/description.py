@@ -1,0 +1,403 @@
+"""Robot records from data: the shipped robots' descriptions (`models/<name>.yaml`) and a
+scenario's own robot (`robots[i].urdf`) become the same `RobotModel`.
+
+A description names the URDF, the root link, each arm as the chain from the root to its tool
+frame, and optionally capsules, static bodies, PD gains and the stopping deceleration. Whatever it
+leaves out is read from the URDF: the chain's joints, capsules fitted to each link's collision
+geometry (or to the segment between its joint origins), the static bodies, PD gains from each
+joint's load. Errors are `DescriptionError(field, reason)`, the field relative to the description.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from hrc_drake.robots.registry import MODELS_PACKAGE, ArmModel, Capsule, RobotModel
+from hrc_drake.robots.urdf import (
+    UrdfJoint,
+    UrdfLink,
+    read_urdf_joints,
+    read_urdf_links,
+    root_link,
+    tree_poses,
+)
+
+#: a of the protective stop (m/s^2) the shipped robots assume (ABB publishes none; docs/safety.md);
+#: a robot of the scenario's own that states none is judged with it
+DEFAULT_STOPPING_DECELERATION = 5.0
+#: the largest stopping deceleration a description may state (m/s^2): beyond any arm's brakes
+MAX_STOPPING_DECELERATION = 50.0
+#: the static sag (rad, or m for a sliding joint) the default PD gains allow under the joint's load
+DEFAULT_SAG = 0.005
+GRAVITY = 9.81
+
+
+class DescriptionError(ValueError):
+    """A robot description at fault: `field` (relative to the description) and `reason`."""
+
+    def __init__(self, field: str, reason: str):
+        super().__init__(f"{field}: {reason}")
+        self.field, self.reason = field, reason
+
+
+@dataclass
+class Description:
+    """The fields of a robot description (a shipped `models/<name>.yaml` or a scenario robot)."""
+
+    name: str
+    urdf: str
+    root_link: str = ""
+    chains: list = field(default_factory=list)
+    capsules: list = field(default_factory=list)
+    capsule_radius: float = 0.06
+    static_bodies: list = field(default_factory=list)
+    pd_gains: dict = field(default_factory=dict)
+    stopping_deceleration: float | None = None
+
+
+def _get(item, key, default=None):
+    return item.get(key, default) if isinstance(item, Mapping) else getattr(item, key, default)
+
+
+def _chain_joints(joints: Mapping[str, UrdfJoint], root: str, tool: str, where: str) -> list[UrdfJoint]:
+    """The joints from `root` to `tool`, root first."""
+    chain, link = [], tool
+    while link != root:
+        if link not in joints:
+            raise DescriptionError(where, f"link {link!r} is not connected to the root link {root!r}")
+        chain.append(joints[link])
+        link = joints[link].parent
+        if len(chain) > len(joints):
+            raise DescriptionError(where, "the URDF's joints form a loop")
+    return chain[::-1]
+
+
+def _arm(chain_spec, k: int, joints, links, root: str) -> ArmModel:
+    """One `ArmModel` from `chains[k]`: its moving joints read from the URDF and checked."""
+    where = f"chains[{k}]"
+    name, tool = str(_get(chain_spec, "name", "") or ""), str(_get(chain_spec, "tool_frame", "") or "")
+    if not name:
+        raise DescriptionError(f"{where}.name", "a name is required (poses and arms name it)")
+    if tool not in links:
+        raise DescriptionError(
+            f"{where}.tool_frame", f"no link {tool!r} in the URDF (links: {sorted(links)})"
+        )
+    moving = [j for j in _chain_joints(joints, root, tool, f"{where}.tool_frame") if j.kind != "fixed"]
+    if not moving:
+        raise DescriptionError(f"{where}.tool_frame", f"no moving joint between {root!r} and {tool!r}")
+    names = tuple(j.name for j in moving)
+    stated = tuple(_get(chain_spec, "joints", ()) or ())
+    if stated and stated != names:
+        raise DescriptionError(
+            f"{where}.joints", f"the URDF's chain to {tool!r} is {list(names)}, not {list(stated)}"
+        )
+    for j in moving:
+        if not (np.isfinite(j.lower) and np.isfinite(j.upper) and j.lower < j.upper):
+            raise DescriptionError(
+                f"{where}.tool_frame",
+                f"joint {j.name!r} needs finite position limits "
+                f"(lower < upper; a continuous joint has none), got [{j.lower}, {j.upper}]",
+            )
+        if not (np.isfinite(j.velocity) and j.velocity > 0):
+            raise DescriptionError(
+                f"{where}.tool_frame",
+                f"joint {j.name!r} needs a velocity limit > 0 (<limit velocity=...>), got {j.velocity}",
+            )
+    by_name = {j.name: j for j in joints.values()}
+    grippers = tuple(_get(chain_spec, "gripper_joints", ()) or ())
+    for g in grippers:
+        if g not in by_name or by_name[g].kind != "prismatic" or g in names:
+            raise DescriptionError(
+                f"{where}.gripper_joints", f"{g!r} is not a prismatic joint of the URDF off the arm's chain"
+            )
+    stroke = float(_get(chain_spec, "gripper_stroke", 0.0) or 0.0)
+    if grippers and not 0 < stroke <= 0.2:
+        raise DescriptionError(
+            f"{where}.gripper_stroke", f"must be in (0, 0.2] m with gripper joints, got {stroke}"
+        )
+    return ArmModel(name, names, tool, grippers, stroke if grippers else 0.0)
+
+
+def _shape_capsules(link: UrdfLink) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Capsules (start, end, radius) in the link frame that contain its collision shapes
+    (cylinders and capsules along their axes, spheres as points, boxes along their longest side)."""
+    out = []
+    for shape in link.collisions:
+        R, p = shape.pose[:3, :3], shape.pose[:3, 3]
+        if shape.kind in ("cylinder", "capsule"):
+            radius, length = shape.size
+            half = R[:, 2] * length / 2
+            out.append((p - half, p + half, radius))
+        elif shape.kind == "sphere":
+            out.append((p.copy(), p.copy(), shape.size[0]))
+        elif shape.kind == "box":
+            half = np.asarray(shape.size) / 2
+            axis = int(np.argmax(half))
+            others = np.delete(half, axis)
+            out.append((p - R[:, axis] * half[axis], p + R[:, axis] * half[axis], float(np.hypot(*others))))
+    return out
+
+
+def _fitted_capsules(joints, links, root: str, arms: Sequence[ArmModel], radius: float) -> list[Capsule]:
+    """Capsules of every link with collision shapes; a chain link moved by a joint and without
+    them gets the segment from its origin to the next chain joint's origin, of `radius`."""
+    capsules = []
+    next_origin = {}
+    for arm in arms:
+        chain = _chain_joints(joints, root, arm.tool_frame, "chains")
+        for parent_joint, child_joint in zip(chain, chain[1:], strict=False):
+            next_origin.setdefault(parent_joint.child, child_joint.origin[:3, 3])
+        next_origin.setdefault(root, chain[0].origin[:3, 3])
+    on_chains = {root} | {
+        j.child
+        for arm in arms
+        for j in _chain_joints(joints, root, arm.tool_frame, "chains")
+        if j.kind != "fixed"
+    }
+    for name in sorted(tree_poses(joints, root)):
+        fitted = _shape_capsules(links[name])
+        if not fitted and name in on_chains:
+            fitted = [(np.zeros(3), np.asarray(next_origin.get(name, np.zeros(3)), float), radius)]
+        capsules += [
+            Capsule(name, tuple(map(float, s)), tuple(map(float, e)), float(r)) for s, e, r in fitted
+        ]
+    return capsules
+
+
+def _given_capsules(specs, links) -> list[Capsule]:
+    out = []
+    for k, spec in enumerate(specs):
+        where = f"capsules[{k}]"
+        body = str(_get(spec, "body", "") or "")
+        if body not in links:
+            raise DescriptionError(f"{where}.body", f"no link {body!r} in the URDF")
+        ends = []
+        for key in ("start", "end"):
+            value = np.asarray(_get(spec, key, (0.0, 0.0, 0.0)), dtype=float).reshape(-1)
+            if value.shape != (3,) or not np.all(np.isfinite(value)) or np.max(np.abs(value)) > 5:
+                raise DescriptionError(
+                    f"{where}.{key}", f"must be 3 finite numbers within 5 m, got {value.tolist()}"
+                )
+            ends.append(tuple(map(float, value)))
+        radius = float(_get(spec, "radius", 0.0))
+        if not 0 < radius <= 1.0:
+            raise DescriptionError(f"{where}.radius", f"must be in (0, 1] m, got {radius}")
+        out.append(Capsule(body, ends[0], ends[1], radius))
+    return out
+
+
+def _static_links(joints, root: str) -> frozenset[str]:
+    """The links no moving joint moves (welded to the root)."""
+    static = set()
+    for name in tree_poses(joints, root):
+        link = name
+        while link != root and joints[link].kind == "fixed":
+            link = joints[link].parent
+        if link == root:
+            static.add(name)
+    return frozenset(static)
+
+
+def default_gains(joints: Mapping[str, UrdfJoint], links: Mapping[str, UrdfLink], root: str) -> dict:
+    """(kp, kd) of every moving joint from its load: kp holds the gravity load of the links it
+    carries (mass M at lever L) within `DEFAULT_SAG`, kd damps M L^2 critically."""
+    poses = tree_poses(joints, root)
+    children: dict[str, list[str]] = {}
+    for joint in joints.values():
+        children.setdefault(joint.parent, []).append(joint.child)
+    gains = {}
+    for joint in joints.values():
+        if joint.kind == "fixed" or joint.child not in poses:
+            continue
+        carried, stack = [], [joint.child]
+        while stack:
+            link = stack.pop()
+            carried.append(link)
+            stack += children.get(link, [])
+        mass = sum(links[name].mass for name in carried if name in links)
+        at = poses[joint.parent][:3, :3] @ joint.origin[:3, 3] + poses[joint.parent][:3, 3]
+        lever = max(float(np.linalg.norm(poses[name][:3, 3] - at)) for name in carried)
+        if joint.kind == "prismatic":
+            kp = max(50.0, GRAVITY * mass / (DEFAULT_SAG / 5))
+            kd = 2 * math.sqrt(kp * max(mass, 1e-3))
+        else:
+            kp = max(50.0, GRAVITY * mass * lever / DEFAULT_SAG)
+            kd = 2 * math.sqrt(kp * max(mass * lever**2, 1e-3))
+        gains[joint.name] = (round(kp, 1), round(kd, 2))
+    return gains
+
+
+def _gains(given: Mapping, joints, links, root: str) -> dict:
+    gains = default_gains(joints, links, root)
+    for joint, value in (given or {}).items():
+        if joint not in gains:
+            raise DescriptionError(f"pd_gains.{joint}", f"not a moving joint of the URDF ({sorted(gains)})")
+        pair = np.asarray(value, dtype=float).reshape(-1)
+        if pair.shape != (2,) or not np.all(np.isfinite(pair)) or np.any(pair < 0):
+            raise DescriptionError(
+                f"pd_gains.{joint}", f"must be [kp, kd], two finite numbers >= 0, got {value!r}"
+            )
+        gains[joint] = (float(pair[0]), float(pair[1]))
+    return gains
+
+
+def build_record(
+    description: Description, urdf_text: str, urdf_path: str = "", described_by: str = ""
+) -> RobotModel:
+    """The `RobotModel` of `description`, its URDF `urdf_text` (DescriptionError naming the field)."""
+    try:
+        joints, links = read_urdf_joints(urdf_text), read_urdf_links(urdf_text)
+    except ValueError as err:
+        raise DescriptionError("urdf", str(err)) from None
+    if not links:
+        raise DescriptionError("urdf", "the URDF has no links")
+    try:
+        root = description.root_link or root_link(joints, links)
+    except ValueError as err:
+        raise DescriptionError("root_link", str(err)) from None
+    if root not in links:
+        raise DescriptionError("root_link", f"no link {root!r} in the URDF")
+    if not description.chains:
+        raise DescriptionError("chains", "name at least one arm: its tool frame (a URDF link)")
+    arms = tuple(_arm(spec, k, joints, links, root) for k, spec in enumerate(description.chains))
+    radius = float(description.capsule_radius)
+    if not 0 < radius <= 0.5:
+        raise DescriptionError("capsule_radius", f"must be in (0, 0.5] m, got {radius}")
+    if description.capsules:
+        capsules = _given_capsules(description.capsules, links)
+        static = frozenset(description.static_bodies)
+    else:
+        capsules = _fitted_capsules(joints, links, root, arms, radius)
+        static = frozenset(description.static_bodies) or _static_links(joints, root)
+    unknown = sorted(static - set(links))
+    if unknown:
+        raise DescriptionError("static_bodies", f"no links {unknown} in the URDF")
+    decel = description.stopping_deceleration
+    decel = DEFAULT_STOPPING_DECELERATION if decel is None else float(decel)
+    if not (math.isfinite(decel) and 0 < decel <= MAX_STOPPING_DECELERATION):
+        raise DescriptionError(
+            "stopping_deceleration",
+            f"must be in (0, {MAX_STOPPING_DECELERATION:g}] m/s^2, got {description.stopping_deceleration!r}",
+        )
+    try:
+        return RobotModel(
+            name=description.name,
+            urdf=description.urdf,
+            root_link=root,
+            arms=arms,
+            pd_gains=_gains(description.pd_gains, joints, links, root),
+            capsules=tuple(capsules),
+            static_bodies=static,
+            stopping_deceleration=decel,
+            urdf_path=urdf_path,
+            described_by=described_by,
+        )
+    except ValueError as err:
+        raise DescriptionError("chains", str(err)) from None
+
+
+#: the keys of a shipped description file
+_FILE_KEYS = {
+    "name",
+    "urdf",
+    "root_link",
+    "chains",
+    "capsules",
+    "capsule_radius",
+    "static_bodies",
+    "pd_gains",
+    "stopping_deceleration",
+}
+
+
+def read_description_file(text: str, where: str) -> Description:
+    """A `Description` from the YAML text of a `models/<name>.yaml` (ValueError naming `where`)."""
+    data = yaml.safe_load(text)
+    if not isinstance(data, dict):
+        raise ValueError(f"{where}: a robot description is a mapping")
+    unknown = sorted(set(data) - _FILE_KEYS)
+    if unknown:
+        raise ValueError(f"{where}: unknown keys {unknown} (known: {sorted(_FILE_KEYS)})")
+    if not data.get("name") or not data.get("urdf"):
+        raise ValueError(f"{where}: `name` and `urdf` are required")
+    return Description(**data)
+
+
+def shipped_models() -> dict[str, RobotModel]:
+    """Every robot of the package: the records of `models/*.yaml`, by name."""
+    out = {}
+    for resource in sorted(files(MODELS_PACKAGE).iterdir(), key=lambda r: r.name):
+        if not resource.name.endswith(".yaml"):
+            continue
+        where = f"{MODELS_PACKAGE}/{resource.name}"
+        description = read_description_file(resource.read_text(encoding="utf-8"), where)
+        text = (files(MODELS_PACKAGE) / description.urdf).read_text(encoding="utf-8")
+        try:
+            out[description.name] = build_record(description, text, described_by=where)
+        except DescriptionError as err:
+            raise ValueError(f"{where}: {err}") from None
+    return out
+
+
+def urdf_location(spec: str, scenario_file=None) -> Path:
+    """The file of `robots[i].urdf`: `package://<python package>/<path>` or a path relative to
+    the scenario's folder (the working folder for a scenario made in code)."""
+    if spec.startswith("package://"):
+        package, _, rest = spec[len("package://") :].partition("/")
+        if not package or not rest:
+            raise DescriptionError("urdf", f"{spec!r}: write package://<python package>/<path>")
+        try:
+            resource = files(package).joinpath(*rest.split("/"))
+        except (ModuleNotFoundError, TypeError, ValueError) as err:
+            raise DescriptionError("urdf", f"{spec!r}: no Python package {package!r} ({err})") from None
+        return Path(str(resource))
+    base = Path(scenario_file).parent if scenario_file and str(scenario_file) != "<scenario>" else Path.cwd()
+    return Path(os.path.abspath(base / spec))
+
+
+_CACHE: dict[tuple, RobotModel] = {}
+
+
+def robot_record(robot, scenario_file=None) -> RobotModel:
+    """The record of a scenario's `Robot`: the shipped `model` ("" is yumi), or its own `urdf`
+    (DescriptionError naming the field of `robots[i]`; ValueError for an unknown model)."""
+    from hrc_drake.robots.registry import get_robot_model
+
+    if not robot.urdf:
+        return get_robot_model(robot.model or "yumi")
+    if robot.model:
+        raise DescriptionError(
+            "model", f"give a shipped model or a urdf, not both (model {robot.model!r}, urdf {robot.urdf!r})"
+        )
+    path = urdf_location(robot.urdf, scenario_file)
+    if not path.is_file():
+        raise DescriptionError("urdf", f"no such file: {path}")
+    stat = path.stat()
+    description = Description(
+        name=robot.name,
+        urdf=robot.urdf,
+        root_link=robot.root_link,
+        chains=list(robot.chains),
+        capsules=list(robot.capsules),
+        capsule_radius=robot.capsule_radius,
+        static_bodies=list(robot.static_bodies),
+        pd_gains=dict(robot.pd_gains),
+        stopping_deceleration=robot.stopping_deceleration,
+    )
+    key = (str(path), stat.st_mtime_ns, stat.st_size, repr(description))
+    if key not in _CACHE:
+        if stat.st_size > 5_000_000:
+            raise DescriptionError("urdf", f"{path} is larger than 5 MB: not a robot description")
+        text = path.read_text(encoding="utf-8", errors="strict")
+        _CACHE[key] = build_record(
+            description, text, urdf_path=str(path), described_by=str(scenario_file or "")
+        )
+    return _CACHE[key]
