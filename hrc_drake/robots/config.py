@@ -96,6 +96,9 @@ class Robot:
     #: spheres, boxes), or to the segment between its joint origins with `capsule_radius`
     capsules: list[CapsuleSpec] = field(default_factory=list)
     capsule_radius: float = 0.06
+    #: added to the radius of every capsule fitted to a collision shape (m): a shape tighter than
+    #: the robot's housings (e.g. cylinders of the links' nominal radii)
+    capsule_margin: float = 0.0
     #: links welded to the base (their capsules never move); empty with fitted capsules: the root's
     static_bodies: list[str] = field(default_factory=list)
     #: (kp, kd) per actuated joint of a dynamic plant; a joint not named: from its load (docs)

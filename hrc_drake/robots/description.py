@@ -58,6 +58,7 @@ class Description:
     chains: list = field(default_factory=list)
     capsules: list = field(default_factory=list)
     capsule_radius: float = 0.06
+    capsule_margin: float = 0.0
     static_bodies: list = field(default_factory=list)
     pd_gains: dict = field(default_factory=dict)
     stopping_deceleration: float | None = None
@@ -146,9 +147,11 @@ def _shape_capsules(link: UrdfLink) -> list[tuple[np.ndarray, np.ndarray, float]
     return out
 
 
-def _fitted_capsules(joints, links, root: str, arms: Sequence[ArmModel], radius: float) -> list[Capsule]:
-    """Capsules of every link with collision shapes; a chain link moved by a joint and without
-    them gets the segment from its origin to the next chain joint's origin, of `radius`."""
+def _fitted_capsules(joints, links, root: str, arms: Sequence[ArmModel], radius: float,
+                     margin: float = 0.0) -> list[Capsule]:
+    """Capsules of every link with collision shapes, each `margin` wider; a chain link moved by a
+    joint and without them gets the segment from its origin to the next chain joint's origin, of
+    `radius`."""
     capsules = []
     next_origin = {}
     for arm in arms:
@@ -163,7 +166,7 @@ def _fitted_capsules(joints, links, root: str, arms: Sequence[ArmModel], radius:
         if j.kind != "fixed"
     }
     for name in sorted(tree_poses(joints, root)):
-        fitted = _shape_capsules(links[name])
+        fitted = [(a, b, r + margin) for a, b, r in _shape_capsules(links[name])]
         if not fitted and name in on_chains:
             fitted = [(np.zeros(3), np.asarray(next_origin.get(name, np.zeros(3)), float), radius)]
         capsules += [
@@ -271,11 +274,14 @@ def build_record(
     radius = float(description.capsule_radius)
     if not 0 < radius <= 0.5:
         raise DescriptionError("capsule_radius", f"must be in (0, 0.5] m, got {radius}")
+    margin = float(description.capsule_margin)
+    if not 0 <= margin <= 0.2:
+        raise DescriptionError("capsule_margin", f"must be in [0, 0.2] m, got {margin}")
     if description.capsules:
         capsules = _given_capsules(description.capsules, links)
         static = frozenset(description.static_bodies)
     else:
-        capsules = _fitted_capsules(joints, links, root, arms, radius)
+        capsules = _fitted_capsules(joints, links, root, arms, radius, margin)
         static = frozenset(description.static_bodies) or _static_links(joints, root)
     unknown = sorted(static - set(links))
     if unknown:
@@ -287,13 +293,14 @@ def build_record(
             "stopping_deceleration",
             f"must be in (0, {MAX_STOPPING_DECELERATION:g}] m/s^2, got {description.stopping_deceleration!r}",
         )
+    gains = _gains(description.pd_gains, joints, links, root)
     try:
         return RobotModel(
             name=description.name,
             urdf=description.urdf,
             root_link=root,
             arms=arms,
-            pd_gains=_gains(description.pd_gains, joints, links, root),
+            pd_gains=gains,
             capsules=tuple(capsules),
             static_bodies=static,
             stopping_deceleration=decel,
@@ -306,6 +313,7 @@ def build_record(
 
 #: the keys of a shipped description file
 _FILE_KEYS = {
+    "capsule_margin",
     "name",
     "urdf",
     "root_link",
@@ -388,6 +396,7 @@ def robot_record(robot, scenario_file=None) -> RobotModel:
         chains=list(robot.chains),
         capsules=list(robot.capsules),
         capsule_radius=robot.capsule_radius,
+        capsule_margin=robot.capsule_margin,
         static_bodies=list(robot.static_bodies),
         pd_gains=dict(robot.pd_gains),
         stopping_deceleration=robot.stopping_deceleration,
