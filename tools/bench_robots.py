@@ -1,4 +1,8 @@
-"""Benchmark of the robot models: geometry checks, capsule kinematics, IK and discrete-plant speed.
+"""Benchmark of the robot models: geometry checks, capsule kinematics, IK and discrete-plant speed,
+and per shipped arm robot (issue 54) its IK success on tool-down targets in front of its base and
+the same task (pcb_ic, use case a of thesis 5.4.1) with each robot: `models.<robot>.ik_success_pct`,
+`models.<robot>.cell_products` (300 s, the scenario as shipped: its declared safety mode) and
+`models.<robot>.verdict`.
 
 Usage: python tools/bench_robots.py [--quick | --smoke]
 Prints a table and, as its last line, one JSON object with the figures (times are medians).
@@ -150,6 +154,41 @@ def time_discrete(time_step, sim_time):
     return sim_time / wall, float(np.max(np.abs(q - q_goal)))
 
 
+#: the same assembly task with each shipped arm robot (the cart is no arm)
+TASK_CELLS = {"yumi": "pcb_ic", "ur5e": "pcb_ic_ur5e", "panda": "pcb_ic_panda"}
+#: the arm whose IK is sampled, per model
+IK_ARMS = {"yumi": "right", "irb140": "arm", "ur5e": "arm", "panda": "arm"}
+
+
+def model_ik_success(model: str, arm: str, n: int, rng) -> float:
+    """% of n tool-down targets in a box in front of the base (x 0.3-0.5 m, |y| <= 0.3 m, z 0.1-0.35 m
+    above it) that `solve_tool_position` reaches."""
+    plant = MultibodyPlant(0.0)
+    instance = add_robot(plant, model, model)
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    ok = 0
+    for k in range(n):
+        target = np.array([rng.uniform(0.30, 0.50), rng.uniform(-0.30, 0.30), rng.uniform(0.10, 0.35)])
+        try:
+            solve_tool_position(plant, context, instance, model, arm, target, tool_z_down=True, seed=k)
+            ok += 1
+        except InfeasibleTarget:
+            pass
+    return 100.0 * ok / n
+
+
+def model_cell(cell: str, duration: float) -> tuple[int, str, str]:
+    """(products, verdict code, verdict line) of the shipped `cell` run for `duration` s as shipped."""
+    from hrc_drake.cell.build import build_cell
+    from hrc_drake.cell.run import simulate
+    from hrc_drake.cell.scenario import load_scenario
+
+    result = simulate(build_cell(load_scenario(cell)), duration)
+    safety = result.metrics["safety"]
+    return int(result.metrics["products_finished"]), str(safety["verdict_code"]), str(safety["verdict"])
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="small sample sizes (< 1 min)")
@@ -182,6 +221,17 @@ def main(argv: list[str] | None = None) -> None:
         rtf, dev = time_discrete(step, sim_time)
         results[f"discrete_{int(step * 1000)}ms_realtime_factor"] = rtf
         results[f"discrete_{int(step * 1000)}ms_final_error_rad"] = dev
+
+    cell_time = 5.0 if args.smoke else 300.0
+    for model, arm in IK_ARMS.items():
+        print(f"{model}: IK over {n_ik} targets ...", flush=True)
+        results[f"models.{model}.ik_success_pct"] = model_ik_success(model, arm, n_ik, rng)
+        if model in TASK_CELLS:
+            print(f"{model}: {TASK_CELLS[model]} for {cell_time:g} s ...", flush=True)
+            products, code, line = model_cell(TASK_CELLS[model], cell_time)
+            results[f"models.{model}.cell_products"] = products
+            results[f"models.{model}.verdict"] = code
+            print(f"  {products} products; {line}", flush=True)
 
     rows = [
         (
@@ -220,6 +270,11 @@ def main(argv: list[str] | None = None) -> None:
             f"final |q - q_d| {results['discrete_1ms_final_error_rad']:.4f} rad",
         ),
     ]
+    for model in IK_ARMS:
+        task = (f"{TASK_CELLS[model]} {cell_time:g} s: {results[f'models.{model}.cell_products']} products, "
+                f"{results[f'models.{model}.verdict']}") if model in TASK_CELLS else ""
+        success = results[f"models.{model}.ik_success_pct"]
+        rows.append((f"{model}: IK success (tool down, in front)", f"{success:.0f} %", task))
     print(f"\n{'figure':48s} {'measured':>26s}   reference")
     for name, value, ref in rows:
         print(f"{name:48s} {value:>26s}   {ref}")

@@ -97,7 +97,7 @@ BAD = {
     "unknown robot model": (
         lambda r: r["robots"][0].update(model="ur5"),
         "robots[0].model",
-        "unknown robot model 'ur5' (known models: cart, irb140, yumi)",
+        "unknown robot model 'ur5'; known models: cart, irb140, panda, ur5e, yumi (or give `urdf:`, your own robot)",
     ),
     "unknown arm of the model": (
         lambda r: r["robots"][0]["poses"][0].update(arm="arm"),
