@@ -68,7 +68,8 @@ def write_cell(folder: Path, robot: dict) -> Path:
     return path
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> dict:
+    """Run the example; the run's metrics."""
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path,
@@ -97,6 +98,7 @@ def main(argv: list[str] | None = None) -> None:
             load_scenario(write_cell(folder, own_robot(tool_frame="ur5e_tol")))
         except ScenarioError as err:
             print(f"a typo in the tool frame is refused before anything runs:\n  {err}")
+    return metrics
 
 
 if __name__ == "__main__":

@@ -97,3 +97,13 @@ def test_a_campaign_from_python_gives_one_row_per_run(tmp_path, capsys):
     assert (tmp_path / "runs.parquet").is_file() and (tmp_path / "summary.csv").is_file()
     out = capsys.readouterr().out
     assert "runs in" in out and "Per 40 s run, mean of 1 seed(s): as shipped" in out
+
+
+def test_your_own_robot_from_its_urdf_runs_a_cell_and_says_what_it_read(tmp_path, capsys):
+    metrics = _example("your_own_robot").main(["--out", str(tmp_path), "--duration", "45"])
+    out = capsys.readouterr().out
+    assert "6 joints read from the URDF, shoulder_pan_joint" in out
+    assert metrics["products_finished"] >= 1 and f"{metrics['products_finished']} products" in out
+    assert metrics["safety"]["verdict_code"] == "safe" and metrics["safety"]["verdict"] in out
+    assert "robots[0].chains[0].tool_frame: no link 'ur5e_tol'" in out
+    assert (tmp_path / "my_cobot.urdf").is_file() and (tmp_path / "my_cell.yaml").is_file()
