@@ -29,6 +29,7 @@ from hrc_drake.robots.urdf import (
     root_link,
     tree_poses,
 )
+from hrc_drake.untrusted import one_line
 
 #: a of the protective stop (m/s^2) the shipped robots assume (ABB publishes none; docs/safety.md);
 #: a robot of the scenario's own that states none is judged with it
@@ -44,6 +45,8 @@ class DescriptionError(ValueError):
     """A robot description at fault: `field` (relative to the description) and `reason`."""
 
     def __init__(self, field: str, reason: str):
+        # names in a reason come from an untrusted URDF or scenario: no control character reaches a terminal
+        reason = one_line(reason)
         super().__init__(f"{field}: {reason}")
         self.field, self.reason = field, reason
 

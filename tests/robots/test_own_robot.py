@@ -172,3 +172,14 @@ def test_a_package_resource_urdf(tmp_path):
     record = robot_record(Robot(name="r", urdf="package://hrc_drake.models/irb140.urdf",
                                 chains=[ArmChain(name="arm", tool_frame="irb140_tool")]), tmp_path / "c.yaml")
     assert record.arm("arm").joints == tuple(f"irb140_joint_{k}" for k in range(1, 7))
+
+
+def test_a_control_character_in_a_name_is_shown_escaped(tmp_path):
+    with pytest.raises(DescriptionError) as err:
+        robot = _robot(tmp_path, chains=[ArmChain(name="arm", tool_frame="tool\x1b[2J\n")])
+        robot_record(robot, tmp_path / "c.yaml")
+    assert "\x1b" not in str(err.value) and "\n" not in str(err.value)
+    assert "tool\\x1b[2J\\n" in err.value.reason
+    with pytest.raises(DescriptionError) as err:
+        robot_record(_robot(tmp_path, urdf="arm\x07.urdf"), tmp_path / "c.yaml")
+    assert "\x07" not in str(err.value) and "arm\\x07.urdf" in err.value.reason
