@@ -72,10 +72,8 @@ operator:
        duration: {kind: normal, mean: 6.0, std: 0.8, low: 3.0}}
 flow:
   actions:
-    - {name: screw, agents: [human], inputs: [cans, lids], outputs: [closed],
-       duration: {kind: normal, mean: 6.0, std: 0.8}}
-    - {name: R_store, agents: [yumi_right], inputs: [closed], outputs: [storage],
-       duration: {kind: fixed, mean: 5.0}}
+    - {name: screw, agents: [human], inputs: [cans, lids], outputs: [closed]}
+    - {name: R_store, agents: [yumi_right], inputs: [closed], outputs: [storage]}
 safety: !PowerForceLimiting {position_uncertainty: camera, speed_profile: predictive}
 """
 

@@ -235,7 +235,7 @@ def test_validate_opens_the_intention_model_and_names_what_is_wrong(damage, reas
     (("robots", 0, "mode"), "dynamic", None),  # with the next edit: a time step that runs forever
     (("robots", 0, "base", "rpy"), [0.0, 0.0, 1e6], "robots[0].base.rpy[2]"),
     (("robots", 0, "actions", 0, "dwell"), 1e5, "robots[0].actions[0].dwell"),
-    (("flow", "actions", 0, "duration", "mean"), 1e12, "flow.actions[0].duration.mean"),
+    (("flow", "actions", 0, "duration"), {"kind": "fixed", "mean": 1e12}, "flow.actions[0].duration.mean"),
     (("safety_distance",), -0.1, "safety_distance"),
     (("metrics",), {"warmup_products": -1}, "metrics.warmup_products"),
 ])

@@ -116,7 +116,8 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max
     from hrc_drake.scheduling.systems import net_from_scenario
 
     root = Path(__file__).resolve().parents[1]
-    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    # the fuzzy cell's flow: torch_clock.yaml's with the scheduler's priors, this simulation's delays
+    scenario = load_scenario(root / "diagrams" / "torch_clock_fuzzy.yaml")
     net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
     recorder = _RecordingPolicy(RoundRobinPolicy(net, random_state=seed))
     simulate_cell(net, recorder, np.random.default_rng(seed), max_time=40.0 * n_decisions)
@@ -289,7 +290,8 @@ def sweep_fuzzy_max_nodes(quick: bool) -> dict:
 
     caps = (300, 600) if quick else (150, 300, 600, 1200, 2400)
     root = Path(__file__).resolve().parents[1]
-    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    # the fuzzy cell's flow: torch_clock.yaml's with the scheduler's priors, this simulation's delays
+    scenario = load_scenario(root / "diagrams" / "torch_clock_fuzzy.yaml")
     net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
     out = {}
     for cap in caps:
@@ -319,7 +321,8 @@ def sweep_fuzzy_weights(size: str) -> dict:
     from hrc_drake.scheduling.systems import net_from_scenario
 
     root = Path(__file__).resolve().parents[1]
-    scenario = load_scenario(root / "diagrams" / "torch_clock.yaml")
+    # the fuzzy cell's flow: torch_clock.yaml's with the scheduler's priors, this simulation's delays
+    scenario = load_scenario(root / "diagrams" / "torch_clock_fuzzy.yaml")
     net = net_from_scenario(scenario, FuzzyScheduler(wait_quantum=5.0))
     grid = pick(size, ["1_1_frac"], ["1_1", "1_1_frac"],
                 ["1_1", "1_0.1", "10_1", "1_1_random", "1_1_frac", "1_0.1_frac", "10_1_frac"])

@@ -43,7 +43,7 @@ sys.path.insert(0, str(ROOT))
 
 from hrc_drake.campaign.engine import ClusterClient, run_campaign  # noqa: E402
 from hrc_drake.campaign.spec import make_campaign  # noqa: E402
-from hrc_drake.cell.scenario import _raw_document  # noqa: E402
+from hrc_drake.cell.scenario import _raw_document, load_scenario  # noqa: E402
 
 #: products per run (7.5.2) and the simulated time allowed for them (s)
 N_PRODUCTS, DURATION = 9, 560.0
@@ -59,12 +59,25 @@ SCHEDULERS = {
 }
 
 
+def untimed_flow(base: Path, scheduler: str) -> dict:
+    """The overrides that clear the flow durations of `base` (the timed schedulers' priors) for
+    `scheduler` (a YAML text) when it reads none, as validation asks; {} otherwise."""
+    from hrc_drake.scheduling import config
+
+    kind = getattr(config, _raw_document(f"scheduler: {scheduler}")["scheduler"].tag)
+    if issubclass(kind, config.TIMED_SCHEDULERS):
+        return {}
+    priors = [a.name for a in load_scenario(base).flow.actions if a.duration is not None]
+    return {"flow": {"actions": {name: {"duration": None} for name in priors}}} if priors else {}
+
+
 def pattern_campaign(name: str, base: Path, patterns: dict[str, str], schedulers: dict[str, str],
                      arms: list[str], seeds: int, duration: float):
     """`base` as a campaign: a variant `<pattern>-<arm>` per operator pattern and scheduler (the
     YAML texts above, overrides of the scenario), seeds 100, 101, ...; per-product samples."""
     variants = {
-        f"{p}-{arm}": _raw_document(f"operator: {{pattern: {patterns[p]}}}\nscheduler: {schedulers[arm]}\n")
+        f"{p}-{arm}": {**_raw_document(f"operator: {{pattern: {patterns[p]}}}\nscheduler: {schedulers[arm]}"),
+                       **untimed_flow(base, schedulers[arm])}
         for p in patterns
         for arm in arms
     }

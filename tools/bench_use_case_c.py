@@ -53,7 +53,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_use_case_b import SMOKE_DURATION, _one_sided, add_campaign_arguments, run_campaigns  # noqa: E402
 
 from hrc_drake.campaign.spec import make_campaign  # noqa: E402
-from hrc_drake.cell.scenario import _raw_document  # noqa: E402
+from hrc_drake.cell.scenario import _raw_document, merge_raw  # noqa: E402
 
 SCENARIO = ROOT / "diagrams" / "torch_clock.yaml"
 #: the shipped campaign of Experiment B (its variants are the arms)
@@ -63,11 +63,12 @@ EXPERIMENTS = {"A": (5, 420.0), "B": (10, 900.0)}
 TORCH_ONLY = {"R1", "H1", "L1", "H2", "R2", "H3"}
 
 
-def experiment_overrides(experiment: str) -> dict:
-    """The overrides of torch_clock.yaml's raw document that make Experiment A (B is the file)."""
+def experiment_overrides(experiment: str, variant: dict) -> dict:
+    """The overrides of torch_clock.yaml's raw document that make Experiment A (B is the file),
+    the flow's durations (the timed schedulers' priors) as `variant` patches them in."""
     if experiment == "B":
         return {}
-    raw = _raw_document(SCENARIO.read_text())
+    raw = merge_raw(_raw_document(SCENARIO.read_text()), variant)
     robots = copy.deepcopy(raw["robots"])
     for arm in robots[0]["arms"]:
         arm["program"] = [a for a in arm["program"] if a in TORCH_ONLY]
@@ -98,13 +99,14 @@ def experiment_campaign(experiment: str, arms: list[str], seeds: int, duration: 
     raw = _raw_document(CAMPAIGN.read_text())
     if duration is None:
         duration = float(raw["duration"]) if experiment == "B" else EXPERIMENTS[experiment][1]
-    base = experiment_overrides(experiment)
+    # A's whole lists replace the variant's patch of the flow (which names clock actions too)
+    variants = {arm: scheduler_overrides(arm) for arm in arms}
     document = {
         "name": f"use_case_c_{experiment}",
         "duration": duration,
         "seeds": {"count": seeds, "first": raw["seeds"]["first"]},
         "scenarios": [str(SCENARIO)],
-        "variants": {arm: {**base, **scheduler_overrides(arm)} for arm in arms},
+        "variants": {arm: {**v, **experiment_overrides(experiment, v)} for arm, v in variants.items()},
         "metrics": ["mean_cycle_time", "agents.human.idle_time"],
         "extra_metrics": ["per_product"],
     }

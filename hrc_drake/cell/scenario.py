@@ -38,7 +38,7 @@ from hrc_drake.config_common import (
     MIN_TIME_STEP,
 )
 from hrc_drake.distributions import Distribution, validate_distribution
-from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
+from hrc_drake.errors import ConfigError, ScenarioError, check_input_file, yaml_error_reason
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
@@ -273,7 +273,10 @@ def _check_keys(node, cls, path: str, file: str) -> None:
         if node is None:
             return
         if not isinstance(node, list):
-            raise ScenarioError(file, path, f"expected a list, got {type(node).__name__}")
+            # a patch by name whose list no base holds (this file extends none, or gives it whole)
+            hint = (": a mapping by item name patches a list only in a file that `extends:` one "
+                    "holding it" if isinstance(node, dict) and not isinstance(node, Tagged) else "")
+            raise ScenarioError(file, path, f"expected a list, got {type(node).__name__}{hint}")
         (item,) = typing.get_args(cls)
         for i, value in enumerate(node):
             _check_keys(value, item, f"{path}[{i}]", file)
@@ -337,8 +340,19 @@ def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: 
         raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
     if not isinstance(raw, dict):
         raise ScenarioError(path, "", "the top level must be a mapping of scenario fields")
+    lists = _ListsOfExtends()
+    base = None
+    if isinstance(raw.get("extends"), str):  # else _check_keys names what it is
+        base = _extended(path, raw["extends"], _chain)
+        if base is not None:
+            # before the key check: a mapping by name stands for a list until it is patched in
+            try:
+                raw = _resolve_patches(raw, base, Scenario, "", lists)
+            except ConfigError as err:
+                raise ScenarioError(path, err.field, err.reason) from None
+            if lists.patched:
+                text = dump_raw(raw)
     _check_keys(raw, Scenario, "", str(path))
-    base = _extended(path, raw.get("extends"), _chain)
     if base is not None:
         # a tagged system given here replaces the base's whole (the loader would merge into an
         # instance of a parent type, e.g. !WorstCaseMotionModel into a GPMotionModel)
@@ -353,12 +367,19 @@ def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: 
     scenario.extends = ""  # the fields are merged in: the result stands alone
     # not a field (a file cannot set it): the file read, whatever the base it extends
     scenario.source_path = Path(os.path.abspath(path))
-    check_scenario(scenario, path)
-    check_referenced_files(scenario, path, _unwritten)
-    if check_reachability:
-        from hrc_drake.robots.poses import solve_named_poses  # IK: pydrake's solvers, only when asked
+    try:
+        check_scenario(scenario, path)
+        check_referenced_files(scenario, path, _unwritten)
+        if check_reachability:
+            from hrc_drake.robots.poses import solve_named_poses  # IK: pydrake's solvers, only when asked
 
-        solve_named_poses(scenario.robots, path)
+            solve_named_poses(scenario.robots, path)
+    except ScenarioError as err:
+        # a list given whole may have left out what the error misses: say how to patch instead
+        note = lists.note(err.field, raw.get("extends"))
+        if not note:
+            raise
+        raise ScenarioError(err.file, err.field, err.reason + note) from None
     return scenario
 
 
@@ -399,16 +420,145 @@ def dump_raw(document) -> str:
     return yaml.dump(document, Dumper=TaggedDumper, sort_keys=False)
 
 
-def merge_raw(base, overrides):
+def _plain_mapping(node) -> bool:
+    return isinstance(node, dict) and not isinstance(node, Tagged)
+
+
+def merge_raw(base, overrides, path: str = ""):
     """`overrides` merged into a copy of the raw document `base`: a plain mapping merges key by key
-    (recursively); a tagged mapping (a system chosen by `!Kind`), a list or a scalar replaces."""
-    if isinstance(overrides, dict) and not isinstance(overrides, Tagged) and isinstance(base, dict) \
-            and not isinstance(base, Tagged):
+    (recursively), and into a list of named items patches the items it names (`patch_items`); a
+    tagged mapping (a system chosen by `!Kind`), a list or a scalar replaces. ConfigError naming
+    the field (under `path`) for a patch that names no item or several."""
+    if _plain_mapping(overrides) and _plain_mapping(base):
         out = dict(base)
         for key, value in overrides.items():
-            out[key] = merge_raw(base[key], value) if key in base else copy.deepcopy(value)
+            sub = f"{path}.{key}" if path else str(key)
+            out[key] = merge_raw(base[key], value, sub) if key in base else copy.deepcopy(value)
         return out
+    if _plain_mapping(overrides) and isinstance(base, list):
+        return patch_items(base, overrides, path)
     return copy.deepcopy(overrides)
+
+
+#: the fields that name the items of a list, in the order tried (a robot's arms go by `agent`)
+ITEM_NAMES = ("name", "agent")
+
+
+def patch_items(items: list, patch: dict, path: str) -> list:
+    """The raw list `items` with each entry of `patch` (item name -> fields to change) merged into
+    the one item of that name (`merge_raw`), the other items kept as they are. ConfigError naming
+    the field for a name no item or several items have, a list of plain values or a rename."""
+    key = next((k for k in ITEM_NAMES if items and all(_plain_mapping(i) and k in i for i in items)), None)
+    if key is None and items:
+        if not all(_plain_mapping(i) for i in items):
+            shown = ", ".join(repr(i) for i in items[:4]) + (", ..." if len(items) > 4 else "")
+            raise ConfigError(path, f"a mapping patches the items of a list by name, and {path} is a list of "
+                                    f"plain values [{shown}]: give the whole list (a list replaces the "
+                                    "parent's)")
+        raise ConfigError(path, f"a mapping patches the items of a list by name, and the items of {path} "
+                                "have no name: give the whole list (a list replaces the parent's)")
+    key = key or "name"
+    names = [item[key] for item in items]
+    out = list(items)
+    for name, fields in patch.items():
+        where = f"{path}.{name}"
+        hits = [k for k, n in enumerate(names) if n == name]
+        if not hits:
+            known = ", ".join(map(str, names)) if names else "none, the list is empty"
+            raise ConfigError(where, f"no item of {path} is named '{name}' (its {key}s: {known}); a mapping "
+                                     "patches existing items: to add or remove one, give the whole list")
+        if len(hits) > 1:
+            raise ConfigError(where, f"'{name}' names {len(hits)} items of {path} "
+                                     f"({', '.join(f'[{k}]' for k in hits)}): a mapping patches one item by "
+                                     "a name of its own; give the whole list instead")
+        if not _plain_mapping(fields):
+            raise ConfigError(where, f"expected a mapping of the fields of {path}[{hits[0]}] to change, got "
+                                     f"{fields!r}")
+        if fields.get(key, name) != name:
+            raise ConfigError(f"{where}.{key}", f"a patch by name cannot rename its item ('{name}' -> "
+                                                f"'{fields[key]}'): give the whole list")
+        out[hits[0]] = merge_raw(items[hits[0]], fields, where)
+    return out
+
+
+class _ListsOfExtends:
+    """What `_resolve_patches` did to the lists of an extending file: whether it patched one by
+    name, and the lists of named items it gave whole (path, the parent's names it left out)."""
+
+    def __init__(self):
+        self.patched = False
+        self.replaced: list[tuple[str, list, list]] = []  # path, the parent's names left out, names given
+
+    def note(self, field: str, parent) -> str:
+        """What to add to an error at `field`: the replaced lists that left out items of the
+        parent or hold the field, and how to patch an item instead; "" for none."""
+        def holds(p):
+            return field == p or field.startswith((p + "[", p + "."))
+
+        lists = [entry for entry in self.replaced if entry[1] or holds(entry[0])]
+        if not lists:
+            return ""
+        said = "; ".join(f"{p} (without the parent's {', '.join(map(str, dropped))})" if dropped else p
+                         for p, dropped, _ in lists)
+        p, dropped, given = lists[0]
+        example = "{" + str((given or dropped)[0]) + ": {...}}"
+        for part in reversed(p.split(".")):
+            example = f"{{{part}: {example}}}"
+        return (f" [note: this file gives the whole list {said}, which replaced the one of {parent}: "
+                f"`extends:` replaces a list given as a list; a mapping by name patches the items it "
+                f"names and keeps the others, e.g. {example[1:-1]}]")
+
+
+def _raw_of(value, tp):
+    """A typed scenario value as the raw document that reads back to it (a system's kind tagged)."""
+    members = _union_members(tp)
+    if len(members) > 1 and all(dataclasses.is_dataclass(m) for m in members):
+        return Tagged(type(value).__name__, _raw_of(value, type(value)))
+    if value is None:
+        return None
+    if dataclasses.is_dataclass(value):
+        hints = typing.get_type_hints(type(value))
+        return {f.name: _raw_of(getattr(value, f.name), hints[f.name]) for f in dataclasses.fields(value)}
+    args = typing.get_args(_unwrap_optional(tp))
+    if isinstance(value, list):
+        return [_raw_of(v, args[0] if args else object) for v in value]
+    if isinstance(value, dict):
+        return {k: _raw_of(v, args[1] if len(args) == 2 else object) for k, v in value.items()}
+    return value
+
+
+def _resolve_patches(node, base, tp, path: str, lists: _ListsOfExtends):
+    """The extending file's raw `node` (of schema type `tp`) where each plain mapping given for a
+    list of `base` (the typed value it extends) is that list with the items it names patched
+    (`patch_items`); the rest as written, for the typed loader to merge into `base`. Records in
+    `lists` the patches and the lists of named items given whole."""
+    if len(_union_members(tp)) > 1:  # a tagged system replaces the base's whole
+        return node
+    tp = _unwrap_optional(tp)
+    if dataclasses.is_dataclass(tp):
+        if not _plain_mapping(node) or not dataclasses.is_dataclass(base):
+            return node
+        hints = typing.get_type_hints(tp)
+        return {key: _resolve_patches(value, getattr(base, key, None), hints[key],
+                                      f"{path}.{key}" if path else str(key), lists) if key in hints else value
+                for key, value in node.items()}
+    if typing.get_origin(tp) is list and isinstance(base, list):
+        (item,) = typing.get_args(tp)
+        if _plain_mapping(node):
+            lists.patched = True
+            return patch_items([_raw_of(v, item) for v in base], node, path)
+        fields = typing.get_type_hints(item) if dataclasses.is_dataclass(item) else {}
+        key = next((k for k in ITEM_NAMES if k in fields), None)
+        if isinstance(node, list) and base and key:
+            given = [i.get(key) for i in node if _plain_mapping(i)]
+            left_out = [getattr(b, key) for b in base if getattr(b, key) not in given]
+            lists.replaced.append((path, left_out, given))
+        return node
+    if typing.get_origin(tp) is dict and _plain_mapping(node) and isinstance(base, dict):
+        value_type = typing.get_args(tp)[1]
+        return {key: _resolve_patches(value, base.get(key), value_type, f"{path}.{key}", lists)
+                for key, value in node.items()}
+    return node
 
 
 def load_scenario_with(
@@ -428,7 +578,11 @@ def load_scenario_with(
     if check_file_alone:
         load_scenario(path)  # the file alone first: its own problems are named as its own
     raw = _raw_document(path.read_bytes().decode("utf-8"), path)
-    return _load_text(path, dump_raw(merge_raw(raw, overrides)), check_reachability)
+    try:
+        merged = merge_raw(raw, overrides)
+    except ConfigError as err:
+        raise ScenarioError(path, err.field, f"{err.reason} (in the overrides)") from None
+    return _load_text(path, dump_raw(merged), check_reachability)
 
 
 def _extended(path: Path, extends, chain: tuple) -> Scenario | None:
@@ -727,6 +881,7 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
     _check_flow(sc, file, agents, buffers)
     _check_names_apart(sc, file, places)
     _check_programs_cover_the_flow(sc, file)
+    _check_flow_durations(sc, file)
     _check_systems(sc, file)
 
 
@@ -871,6 +1026,45 @@ def _check_programs_cover_the_flow(sc: Scenario, file) -> None:
             raise ScenarioError(file, f"flow.actions[{i}].agents",
                                 f"'{a.name}' is assigned to {a.agents}, but no program of theirs lists it: "
                                 "it would never run (add it to a program, or add a scheduler)")
+
+
+def _check_flow_durations(sc: Scenario, file) -> None:
+    """A flow action's `duration` is only a timed scheduler's prior (`FlowAction`): refused where
+    the cell's scheduler reads none, as it would change nothing. The refusal says where the
+    action's time comes from."""
+    from hrc_drake.scheduling.config import TIMED_SCHEDULERS, NoScheduler
+
+    if isinstance(sc.scheduler, TIMED_SCHEDULERS):
+        return
+    reads = ("the cell has no scheduler" if isinstance(sc.scheduler, NoScheduler)
+             else f"!{type(sc.scheduler).__name__} reads none")
+    timed = ", ".join(f"!{kind.__name__}" for kind in TIMED_SCHEDULERS)
+    human = sc.operator.name
+    own = {a.name: i for i, a in enumerate(sc.operator.actions)}
+    motions = {(arm.agent, a.name): (i, j) for i, robot in enumerate(sc.robots) for arm in robot.arms
+               for j, a in enumerate(robot.actions) if a.arm == arm.arm}
+    for k, action in enumerate(sc.flow.actions):
+        if action.duration is None:
+            continue
+        times = []
+        for agent in action.agents:
+            if agent == human:
+                times.append(f"operator.actions[{own[action.name]}].duration" if action.name in own
+                             else "the operator's recording")
+            elif (agent, action.name) in motions:
+                i, j = motions[agent, action.name]
+                times.append(f"{agent}'s motion through robots[{i}].actions[{j}].poses plus "
+                             f"robots[{i}].actions[{j}].dwell at each")
+        if human not in action.agents:
+            what, fix = "a robot action", "remove this duration, or set the dwell"
+        else:
+            what = "an operator action" if len(action.agents) == 1 else "an action of the operator and robots"
+            fix = "remove this duration"
+        clear = f"flow: {{actions: {{{action.name}: {{duration: null}}}}}}"
+        raise ScenarioError(file, f"flow.actions[{k}].duration",
+                            f"'{action.name}' is {what}: its time is {' and '.join(times)}. A flow duration "
+                            f"is only the prior of a timed scheduler ({timed}) and {reads}: {fix} (a file "
+                            f"that extends the one giving it clears it with {clear})")
 
 
 def _check_systems(sc: Scenario, file) -> None:
@@ -1209,7 +1403,8 @@ def _check_flow(sc: Scenario, file, agents: set[str], buffers: set[str]) -> None
         for k, r in enumerate(action.resources):
             if r not in flow.resources:
                 raise ScenarioError(file, f"{af}.resources[{k}]", f"unknown resource '{r}'")
-        check_distribution(file, f"{af}.duration", action.duration)
+        if action.duration is not None:
+            check_distribution(file, f"{af}.duration", action.duration)
     for r, units in flow.resources.items():
         if isinstance(units, bool) or not isinstance(units, int) or not 1 <= units <= MAX_PARTS:
             raise ScenarioError(file, f"flow.resources.{r}", f"needs an integer number of units in [1, "

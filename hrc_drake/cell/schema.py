@@ -113,7 +113,8 @@ class Scenario:
     """A cell: its seed, layout, robots, operator, assembly flow and optional systems."""
 
     #: a scenario file (relative to this one) this one starts from: the fields given here
-    #: replace its fields (a mapping merges key by key, a list or a tagged system is replaced);
+    #: replace its fields (a mapping merges key by key, a list or a tagged system is replaced;
+    #: a mapping given for a list of named items patches the items it names, `scenario.patch_items`);
     #: the file names it holds are read from this file's folder
     extends: str = ""
     #: the one seed of every random choice of a run (same seed, same run)
@@ -122,8 +123,11 @@ class Scenario:
     duration: float = 600.0
     description: str = ""
     layout: Layout = field(default_factory=Layout)
+    #: a robot action takes its motion through its poses plus `actions[j].dwell` at each pose
     robots: list[Robot] = field(default_factory=list)
+    #: an operator action takes `actions[i].duration`, the one place of the operator's times
     operator: Operator = field(default_factory=Operator)
+    #: what each action needs and makes; its `duration` is a timed scheduler's prior only
     flow: Flow = field(default_factory=Flow)
     #: minimum human-robot distance the cell must keep (m), for reports
     safety_distance: float = 0.1

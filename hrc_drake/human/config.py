@@ -27,7 +27,8 @@ class Segments:
 
 @dataclass
 class OperatorAction:
-    """A human action: the hand(s) reach the goals in order, taking `duration` in total.
+    """A human action: the hand(s) reach the goals in order, taking `duration` in total (the
+    action's one time: a flow action's `duration` is only a timed scheduler's prior).
 
     hand: left | right | both.
     """

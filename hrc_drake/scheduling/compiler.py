@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
+from dataclasses import replace
 
 import numpy as np
 
@@ -39,6 +40,11 @@ IDLE_ROLES = ("wait", "wait_end", "giveup", "commit")
 
 class FlowError(ValueError):
     """A structural problem of an assembly flow; the message names the actions involved."""
+
+
+def delay_of(action: FlowAction) -> Distribution:
+    """The pcTPN delay of a flow action: its `duration`, 1 s when it gives none (`FlowAction`)."""
+    return action.duration if action.duration is not None else Distribution()
 
 
 class _NetBuilder:
@@ -187,7 +193,7 @@ def compile_flow(
         for r in a.resources:
             if r not in flow.resources:
                 raise FlowError(f"flow action {a.name!r}: unknown resource {r!r}")
-        validate_distribution(a.duration, where=f"duration of flow action {a.name!r}")
+        validate_distribution(delay_of(a), where=f"duration of flow action {a.name!r}")
         for ag, part in a.early_release.items():
             if ag not in a.agents or ag == human_agent:
                 raise FlowError(f"flow action {a.name!r}: early_release names {ag!r}, not one of its robots")
@@ -273,7 +279,7 @@ def compile_flow(
                 [busy],
                 [f"avail:{r}" for r in staying] + gives_at_end(a),
                 False,
-                a.duration,
+                delay_of(a),
                 agents=staying,
                 action=a.name,
                 role="end",
@@ -332,7 +338,7 @@ def compile_flow(
                 [busy],
                 [after] + [f"avail:{r}" for r in staying] + gives_at_end(a),
                 False,
-                a.duration,
+                delay_of(a),
                 agents=staying,
                 action=a.name,
                 role="end",
@@ -450,8 +456,20 @@ def net_from_flow(flow, buffers, human_agent, human_pattern, robot_agents, confi
     )
 
 
+def flow_with_operator_durations(scenario) -> Flow:
+    """The scenario's flow where an action of the operator that gives no `duration` takes its
+    `operator.actions` one: the operator's time lives there, and a timed scheduler's prior
+    starts from it."""
+    own = {a.name: a.duration for a in scenario.operator.actions}
+    human = scenario.operator.name
+    actions = [replace(a, duration=own[a.name]) if a.duration is None and human in a.agents and a.name in own
+               else a for a in scenario.flow.actions]
+    return replace(scenario.flow, actions=actions)
+
+
 def net_from_scenario(scenario, config) -> PcTPN:
-    """Compile the scenario's flow with the net fields of the scheduler `config` (`net_from_flow`)."""
+    """Compile the scenario's flow (`flow_with_operator_durations`) with the net fields of the
+    scheduler `config` (`net_from_flow`)."""
     robots = [arm.agent for robot in scenario.robots for arm in robot.arms]
-    return net_from_flow(scenario.flow, scenario.layout.buffers, scenario.operator.name,
-                         scenario.operator.pattern, robots, config)
+    return net_from_flow(flow_with_operator_durations(scenario), scenario.layout.buffers,
+                         scenario.operator.name, scenario.operator.pattern, robots, config)

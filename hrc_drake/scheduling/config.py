@@ -444,6 +444,12 @@ class DataDrivenRobotScheduler(_CollaborationCommon):
 #: The use case a decision systems (no pcTPN; `scheduling.systems.CollaborationScheduler`).
 COLLABORATION_SCHEDULERS = (PredictiveRobotScheduler, ReactiveRobotScheduler, DataDrivenRobotScheduler)
 
+#: The kinds whose decisions read the delays of the pcTPN, i.e. the flow's durations (their prior
+#: until they observe an action: Monte Carlo trials, fuzzy trees, best-scenario supports, the
+#: mean-duration plan). The others read none: no scheduler and the use case a kinds compile no
+#: net, the round robin and the random baseline decide without timing.
+TIMED_SCHEDULERS = (MonteCarloScheduler, FuzzyScheduler, BestScenarioScheduler, BestOfRolloutsPlanScheduler)
+
 #: Every scheduler kind, as a scenario field type (chosen in YAML by tag).
 SchedulerConfig = Union[  # noqa: UP007 - pydrake's typed YAML loader needs typing.Union
     NoScheduler,

@@ -7,6 +7,7 @@ as real types at run time.
 """
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 from hrc_drake.distributions import Distribution
 
@@ -36,6 +37,11 @@ class FlowAction:
     agent: the operator name or a robot arm's agent name; a list of several agents makes it
     a collaborative action. inputs/outputs: buffer names (one part each). resources: names
     of shared resources held for the action's duration.
+
+    The time an action really takes is not set here: the operator's part lasts its
+    `operator.actions[..].duration`, a robot's part its motion through the poses plus
+    `robots[..].actions[..].dwell` at each. `duration` is only the delay of the action in the
+    pcTPN a timed scheduler plans on (`scheduling.config.TIMED_SCHEDULERS`).
     """
 
     name: str = ""
@@ -43,9 +49,12 @@ class FlowAction:
     inputs: list[str] = field(default_factory=list)
     outputs: list[str] = field(default_factory=list)
     resources: list[str] = field(default_factory=list)
-    #: nominal duration for planners; the robot's real one comes from its motion
-    duration: Distribution = field(default_factory=Distribution)
+    #: the timed scheduler's prior of the action's duration, until it has observed the action
+    #: (its pcTPN delay); None: the operator's duration for an action of the operator, 1 s
+    #: otherwise. Refused where the scheduler reads no delays (`cell.scenario`)
+    duration: Optional[Distribution] = None  # noqa: UP045 (the YAML loader needs typing.Optional)
     #: robot agents of the action that leave it before it ends, with the duration of their part
+    #: in the timed scheduler's pcTPN (the arm itself leaves when its motion ends)
     #: (thesis Fig. 7.3: YuMi's left arm finishes its subtask of the collaboration first and can
     #: start a new operation while the right arm is still at it)
     early_release: dict[str, Distribution] = field(default_factory=dict)

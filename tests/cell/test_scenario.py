@@ -1,4 +1,5 @@
 import copy
+from dataclasses import replace
 
 import pytest
 
@@ -80,7 +81,7 @@ BAD = {
         "must be positive",
     ),
     "negative duration": (
-        lambda r: r["flow"]["actions"][1]["duration"].update(kind="normal", mean=-3.0),
+        lambda r: r["flow"]["actions"][1].update(duration={"kind": "normal", "mean": -3.0}),
         "flow.actions[1].duration.mean",
         "must be positive",
     ),
@@ -97,7 +98,8 @@ BAD = {
     "unknown robot model": (
         lambda r: r["robots"][0].update(model="ur5"),
         "robots[0].model",
-        "unknown robot model 'ur5'; known models: cart, irb140, panda, ur5e, yumi (or give `urdf:`, your own robot)",
+        "unknown robot model 'ur5'; known models: cart, irb140, panda, ur5e, yumi (or give `urdf:`, your "
+        "own robot)",
     ),
     "unknown arm of the model": (
         lambda r: r["robots"][0]["poses"][0].update(arm="arm"),
@@ -352,7 +354,11 @@ def test_the_shipped_fuzzy_cell_is_torch_clock_with_its_scheduler(diagrams_dir):
     base = load_scenario(diagrams_dir / "torch_clock.yaml")
     fuzzy = load_scenario(diagrams_dir / "torch_clock_fuzzy.yaml")
     assert isinstance(fuzzy.scheduler, FuzzyScheduler) and fuzzy.scheduler.horizon == 50.0
-    assert fuzzy.scheduler.wait_quantum == 5.0 and fuzzy.flow == base.flow and fuzzy.robots == base.robots
+    assert fuzzy.scheduler.wait_quantum == 5.0 and fuzzy.robots == base.robots
+    # the same flow, with the scheduler's priors patched in by name
+    assert [replace(a, duration=None) for a in fuzzy.flow.actions] == base.flow.actions
+    assert all(a.duration is None for a in base.flow.actions)
+    assert all(a.duration is not None for a in fuzzy.flow.actions)
 
 
 def test_a_tagged_system_given_by_the_extending_file_replaces_the_base_one(tmp_path, diagrams_dir):
