@@ -34,7 +34,9 @@ class NamedPose:
 
 @dataclass
 class RobotAction:
-    """A robot action: the arm moves through `poses`, dwelling `dwell` s at each one."""
+    """A robot action: the arm moves through `poses`, dwelling `dwell` s at each one. Its time is
+    that motion (as fast as the path follower and the safety layer let it) plus the dwells: set
+    `dwell` to make it longer (a flow action's `duration` is only a timed scheduler's prior)."""
 
     name: str = ""
     arm: str = ""
