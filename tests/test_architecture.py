@@ -271,7 +271,7 @@ def test_pyproject_lists_every_subpackage_and_maps_the_models():
     on_disk = {module_name(str(p.relative_to(REPO))) for p in REPO.glob(f"{PACKAGE}/**/__init__.py")}
     assert set(config["packages"]) == on_disk | {f"{PACKAGE}.models", f"{PACKAGE}.diagrams"}
     assert config["package-dir"] == {f"{PACKAGE}.models": "models", f"{PACKAGE}.diagrams": "diagrams"}
-    assert set(config["package-data"][f"{PACKAGE}.models"]) == {"*.urdf", "*.sdf"}
+    assert set(config["package-data"][f"{PACKAGE}.models"]) == {"*.urdf", "*.sdf", "*.yaml"}
     diagram_data = {"*.yaml", "campaigns/*.yaml", "searches/*.yaml", "variants/*.yaml"}
     assert set(config["package-data"][f"{PACKAGE}.diagrams"]) == diagram_data
     assert (REPO / PACKAGE / "models").resolve() == (REPO / "models").resolve()  # source-tree runs

@@ -10,6 +10,7 @@ joint's load. Errors are `DescriptionError(field, reason)`, the field relative t
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hrc_drake.robots.registry import MODELS_PACKAGE, ArmModel, Capsule, RobotModel
+from hrc_drake.robots.records import MODELS_PACKAGE, ArmModel, Capsule, RobotModel
 from hrc_drake.robots.urdf import (
     UrdfJoint,
     UrdfLink,
@@ -358,6 +359,23 @@ def shipped_models() -> dict[str, RobotModel]:
     return out
 
 
+@functools.cache
+def shipped_robot_models() -> dict[str, RobotModel]:
+    """Every shipped robot model a scenario may name, by name (read once from models/*.yaml)."""
+    return shipped_models()
+
+
+def get_robot_model(name: str | RobotModel) -> RobotModel:
+    """The record of shipped robot model `name` (ValueError listing the known models); a record as is."""
+    if isinstance(name, RobotModel):
+        return name
+    try:
+        return shipped_robot_models()[name]
+    except (KeyError, TypeError):
+        known = ", ".join(sorted(shipped_robot_models()))
+        raise ValueError(f"unknown robot model {name!r}; known models: {known}") from None
+
+
 def urdf_location(spec: str, scenario_file=None) -> Path:
     """The file of `robots[i].urdf`: `package://<python package>/<path>` or a path relative to
     the scenario's folder (the working folder for a scenario made in code)."""
@@ -380,8 +398,6 @@ _CACHE: dict[tuple, RobotModel] = {}
 def robot_record(robot, scenario_file=None) -> RobotModel:
     """The record of a scenario's `Robot`: the shipped `model` ("" is yumi), or its own `urdf`
     (DescriptionError naming the field of `robots[i]`; ValueError for an unknown model)."""
-    from hrc_drake.robots.registry import get_robot_model
-
     if not robot.urdf:
         return get_robot_model(robot.model or "yumi")
     if robot.model:

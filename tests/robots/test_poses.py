@@ -36,7 +36,7 @@ def test_errors_name_the_field():
     with pytest.raises(ScenarioError, match="out of reach") as info:
         solve_named_poses([far], "cell.yaml")
     assert info.value.field == "robots[0].poses[0].target"
-    with pytest.raises(ConfigError, match="known models: cart, irb140, yumi") as info:
+    with pytest.raises(ConfigError, match="known models: cart, irb140, panda, ur5e, yumi") as info:
         solve_named_poses([Robot(name="x", model="ur5")])
     assert info.value.field == "robots[0].model"
     with pytest.raises(ConfigError, match="unknown arm 'left' of irb140") as info:

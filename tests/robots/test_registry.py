@@ -7,7 +7,7 @@ from hrc_drake.robots.registry import ROBOT_MODELS, ArmModel, RobotModel, get_ro
 
 
 def test_every_record_is_consistent_and_has_its_urdf():
-    assert set(ROBOT_MODELS) == {"yumi", "irb140", "cart"}
+    assert set(ROBOT_MODELS) == {"yumi", "irb140", "cart", "ur5e", "panda"}
     for name, record in ROBOT_MODELS.items():
         assert record.name == name
         text = model_resource(record.urdf).read_text()
@@ -32,7 +32,8 @@ def test_joints_per_arm():
 
 
 def test_unknown_model_and_arm_name_the_known_ones():
-    with pytest.raises(ValueError, match=r"unknown robot model 'ur5'; known models: cart, irb140, yumi"):
+    known = "cart, irb140, panda, ur5e, yumi"
+    with pytest.raises(ValueError, match=rf"unknown robot model 'ur5'; known models: {known}"):
         get_robot_model("ur5")
     with pytest.raises(ValueError, match=r"has no arm 'left'; arms: \['arm'\]"):
         get_robot_model("irb140").arm("left")
