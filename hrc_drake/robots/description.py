@@ -151,8 +151,9 @@ def _shape_capsules(link: UrdfLink) -> list[tuple[np.ndarray, np.ndarray, float]
     return out
 
 
-def _fitted_capsules(joints, links, root: str, arms: Sequence[ArmModel], radius: float,
-                     margin: float = 0.0) -> list[Capsule]:
+def _fitted_capsules(
+    joints, links, root: str, arms: Sequence[ArmModel], radius: float, margin: float = 0.0
+) -> list[Capsule]:
     """Capsules of every link with collision shapes, each `margin` wider; a chain link moved by a
     joint and without them gets the segment from its origin to the next chain joint's origin, of
     `radius`."""
@@ -199,6 +200,67 @@ def _given_capsules(specs, links) -> list[Capsule]:
             raise DescriptionError(f"{where}.radius", f"must be in (0, 1] m, got {radius}")
         out.append(Capsule(body, ends[0], ends[1], radius))
     return out
+
+
+#: how far a collision shape's sampled surface may lie outside the given capsules (m)
+CONTAINMENT_TOLERANCE = 0.001
+
+
+def _surface_points(shape) -> np.ndarray:
+    """Points (n, 3) in the link frame on a collision shape's boundary whose convex hull is (or
+    nearly is) the shape: a box's corners, a cylinder's two rims, a sphere's or a capsule's caps
+    sampled at 16 x 8 directions (none for a mesh)."""
+    angles = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+    if shape.kind == "box":
+        local = (
+            np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+            * np.asarray(shape.size)
+            / 2
+        )
+    elif shape.kind == "cylinder":
+        r, length = shape.size
+        rim = np.c_[r * np.cos(angles), r * np.sin(angles)]
+        local = np.vstack([np.c_[rim, np.full(16, z)] for z in (-length / 2, length / 2)])
+    elif shape.kind in ("sphere", "capsule"):
+        r, half = shape.size[0], (shape.size[1] / 2 if shape.kind == "capsule" else 0.0)
+        polar = np.linspace(0.0, np.pi, 9)
+        unit = np.array(
+            [[np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), np.cos(t)] for t in polar for a in angles]
+        )
+        local = np.vstack([r * unit + [0.0, 0.0, z] for z in {-half, half}])
+    else:
+        return np.zeros((0, 3))
+    return local @ shape.pose[:3, :3].T + shape.pose[:3, 3]
+
+
+def _check_containment(capsules: Sequence[Capsule], links) -> None:
+    """Capsules given for a robot of the scenario's own must hold its URDF's collision shapes:
+    the judge measures the robot by them, and a scenario must not make its robot thinner."""
+    for name, link in links.items():
+        mine = [c for c in capsules if c.body == name]
+        for k, shape in enumerate(link.collisions):
+            points = _surface_points(shape)
+            if not len(points):
+                continue
+            outside = np.full(len(points), np.inf)
+            for c in mine:
+                a, b = np.asarray(c.start), np.asarray(c.end)
+                t = np.clip((points - a) @ (b - a) / max(float((b - a) @ (b - a)), 1e-12), 0.0, 1.0)
+                gap = np.linalg.norm(points - (a + t[:, None] * (b - a)), axis=1) - c.radius
+                outside = np.minimum(outside, gap)
+            worst = float(np.max(outside))
+            if worst > CONTAINMENT_TOLERANCE:
+                held = (
+                    "no capsule is given for it"
+                    if not mine
+                    else f"its surface reaches {worst:.3f} m outside them"
+                )
+                raise DescriptionError(
+                    "capsules",
+                    f"link {name!r}: collision {shape.kind} {k} of the URDF is not inside the given "
+                    f"capsules ({held}); the judge measures the robot by its capsules: widen them, or leave "
+                    "`capsules:` out to fit them to the collision shapes",
+                )
 
 
 def _static_links(joints, root: str) -> frozenset[str]:
@@ -283,6 +345,8 @@ def build_record(
         raise DescriptionError("capsule_margin", f"must be in [0, 0.2] m, got {margin}")
     if description.capsules:
         capsules = _given_capsules(description.capsules, links)
+        if urdf_path:  # a robot of the scenario's own; the shipped records are reviewed facts
+            _check_containment(capsules, links)
         static = frozenset(description.static_bodies)
     else:
         capsules = _fitted_capsules(joints, links, root, arms, radius, margin)

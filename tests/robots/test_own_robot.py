@@ -183,3 +183,24 @@ def test_a_control_character_in_a_name_is_shown_escaped(tmp_path):
     with pytest.raises(DescriptionError) as err:
         robot_record(_robot(tmp_path, urdf="arm\x07.urdf"), tmp_path / "c.yaml")
     assert "\x07" not in str(err.value) and "arm\\x07.urdf" in err.value.reason
+
+
+def _capsules(radius_upper: float) -> list[CapsuleSpec]:
+    """Capsules for the test arm: each link's collision shape, the upper arm's of `radius_upper`."""
+    return [CapsuleSpec(body="base", end=[0.0, 0.0, 0.1], radius=0.08),
+            CapsuleSpec(body="shoulder", end=[0.0, 0.0, 0.2], radius=0.06),
+            CapsuleSpec(body="upper", end=[0.3, 0.0, 0.0], radius=radius_upper),
+            CapsuleSpec(body="fore", end=[0.25, 0.0, 0.0], radius=0.0425)]
+
+
+def test_given_capsules_must_hold_the_urdfs_collision_shapes(tmp_path):
+    """The judge measures a scenario's robot by its capsules: a scenario may not make it thinner."""
+    record = robot_record(_robot(tmp_path, capsules=_capsules(0.05)), tmp_path / "c.yaml")
+    assert len(record.capsules) == 4
+    with pytest.raises(DescriptionError) as err:  # 1 cm thinner than the upper arm's cylinder
+        robot_record(_robot(tmp_path, capsules=_capsules(0.04)), tmp_path / "c.yaml")
+    assert err.value.field == "capsules" and "link 'upper'" in err.value.reason
+    assert "0.010 m outside" in err.value.reason
+    with pytest.raises(DescriptionError) as err:  # a link with collision geometry left without a capsule
+        robot_record(_robot(tmp_path, capsules=_capsules(0.05)[:3]), tmp_path / "c.yaml")
+    assert "link 'fore'" in err.value.reason and "no capsule is given" in err.value.reason
