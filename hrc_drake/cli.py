@@ -199,6 +199,30 @@ def _scenario_path(name: str) -> str:
     return _resolved(name, "scenario")
 
 
+def throughput_lines(m: dict) -> list[str]:
+    """The summary's figures after the verdict: products per hour, each product type's own cycle
+    time (median, p90: from its first action to its completion), then the mean time between
+    products of any type (1 / throughput, not a cycle time)."""
+
+    def s(value) -> str:
+        return f"{value:.2f} s" if value is not None else "n/a"
+
+    per_hour, n = m["products_per_hour"], m["products_finished"]
+    lines = [f"products per hour {per_hour:.1f} ({n} finished in {m['simulated_time']:.1f} s)"
+             if per_hour is not None else f"products finished {n}"]
+    if m["products"]:
+        lines.append("  cycle time of each product, from its first action to its completion:")
+    for kind, p in m["products"].items():
+        lines.append(f"  {kind:14s} {p['finished']:3d} finished   cycle time median "
+                     f"{s(p['cycle_time_median'])}   p90 {s(p['cycle_time_p90'])}")
+    warmup = m["warmup"]
+    rule = f"warm-up: the first {warmup['products']} product(s)" + (
+        f" after t = {warmup['time']:g} s" if warmup["time"] else "")
+    lines.append(f"mean time between products {s(m['mean_time_between_products'])} (any type, "
+                 f"1 / throughput; {rule})")
+    return lines
+
+
 def _print_files(paths) -> None:
     """The files a command wrote, one a line, at its end."""
     paths = [str(p) for p in paths]
@@ -259,20 +283,11 @@ def _build_and_simulate(args, scenario, scenario_path, ahead, listed: list | Non
     iso = m.get("safety") or {}
     if "verdict" in iso:  # the verdict first: the answer to "is this cell safe?"
         print(iso["verdict"])
+    for line in throughput_lines(m):
+        print(line)
     print(f"simulated time    {m['simulated_time']:.1f} s")
     print(f"wall time         {m['wall_time']:.2f} s")
     print(f"realtime factor   {m['realtime_factor']:.1f}x")
-    print(f"products finished {m['products_finished']}")
-    def cycle(value) -> str:
-        return f"{value:.2f} s" if value is not None else "n/a"
-
-    warmup = m["warmup"]
-    rule = f"warm-up: the first {warmup['products']} product(s)" + (
-        f" after t = {warmup['time']:g} s" if warmup["time"] else "")
-    print(f"mean cycle time   {cycle(m['mean_cycle_time'])} (between products of any type; {rule})")
-    if len(m["products"]) > 1:
-        for kind, p in m["products"].items():
-            print(f"  {kind:14s} {p['finished']:3d} finished, mean cycle time {cycle(p['mean_cycle_time'])}")
     for agent, a in m["agents"].items():
         print(
             f"  {agent:14s} busy {a['busy_time']:7.1f} s   waiting {a['wait_time']:7.1f} s   "

@@ -283,8 +283,10 @@ def test_the_summary_states_the_verdict_first_and_the_closest_approach(tmp_path,
     lines = capsys.readouterr().out.splitlines()
     metrics = json.loads((out_dir / "metrics.json").read_text())
     safety = metrics["safety"]
-    figures = next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
-    assert lines[figures - 1] == safety["verdict"]
+    # the verdict, then the throughput (issue 54: throughput first), later the simulated time
+    figures = next(i for i, ln in enumerate(lines) if ln.startswith("products per hour"))
+    assert lines[figures - 1] == safety["verdict"] == metrics["verdict"]
+    assert figures < next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
     assert safety["verdict"].startswith(VERDICT_WORDS)
     # pcb_collab's PFL mode is conforming: the verdict is the standard judge's count
     total = safety["violations_total"]

@@ -105,7 +105,7 @@ def experiment_campaign(experiment: str, arms: list[str], seeds: int, duration: 
         "seeds": {"count": seeds, "first": raw["seeds"]["first"]},
         "scenarios": [str(SCENARIO)],
         "variants": {arm: {**base, **scheduler_overrides(arm)} for arm in arms},
-        "metrics": ["mean_cycle_time", "agents.human.idle_time"],
+        "metrics": ["mean_time_between_products", "agents.human.idle_time"],
         "extra_metrics": ["per_product"],
     }
     return make_campaign(document, ROOT / "tools" / f"use_case_c_{experiment}.campaign")

@@ -43,11 +43,33 @@ MAX_RUNS = 100_000
 #: a variant's or a scenario's label: it names files and table cells
 LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]*$")
 #: the metrics a campaign compares unless its file says which (`*` matches any agent or product)
-DEFAULT_METRICS = ("mean_cycle_time", "agents.*.idle_time", "min_human_robot_distance", "safety.time_below_s")
+DEFAULT_METRICS = ("products_per_hour", "products.*.cycle_time_median", "agents.*.idle_time",
+                   "min_human_robot_distance", "safety.time_below_s")
+#: metrics.json's names before issue 54 -> their names now (a spec naming an old one is told)
+RENAMED_METRICS = {
+    "mean_cycle_time": "mean_time_between_products (the mean interval between products of any type; "
+                       "a product's own cycle time is products.<type>.cycle_time_median)",
+    "cycle_times": "times_between_products",
+}
+
+
+def renamed_hint(metric: str) -> str:
+    """"; ... was renamed ..." for a metric name metrics.json used before issue 54, else ""."""
+    last = metric.rsplit(".", 1)[-1]
+    if metric in RENAMED_METRICS:
+        return f"; '{metric}' was renamed {RENAMED_METRICS[metric]}"
+    if metric.startswith("products.") and last == "mean_cycle_time":
+        return f"; '{metric}' was renamed {metric[:-len(last)]}mean_time_between (its own cycle time: " \
+               f"{metric[:-len(last)]}cycle_time_median)"
+    return ""
+
+
 #: metrics where a larger value is the better one (the rest: smaller is better, e.g. times)
 LARGER_IS_BETTER = (
     "min_human_robot_distance",
     "products_finished",
+    "products_per_hour",
+    "products.*.per_hour",
     "mean_speed_override",
     "agents.*.utilisation",
     "agents.*.busy_time",
@@ -318,7 +340,8 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
     for k, pattern in enumerate(metrics):
         if not fnmatch.filter(known, pattern):
             raise ScenarioError(
-                path, f"metrics[{k}]", f"unknown metric '{pattern}' (known: {', '.join(known)})"
+                path, f"metrics[{k}]",
+                f"unknown metric '{pattern}'{renamed_hint(pattern)} (known: {', '.join(known)})"
             )
     for k, sample in enumerate(spec.pooled):
         extra = sample.metric.split(".", 1)[0]
@@ -484,8 +507,9 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
     products = [b.name for b in scenario.layout.buffers if b.kind == "product" and b.name in made]
     names = [
         "simulated_time",
+        "products_per_hour",
         "products_finished",
-        "mean_cycle_time",
+        "mean_time_between_products",
         "min_human_robot_distance",
         "mean_speed_override",
         "time_slowed_s",
@@ -540,7 +564,8 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         for a in agents
         for k in ("busy_time", "wait_time", "idle_time", "utilisation", "actions_finished")
     ]
-    names += [f"products.{p}.{k}" for p in products for k in ("finished", "mean_cycle_time")]
+    names += [f"products.{p}.{k}" for p in products
+              for k in ("finished", "per_hour", "cycle_time_median", "cycle_time_p90", "mean_time_between")]
     if type(scenario.action_detector).__name__ != "NoActionDetector":
         names += ["detection.*"]
     return names

@@ -15,7 +15,14 @@ from threadpoolctl import threadpool_limits
 
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
-from hrc_drake.cell.metrics import MetricsLog, plot_collaboration, plot_gantt, summarize, write_events_csv
+from hrc_drake.cell.metrics import (
+    DEFINITIONS,
+    MetricsLog,
+    plot_collaboration,
+    plot_gantt,
+    summarize,
+    write_events_csv,
+)
 from hrc_drake.interrupts import signal_of, stop_requested_by_signals
 from hrc_drake.safety.report import plot_safety
 
@@ -108,7 +115,8 @@ def simulate(
     warmup = cell.scenario.metrics
     metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall,
                         warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time,
-                        shared_actions=cell.shared_actions)
+                        shared_actions=cell.shared_actions, flow_actions=cell.scenario.flow.actions,
+                        buffers=cell.scenario.layout.buffers)
     metrics["safety"] = {**(metrics.get("safety") or {}), **cell.safety(context)}
     if interrupted:
         metrics["interrupted"] = True
@@ -192,6 +200,16 @@ def run_header(cell: Cell, result: RunResult) -> dict:
             "code_version": code_version()}
 
 
+def metrics_document(header: dict, metrics: dict) -> dict:
+    """metrics.json: the run's header, then the safety verdict line (a copy of `safety.verdict`,
+    so the file answers "is it safe?" first), then the figures, throughput first."""
+    verdict = (metrics.get("safety") or {}).get("verdict")
+    if not verdict:
+        return {"run": header, **metrics}
+    definitions = {"verdict": DEFINITIONS["verdict"], **metrics.get("definitions", {})}
+    return {"run": header, "verdict": verdict, **metrics, "definitions": definitions}
+
+
 def scenario_action_names(scenario) -> list[str]:
     """Every action name a scenario's agents may perform (flow, robots', operator's): the key of
     the Gantt chart's colours, the same in every run of the scenario."""
@@ -211,7 +229,7 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     for name in REPORT_FILES:
         (out_dir / name).unlink(missing_ok=True)
     metrics_path = out_dir / "metrics.json"
-    metrics_path.write_text(json.dumps({"run": run_header(cell, result), **result.metrics}, indent=2))
+    metrics_path.write_text(json.dumps(metrics_document(run_header(cell, result), result.metrics), indent=2))
     events_path = out_dir / "events.csv"
     write_events_csv(events_path, result.log.events, result.log.perceived_events,
                      (result.metrics.get("safety") or {}).get("events", ()))
