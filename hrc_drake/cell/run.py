@@ -162,9 +162,9 @@ def local_meshcat(quiet: bool = True):
 
 
 def replay_html(cell: Cell, result: RunResult | None = None) -> str:
-    """The recorded run as one self-contained HTML page, with the overlay of `replay.overlay`:
-    a title (scenario, seed, duration), the simulated clock as it plays, the legend of the
-    markers' colours."""
+    """The recorded run as one self-contained HTML page, with the overlay of `replay.add_overlay`:
+    a title (scenario, seed, duration), the safety verdict and the products of `result`, the
+    simulated clock as it plays, the legend of the markers' colours."""
     from hrc_drake.cell.replay import add_overlay
 
     scenario = cell.scenario
@@ -172,9 +172,12 @@ def replay_html(cell: Cell, result: RunResult | None = None) -> str:
     markers = cell.system("replay_markers") if cell.has_system("replay_markers") else None
     legend = markers.legend() if markers is not None else []
     name = Path(cell.scenario_path).stem if cell.scenario_path != "<scenario>" else "cell"
+    metrics = result.metrics if result is not None else {}
     return add_overlay(cell.meshcat.StaticHtml(), name=name, description=scenario.description or "",
                        seed=scenario.seed, duration=duration,
-                       interrupted=bool(result is not None and result.interrupted), legend=legend)
+                       interrupted=bool(result is not None and result.interrupted), legend=legend,
+                       verdict=(metrics.get("safety") or {}).get("verdict"),
+                       products=metrics if "products_finished" in metrics else None)
 
 
 def write_replay(cell: Cell, path: Path, result: RunResult | None = None) -> int:

@@ -149,6 +149,12 @@ def test_simulate_command_writes_report_and_replay(tmp_path, diagrams_dir, capsy
     assert (out / "gantt.png").stat().st_size > 10_000
     html = replay.read_text()
     assert html.startswith("<!DOCTYPE html>") or "<html" in html[:200]
+    # the replay's card holds the run's verdict and products (issue 54, item 6)
+    from html import escape
+
+    card = html[html.index('id="hrc-verdict"'):html.index('id="hrc-legend"')]
+    assert escape(metrics["safety"]["verdict"]) in card
+    assert f"{metrics['products_finished']} products finished" in card
     assert "http://" not in html.split("<script", 1)[0]
 
 
