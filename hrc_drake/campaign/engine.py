@@ -118,8 +118,10 @@ def run_campaign(
     client: an existing `distributed.Client` to use (and leave open) instead of either.
     new_spec: move an earlier campaign's results in DIR aside (`store.archive_previous`) instead of
     refusing a spec whose runs differ from them. wait: seconds to wait for a folder another
-    campaign holds (`store.CampaignLock`). limit: run at most this many of the runs not yet done
-    (in the spec's order; a later call without it runs the rest). An interruption (Ctrl-C,
+    campaign holds (`store.CampaignLock`). limit: run at most this many of the runs not yet done,
+    two seeds of each scenario x variant at a time (`Campaign.iter_tasks_in_pairs`: the runs
+    made give each configuration they reach the two seeds a test needs); a later call without
+    it runs the rest. An interruption (Ctrl-C,
     SIGTERM) propagates after the finished rows are saved; a run it cut short is not a row.
     """
     out_dir = Path(out_dir)
@@ -160,7 +162,8 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
         if remaining > limit and progress is not None:
             print(f"limit: {limit} of the {remaining} runs not yet done run now", file=progress, flush=True)
         remaining = min(remaining, limit)
-        pending = itertools.islice(pending, limit)
+        # two seeds of a scenario x variant before the next: a test needs two of each side
+        pending = itertools.islice((t for t in campaign.iter_tasks_in_pairs() if todo(t)), limit)
     bar = Progress(remaining, progress, label=campaign.name)
     start = time.perf_counter()
     dashboard = ""

@@ -219,18 +219,33 @@ class Campaign:
         for seed in self.seeds:
             for s in self.scenarios:
                 for v in self.variants:
-                    yield RunTask(
-                        scenario=s,
-                        scenario_path=str(self.scenarios[s]),
-                        variant=v,
-                        overrides=self.variants[v],
-                        seed=seed,
-                        duration=self.duration,
-                        config_hash=hashes[s, v],
-                        replay=(s, v, seed) in self.replays,
-                        replay_fps=self.replay_fps,
-                        extra_metrics=tuple(self.extra_metrics),
-                    )
+                    yield self._task(s, v, seed, hashes)
+
+    def iter_tasks_in_pairs(self):
+        """Every run, two seeds at a time: for each pair of seeds, each scenario x variant runs
+        both before the next starts. `--limit` takes runs in this order, so the runs it makes
+        give each scenario x variant they reach the two seeds a test needs (with a limit of
+        2 x scenarios x variants, the same runs as `iter_tasks`'s first two seeds)."""
+        hashes = self.config_hashes()
+        for k in range(0, len(self.seeds), 2):
+            for s in self.scenarios:
+                for v in self.variants:
+                    for seed in self.seeds[k:k + 2]:
+                        yield self._task(s, v, seed, hashes)
+
+    def _task(self, s: str, v: str, seed: int, hashes: dict) -> RunTask:
+        return RunTask(
+            scenario=s,
+            scenario_path=str(self.scenarios[s]),
+            variant=v,
+            overrides=self.variants[v],
+            seed=seed,
+            duration=self.duration,
+            config_hash=hashes[s, v],
+            replay=(s, v, seed) in self.replays,
+            replay_fps=self.replay_fps,
+            extra_metrics=tuple(self.extra_metrics),
+        )
 
     def tasks(self) -> list[RunTask]:
         """Every run, as `iter_tasks` makes them."""
