@@ -13,6 +13,7 @@ import json
 import logging
 import math
 import os
+import re
 import signal
 import sys
 import threading
@@ -29,6 +30,7 @@ from hrc_drake.campaign.store import (
     check_output_dir,
 )
 from hrc_drake.campaign.worker import failed_row, run_task, warm_up
+from hrc_drake.console import ProgressLine
 from hrc_drake.errors import EnvironmentFailure, ScenarioError
 
 #: seconds to reach a scheduler at --address before giving up
@@ -61,7 +63,33 @@ class Progress:
         self.done = self.failed = 0
         self.start = time.perf_counter()
         self.interactive = stream is not None and getattr(stream, "isatty", lambda: False)()
+        self._line = ProgressLine(stream) if self.interactive else None
         self._next_tenth = 1
+        #: the runs' warnings by kind (their words, figures left out) -> [the first, how many more]
+        self._kinds: dict[str, list] = {}
+
+    def note(self, run: str, text: str) -> None:
+        """A run's warning, on a line of its own above the bar: the first of each kind (its
+        words without their figures), the others counted (`repeats`)."""
+        kind = re.sub(r"\d+(\.\d+)?", "#", text)
+        if kind in self._kinds:
+            self._kinds[kind][1] += 1
+            return
+        self._kinds[kind] = [text, 0]
+        if self.stream is None:
+            return
+        message = f"warning from {run}: {text}"
+        if self._line is not None:
+            self._line.note(message)
+        else:
+            print(message, file=self.stream, flush=True)
+
+    def repeats(self) -> None:
+        """How many more runs gave each warning (after the bar's last line)."""
+        for first, more in self._kinds.values():
+            if more and self.stream is not None:
+                print(f"(and {more} more run(s) gave this warning, with their own figures: "
+                      f"{first.splitlines()[0][:100]})", file=self.stream, flush=True)
 
     def update(self, ok: bool) -> None:
         self.done += 1
@@ -87,8 +115,12 @@ class Progress:
         )
 
     def _print(self) -> None:
-        end = "" if self.interactive and self.done < self.total else "\n"
-        print(("\r" if self.interactive else "") + self.line(), end=end, file=self.stream, flush=True)
+        if self._line is None:
+            print(self.line(), file=self.stream, flush=True)
+            return
+        self._line.show(self.line())
+        if self.done >= self.total:
+            self._line.end()
 
 
 def _clock(seconds: float) -> str:
@@ -191,6 +223,7 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
         interrupted = False
     finally:
         _flush(store, out_dir, quiet=interrupted)
+    bar.repeats()
     rows = campaign_rows(store.frame(), campaign, hashes)
     if analyze:
         from hrc_drake.campaign.analysis import analyze_campaign
@@ -278,6 +311,8 @@ def _record(outcome: dict, task: RunTask, store: RunStore, bar: Progress, out_di
                             "earlier runs saved")
     _environment(lambda: store.add(row), f"{what} its row cannot be written to {store.journal_path} (it is "
                                          "lost); the campaign stopped with the earlier runs saved")
+    for text in outcome.get("notes", ()):
+        bar.note(f"{task.scenario}/{task.variant} seed {task.seed}", text)
     bar.update(row["status"] == "ok")
 
 

@@ -6,6 +6,7 @@ import json
 import signal
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from hrc_drake.cell.metrics import (
     summarize,
     write_events_csv,
 )
+from hrc_drake.console import ProgressLine, notes_to
 from hrc_drake.interrupts import signal_of, stop_requested_by_signals
 from hrc_drake.safety.report import plot_safety
 
@@ -77,11 +79,14 @@ def simulate(
         cell.visualizer.StartRecording(False)
     # On a terminal one line is rewritten in place; in a log, a line every 10 %.
     interactive = progress is not None and getattr(progress, "isatty", lambda: False)()
+    line = ProgressLine(progress) if interactive else None
     start = time.perf_counter()
     # One BLAS thread: a cell's matrices are small (at most 100 x 100), where OpenBLAS's extra
     # threads only spin (torch_segmentation: 33 % more CPU for the same wall time), and seeded
     # runs side by side (campaigns) use the other cores.
-    with threadpool_limits(limits=1, user_api="blas"), stop_requested_by_signals() as stop:
+    # on a terminal, warnings and log records print above the progress line, not inside it
+    with threadpool_limits(limits=1, user_api="blas"), stop_requested_by_signals() as stop, \
+            (notes_to(line.note) if line is not None else nullcontext()):
         # a signal only sets `stop`; the monitor ends the step it lands in (`interrupts`)
         diagram = cell.diagram
         simulator.set_monitor(
@@ -93,7 +98,7 @@ def simulate(
                 if stop:
                     break
                 if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
-                    _print_progress(progress, interactive, simulator, world_system, world_context, k, chunks,
+                    _print_progress(line or progress, simulator, world_system, world_context, k, chunks,
                                     duration, time.perf_counter() - start)
         except KeyboardInterrupt as err:
             stop.signum = stop.signum or signal_of(err)
@@ -105,8 +110,8 @@ def simulate(
         interrupted = bool(stop) and context.get_time() < duration
         stopped_by = stop.signum
     wall = time.perf_counter() - start
-    if interactive:
-        print(file=progress)
+    if line is not None:
+        line.end()
     if record and cell.visualizer is not None:
         cell.visualizer.StopRecording()
         cell.visualizer.PublishRecording()
@@ -126,19 +131,17 @@ def simulate(
                      stopped_by=stopped_by if interrupted else None)
 
 
-def _print_progress(progress, interactive: bool, simulator, world_system, world_context, k: int, chunks: int,
+def _print_progress(progress, simulator, world_system, world_context, k: int, chunks: int,
                     duration: float, wall: float) -> None:
-    """One progress line: a rewritten one on a terminal, a new one in a log."""
+    """One progress line: rewritten on a terminal (`progress` a `ProgressLine`), a new one in a log."""
     t = simulator.get_context().get_time()
-    lead = "\r" if interactive else ""
-    print(
-        f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
-        f"   products = {world_system.world(world_context).finished_products:3d}"
-        f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
-        end="" if interactive else "\n",
-        file=progress,
-        flush=True,
-    )
+    text = (f"  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
+            f"   products = {world_system.world(world_context).finished_products:3d}"
+            f"   realtime factor = {t / max(wall, 1e-9):6.1f}x")
+    if isinstance(progress, ProgressLine):
+        progress.show(text)
+    else:
+        print(text, file=progress, flush=True)
 
 
 def local_meshcat(quiet: bool = True):
