@@ -31,10 +31,11 @@ from hrc_drake.cell.scenario import (
     load_scenario,
     load_scenario_with,
     load_typed,
+    located,
 )
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
-from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
+from hrc_drake.errors import ScenarioError, check_input_file, yaml_syntax_error
 
 #: the most runs one campaign may hold (scenarios x variants x seeds): 100,000 runs of a fast
 #: 120 s cell are ~3 CPU-days; a larger study is several campaigns (each folder's table and
@@ -286,7 +287,12 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
     path = Path(path)
     check_input_file(path, "campaign")
-    return make_campaign(_read_raw(path), path)
+    marks: dict = {}
+    try:
+        return make_campaign(_read_raw(path, marks), path)
+    except ScenarioError as err:
+        located(err, path, marks)  # a field written in the file: its line and column
+        raise
 
 
 def make_campaign(document: dict, file: str | Path) -> Campaign:
@@ -422,17 +428,18 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
     )
 
 
-def _read_raw(path: Path) -> dict:
+def _read_raw(path: Path, marks: dict | None = None) -> dict:
+    """A spec file's raw document (`_raw_document`), `marks` filled with its fields' places."""
     if not path.is_file():
         raise ScenarioError(path, "", "no such file")
     if path.stat().st_size > MAX_SCENARIO_BYTES:
         raise ScenarioError(path, "", "too large for a campaign file")
     try:
-        raw = _raw_document(path.read_bytes().decode("utf-8"), path)  # refuses alias bombs
+        raw = _raw_document(path.read_bytes().decode("utf-8"), path, marks)  # refuses alias bombs
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not valid YAML: {yaml_error_reason(err)}") from None
+        raise yaml_syntax_error(path, err) from None
     if not isinstance(raw, dict) or isinstance(raw, Tagged):
         raise ScenarioError(path, "", "the top level must be a mapping of campaign fields")
     return raw

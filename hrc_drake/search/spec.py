@@ -18,9 +18,24 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from hrc_drake.campaign.spec import LABEL, MAX_RUNS, _read_raw, _seeds, renamed_hint, scenario_metric_names
+from hrc_drake.campaign.spec import (
+    LABEL,
+    MAX_RUNS,
+    _read_raw,
+    _seeds,
+    renamed_hint,
+    scenario_metric_names,
+)
 from hrc_drake.cell.build import kernel_groups
-from hrc_drake.cell.scenario import Tagged, _check_keys, _raw_document, dump_raw, load_scenario, load_typed
+from hrc_drake.cell.scenario import (
+    Tagged,
+    _check_keys,
+    _raw_document,
+    dump_raw,
+    load_scenario,
+    load_typed,
+    located,
+)
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
 from hrc_drake.errors import ScenarioError, check_input_file
 from hrc_drake.search import params as P
@@ -281,7 +296,12 @@ def load_search(path: str | Path) -> Search:
     """Read and check a search file; `ScenarioError` on any problem."""
     path = Path(path)
     check_input_file(path, "search")
-    return make_search(_read_raw(path), path)
+    marks: dict = {}
+    try:
+        return make_search(_read_raw(path, marks), path)
+    except ScenarioError as err:
+        located(err, path, marks)  # a field written in the file: its line and column
+        raise
 
 
 def _typed(cls, node, where: str, path: Path, hand_read=()):
