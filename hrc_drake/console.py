@@ -9,6 +9,7 @@ it; `notes_to` sends warnings and the log records that would go to stderr to suc
 from __future__ import annotations
 
 import logging
+import re
 import warnings
 from contextlib import contextmanager
 
@@ -75,3 +76,24 @@ def notes_to(write):
     finally:
         if handler is not None:
             logging.root.removeHandler(handler)
+
+
+class WarningTally:
+    """Runs' warnings by kind (their words, figures left out): `first` says whether a text is the
+    first of its kind, the rest are counted for `repeats`."""
+
+    def __init__(self):
+        self._kinds: dict[str, list] = {}
+
+    def first(self, text: str) -> bool:
+        kind = re.sub(r"\d+(\.\d+)?", "#", text)
+        if kind in self._kinds:
+            self._kinds[kind][1] += 1
+            return False
+        self._kinds[kind] = [text, 0]
+        return True
+
+    def repeats(self) -> list[str]:
+        """A line per kind that more runs gave: how many, and the first text's first line."""
+        return [f"(and {more} more run(s) gave this warning, with their own figures: "
+                f"{first.splitlines()[0][:100]})" for first, more in self._kinds.values() if more]

@@ -13,7 +13,6 @@ import json
 import logging
 import math
 import os
-import re
 import signal
 import sys
 import threading
@@ -30,7 +29,7 @@ from hrc_drake.campaign.store import (
     check_output_dir,
 )
 from hrc_drake.campaign.worker import failed_row, run_task, warm_up
-from hrc_drake.console import ProgressLine
+from hrc_drake.console import ProgressLine, WarningTally
 from hrc_drake.errors import EnvironmentFailure, ScenarioError
 
 #: seconds to reach a scheduler at --address before giving up
@@ -65,18 +64,12 @@ class Progress:
         self.interactive = stream is not None and getattr(stream, "isatty", lambda: False)()
         self._line = ProgressLine(stream) if self.interactive else None
         self._next_tenth = 1
-        #: the runs' warnings by kind (their words, figures left out) -> [the first, how many more]
-        self._kinds: dict[str, list] = {}
+        self._warnings = WarningTally()
 
     def note(self, run: str, text: str) -> None:
         """A run's warning, on a line of its own above the bar: the first of each kind (its
         words without their figures), the others counted (`repeats`)."""
-        kind = re.sub(r"\d+(\.\d+)?", "#", text)
-        if kind in self._kinds:
-            self._kinds[kind][1] += 1
-            return
-        self._kinds[kind] = [text, 0]
-        if self.stream is None:
+        if not self._warnings.first(text) or self.stream is None:
             return
         message = f"warning from {run}: {text}"
         if self._line is not None:
@@ -86,10 +79,9 @@ class Progress:
 
     def repeats(self) -> None:
         """How many more runs gave each warning (after the bar's last line)."""
-        for first, more in self._kinds.values():
-            if more and self.stream is not None:
-                print(f"(and {more} more run(s) gave this warning, with their own figures: "
-                      f"{first.splitlines()[0][:100]})", file=self.stream, flush=True)
+        for line in self._warnings.repeats():
+            if self.stream is not None:
+                print(line, file=self.stream, flush=True)
 
     def update(self, ok: bool) -> None:
         self.done += 1
