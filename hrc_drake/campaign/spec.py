@@ -351,13 +351,14 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
                 set(metric_names.get(label, [])) | set(scenario_metric_names(scenario))
             )
             groups.update(dict.fromkeys(kernel_groups(scenario)))
-    metrics = list(spec.metrics) or list(DEFAULT_METRICS)
     for k, name in enumerate(spec.extra_metrics):
         try:
             resolve_extra_metrics(name)
         except KeyError as err:
             raise ScenarioError(path, f"extra_metrics[{k}]", err.args[0]) from None
     known = sorted({m for names in metric_names.values() for m in names})
+    # the defaults a cell has (one that makes no product has no product's cycle time)
+    metrics = list(spec.metrics) or [m for m in DEFAULT_METRICS if fnmatch.filter(known, m)]
     for k, pattern in enumerate(metrics):
         if not fnmatch.filter(known, pattern):
             raise ScenarioError(
