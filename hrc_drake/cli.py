@@ -199,6 +199,30 @@ def _scenario_path(name: str) -> str:
     return _resolved(name, "scenario")
 
 
+def throughput_lines(m: dict) -> list[str]:
+    """The summary's figures after the verdict: products per hour, each product type's own cycle
+    time (median, p90: from its first action to its completion), then the mean time between
+    products of any type (1 / throughput, not a cycle time)."""
+
+    def s(value) -> str:
+        return f"{value:.2f} s" if value is not None else "n/a"
+
+    per_hour, n = m["products_per_hour"], m["products_finished"]
+    lines = [f"products per hour {per_hour:.1f} ({n} finished in {m['simulated_time']:.1f} s)"
+             if per_hour is not None else f"products finished {n}"]
+    if m["products"]:
+        lines.append("  cycle time of each product, from its first action to its completion:")
+    for kind, p in m["products"].items():
+        lines.append(f"  {kind:14s} {p['finished']:3d} finished   cycle time median "
+                     f"{s(p['cycle_time_median'])}   p90 {s(p['cycle_time_p90'])}")
+    warmup = m["warmup"]
+    rule = f"warm-up: the first {warmup['products']} product(s)" + (
+        f" after t = {warmup['time']:g} s" if warmup["time"] else "")
+    lines.append(f"mean time between products {s(m['mean_time_between_products'])} (any type, "
+                 f"1 / throughput; {rule})")
+    return lines
+
+
 def _print_files(paths) -> None:
     """The files a command wrote, one a line, at its end."""
     paths = [str(p) for p in paths]
@@ -259,20 +283,11 @@ def _build_and_simulate(args, scenario, scenario_path, ahead, listed: list | Non
     iso = m.get("safety") or {}
     if "verdict" in iso:  # the verdict first: the answer to "is this cell safe?"
         print(iso["verdict"])
+    for line in throughput_lines(m):
+        print(line)
     print(f"simulated time    {m['simulated_time']:.1f} s")
     print(f"wall time         {m['wall_time']:.2f} s")
     print(f"realtime factor   {m['realtime_factor']:.1f}x")
-    print(f"products finished {m['products_finished']}")
-    def cycle(value) -> str:
-        return f"{value:.2f} s" if value is not None else "n/a"
-
-    warmup = m["warmup"]
-    rule = f"warm-up: the first {warmup['products']} product(s)" + (
-        f" after t = {warmup['time']:g} s" if warmup["time"] else "")
-    print(f"mean cycle time   {cycle(m['mean_cycle_time'])} (between products of any type; {rule})")
-    if len(m["products"]) > 1:
-        for kind, p in m["products"].items():
-            print(f"  {kind:14s} {p['finished']:3d} finished, mean cycle time {cycle(p['mean_cycle_time'])}")
     for agent, a in m["agents"].items():
         print(
             f"  {agent:14s} busy {a['busy_time']:7.1f} s   waiting {a['wait_time']:7.1f} s   "
@@ -519,9 +534,11 @@ def _campaign(args) -> int:
     print(f"{campaign.name}: {campaign.run_count} runs ({len(campaign.scenarios)} scenario(s) x "
           f"{len(campaign.variants)} variant(s) x {len(campaign.seeds)} seed(s), "
           f"{campaign.duration:g} s each) on {where}", flush=True)
+    configurations = len(campaign.scenarios) * len(campaign.variants)
     if args.limit is not None:
-        print(f"--limit {args.limit}: at most {args.limit} of the runs not yet done are run now; the same "
-              "command without --limit runs the rest", flush=True)
+        print(f"--limit {args.limit}: at most {args.limit} of the runs not yet done are run now, two seeds "
+              f"of each scenario x variant at a time (a test needs two); --limit {2 * configurations} "
+              "gives every one two seeds; the same command without --limit runs the rest", flush=True)
     started = time.time()
     try:
         outcome = run_campaign(campaign, out, workers=args.workers, address=args.address, progress=sys.stderr,
@@ -549,6 +566,7 @@ def _campaign(args) -> int:
         print(f"{left} run(s) of {outcome.total} not run yet: run the same command without --limit for "
               "the rest")
     _print_results(out)
+    _explain_skipped_tests(out, 2 * configurations)
     _print_files(_written_since(out, started))
     return 0
 
@@ -556,9 +574,12 @@ def _campaign(args) -> int:
 def _written_since(folder: Path, since: float) -> list[Path]:
     """The files under `folder` changed since `since` (time.time()), sorted; a folder of many
     (replays) is one line with its count. The campaign's lock and journals are not listed."""
+    from hrc_drake.campaign.store import JOURNAL_FILE, LOCK_FILE
+
     out: list[Path] = []
     for path in sorted(folder.iterdir()):
-        if path.name.startswith("."):
+        # the lock (removed at the end, unless a run was killed) and the journal are no results
+        if path.name.startswith(".") or path.name in (LOCK_FILE, JOURNAL_FILE):
             continue
         if path.is_dir():
             fresh = [p for p in path.rglob("*") if p.is_file() and p.stat().st_mtime >= since - 1.0]
@@ -617,6 +638,23 @@ def _print_results(out: Path) -> None:
                 print(f"{path}:\n{table.to_string(index=False, float_format=lambda x: f'{x:.4g}')}")
 
 
+def _explain_skipped_tests(out: Path, runs_for_two: int) -> None:
+    """Say why tests.csv skipped tests for want of seeds, and how to get them."""
+    import pandas as pd
+
+    from hrc_drake.campaign.analysis import ONE_SAMPLE
+
+    path = out / "tests.csv"
+    if not path.is_file():
+        return
+    notes = pd.read_csv(path)["note"].fillna("").astype(str)
+    few = notes.str.contains(ONE_SAMPLE) | notes.str.contains("fewer than 2 seeds")
+    if few.any():
+        print(f"{int(few.sum())} test row(s) skipped for want of seeds: a test compares two groups of at "
+              f"least two seeds each; run more (--limit {runs_for_two} gives every scenario x variant two, "
+              "the command without --limit all of them)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The `hrc-drake` argument parser: its commands and their options."""
     parser = argparse.ArgumentParser(
@@ -672,7 +710,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="another campaign is writing the folder: wait for it (at most SECONDS) instead "
                            "of refusing")
     camp.add_argument("--limit", type=_limit, default=None, metavar="N",
-                      help="run at most N of the runs not yet done (try a spec on a few); the same command "
+                      help="run at most N of the runs not yet done (try a spec on a few), two seeds of "
+                           "each scenario x variant at a time so that tests can run; the same command "
                            "without --limit resumes the rest")
     camp.set_defaults(func=_campaign)
     imp = sub.add_parser("import", help="turn a real recording into a skeleton CSV placed in a cell "

@@ -12,14 +12,29 @@ if TYPE_CHECKING:  # annotations only: `hrc-drake --help` imports this module
 
 
 class ScenarioError(ValueError):
-    """A scenario that cannot be used: names the file, the field path and the reason."""
+    """A scenario that cannot be used: names the file, the field path and the reason, and where
+    the file has it, its line and column (1-based): `file:line:column: field: reason`."""
 
-    def __init__(self, file: str | Path, field: str, reason: str):
+    def __init__(self, file: str | Path, field: str, reason: str, line: int | None = None,
+                 column: int | None = None):
         self.file = str(file)
         self.field = field
         self.reason = reason
-        where = f"{self.file}: {field}" if field and self.file else (field or self.file)
-        super().__init__(f"{where}: {reason}")
+        self.line, self.column = line, column
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        file = self.file
+        if file and self.line is not None:
+            file = f"{file}:{self.line}" + (f":{self.column}" if self.column is not None else "")
+        where = f"{file}: {self.field}" if self.field and file else (self.field or file)
+        return f"{where}: {self.reason}"
+
+    def at(self, line: int, column: int | None = None) -> ScenarioError:
+        """This error, located at `line` and `column` of its file (1-based); returns it."""
+        self.line, self.column = line, column
+        self.args = (self._message(),)
+        return self
 
 
 class ConfigError(ScenarioError):
@@ -64,12 +79,20 @@ def check_input_file(path: Path, kind: str = "scenario") -> None:
         raise ScenarioError(path, "", "cannot be read (permission denied)")
 
 
-def yaml_error_reason(err) -> str:
-    """A YAML error's problem and where (line, column), without PyYAML's snippet of the text: the
-    file may be anything (`extends: /etc/shadow` printed its first line)."""
+def yaml_error_reason(err, where: bool = True) -> str:
+    """A YAML error's problem and, with `where`, its place (line, column), without PyYAML's
+    snippet of the text: the file may be anything (`extends: /etc/shadow` printed its first line)."""
     mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
     problem = getattr(err, "problem", None) or getattr(err, "context", None) or type(err).__name__
-    where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+    place = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None and where else ""
     from hrc_drake.untrusted import one_line
 
-    return one_line(str(problem)) + where
+    return one_line(str(problem)) + place
+
+
+def yaml_syntax_error(file: str | Path, err, what: str = "not valid YAML") -> ScenarioError:
+    """`ScenarioError` for a YAML error of `file` (a `yaml.MarkedYAMLError` has a mark): located at
+    the problem's line and column (`file:line:column: what: problem`)."""
+    mark = getattr(err, "problem_mark", None) or getattr(err, "context_mark", None)
+    error = ScenarioError(file, "", f"{what}: {yaml_error_reason(err, where=mark is None)}")
+    return error.at(mark.line + 1, mark.column + 1) if mark is not None else error

@@ -7,7 +7,8 @@ Every import statement counts, at module level or inside a function:
     0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
       `allocator`, `kernels` (the numba kernels), `traces`, `interrupts` (signals), `provenance`
       (the code's version), `datasets` (where the real recordings are), `untrusted` (free text made
-      harmless where it is written), `staged_files` (a command's outputs all or nothing);
+      harmless where it is written), `staged_files` (a command's outputs all or nothing), `console`
+      (a progress line warnings do not break);
     1 the cores: every module of human, perception, intention, prediction, scheduling, motion,
       safety and robots except each `systems.py` (and the robots' Drake modules); cores of one area may
       import cores of another area when no cycle results;
@@ -34,7 +35,7 @@ REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
 LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels",
-          "traces", "interrupts", "provenance", "datasets", "untrusted", "staged_files"}
+          "traces", "interrupts", "provenance", "datasets", "untrusted", "staged_files", "console"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots", "safety"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}

@@ -283,8 +283,10 @@ def test_the_summary_states_the_verdict_first_and_the_closest_approach(tmp_path,
     lines = capsys.readouterr().out.splitlines()
     metrics = json.loads((out_dir / "metrics.json").read_text())
     safety = metrics["safety"]
-    figures = next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
-    assert lines[figures - 1] == safety["verdict"]
+    # the verdict, then the throughput (issue 54: throughput first), later the simulated time
+    figures = next(i for i, ln in enumerate(lines) if ln.startswith("products per hour"))
+    assert lines[figures - 1] == safety["verdict"] == metrics["verdict"]
+    assert figures < next(i for i, ln in enumerate(lines) if ln.startswith("simulated time"))
     assert safety["verdict"].startswith(VERDICT_WORDS)
     # pcb_collab's PFL mode is conforming: the verdict is the standard judge's count
     total = safety["violations_total"]
@@ -405,6 +407,46 @@ def test_campaign_limit_runs_a_few_and_a_later_run_resumes_the_rest(tmp_path, ca
     text = capsys.readouterr().out
     assert "1 run(s) now (0 failed), 2 done before" in text and "not run yet" not in text
     assert sorted(pd.read_parquet(out / "runs.parquet")["seed"]) == [1, 2, 3]
+
+
+def test_campaign_limit_gives_each_variant_two_seeds_and_leaves_no_lock(tmp_path, capsys):
+    """Issue 54, item 6: `--limit` takes two seeds of each scenario x variant at a time (a test
+    needs two of each side); a limit too small for that says why tests were skipped and how to
+    get them; the folder keeps no campaign.lock, and the lock is never listed as a result."""
+    import pandas as pd
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(f"name: pairs\nduration: 1\nseeds: [1, 2, 3]\nscenarios: [{TORCH}]\n"
+                    "variants: {base: {}, kalman: {tracker: !KalmanTracker {}}}\n"
+                    "metrics: [mean_speed_override, agents.human.busy_time]\n")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--workers", "0", "--limit", "3"]) == 0
+    text = capsys.readouterr().out
+    runs = pd.read_parquet(out / "runs.parquet")
+    made = sorted(zip(runs["variant"], runs["seed"], strict=True))
+    assert made == [("base", 1), ("base", 2), ("kalman", 1)]
+    assert "--limit 4 gives every one two seeds" in text
+    assert "skipped for want of seeds" in text and "--limit 4 gives every scenario x variant two" in text
+    assert not (out / "campaign.lock").exists() and "campaign.lock" not in text
+    assert main(["campaign", str(spec), "--out", str(out), "--workers", "0", "--limit", "1"]) == 0
+    text = capsys.readouterr().out
+    runs = pd.read_parquet(out / "runs.parquet")
+    assert sorted(runs.loc[runs["variant"] == "kalman", "seed"]) == [1, 2]
+    tests = pd.read_csv(out / "tests.csv")
+    assert not tests["note"].fillna("").str.contains("one sample").any()
+    assert "skipped for want of seeds" not in text and not (out / "campaign.lock").exists()
+
+
+def test_the_limit_order_takes_two_seeds_of_each_configuration_at_a_time(tmp_path):
+    from hrc_drake.campaign.spec import load_campaign
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(f"name: order\nduration: 1\nseeds: [5, 6, 7]\nscenarios: [{TORCH}]\n"
+                    "variants: {a: {}, b: {tracker: !KalmanTracker {}}}\nmetrics: [mean_speed_override]\n")
+    campaign = load_campaign(spec)
+    pairs = [(t.variant, t.seed) for t in campaign.iter_tasks_in_pairs()]
+    assert pairs == [("a", 5), ("a", 6), ("b", 5), ("b", 6), ("a", 7), ("b", 7)]
+    assert sorted(pairs) == sorted((t.variant, t.seed) for t in campaign.iter_tasks())
 
 
 def test_simulate_compiles_the_cell_s_kernel_groups_ahead_and_waits_before_the_run(monkeypatch, capsys):

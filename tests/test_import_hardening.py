@@ -134,7 +134,7 @@ def test_a_broken_cell_is_named_in_its_own_file_and_nothing_is_written(tmp_path,
     cell = tmp_path / "cell.yaml"
     cell.write_text(f"extends: {CELL}\nduration: -1\n")
     _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(tmp_path / "o" / "r.csv"),
-                      "--cell", str(cell)], f"{cell}: duration")
+                      "--cell", str(cell)], f"{cell}:2:11: duration")  # its line and column too
     assert _files(tmp_path) == sorted([source.name, cell.name])
 
 

@@ -51,10 +51,12 @@ SCENARIO = ROOT / "diagrams" / "torch_clock.yaml"
 
 def write_spec(folder: Path, runs: int, duration: float, first_seed: int = 0) -> Path:
     path = folder / f"bench_{first_seed}.yaml"
-    path.write_text(
-        f"name: bench_campaign\nduration: {duration}\nseeds: {{count: {runs}, first: {first_seed}}}\n"
-        f"scenarios: [{SCENARIO}]\nmetrics: [mean_cycle_time]\n"
-    )
+    import yaml
+
+    # dumped, not formatted: a path with YAML's special characters stays one string
+    path.write_text(yaml.safe_dump({
+        "name": "bench_campaign", "duration": float(duration), "seeds": {"count": runs, "first": first_seed},
+        "scenarios": [str(SCENARIO)], "metrics": ["mean_time_between_products"]}))
     return path
 
 

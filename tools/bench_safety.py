@@ -152,7 +152,8 @@ def run(path: str, mode: str, seed: int, duration: float) -> dict:
             "cpu_s": round(cpu, 2), "pfl_share": round(pfl_time[0] / cpu, 4) if cpu > 0 else None,
             "judge_share": round(judge_time[0] / cpu, 4) if cpu > 0 else None,
             "stop_ratio_worst": safety.get("stop_ratio_worst"),
-            "products": int(metrics.get("products_finished") or 0), "cycle_s": metrics.get("mean_cycle_time"),
+            "products": int(metrics.get("products_finished") or 0),
+            "cycle_s": metrics.get("mean_time_between_products"),
             "verdict": safety["verdict_code"], "violations": safety["violations_total"],
             "by_kind": safety["violations"],
             # a region where no contact is permitted has ratio null (infinite)

@@ -106,7 +106,7 @@ def overhead_ms(candidates: int = 40, repetitions: int = 3) -> float:
         batch=4,
         preset="",
         compare_random=False,
-        objective={"metric": "mean_cycle_time", "direction": "minimize"},
+        objective={"metric": "mean_time_between_products", "direction": "minimize"},
     )
     times = []
     for _ in range(repetitions):
@@ -115,7 +115,7 @@ def overhead_ms(candidates: int = 40, repetitions: int = 3) -> float:
             run_search(
                 search,
                 Path(out),
-                evaluator=FunctionEvaluator(lambda v, s: {"mean_cycle_time": 1.0}),
+                evaluator=FunctionEvaluator(lambda v, s: {"mean_time_between_products": 1.0}),
                 progress=None,
             )
             times.append((time.perf_counter() - start) / candidates * 1e3)

@@ -131,7 +131,7 @@ def run_arm(arm: Arm, seed: int, duration: float, warmup: int) -> dict:
         warnings.simplefilter("ignore")
         cell = build_cell(scenario, SCENARIO)
         result = simulate(cell, duration, progress=None)
-    cycles = result.metrics["cycle_times"][warmup:]
+    cycles = result.metrics["times_between_products"][warmup:]
     return {
         "cycle_s": statistics.fmean(cycles) if cycles else float("nan"),
         "products": result.metrics["products_finished"],

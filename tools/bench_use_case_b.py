@@ -87,7 +87,7 @@ def pattern_campaign(name: str, base: Path, patterns: dict[str, str], schedulers
         "seeds": {"count": seeds, "first": 100},
         "scenarios": [str(base)],
         "variants": variants,
-        "metrics": ["mean_cycle_time", "agents.*.idle_time"],
+        "metrics": ["mean_time_between_products", "agents.*.idle_time"],
         "extra_metrics": ["per_product"],
     }
     return make_campaign(document, ROOT / "tools" / f"{name}.campaign")

@@ -107,7 +107,7 @@ def experiment_campaign(experiment: str, arms: list[str], seeds: int, duration: 
         "seeds": {"count": seeds, "first": raw["seeds"]["first"]},
         "scenarios": [str(SCENARIO)],
         "variants": {arm: {**v, **experiment_overrides(experiment, v)} for arm, v in variants.items()},
-        "metrics": ["mean_cycle_time", "agents.human.idle_time"],
+        "metrics": ["mean_time_between_products", "agents.human.idle_time"],
         "extra_metrics": ["per_product"],
     }
     return make_campaign(document, ROOT / "tools" / f"use_case_c_{experiment}.campaign")

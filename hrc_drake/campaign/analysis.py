@@ -278,7 +278,8 @@ def metric_label(metric: str) -> str:
     """An axis label: the metric's name with its unit where the name tells it (times in s,
     distances in m; fractions, counts and others have none)."""
     last = metric.split("[", 1)[0].rsplit(".", 1)[-1]  # a pooled metric ends in [:k]
-    if last.endswith(("_time", "_s", "_times", "_wait")) or last in ("mean_cycle_time", "wall_time"):
+    if last.endswith(("_time", "_s", "_times", "_wait", "_between")) or last in (
+            "mean_time_between_products", "cycle_time_median", "cycle_time_p90"):
         return f"{metric} (s)"
     if "distance" in last or last.endswith("_m"):
         return f"{metric} (m)"

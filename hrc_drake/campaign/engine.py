@@ -29,6 +29,7 @@ from hrc_drake.campaign.store import (
     check_output_dir,
 )
 from hrc_drake.campaign.worker import failed_row, run_task, warm_up
+from hrc_drake.console import ProgressLine, WarningTally
 from hrc_drake.errors import EnvironmentFailure, ScenarioError
 
 #: seconds to reach a scheduler at --address before giving up
@@ -61,7 +62,26 @@ class Progress:
         self.done = self.failed = 0
         self.start = time.perf_counter()
         self.interactive = stream is not None and getattr(stream, "isatty", lambda: False)()
+        self._line = ProgressLine(stream) if self.interactive else None
         self._next_tenth = 1
+        self._warnings = WarningTally()
+
+    def note(self, run: str, text: str) -> None:
+        """A run's warning, on a line of its own above the bar: the first of each kind (its
+        words without their figures), the others counted (`repeats`)."""
+        if not self._warnings.first(text) or self.stream is None:
+            return
+        message = f"warning from {run}: {text}"
+        if self._line is not None:
+            self._line.note(message)
+        else:
+            print(message, file=self.stream, flush=True)
+
+    def repeats(self) -> None:
+        """How many more runs gave each warning (after the bar's last line)."""
+        for line in self._warnings.repeats():
+            if self.stream is not None:
+                print(line, file=self.stream, flush=True)
 
     def update(self, ok: bool) -> None:
         self.done += 1
@@ -87,8 +107,12 @@ class Progress:
         )
 
     def _print(self) -> None:
-        end = "" if self.interactive and self.done < self.total else "\n"
-        print(("\r" if self.interactive else "") + self.line(), end=end, file=self.stream, flush=True)
+        if self._line is None:
+            print(self.line(), file=self.stream, flush=True)
+            return
+        self._line.show(self.line())
+        if self.done >= self.total:
+            self._line.end()
 
 
 def _clock(seconds: float) -> str:
@@ -118,8 +142,10 @@ def run_campaign(
     client: an existing `distributed.Client` to use (and leave open) instead of either.
     new_spec: move an earlier campaign's results in DIR aside (`store.archive_previous`) instead of
     refusing a spec whose runs differ from them. wait: seconds to wait for a folder another
-    campaign holds (`store.CampaignLock`). limit: run at most this many of the runs not yet done
-    (in the spec's order; a later call without it runs the rest). An interruption (Ctrl-C,
+    campaign holds (`store.CampaignLock`). limit: run at most this many of the runs not yet done,
+    two seeds of each scenario x variant at a time (`Campaign.iter_tasks_in_pairs`: the runs
+    made give each configuration they reach the two seeds a test needs); a later call without
+    it runs the rest. An interruption (Ctrl-C,
     SIGTERM) propagates after the finished rows are saved; a run it cut short is not a row.
     """
     out_dir = Path(out_dir)
@@ -160,7 +186,8 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
         if remaining > limit and progress is not None:
             print(f"limit: {limit} of the {remaining} runs not yet done run now", file=progress, flush=True)
         remaining = min(remaining, limit)
-        pending = itertools.islice(pending, limit)
+        # two seeds of a scenario x variant before the next: a test needs two of each side
+        pending = itertools.islice((t for t in campaign.iter_tasks_in_pairs() if todo(t)), limit)
     bar = Progress(remaining, progress, label=campaign.name)
     start = time.perf_counter()
     dashboard = ""
@@ -188,6 +215,7 @@ def _run_locked(campaign, out_dir, store, workers, address, progress, analyze, c
         interrupted = False
     finally:
         _flush(store, out_dir, quiet=interrupted)
+    bar.repeats()
     rows = campaign_rows(store.frame(), campaign, hashes)
     if analyze:
         from hrc_drake.campaign.analysis import analyze_campaign
@@ -275,6 +303,8 @@ def _record(outcome: dict, task: RunTask, store: RunStore, bar: Progress, out_di
                             "earlier runs saved")
     _environment(lambda: store.add(row), f"{what} its row cannot be written to {store.journal_path} (it is "
                                          "lost); the campaign stopped with the earlier runs saved")
+    for text in outcome.get("notes", ()):
+        bar.note(f"{task.scenario}/{task.variant} seed {task.seed}", text)
     bar.update(row["status"] == "ok")
 
 

@@ -31,10 +31,11 @@ from hrc_drake.cell.scenario import (
     load_scenario,
     load_scenario_with,
     load_typed,
+    located,
 )
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
-from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
+from hrc_drake.errors import ScenarioError, check_input_file, yaml_syntax_error
 
 #: the most runs one campaign may hold (scenarios x variants x seeds): 100,000 runs of a fast
 #: 120 s cell are ~3 CPU-days; a larger study is several campaigns (each folder's table and
@@ -43,11 +44,33 @@ MAX_RUNS = 100_000
 #: a variant's or a scenario's label: it names files and table cells
 LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]*$")
 #: the metrics a campaign compares unless its file says which (`*` matches any agent or product)
-DEFAULT_METRICS = ("mean_cycle_time", "agents.*.idle_time", "min_human_robot_distance", "safety.time_below_s")
+DEFAULT_METRICS = ("products_per_hour", "products.*.cycle_time_median", "agents.*.idle_time",
+                   "min_human_robot_distance", "safety.time_below_s")
+#: metrics.json's names before issue 54 -> their names now (a spec naming an old one is told)
+RENAMED_METRICS = {
+    "mean_cycle_time": "mean_time_between_products (the mean interval between products of any type; "
+                       "a product's own cycle time is products.<type>.cycle_time_median)",
+    "cycle_times": "times_between_products",
+}
+
+
+def renamed_hint(metric: str) -> str:
+    """"; ... was renamed ..." for a metric name metrics.json used before issue 54, else ""."""
+    last = metric.rsplit(".", 1)[-1]
+    if metric in RENAMED_METRICS:
+        return f"; '{metric}' was renamed {RENAMED_METRICS[metric]}"
+    if metric.startswith("products.") and last == "mean_cycle_time":
+        return f"; '{metric}' was renamed {metric[:-len(last)]}mean_time_between (its own cycle time: " \
+               f"{metric[:-len(last)]}cycle_time_median)"
+    return ""
+
+
 #: metrics where a larger value is the better one (the rest: smaller is better, e.g. times)
 LARGER_IS_BETTER = (
     "min_human_robot_distance",
     "products_finished",
+    "products_per_hour",
+    "products.*.per_hour",
     "mean_speed_override",
     "agents.*.utilisation",
     "agents.*.busy_time",
@@ -197,18 +220,33 @@ class Campaign:
         for seed in self.seeds:
             for s in self.scenarios:
                 for v in self.variants:
-                    yield RunTask(
-                        scenario=s,
-                        scenario_path=str(self.scenarios[s]),
-                        variant=v,
-                        overrides=self.variants[v],
-                        seed=seed,
-                        duration=self.duration,
-                        config_hash=hashes[s, v],
-                        replay=(s, v, seed) in self.replays,
-                        replay_fps=self.replay_fps,
-                        extra_metrics=tuple(self.extra_metrics),
-                    )
+                    yield self._task(s, v, seed, hashes)
+
+    def iter_tasks_in_pairs(self):
+        """Every run, two seeds at a time: for each pair of seeds, each scenario x variant runs
+        both before the next starts. `--limit` takes runs in this order, so the runs it makes
+        give each scenario x variant they reach the two seeds a test needs (with a limit of
+        2 x scenarios x variants, the same runs as `iter_tasks`'s first two seeds)."""
+        hashes = self.config_hashes()
+        for k in range(0, len(self.seeds), 2):
+            for s in self.scenarios:
+                for v in self.variants:
+                    for seed in self.seeds[k:k + 2]:
+                        yield self._task(s, v, seed, hashes)
+
+    def _task(self, s: str, v: str, seed: int, hashes: dict) -> RunTask:
+        return RunTask(
+            scenario=s,
+            scenario_path=str(self.scenarios[s]),
+            variant=v,
+            overrides=self.variants[v],
+            seed=seed,
+            duration=self.duration,
+            config_hash=hashes[s, v],
+            replay=(s, v, seed) in self.replays,
+            replay_fps=self.replay_fps,
+            extra_metrics=tuple(self.extra_metrics),
+        )
 
     def tasks(self) -> list[RunTask]:
         """Every run, as `iter_tasks` makes them."""
@@ -249,7 +287,12 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
     path = Path(path)
     check_input_file(path, "campaign")
-    return make_campaign(_read_raw(path), path)
+    marks: dict = {}
+    try:
+        return make_campaign(_read_raw(path, marks), path)
+    except ScenarioError as err:
+        located(err, path, marks)  # a field written in the file: its line and column
+        raise
 
 
 def make_campaign(document: dict, file: str | Path) -> Campaign:
@@ -308,17 +351,19 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
                 set(metric_names.get(label, [])) | set(scenario_metric_names(scenario))
             )
             groups.update(dict.fromkeys(kernel_groups(scenario)))
-    metrics = list(spec.metrics) or list(DEFAULT_METRICS)
     for k, name in enumerate(spec.extra_metrics):
         try:
             resolve_extra_metrics(name)
         except KeyError as err:
             raise ScenarioError(path, f"extra_metrics[{k}]", err.args[0]) from None
     known = sorted({m for names in metric_names.values() for m in names})
+    # the defaults a cell has (one that makes no product has no product's cycle time)
+    metrics = list(spec.metrics) or [m for m in DEFAULT_METRICS if fnmatch.filter(known, m)]
     for k, pattern in enumerate(metrics):
         if not fnmatch.filter(known, pattern):
             raise ScenarioError(
-                path, f"metrics[{k}]", f"unknown metric '{pattern}' (known: {', '.join(known)})"
+                path, f"metrics[{k}]",
+                f"unknown metric '{pattern}'{renamed_hint(pattern)} (known: {', '.join(known)})"
             )
     for k, sample in enumerate(spec.pooled):
         extra = sample.metric.split(".", 1)[0]
@@ -384,17 +429,18 @@ def make_campaign(document: dict, file: str | Path) -> Campaign:
     )
 
 
-def _read_raw(path: Path) -> dict:
+def _read_raw(path: Path, marks: dict | None = None) -> dict:
+    """A spec file's raw document (`_raw_document`), `marks` filled with its fields' places."""
     if not path.is_file():
         raise ScenarioError(path, "", "no such file")
     if path.stat().st_size > MAX_SCENARIO_BYTES:
         raise ScenarioError(path, "", "too large for a campaign file")
     try:
-        raw = _raw_document(path.read_bytes().decode("utf-8"), path)  # refuses alias bombs
+        raw = _raw_document(path.read_bytes().decode("utf-8"), path, marks)  # refuses alias bombs
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not valid YAML: {yaml_error_reason(err)}") from None
+        raise yaml_syntax_error(path, err) from None
     if not isinstance(raw, dict) or isinstance(raw, Tagged):
         raise ScenarioError(path, "", "the top level must be a mapping of campaign fields")
     return raw
@@ -484,8 +530,9 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
     products = [b.name for b in scenario.layout.buffers if b.kind == "product" and b.name in made]
     names = [
         "simulated_time",
+        "products_per_hour",
         "products_finished",
-        "mean_cycle_time",
+        "mean_time_between_products",
         "min_human_robot_distance",
         "mean_speed_override",
         "time_slowed_s",
@@ -543,7 +590,8 @@ def scenario_metric_names(scenario: Scenario) -> list[str]:
         for a in agents
         for k in ("busy_time", "wait_time", "idle_time", "utilisation", "actions_finished")
     ]
-    names += [f"products.{p}.{k}" for p in products for k in ("finished", "mean_cycle_time")]
+    names += [f"products.{p}.{k}" for p in products
+              for k in ("finished", "per_hour", "cycle_time_median", "cycle_time_p90", "mean_time_between")]
     if type(scenario.action_detector).__name__ != "NoActionDetector":
         names += ["detection.*"]
     return names

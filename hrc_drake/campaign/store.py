@@ -6,7 +6,8 @@
   `flush_every` seconds (or 20 times the last rewrite's time, for large tables) and at the end,
   after which the journal is emptied; reading takes the table, then the journal's rows;
 - `campaign.lock`: one campaign writes a folder at a time (an advisory lock the system releases
-  when its holder dies; the file names the holder's pid and host for the message to others).
+  when its holder dies; the file names the holder's pid and host for the message to others),
+  removed when the campaign ends.
 
 A rerun skips the runs already `ok` with the same configuration; rows whose configuration differs
 from the spec's are refused by `check_compatible` (pooled, they would mix two campaigns).
@@ -295,7 +296,8 @@ def archive_previous(out_dir: Path) -> Path | None:
 class CampaignLock:
     """One writer per campaign folder: an exclusive advisory lock on DIR/campaign.lock (released
     by the system when the holder dies, so a killed campaign leaves no stale lock), the file
-    naming the holder's pid and host. `wait`: seconds to wait for a busy folder (0: refuse)."""
+    naming the holder's pid and host, and removed when the campaign ends (it is not a result).
+    `wait`: seconds to wait for a busy folder (0: refuse)."""
 
     POLL = 0.5
 
@@ -307,17 +309,16 @@ class CampaignLock:
     def __enter__(self):
         import fcntl
 
-        self._file = open(self.path, "a+", encoding="utf-8")  # noqa: SIM115 - held until __exit__
         deadline = time.monotonic() + self.wait
         told = False
         while True:
+            file = open(self.path, "a+", encoding="utf-8")  # noqa: SIM115 - held until __exit__
             try:
-                fcntl.flock(self._file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
+                fcntl.flock(file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
+                file.close()
                 holder = self._holder()
                 if time.monotonic() >= deadline:
-                    self._file.close()
                     raise EnvironmentFailure(
                         f"{self.path.parent} is in use by another campaign ({holder}); wait for it to "
                         "finish (or add --wait), or give another --out") from None
@@ -326,12 +327,26 @@ class CampaignLock:
                           file=self.progress, flush=True)
                     told = True
                 time.sleep(self.POLL)
+                continue
+            if self._is_at_path(file):
+                break
+            # the holder removed the file between our open and our lock: lock the one there now
+            file.close()
+        self._file = file
         self._file.seek(0)
         self._file.truncate()
         self._file.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
                                      "since": time.strftime("%Y-%m-%d %H:%M:%S")}) + "\n")
         self._file.flush()
         return self
+
+    def _is_at_path(self, file) -> bool:
+        """Whether `file` is still the lock file at `path` (not one a finished holder removed)."""
+        try:
+            at_path, held = os.stat(self.path), os.fstat(file.fileno())
+        except FileNotFoundError:
+            return False
+        return (at_path.st_dev, at_path.st_ino) == (held.st_dev, held.st_ino)
 
     def _holder(self) -> str:
         try:
@@ -341,7 +356,7 @@ class CampaignLock:
             return "its holder is not named"
 
     def __exit__(self, *exc):
-        self._file.seek(0)
-        self._file.truncate()
+        # removed while still held, so no campaign can lock this file after us (`_is_at_path`)
+        self.path.unlink(missing_ok=True)
         self._file.close()  # releases the lock
         return False

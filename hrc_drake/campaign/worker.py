@@ -46,7 +46,18 @@ def flatten_metrics(metrics: dict, prefix: str = "") -> dict:
 
 
 def run_task(task: RunTask) -> dict:
-    """Run `task`; returns {"row": the metrics row, "replay_html": the replay or None}."""
+    """Run `task`; returns {"row": the metrics row, "replay_html": the replay or None, "notes":
+    the warnings and log records it gave (`console.notes_to`), which the campaign prints above
+    its progress bar instead of a worker printing them into it}."""
+    from hrc_drake.console import notes_to
+
+    notes: list[str] = []
+    with notes_to(notes.append):
+        outcome = _run_task(task)
+    return {**outcome, "notes": notes}
+
+
+def _run_task(task: RunTask) -> dict:
     start, start_cpu = time.perf_counter(), time.thread_time()
     row = dict(zip(KEY_COLUMNS, task.key, strict=True))
     row.update(status="ok", error="", config_hash=task.config_hash, worker=_worker_name())

@@ -20,7 +20,7 @@ from pydrake.systems.rendering import MultibodyPositionToGeometryPose
 
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell import plugins
-from hrc_drake.cell.replay import add_replay_markers
+from hrc_drake.cell.replay import add_replay_markers, initial_view
 from hrc_drake.cell.scenario import ScenarioError, operator_places, scenario_relative
 from hrc_drake.cell.schema import Scenario
 from hrc_drake.cell.systems import (
@@ -520,8 +520,8 @@ def _add_recorder(
 def _add_meshcat(builder, scenario: Scenario, scene_graph, meshcat, systems, replay_fps: float):
     meshcat.Delete()
     meshcat.SetProperty("/Axes", "visible", False)
-    center = np.array(scenario.layout.table.center[:2] + [scenario.layout.table.height])
-    meshcat.SetCameraPose(center + np.array([0.3, -2.2, 1.1]), center + np.array([0.0, 0.0, 0.15]))
+    # the first view frames the whole cell (robots, table, operator, camera), not just the table
+    meshcat.SetCameraPose(*initial_view(scenario))
     params = MeshcatVisualizerParams(publish_period=1.0 / replay_fps, role=Role.kIllustration)
     visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
     add_replay_markers(builder, scenario, meshcat, systems, replay_fps)

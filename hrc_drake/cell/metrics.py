@@ -132,18 +132,31 @@ def intervals(events, end_time: float) -> list[Interval]:
 
 #: What each figure of metrics.json means (written into the file as "definitions").
 DEFINITIONS = {
+    "verdict": "the safety verdict line, a copy of safety.verdict put first in metrics.json",
+    "products_per_hour": "throughput: products_finished / simulated_time x 3600, every type together, no "
+                         "warm-up left out",
+    "products": "per product type (product buffer): finished; per_hour (finished / simulated_time x 3600); "
+                "cycle_times, each product's own cycle time (s): from the begin of the first action on any "
+                "of its parts to its completion, parts followed through the buffers first in, first out "
+                "(raw parts have no history; a part in a buffer at t = 0 starts when an action takes it), "
+                "products finished before the warm-up time left out; cycle_time_median and cycle_time_p90 "
+                "(the median and the 90th percentile, linear between order statistics; null with no "
+                "product); "
+                "times_between (intervals between its consecutive products after the warm-up) and their "
+                "mean_time_between",
     "products_finished": "finished products of every type: each part put in a product buffer by the end of a "
                          "flow action",
+    "mean_time_between_products": "mean interval between consecutive products of any type after the warm-up "
+                                  "(s): 1 / throughput, not any product's cycle time (in a cell making two "
+                                  "types it is about half of either type's interval); null with fewer than "
+                                  "two products after it",
     "product_times": "when each product was finished (s), every type together",
-    "cycle_times": "intervals between consecutive products of any type (s), the first from t = 0 (the lead "
-                   "time), no warm-up left out",
-    "mean_cycle_time": "mean interval between consecutive products of any type after the warm-up (s): 1 / "
-                       "throughput; null with fewer than two products after it",
-    "products": "per product type (product buffer): finished, cycle_times (intervals between its consecutive "
-                "products after the warm-up) and their mean_cycle_time",
+    "times_between_products": "intervals between consecutive products of any type (s), the first from t = 0 "
+                              "(the lead time), no warm-up left out",
     "warmup": "the warm-up rule (scenario `metrics`): products finished before `time` s are left out, and "
-              "the first `products` of the rest only start the clock (0: the first interval starts at "
-              "`time`)",
+              "the first `products` of the rest only start the clock of the times between products (0: "
+              "the first interval starts at `time`); a product's own cycle time needs no clock, so only "
+              "`time` applies to it",
     "busy_time": "time an agent spent executing actions (begin to end) (s)",
     "wait_time": "time an agent spent blocked (wait_begin to wait_end): it chose, or its program reached, an "
                  "action the cell refused for want of parts, room or a partner (s)",
@@ -223,6 +236,66 @@ def product_times(events, product_actions: dict[str, tuple[str, ...]],
     return {kind: sorted(ts) for kind, ts in times.items()}
 
 
+def product_spans(events, actions, buffers, shared_actions: dict[str, tuple[str, ...]] | None = None
+                  ) -> dict[str, list[tuple[float, float]]]:
+    """Per product type (product buffer), (start, finish) of each product in the order finished:
+    its parts are followed through the flow (`actions`: name, inputs, outputs; `buffers`: name,
+    kind, initial), first in, first out, as the cell world takes and puts them (finishes before
+    starts at one instant). A part's start is the earliest begin of an action on it or on the
+    parts it was made of; raw parts have no history, and a part already in a buffer at t = 0
+    starts when an action takes it. An action of several agents (`shared_actions`) takes its
+    parts at the first of its agents' k-th begins and puts them at the last of their k-th ends."""
+    from collections import deque
+
+    shared = shared_actions or {}
+    flow = {a.name: a for a in actions}
+    kinds = {b.name: b.kind for b in buffers}
+    queues = {b.name: deque([None] * int(b.initial)) for b in buffers if b.kind == "intermediate"}
+    spans: dict[str, list[tuple[float, float]]] = {b.name: [] for b in buffers if b.kind == "product"}
+    running: dict[tuple[str, str], deque] = {}  # (agent, action) -> starts of its parts under way
+    joint: dict[str, list[list]] = {}  # shared action -> per instance [start, agents yet to end]
+    counts: dict[tuple[str, str, str], int] = {}  # (agent, action, kind) -> begins / ends so far
+
+    def take(spec, time: float) -> float:
+        starts = [queues[b].popleft() if queues[b] else None for b in spec.inputs if b in queues]
+        return min([time, *(t for t in starts if t is not None)])
+
+    def put(spec, start: float, time: float) -> None:
+        for b in spec.outputs:
+            if kinds.get(b) == "product":
+                spans[b].append((start, time))
+            elif b in queues:
+                queues[b].append(start)
+
+    # finishes before starts at one instant: the world puts a part before another action takes it
+    for e in sorted((e for e in events if e.kind in ("begin", "end") and e.action in flow),
+                    key=lambda e: (e.time, e.kind == "begin", e.seq)):
+        spec, agent = flow[e.action], _agent_of(e)
+        if e.action in shared:
+            key = (agent, e.action, e.kind)
+            k = counts[key] = counts.get(key, 0) + 1
+            instances = joint.setdefault(e.action, [])
+            if e.kind == "begin" and k > len(instances):
+                instances.append([take(spec, e.time), set(shared[e.action])])
+            elif e.kind == "end" and k <= len(instances) and agent in instances[k - 1][1]:
+                instances[k - 1][1].discard(agent)
+                if not instances[k - 1][1]:
+                    put(spec, instances[k - 1][0], e.time)
+        elif e.kind == "begin":
+            running.setdefault((agent, e.action), deque()).append(take(spec, e.time))
+        elif running.get((agent, e.action)):
+            put(spec, running[(agent, e.action)].popleft(), e.time)
+    return spans
+
+
+def _percentiles(values) -> tuple[float | None, float | None]:
+    """Median and 90th percentile (numpy's linear rule), rounded; None for no values."""
+    if not len(values):
+        return None, None
+    median, p90 = np.percentile(values, [50, 90])
+    return round(float(median), 3), round(float(p90), 3)
+
+
 def _safety(stats: SampleStats, log: MetricsLog) -> dict | None:
     """Time and fraction of the samples below the safety distance, and whether any was."""
     if not np.isfinite(log.safety_distance) or not stats.count:
@@ -257,19 +330,38 @@ def summarize(
     warmup_products: int = 1,
     warmup_time: float = 0.0,
     shared_actions: dict[str, tuple[str, ...]] | None = None,
+    flow_actions=None,
+    buffers=None,
 ) -> dict:
-    """Figures of a run (`DEFINITIONS`): products and cycle times (overall and per product type,
-    after the warm-up), busy, wait and idle time per agent, minimum distance."""
+    """Figures of a run (`DEFINITIONS`): throughput, each product type's own cycle times
+    (`product_spans` over the flow's `flow_actions` and `buffers`; without them a product
+    starts at the begin of the action that finishes it) and the times between products (after
+    the warm-up), busy, wait and idle time per agent, minimum distance."""
     spans = intervals(log.events, end_time)
     by_type = product_times(log.events, product_actions, shared_actions)
+    if flow_actions is None:
+        from types import SimpleNamespace
+
+        flow_actions = [SimpleNamespace(name=a, inputs=(), outputs=kinds)
+                        for a, kinds in product_actions.items()]
+        buffers = [SimpleNamespace(name=k, kind="product", initial=0) for k in by_type]
+    lives = product_spans(log.events, flow_actions, buffers or (), shared_actions)
     done = sorted(t for ts in by_type.values() for t in ts)
-    cycle = np.diff([0.0, *done]) if done else np.zeros(0)
+    between = np.diff([0.0, *done]) if done else np.zeros(0)
     warm = cycle_times_after_warmup(done, warmup_products, warmup_time)
+
+    def per_hour(count: int) -> float | None:
+        return round(count / end_time * 3600.0, 3) if end_time > 0 else None
+
     products = {}
     for kind, ts in by_type.items():
-        cycles = cycle_times_after_warmup(ts, warmup_products, warmup_time)
-        products[kind] = {"finished": len(ts), "cycle_times": [round(float(c), 3) for c in cycles],
-                          "mean_cycle_time": _rounded_mean(cycles)}
+        cycles = [finish - start for start, finish in lives.get(kind, ()) if finish >= warmup_time]
+        median, p90 = _percentiles(cycles)
+        gaps = cycle_times_after_warmup(ts, warmup_products, warmup_time)
+        products[kind] = {"finished": len(ts), "per_hour": per_hour(len(ts)), "cycle_time_median": median,
+                          "cycle_time_p90": p90, "cycle_times": [round(float(c), 3) for c in cycles],
+                          "mean_time_between": _rounded_mean(gaps),
+                          "times_between": [round(float(c), 3) for c in gaps]}
     per_agent = {}
     for agent in agents:
         work = sum(i.end - i.start for i in spans if i.agent == agent and i.kind == "work")
@@ -288,13 +380,15 @@ def summarize(
         stats = SampleStats()
         for distance, override in zip(log.distances, log.overrides, strict=True):
             stats = stats.add(distance, override, log.safety_distance)
+    # throughput and each type's own cycle time lead: what a reader of the report asks first
     out = {
-        "simulated_time": round(end_time, 3),
-        "products_finished": len(done),
-        "product_times": [round(t, 3) for t in done],
-        "cycle_times": [round(float(c), 3) for c in cycle],
-        "mean_cycle_time": _rounded_mean(warm),
+        "products_per_hour": per_hour(len(done)),
         "products": products,
+        "products_finished": len(done),
+        "mean_time_between_products": _rounded_mean(warm),
+        "simulated_time": round(end_time, 3),
+        "product_times": [round(t, 3) for t in done],
+        "times_between_products": [round(float(c), 3) for c in between],
         "warmup": {"products": warmup_products, "time": warmup_time},
         "agents": per_agent,
         "min_human_robot_distance": round(stats.min_distance, 4) if np.isfinite(stats.min_distance) else None,

@@ -149,11 +149,12 @@ class ReplayMarkers(LeafSystem):
     def legend(self) -> list[tuple[str, tuple]]:
         """What the replay's colours mean, for its legend: (label, (r, g, b, a)) of the cell's
         things (`cell.systems` colours) and of the markers this cell draws."""
-        from hrc_drake.cell.systems import BUFFER_COLOR, GOAL_COLOR, HUMAN_COLOR, OCCLUDER_COLOR
+        from hrc_drake.cell.systems import BUFFER_COLOR, CAMERA_COLOR, GOAL_COLOR, HUMAN_COLOR, OCCLUDER_COLOR
 
         items = [("operator's body", tuple(HUMAN_COLOR)),
                  ("goal regions (where the operator reaches)", tuple(GOAL_COLOR)),
-                 ("buffers", tuple(BUFFER_COLOR))]
+                 ("buffers (flat discs on the table, where parts wait)", tuple(BUFFER_COLOR)),
+                 ("depth camera (the dark box above the cell, watching the operator)", tuple(CAMERA_COLOR))]
         if self._buffers:
             items.append(("parts in a buffer", MARKER_PART_COLOR))
         if self._has_occluders:
@@ -323,6 +324,46 @@ def add_replay_markers(builder, scenario: Scenario, meshcat, systems: dict, fps:
     return markers
 
 
+#: meshcat's default camera: its vertical field of view (deg; three.js PerspectiveCamera(75, ...))
+MESHCAT_FOV_DEG = 75.0
+#: from where the first view looks at the cell: in front of it (-y), a little along x, from above
+VIEW_DIRECTION = np.array([0.3, -2.2, 1.1])
+
+
+def cell_points(scenario: Scenario) -> np.ndarray:
+    """(n, 3) points the first view must show: the table's top corners, each robot's base and
+    0.8 m above it with its reach (0.5 m) around, the operator from the floor to 1.9 m and 0.4 m
+    around, buffers, goals, occluders' corners and the depth camera."""
+    lay = scenario.layout
+    t = lay.table
+    points = [[t.center[0] + sx * t.size[0] / 2, t.center[1] + sy * t.size[1] / 2, t.height]
+              for sx in (-1, 1) for sy in (-1, 1)]
+    ring = [(dx, dy) for dx, dy in ((0.5, 0), (-0.5, 0), (0, 0.5), (0, -0.5))]
+    for robot in scenario.robots:
+        x, y, z = robot.base.xyz
+        points += [[x, y, z], [x, y, z + 0.8]] + [[x + dx, y + dy, z + 0.3] for dx, dy in ring]
+    x, y, z = scenario.operator.base.xyz
+    points += [[x, y, z], [x, y, z + 1.9]] + [[x + 0.8 * dx, y + 0.8 * dy, z + 1.2] for dx, dy in ring]
+    points += [b.position for b in lay.buffers] + [g.center for g in lay.goals]
+    for o in lay.occluders:
+        half = np.asarray(o.size, float) / 2
+        points += [np.asarray(o.center, float) + half * [sx, sy, sz]
+                   for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    points.append(lay.camera.position)
+    return np.array([np.asarray(p, float) for p in points])
+
+
+def initial_view(scenario: Scenario, fov_deg: float = MESHCAT_FOV_DEG, margin: float = 1.1):
+    """(camera position, target) of the replay's first view: looking along `VIEW_DIRECTION` at
+    the middle of `cell_points`, far enough that the sphere holding them all fits the vertical
+    field of view with `margin` (distance = margin x radius / sin(fov / 2))."""
+    points = cell_points(scenario)
+    target = (points.min(axis=0) + points.max(axis=0)) / 2
+    radius = max(float(np.linalg.norm(points - target, axis=1).max()), 0.5)
+    distance = margin * radius / np.sin(np.radians(fov_deg) / 2)
+    return target + distance * VIEW_DIRECTION / np.linalg.norm(VIEW_DIRECTION), target
+
+
 #: the overlay `add_overlay` puts into the page: the title box, the clock, the legend
 _OVERLAY = """
 <div id="hrc-overlay" style="position:fixed;left:8px;top:8px;z-index:10;max-width:46vw;
@@ -330,6 +371,8 @@ _OVERLAY = """
      border-radius:6px;padding:6px 10px;pointer-events:none">
   <div id="hrc-title" style="font-weight:600">{title}</div>
   <div id="hrc-subtitle" style="font-size:12px">{subtitle}</div>
+  <div id="hrc-verdict" style="font-weight:600;margin-top:2px;color:{verdict_color}">{verdict}</div>
+  <div id="hrc-products">{products}</div>
   <div style="font-size:15px;font-weight:600;margin-top:2px">simulated time
     <span id="hrc-clock">t = 0.0 s</span>{of_duration}</div>
 </div>
@@ -360,16 +403,31 @@ _OVERLAY = """
 """
 
 
+def _products_line(products: dict | None) -> str:
+    """"8 products (96.0 per hour)" from metrics' products_finished and products_per_hour."""
+    if not products:
+        return ""
+    n, per_hour = products.get("products_finished", 0), products.get("products_per_hour")
+    return f"{n} product{'' if n == 1 else 's'} finished" + (
+        f" ({per_hour:.1f} per hour)" if per_hour is not None else "")
+
+
 def _css_color(rgba) -> str:
     r, g, b, a = (float(c) for c in rgba)
     return f"rgba({round(255 * r)},{round(255 * g)},{round(255 * b)},{max(a, 0.35):.2f})"
 
 
+#: the verdict line's colour by its first word (metrics.json's `safety.verdict`)
+VERDICT_COLORS = {"SAFE:": "#1a7f1a", "UNSAFE:": "#c01818"}
+
+
 def add_overlay(html: str, name: str, description: str, seed: int, duration: float | None,
-                interrupted: bool = False, legend=()) -> str:
+                interrupted: bool = False, legend=(), verdict: str | None = None,
+                products: dict | None = None) -> str:
     """`html` (meshcat's `StaticHtml()`) with an overlay a reader needs: the title (scenario
-    `name` and `description`, seed, simulated duration), the simulated time as the replay plays
-    (read from meshcat's animator) and a legend of `legend` ((label, rgba) pairs, as
+    `name` and `description`, seed, simulated duration), the run's safety `verdict` line and its
+    `products` (metrics: products_finished, products_per_hour), the simulated time as the replay
+    plays (read from meshcat's animator) and a legend of `legend` ((label, rgba) pairs, as
     `ReplayMarkers.legend`). The page's `<title>` names the scenario too."""
     from html import escape
 
@@ -383,8 +441,12 @@ def add_overlay(html: str, name: str, description: str, seed: int, duration: flo
         f'border-radius:50%;margin-right:6px;vertical-align:-1px;border:1px solid #555;'
         f'background:{_css_color(rgba)}"></span>{escape(label)}</div>'
         for label, rgba in legend)
+    first_word = (verdict or "").split(" ", 1)[0]
     overlay = _OVERLAY.format(title=escape(title), subtitle=" &middot; ".join(parts), legend=rows,
-                              of_duration=f" of {duration:.1f} s" if duration is not None else "")
+                              of_duration=f" of {duration:.1f} s" if duration is not None else "",
+                              verdict=escape(verdict or ""),
+                              verdict_color=VERDICT_COLORS.get(first_word, "#a05a00"),
+                              products=escape(_products_line(products)))
     page_title = escape(f"{name} (seed {seed}) - hrc_drake replay")
     html = html.replace("<title>Drake MeshCat</title>", f"<title>{page_title}</title>", 1)
     at = html.rfind("</body>")

@@ -6,6 +6,7 @@ import json
 import signal
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,7 +16,15 @@ from threadpoolctl import threadpool_limits
 
 from hrc_drake.allocator import keep_freed_memory
 from hrc_drake.cell.build import Cell
-from hrc_drake.cell.metrics import MetricsLog, plot_collaboration, plot_gantt, summarize, write_events_csv
+from hrc_drake.cell.metrics import (
+    DEFINITIONS,
+    MetricsLog,
+    plot_collaboration,
+    plot_gantt,
+    summarize,
+    write_events_csv,
+)
+from hrc_drake.console import ProgressLine, notes_to
 from hrc_drake.interrupts import signal_of, stop_requested_by_signals
 from hrc_drake.safety.report import plot_safety
 
@@ -70,11 +79,14 @@ def simulate(
         cell.visualizer.StartRecording(False)
     # On a terminal one line is rewritten in place; in a log, a line every 10 %.
     interactive = progress is not None and getattr(progress, "isatty", lambda: False)()
+    line = ProgressLine(progress) if interactive else None
     start = time.perf_counter()
     # One BLAS thread: a cell's matrices are small (at most 100 x 100), where OpenBLAS's extra
     # threads only spin (torch_segmentation: 33 % more CPU for the same wall time), and seeded
     # runs side by side (campaigns) use the other cores.
-    with threadpool_limits(limits=1, user_api="blas"), stop_requested_by_signals() as stop:
+    # on a terminal, warnings and log records print above the progress line, not inside it
+    with threadpool_limits(limits=1, user_api="blas"), stop_requested_by_signals() as stop, \
+            (notes_to(line.note) if line is not None else nullcontext()):
         # a signal only sets `stop`; the monitor ends the step it lands in (`interrupts`)
         diagram = cell.diagram
         simulator.set_monitor(
@@ -86,7 +98,7 @@ def simulate(
                 if stop:
                     break
                 if progress is not None and (interactive or (10 * k) % chunks == 0 or k == chunks):
-                    _print_progress(progress, interactive, simulator, world_system, world_context, k, chunks,
+                    _print_progress(line or progress, simulator, world_system, world_context, k, chunks,
                                     duration, time.perf_counter() - start)
         except KeyboardInterrupt as err:
             stop.signum = stop.signum or signal_of(err)
@@ -98,8 +110,8 @@ def simulate(
         interrupted = bool(stop) and context.get_time() < duration
         stopped_by = stop.signum
     wall = time.perf_counter() - start
-    if interactive:
-        print(file=progress)
+    if line is not None:
+        line.end()
     if record and cell.visualizer is not None:
         cell.visualizer.StopRecording()
         cell.visualizer.PublishRecording()
@@ -108,7 +120,8 @@ def simulate(
     warmup = cell.scenario.metrics
     metrics = summarize(log, end_time, cell.agents, cell.product_actions, wall_time=wall,
                         warmup_products=warmup.warmup_products, warmup_time=warmup.warmup_time,
-                        shared_actions=cell.shared_actions)
+                        shared_actions=cell.shared_actions, flow_actions=cell.scenario.flow.actions,
+                        buffers=cell.scenario.layout.buffers)
     metrics["safety"] = {**(metrics.get("safety") or {}), **cell.safety(context)}
     if interrupted:
         metrics["interrupted"] = True
@@ -118,19 +131,17 @@ def simulate(
                      stopped_by=stopped_by if interrupted else None)
 
 
-def _print_progress(progress, interactive: bool, simulator, world_system, world_context, k: int, chunks: int,
+def _print_progress(progress, simulator, world_system, world_context, k: int, chunks: int,
                     duration: float, wall: float) -> None:
-    """One progress line: a rewritten one on a terminal, a new one in a log."""
+    """One progress line: rewritten on a terminal (`progress` a `ProgressLine`), a new one in a log."""
     t = simulator.get_context().get_time()
-    lead = "\r" if interactive else ""
-    print(
-        f"{lead}  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
-        f"   products = {world_system.world(world_context).finished_products:3d}"
-        f"   realtime factor = {t / max(wall, 1e-9):6.1f}x",
-        end="" if interactive else "\n",
-        file=progress,
-        flush=True,
-    )
+    text = (f"  simulating {100 * k // chunks:3d}%  t = {t:7.1f} / {duration:.0f} s"
+            f"   products = {world_system.world(world_context).finished_products:3d}"
+            f"   realtime factor = {t / max(wall, 1e-9):6.1f}x")
+    if isinstance(progress, ProgressLine):
+        progress.show(text)
+    else:
+        print(text, file=progress, flush=True)
 
 
 def local_meshcat(quiet: bool = True):
@@ -154,9 +165,9 @@ def local_meshcat(quiet: bool = True):
 
 
 def replay_html(cell: Cell, result: RunResult | None = None) -> str:
-    """The recorded run as one self-contained HTML page, with the overlay of `replay.overlay`:
-    a title (scenario, seed, duration), the simulated clock as it plays, the legend of the
-    markers' colours."""
+    """The recorded run as one self-contained HTML page, with the overlay of `replay.add_overlay`:
+    a title (scenario, seed, duration), the safety verdict and the products of `result`, the
+    simulated clock as it plays, the legend of the markers' colours."""
     from hrc_drake.cell.replay import add_overlay
 
     scenario = cell.scenario
@@ -164,9 +175,12 @@ def replay_html(cell: Cell, result: RunResult | None = None) -> str:
     markers = cell.system("replay_markers") if cell.has_system("replay_markers") else None
     legend = markers.legend() if markers is not None else []
     name = Path(cell.scenario_path).stem if cell.scenario_path != "<scenario>" else "cell"
+    metrics = result.metrics if result is not None else {}
     return add_overlay(cell.meshcat.StaticHtml(), name=name, description=scenario.description or "",
                        seed=scenario.seed, duration=duration,
-                       interrupted=bool(result is not None and result.interrupted), legend=legend)
+                       interrupted=bool(result is not None and result.interrupted), legend=legend,
+                       verdict=(metrics.get("safety") or {}).get("verdict"),
+                       products=metrics if "products_finished" in metrics else None)
 
 
 def write_replay(cell: Cell, path: Path, result: RunResult | None = None) -> int:
@@ -192,6 +206,16 @@ def run_header(cell: Cell, result: RunResult) -> dict:
             "code_version": code_version()}
 
 
+def metrics_document(header: dict, metrics: dict) -> dict:
+    """metrics.json: the run's header, then the safety verdict line (a copy of `safety.verdict`,
+    so the file answers "is it safe?" first), then the figures, throughput first."""
+    verdict = (metrics.get("safety") or {}).get("verdict")
+    if not verdict:
+        return {"run": header, **metrics}
+    definitions = {"verdict": DEFINITIONS["verdict"], **metrics.get("definitions", {})}
+    return {"run": header, "verdict": verdict, **metrics, "definitions": definitions}
+
+
 def scenario_action_names(scenario) -> list[str]:
     """Every action name a scenario's agents may perform (flow, robots', operator's): the key of
     the Gantt chart's colours, the same in every run of the scenario."""
@@ -211,7 +235,7 @@ def write_report(cell: Cell, result: RunResult, out_dir: Path) -> list[Path]:
     for name in REPORT_FILES:
         (out_dir / name).unlink(missing_ok=True)
     metrics_path = out_dir / "metrics.json"
-    metrics_path.write_text(json.dumps({"run": run_header(cell, result), **result.metrics}, indent=2))
+    metrics_path.write_text(json.dumps(metrics_document(run_header(cell, result), result.metrics), indent=2))
     events_path = out_dir / "events.csv"
     write_events_csv(events_path, result.log.events, result.log.perceived_events,
                      (result.metrics.get("safety") or {}).get("events", ()))

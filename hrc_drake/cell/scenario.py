@@ -38,7 +38,12 @@ from hrc_drake.config_common import (
     MIN_TIME_STEP,
 )
 from hrc_drake.distributions import Distribution, validate_distribution
-from hrc_drake.errors import ConfigError, ScenarioError, check_input_file, yaml_error_reason
+from hrc_drake.errors import (
+    ConfigError,
+    ScenarioError,
+    check_input_file,
+    yaml_syntax_error,
+)
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
@@ -113,11 +118,12 @@ _ScenarioYamlLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_T
 _ScenarioYamlLoader.add_multi_constructor("!", _tagged)
 
 
-def _raw_document(text: str, file: str | Path = "<scenario>"):
+def _raw_document(text: str, file: str | Path = "<scenario>", marks: dict | None = None):
     """The document as plain mappings, lists and scalars, only to name the field at fault in
     errors (safe constructors only: `_ScenarioYamlLoader` is a SafeLoader). The scenario itself
     is read by pydrake's typed loader. Checked by `_check_shape` before it is built, so
-    `ScenarioError(file, ...)` when it nests too deeply or its aliases expand it too far."""
+    `ScenarioError(file, ...)` when it nests too deeply or its aliases expand it too far.
+    `marks`, when given, gets each field path's (line, column) in the text (`_node_marks`)."""
     loader = _ScenarioYamlLoader(text)
     try:
         try:
@@ -131,6 +137,8 @@ def _raw_document(text: str, file: str | Path = "<scenario>"):
         if node is None:
             return None
         _check_shape(node, file)
+        if marks is not None:
+            _node_marks(node, "", marks, set())
         return loader.construct_document(node)
     finally:
         loader.dispose()
@@ -165,6 +173,40 @@ def _field_path(stack: list) -> str:
             name = key.value if isinstance(key, yaml.ScalarNode) else "<key>"
             parts.append(("." if parts else "") + str(name))
     return "".join(parts)
+
+
+def _node_marks(node, path: str, marks: dict, seen: set) -> None:
+    """Each field path under `node` (`layout.buffers[0].capacity`, as errors name them) -> its
+    (line, column), 1-based: a value's where it starts on its key's line, else the key's. An
+    aliased node is walked once (`_check_shape` bounds the rest)."""
+    if id(node) in seen:
+        return
+    seen.add(id(node))
+    if isinstance(node, yaml.MappingNode):
+        for key, value in node.value:
+            if not isinstance(key, yaml.ScalarNode):
+                continue
+            sub = f"{path}.{key.value}" if path else str(key.value)
+            mark = value.start_mark if value.start_mark.line == key.start_mark.line else key.start_mark
+            marks.setdefault(sub, (mark.line + 1, mark.column + 1))
+            _node_marks(value, sub, marks, seen)
+    elif isinstance(node, yaml.SequenceNode):
+        for k, item in enumerate(node.value):
+            sub = f"{path}[{k}]"
+            marks.setdefault(sub, (item.start_mark.line + 1, item.start_mark.column + 1))
+            _node_marks(item, sub, marks, seen)
+
+
+def located(err: ScenarioError, file, marks: dict) -> ScenarioError:
+    """`err` with the line and column of its field in `file` (`_node_marks`), when it names that
+    file and the field (or, for a value left at its default, its parent) is written there."""
+    if err.line is None and err.field and err.file == str(file):
+        field = err.field.split(" ", 1)[0]
+        cut = max(field.rfind("."), field.rfind("["))
+        mark = marks.get(field) or (marks.get(field[:cut]) if cut > 0 else None)
+        if mark is not None:
+            err.at(*mark)
+    return err
 
 
 def _check_shape(root, file) -> None:
@@ -329,13 +371,27 @@ def load_scenario(path: str | Path, check_reachability: bool = False, _chain: tu
 
 
 def _load_text(path: Path, text: str, check_reachability: bool = False, _chain: tuple = (),
-               _unwritten: frozenset = frozenset()) -> Scenario:
+               _unwritten: frozenset = frozenset(), _locate: bool = True) -> Scenario:
     """`load_scenario`'s steps on `text`, read as the file `path` (relative names from its folder);
-    files in `_unwritten` (resolved paths a command has yet to write) are not opened."""
+    files in `_unwritten` (resolved paths a command has yet to write) are not opened. An error
+    of a field written in the text names its line and column (`located`) unless `_locate` is
+    false (a text made from the file, whose lines are not the file's)."""
+    marks: dict = {}
     try:
-        raw = _raw_document(text, path)
+        return _load_marked(path, text, marks, check_reachability, _chain, _unwritten)
+    except ScenarioError as err:
+        if _locate:
+            located(err, path, marks)
+        raise
+
+
+def _load_marked(path: Path, text: str, marks: dict, check_reachability: bool = False, _chain: tuple = (),
+                 _unwritten: frozenset = frozenset()) -> Scenario:
+    """`_load_text`'s steps, filling `marks` (`_node_marks`) as it reads the text."""
+    try:
+        raw = _raw_document(text, path, marks)
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not valid YAML: {yaml_error_reason(err)}") from None
+        raise yaml_syntax_error(path, err) from None
     except RecursionError:
         raise ScenarioError(path, "", "nested too deeply to be a scenario") from None
     if not isinstance(raw, dict):
@@ -582,7 +638,8 @@ def load_scenario_with(
         merged = merge_raw(raw, overrides)
     except ConfigError as err:
         raise ScenarioError(path, err.field, f"{err.reason} (in the overrides)") from None
-    return _load_text(path, dump_raw(merged), check_reachability)
+    # the merged text's lines are not the file's: its errors name no line
+    return _load_text(path, dump_raw(merged), check_reachability, _locate=False)
 
 
 def _extended(path: Path, extends, chain: tuple) -> Scenario | None:

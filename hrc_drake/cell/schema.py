@@ -85,12 +85,13 @@ class Layout:
 
 @dataclass
 class Metrics:
-    """How the report counts cycle times (README "Metrics"; `metrics.DEFINITIONS`).
+    """The report's warm-up (docs/usage.md "Metrics"; `metrics.DEFINITIONS`).
 
-    The cycle times of a product type are the intervals between its consecutive products,
-    leaving out the warm-up: products finished before `warmup_time`, and the first
-    `warmup_products` of the rest only start the clock (1: the lead time to the first product
-    is not a cycle; 0: it is, counted from `warmup_time`).
+    The times between products (of a type, or of any) leave out products finished before
+    `warmup_time`, and the first `warmup_products` of the rest only start the clock (1: the
+    lead time to the first product is not an interval; 0: it is, counted from `warmup_time`).
+    A product's own cycle time (its start to its completion) leaves out those finished before
+    `warmup_time` only.
     """
 
     warmup_products: int = 1

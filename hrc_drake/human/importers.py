@@ -367,7 +367,7 @@ def read_columns_file(path) -> dict:
     file and the entry at fault."""
     import yaml
 
-    from hrc_drake.errors import ScenarioError, check_input_file, yaml_error_reason
+    from hrc_drake.errors import ScenarioError, check_input_file, yaml_syntax_error
 
     path = Path(path)
     check_input_file(path, "column mapping")
@@ -376,7 +376,7 @@ def read_columns_file(path) -> dict:
     except UnicodeDecodeError as err:
         raise ScenarioError(path, "", f"not UTF-8 text (byte {err.start})") from None
     except yaml.YAMLError as err:
-        raise ScenarioError(path, "", f"not a YAML mapping: {yaml_error_reason(err)}") from None
+        raise yaml_syntax_error(path, err, "not a YAML mapping") from None
     if not isinstance(document, dict) or not document:
         raise ScenarioError(path, "", "must map skeleton point names to [x, y, z] column indices")
     for name, cols in document.items():

@@ -28,6 +28,7 @@ from hrc_drake.campaign.spec import RunTask, _config_hash
 from hrc_drake.campaign.store import CampaignLock, RunStore, check_output_dir
 from hrc_drake.campaign.worker import KEY_COLUMNS, flatten_metrics
 from hrc_drake.cell.scenario import dump_raw
+from hrc_drake.console import WarningTally
 from hrc_drake.errors import ScenarioError
 from hrc_drake.search import params as P
 from hrc_drake.search.spec import CmaEs, Random, Search, SearchParameter, random_search_seed
@@ -165,9 +166,16 @@ class CampaignEvaluator:
     def run(self, jobs, store, out_dir, done) -> None:
         from hrc_drake.campaign import engine as campaign_engine
 
-        class Bar:  # the campaign's progress interface: one call per finished run
+        tally = WarningTally()
+
+        class Bar:  # the campaign's progress interface: one call per finished run, its warnings
             def update(self, ok: bool) -> None:
                 done(ok)
+
+            def note(self, run: str, text: str) -> None:
+                # the search prints whole lines: the first warning of each kind on its own line
+                if tally.first(text):
+                    print(f"warning from {run}: {text}", file=sys.stderr, flush=True)
 
         if self.client is None:
             from hrc_drake.campaign.worker import run_task

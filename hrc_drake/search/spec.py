@@ -18,9 +18,24 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from hrc_drake.campaign.spec import LABEL, MAX_RUNS, _read_raw, _seeds, scenario_metric_names
+from hrc_drake.campaign.spec import (
+    LABEL,
+    MAX_RUNS,
+    _read_raw,
+    _seeds,
+    renamed_hint,
+    scenario_metric_names,
+)
 from hrc_drake.cell.build import kernel_groups
-from hrc_drake.cell.scenario import Tagged, _check_keys, _raw_document, dump_raw, load_scenario, load_typed
+from hrc_drake.cell.scenario import (
+    Tagged,
+    _check_keys,
+    _raw_document,
+    dump_raw,
+    load_scenario,
+    load_typed,
+    located,
+)
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
 from hrc_drake.errors import ScenarioError, check_input_file
 from hrc_drake.search import params as P
@@ -281,7 +296,12 @@ def load_search(path: str | Path) -> Search:
     """Read and check a search file; `ScenarioError` on any problem."""
     path = Path(path)
     check_input_file(path, "search")
-    return make_search(_read_raw(path), path)
+    marks: dict = {}
+    try:
+        return make_search(_read_raw(path, marks), path)
+    except ScenarioError as err:
+        located(err, path, marks)  # a field written in the file: its line and column
+        raise
 
 
 def _typed(cls, node, where: str, path: Path, hand_read=()):
@@ -443,7 +463,7 @@ def _objective(node, preset: str, scenario, numeric, path: Path) -> Objective:
             )
         return Objective(metric=metric, direction="minimize", over_seeds="worst")
     if node is None and preset == "optimise":
-        return Objective(metric="mean_cycle_time", direction="minimize", over_seeds="mean")
+        return Objective(metric="mean_time_between_products", direction="minimize", over_seeds="mean")
     objective = _typed(Objective, node, "objective", path)
     if objective.direction not in DIRECTIONS:
         raise ScenarioError(
@@ -460,7 +480,7 @@ def _objective(node, preset: str, scenario, numeric, path: Path) -> Objective:
             path,
             "objective.metric",
             f"'{objective.metric}' is not a numeric metric of "
-            f"metrics.json for this scenario (known: {', '.join(numeric)})",
+            f"metrics.json for this scenario{renamed_hint(objective.metric)} (known: {', '.join(numeric)})",
         )
     return objective
 
@@ -474,7 +494,7 @@ def _constraint(text, where: str, numeric, path: Path) -> Constraint:
         raise ScenarioError(
             path,
             where,
-            f"'{metric}' is not a numeric metric of metrics.json for this scenario "
+            f"'{metric}' is not a numeric metric of metrics.json for this scenario{renamed_hint(metric)} "
             f"(known: {', '.join(numeric)})",
         )
     return Constraint(metric, op, float(value))

@@ -14,7 +14,8 @@ from hrc_drake.campaign.analysis import analyze_campaign, compare_campaigns
 from hrc_drake.campaign.worker import KEY_COLUMNS, RUN_COLUMNS
 
 NAN = math.nan
-DESCRIPTION = {"name": "issue42", "metrics": ["mean_cycle_time", "products_finished"], "expect": []}
+DESCRIPTION = {"name": "issue42", "metrics": ["mean_time_between_products", "products_finished"],
+               "expect": []}
 
 
 def _rows(cycle_times: dict[tuple[str, str], list]) -> pd.DataFrame:
@@ -29,7 +30,8 @@ def _rows(cycle_times: dict[tuple[str, str], list]) -> pd.DataFrame:
             if value is None:
                 row.update(status="failed", error="RuntimeError: boom")
             else:
-                row.update(mean_cycle_time=value, products_finished=0 if math.isnan(value) else 20 // value)
+                row.update(mean_time_between_products=value,
+                           products_finished=0 if math.isnan(value) else 20 // value)
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -53,7 +55,8 @@ def _read(path: Path) -> pd.DataFrame:
     return pd.read_csv(path, dtype={"note": str}).fillna({"note": ""})
 
 
-def _summary_row(summary: pd.DataFrame, scenario: str, variant: str, metric: str = "mean_cycle_time"):
+def _summary_row(summary: pd.DataFrame, scenario: str, variant: str,
+                 metric: str = "mean_time_between_products"):
     key = summary[["scenario", "variant", "metric"]].apply(tuple, axis=1)
     chosen = summary[key == (scenario, variant, metric)]
     assert len(chosen) == 1, chosen
@@ -72,11 +75,12 @@ def test_a_metric_all_nan_in_one_group_is_noted_in_summary_tests_and_plots(tmp_p
     assert _summary_row(summary, "torch_clock", "rr", "products_finished")["n"] == 3  # zeros are values
 
     tests = _read(tmp_path / "tests.csv")
-    cycle = tests[tests["metric"] == "mean_cycle_time"]
+    cycle = tests[tests["metric"] == "mean_time_between_products"]
     assert set(cycle["test"]) == {"wilcoxon_signed_rank", "rank_sum"}
     assert cycle["p"].isna().all() and (cycle["note"] == "skipped (b: all NaN)").all()
 
-    assert tmp_path / "box_mean_cycle_time.png" in paths and tmp_path / "ecdf_mean_cycle_time.png" in paths
+    assert tmp_path / "box_mean_time_between_products.png" in paths
+    assert tmp_path / "ecdf_mean_time_between_products.png" in paths
     assert "all NaN" in panel_texts  # the box plot marks the empty group's place
     assert any("torch_clock / rr: all NaN" in text for text in panel_texts)  # the ECDF lists it
 
@@ -92,7 +96,7 @@ def test_a_single_sample_group_has_statistics_but_no_interval_and_no_test(tmp_pa
     assert _summary_row(summary, "assembly", "rr")["note"] == ""
 
     tests = _read(tmp_path / "tests.csv")
-    cycle = tests[tests["metric"] == "mean_cycle_time"]
+    cycle = tests[tests["metric"] == "mean_time_between_products"]
     assert len(cycle) == 2 and (cycle["note"] == "skipped (a: one sample)").all()
     assert cycle[["statistic", "p", "effect_size"]].isna().all().all()
 
@@ -142,9 +146,9 @@ def test_compare_of_two_campaigns_where_one_has_an_all_nan_group(tmp_path, panel
     assert _summary_row(summary, "torch_clock", "short/rr")["note"] == "all NaN"
     assert _summary_row(summary, "torch_clock", "long/rr")["median"] == 10.0
     tests = _read(tmp_path / "out" / "tests.csv")
-    cycle = tests[tests["metric"] == "mean_cycle_time"]
+    cycle = tests[tests["metric"] == "mean_time_between_products"]
     assert (cycle["a"] == "long/rr").all() and (cycle["note"] == "skipped (b: all NaN)").all()
-    assert tmp_path / "out" / "box_mean_cycle_time.png" in paths
+    assert tmp_path / "out" / "box_mean_time_between_products.png" in paths
     assert "all NaN" in panel_texts
 
 
@@ -158,7 +162,8 @@ def test_pooled_per_run_samples_are_tested_as_one_sample_per_variant(tmp_path):
     rows = _rows({("cell", v): [20.0] * len(w) for v, w in waits.items()})
     rows["per_product.operator_wait"] = [w for v in waits for w in waits[v]]
     rows.loc[rows["per_product.operator_wait"].isna(), "status"] = "failed"
-    description = {"name": "pooled", "metrics": ["mean_cycle_time"], "extra_metrics": ["per_product"],
+    description = {"name": "pooled", "metrics": ["mean_time_between_products"],
+                   "extra_metrics": ["per_product"],
                    "pooled": [{"metric": "per_product.operator_wait", "first": 2}],
                    "expect": [{"better": "fuzzy", "than": "uniform",
                                "metrics": ["per_product.operator_wait"]}]}

@@ -14,7 +14,7 @@ def test_the_box_plot_legend_names_the_median_and_the_mean_as_they_are_drawn():
     rng = np.random.default_rng(0)
     data = [("rr", rng.normal(10.0, 1.0, 20), ""), ("none", np.zeros(0), "no ok runs"),
             ("fifo", np.r_[rng.normal(12.0, 1.0, 19), 30.0], "")]
-    fig = box_figure(data, "mean_cycle_time", "small")
+    fig = box_figure(data, "mean_time_between_products", "small")
     ax = fig.axes[0]
     legend = ax.get_legend()
     labels = [t.get_text() for t in legend.get_texts()]

@@ -36,7 +36,7 @@ scenarios: [{TORCH}]
 variants:
   rr: {{scheduler: !RoundRobinScheduler {{wait_quantum: 5.0}}}}
   none: {{}}
-metrics: [mean_cycle_time, agents.*.idle_time, min_human_robot_distance, safety.time_below_s]
+metrics: [mean_time_between_products, agents.*.idle_time, min_human_robot_distance, safety.time_below_s]
 expect: {{better: rr, than: none, metrics: [agents.human.idle_time]}}
 replays: [{{variant: none, seed: 1}}]
 """
@@ -87,7 +87,8 @@ def test_the_command_writes_rows_summary_tests_plots_and_the_replay(sequential, 
     for stem in ("agents_human_idle_time", "agents_yumi_left_idle_time", "min_human_robot_distance"):
         assert (out / f"box_{stem}.png").stat().st_size > 1000
         assert (out / f"ecdf_{stem}.png").stat().st_size > 1000
-    assert not (out / "box_mean_cycle_time.png").exists()  # no product in 15 s: no cycle time to draw
+    # no product in 15 s: no time between products to draw
+    assert not (out / "box_mean_time_between_products.png").exists()
     assert (out / "replays" / "torch_clock__none__1.html").stat().st_size > 100_000
     assert json.loads((out / "campaign.json").read_text())["name"] == "small"
 
@@ -229,6 +230,11 @@ def test_an_unreachable_address_is_a_clear_error_not_a_hang(tmp_path):
         ),
         (("none: {}", "none: {scheduler: !NoSuchScheduler {}}"), "variants.none.scheduler", "unknown kind"),
         (("agents.*.idle_time", "agents.*.idle_tim"), "metrics[1]", "unknown metric"),
+        # a name metrics.json had before issue 54 is told its new one
+        (("metrics: [mean_time_between_products", "metrics: [mean_cycle_time"), "metrics[0]",
+         "'mean_cycle_time' was renamed mean_time_between_products"),
+        (("metrics: [mean_time_between_products", "metrics: [products.*.mean_cycle_time"), "metrics[0]",
+         "was renamed products.*.mean_time_between"),
         (("seeds: [1, 2]", "seeds: []"), "seeds", "empty"),
         (("seeds: [1, 2]", "seeds: [1, 2, 1]"), "seeds[2]", "listed twice"),
         (("seeds: [1, 2]", "seeds: {count: 0}"), "seeds.count", "must be an integer"),
@@ -305,10 +311,11 @@ def test_rank_biserial_effect_sizes_and_one_sided_alternatives():
     u, p, r = analysis.rank_sum_test(a, b, "less")
     assert u == pytest.approx(8.0) and r == pytest.approx(2 * 8.0 / 25 - 1) and p < 0.5
     claims = [
-        {"better": "fuzzy", "than": "uniform", "metrics": ["mean_cycle_time", "min_human_robot_distance"]}
+        {"better": "fuzzy", "than": "uniform",
+         "metrics": ["mean_time_between_products", "min_human_robot_distance"]}
     ]
-    assert analysis._alternative("fuzzy", "uniform", "mean_cycle_time", claims)[0] == "less"
-    assert analysis._alternative("uniform", "fuzzy", "mean_cycle_time", claims)[0] == "greater"
+    assert analysis._alternative("fuzzy", "uniform", "mean_time_between_products", claims)[0] == "less"
+    assert analysis._alternative("uniform", "fuzzy", "mean_time_between_products", claims)[0] == "greater"
     assert analysis._alternative("fuzzy", "uniform", "min_human_robot_distance", claims)[0] == "greater"
     assert analysis._alternative("fuzzy", "uniform", "safety.time_below_s", claims)[0] == "two-sided"
     values = np.random.default_rng(3).normal(10.0, 1.0, 40)
@@ -377,7 +384,7 @@ def test_extra_metrics_from_the_python_api_are_columns_of_the_rows(tmp_path):
 
 
 def test_plot_labels_carry_the_unit_the_metric_name_tells():
-    assert analysis.metric_label("mean_cycle_time") == "mean_cycle_time (s)"
+    assert analysis.metric_label("mean_time_between_products") == "mean_time_between_products (s)"
     assert analysis.metric_label("agents.human.idle_time") == "agents.human.idle_time (s)"
     assert analysis.metric_label("safety.time_below_s") == "safety.time_below_s (s)"
     assert analysis.metric_label("min_human_robot_distance") == "min_human_robot_distance (m)"

@@ -29,7 +29,7 @@ name: integrity
 duration: 20
 seeds: [1, 2]
 scenarios: [{TORCH}]
-metrics: [mean_cycle_time, agents.*.idle_time]
+metrics: [mean_time_between_products, agents.*.idle_time]
 """
 
 
@@ -217,14 +217,14 @@ def test_rows_are_journaled_before_the_table_and_a_torn_line_is_skipped(tmp_path
                 "status": "ok",
                 "error": "",
                 "config_hash": "h",
-                "mean_cycle_time": float(seed),
+                "mean_time_between_products": float(seed),
             }
         )
     with open(tmp_path / store.JOURNAL_FILE, "a") as journal:
         journal.write('{"scenario": "s", "variant": "v", "se')  # the crash, mid-line
     assert not (tmp_path / store.RUNS_FILE).exists()
     rows = store.read_runs(tmp_path)
-    assert list(rows["seed"]) == [1, 2, 3] and list(rows["mean_cycle_time"]) == [1.0, 2.0, 3.0]
+    assert list(rows["seed"]) == [1, 2, 3] and list(rows["mean_time_between_products"]) == [1.0, 2.0, 3.0]
     store.RunStore(tmp_path)  # a writer folds the journal into the table
     assert len(pd.read_parquet(tmp_path / store.RUNS_FILE)) == 3
     assert (tmp_path / store.JOURNAL_FILE).read_text() == ""

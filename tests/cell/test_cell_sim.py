@@ -63,6 +63,29 @@ def test_events_are_ordered_and_products_counted(torch_run):
     assert result.metrics["realtime_factor"] > 0
 
 
+def test_throughput_and_each_products_own_cycle_on_a_real_run(torch_run):
+    """products per hour = products / duration x 3600; a torch's cycle runs from the first of R1
+    (its front) and H2 (its batteries) to H3, a clock's from the first of R3 (dial) and L2
+    (glass) to H5 (no part is in a buffer at t = 0: the first product takes the first parts)."""
+    cell, result = torch_run
+    m = result.metrics
+    n = m["products_finished"]
+    assert n >= 1 and m["products_per_hour"] == pytest.approx(n / 120.0 * 3600.0, abs=1e-3)
+    assert sum(p["finished"] for p in m["products"].values()) == n
+
+    def first(action: str, kind: str) -> float:
+        return min(e.time for e in result.log.events if e.action == action and e.kind == kind)
+
+    for product, starts, last in (("torch_out", ("R1", "H2"), "H3"), ("clock_out", ("R3", "L2"), "H5")):
+        p = m["products"][product]
+        assert len(p["cycle_times"]) == p["finished"]
+        if p["finished"]:
+            begun = min(first(a, "begin") for a in starts)
+            assert p["cycle_times"][0] == pytest.approx(first(last, "end") - begun, abs=1e-3)
+            assert p["cycle_time_median"] == pytest.approx(float(np.median(p["cycle_times"])), abs=1e-3)
+    assert any(p["finished"] for p in m["products"].values())
+
+
 def test_dynamic_mode_tracks_the_path(tmp_path):
     from tests.conftest import DIAGRAMS
 
@@ -108,15 +131,30 @@ def test_simulate_command_writes_report_and_replay(tmp_path, diagrams_dir, capsy
         )
     assert code == 0
     printed = capsys.readouterr().out
-    for line in ("simulated time", "wall time", "realtime factor", "products finished", "mean cycle time"):
+    for line in ("simulated time", "wall time", "realtime factor", "products per hour", "mean time between"):
         assert line in printed
+    # the verdict first, then throughput and each type's cycle time, then the rest
+    heads = ("SAFE", "UNSAFE", "NO SAFETY", "NON-", "products per hour", "  torch_out", "mean time between",
+             "simulated time")
+    lines = [line for line in printed.splitlines() if line.startswith(heads)]
+    assert [line.split()[0] for line in lines[1:]] == ["products", "torch_out", "mean", "simulated"], lines
+    assert lines[0].split()[0] in ("SAFE:", "UNSAFE:", "NO", "NON-CONFORMING:"), lines
+    assert "mean cycle time" not in printed
     metrics = json.loads((out / "metrics.json").read_text())
+    assert list(metrics)[:4] == ["run", "verdict", "products_per_hour", "products"]
+    assert metrics["verdict"] == metrics["safety"]["verdict"] and "verdict" in metrics["definitions"]
     assert metrics["simulated_time"] == 12.0
     assert set(metrics["agents"]) == {"human", "yumi_right", "yumi_left"}
     assert (out / "events.csv").read_text().startswith("time,agent,action,kind,seq")
     assert (out / "gantt.png").stat().st_size > 10_000
     html = replay.read_text()
     assert html.startswith("<!DOCTYPE html>") or "<html" in html[:200]
+    # the replay's card holds the run's verdict and products (issue 54, item 6)
+    from html import escape
+
+    card = html[html.index('id="hrc-verdict"'):html.index('id="hrc-legend"')]
+    assert escape(metrics["safety"]["verdict"]) in card
+    assert f"{metrics['products_finished']} products finished" in card
     assert "http://" not in html.split("<script", 1)[0]
 
 

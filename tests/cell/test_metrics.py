@@ -35,17 +35,65 @@ def _log() -> MetricsLog:
     return MetricsLog(events=events)
 
 
-def test_cycle_times_are_per_product_type_and_the_mean_over_any_type_says_so():
+def test_times_between_products_are_per_type_and_the_mean_over_any_type_says_so():
     m = summarize(_log(), 40.0, ["human", "arm"], {"torch": ("torch_out",), "clock": ("clock_out",)})
-    assert m["products"]["torch_out"] == {"finished": 3, "cycle_times": [10.0, 10.0], "mean_cycle_time": 10.0}
-    assert m["products"]["clock_out"] == {"finished": 2, "cycle_times": [20.0], "mean_cycle_time": 20.0}
+    torch, clock = m["products"]["torch_out"], m["products"]["clock_out"]
+    assert (torch["times_between"], torch["mean_time_between"]) == ([10.0, 10.0], 10.0)
+    assert (clock["times_between"], clock["mean_time_between"]) == ([20.0], 20.0)
+    # without the flow a product starts at the begin of the action that finishes it
+    assert torch["cycle_times"] == [10.0, 10.0, 10.0] and clock["cycle_times"] == [10.0, 10.0]
     # any type: products at 10, 15, 20, 30, 35 -> intervals after the first: 5, 5, 10, 5
-    assert m["mean_cycle_time"] == pytest.approx(6.25) and m["products_finished"] == 5
-    assert m["cycle_times"] == [10.0, 5.0, 5.0, 10.0, 5.0]  # from t = 0, nothing left out
+    assert m["mean_time_between_products"] == pytest.approx(6.25) and m["products_finished"] == 5
+    assert m["times_between_products"] == [10.0, 5.0, 5.0, 10.0, 5.0]  # from t = 0, nothing left out
+    assert m["products_per_hour"] == 450.0 and torch["per_hour"] == 270.0  # 5 and 3 in 40 s
     later = summarize(_log(), 40.0, ["human", "arm"], {"torch": ("torch_out",), "clock": ("clock_out",)},
                       warmup_products=0, warmup_time=12.0)
-    assert later["products"]["torch_out"]["cycle_times"] == [8.0, 10.0]
+    assert later["products"]["torch_out"]["times_between"] == [8.0, 10.0]
+    assert later["products"]["torch_out"]["cycle_times"] == [10.0, 10.0]  # only warmup_time applies
     assert later["warmup"] == {"products": 0, "time": 12.0}
+
+
+def _flow_log():
+    """A feeder -> `mid` (1 part at t = 0) -> `out` line (the human's A makes a part, the arm's B
+    finishes it) and a shared action C (human and arm) putting a `pair` product."""
+    from types import SimpleNamespace as N
+
+    actions = [N(name="A", inputs=["feed"], outputs=["mid"]), N(name="B", inputs=["mid"], outputs=["out"]),
+               N(name="C", inputs=["feed"], outputs=["pair"])]
+    buffers = [N(name="feed", kind="raw", initial=0), N(name="mid", kind="intermediate", initial=1),
+               N(name="out", kind="product", initial=0), N(name="pair", kind="product", initial=0)]
+    human = [(0, "A", "begin"), (5, "A", "end"), (10, "A", "begin"), (14, "A", "end"), (15, "A", "begin"),
+             (18, "A", "end"), (31, "C", "begin"), (38, "C", "end"), (40, "C", "begin"), (45, "C", "end")]
+    arm = [(1, "B", "begin"), (4, "B", "end"), (6, "B", "begin"), (10, "B", "end"), (14, "B", "begin"),
+           (20, "B", "end"), (21, "B", "begin"), (30, "B", "end"), (31, "C", "begin"), (35, "C", "end"),
+           (41, "C", "begin"), (50, "C", "end")]
+    events = [HumanEvent(float(t), a, k, n) for n, (t, a, k) in enumerate(human, 1)]
+    events += [RobotEvent(float(t), "arm", a, k, n) for n, (t, a, k) in enumerate(arm, 1)]
+    return MetricsLog(events=events), actions, buffers
+
+
+def test_each_products_cycle_runs_from_its_first_action_to_its_completion():
+    """By hand: `out` products start 1 (the part at t = 0 starts when B takes it), 0, 10 (A's
+    part put at 14 as B begins at 14: the world puts before it takes), 15 and finish 4, 10, 20,
+    30: cycles 3, 10, 10, 15; `pair` (C shared, done when its last agent ends): 38 - 31 = 7 and
+    50 - 40 = 10. Median and p90 by numpy's linear rule: [3, 10, 10, 15] -> 10 and
+    10 + 0.7 x 5 = 13.5; [7, 10] -> 8.5 and 9.7."""
+    log, actions, buffers = _flow_log()
+    kwargs = dict(flow_actions=actions, buffers=buffers, shared_actions={"C": ("human", "arm")})
+    m = summarize(log, 60.0, ["human", "arm"], {"B": ("out",), "C": ("pair",)}, **kwargs)
+    out, pair = m["products"]["out"], m["products"]["pair"]
+    assert out["cycle_times"] == [3.0, 10.0, 10.0, 15.0] and pair["cycle_times"] == [7.0, 10.0]
+    assert (out["cycle_time_median"], out["cycle_time_p90"]) == (10.0, 13.5)
+    assert (pair["cycle_time_median"], pair["cycle_time_p90"]) == (8.5, 9.7)
+    assert m["products_per_hour"] == 360.0 and out["per_hour"] == 240.0  # 6 and 4 products in 60 s
+    # the warm-up time leaves out the products finished before it (4 and 10)
+    later = summarize(log, 60.0, ["human", "arm"], {"B": ("out",), "C": ("pair",)}, warmup_time=12.0,
+                      **kwargs)
+    assert later["products"]["out"]["cycle_times"] == [10.0, 15.0]
+    assert (later["products"]["out"]["cycle_time_median"], later["products"]["out"]["cycle_time_p90"]) == (
+        12.5, 14.5)
+    assert summarize(MetricsLog(), 60.0, [], {"B": ("out",)}, flow_actions=actions, buffers=buffers)[
+        "products"]["out"]["cycle_time_median"] is None
 
 
 def test_idle_is_everything_but_work_and_wait_is_the_blocked_part_of_it():

@@ -35,7 +35,7 @@ seeds: [1]
 budget: {budget}
 batch: 4
 optimizer: !TPE {{seed: 3, n_startup_trials: 6}}
-objective: {{metric: mean_cycle_time, direction: minimize}}
+objective: {{metric: mean_time_between_products, direction: minimize}}
 constraints: ["safety.violations_total == 0"]
 parameters:
   - !Float {{name: x, path: "operator.base.xyz[0]", low: 1.6, high: 2.0}}
@@ -48,7 +48,7 @@ def toy(values, seed):
     """A known optimum: x = 1.9, y = 0.35, foam first; infeasible where y > 0.55."""
     order_penalty = 0.0 if values["order"][0] == "foam" else 0.05
     return {
-        "mean_cycle_time": (values["x"] - 1.9) ** 2 + (values["y"] - 0.35) ** 2 + order_penalty,
+        "mean_time_between_products": (values["x"] - 1.9) ** 2 + (values["y"] - 0.35) ** 2 + order_penalty,
         "safety": {"violations_total": int(values["y"] > 0.55)},
     }
 
@@ -113,8 +113,8 @@ def test_flow_precedence_and_permutations_respect_it():
     [
         ('path: "operator.base.xyz[0]"', 'path: "operator.bass.xyz[0]"', "parameters[0].path"),
         ("low: 1.6, high: 2.0", "low: 2.0, high: 2.0", "parameters[0].high"),
-        ("metric: mean_cycle_time", "metric: mean_cycle_tme", "objective.metric"),
-        ("metric: mean_cycle_time", "metric: safety.verdict", "objective.metric"),
+        ("metric: mean_time_between_products", "metric: mean_cycle_tme", "objective.metric"),
+        ("metric: mean_time_between_products", "metric: safety.verdict", "objective.metric"),
         ('"safety.violations_total == 0"', '"safety.nope == 0"', "constraints[0]"),
         ('"safety.violations_total == 0"', '"safety.violations_total = 0"', "constraints[0]"),
         ("budget: 8", "budget: 0", "budget"),
@@ -134,6 +134,13 @@ def test_a_bad_spec_is_refused_naming_the_field(tmp_path, old, new, field):
     with pytest.raises(ScenarioError) as err:
         load_search(write_spec(tmp_path, text.replace(old, new)))
     assert err.value.field == field, str(err.value)
+
+
+def test_an_objective_named_as_before_issue_54_is_told_its_new_name(tmp_path):
+    text = BASE.format(budget=8).replace("metric: mean_time_between_products", "metric: mean_cycle_time")
+    with pytest.raises(ScenarioError) as err:
+        load_search(write_spec(tmp_path, text))
+    assert err.value.field == "objective.metric" and "renamed mean_time_between_products" in err.value.reason
 
 
 def test_a_permutation_against_the_flow_is_refused(tmp_path):
@@ -163,7 +170,7 @@ def test_a_search_finds_the_known_optimum_of_a_toy(tmp_path):
     # infeasible candidates are marked and never the best
     assert not results[results["param.y"] > 0.55]["feasible"].any()
     table = pd.read_parquet(tmp_path / "out" / "results.parquet")
-    assert len(table) == 60 and "metric.mean_cycle_time" in table
+    assert len(table) == 60 and "metric.mean_time_between_products" in table
     runs = pd.read_parquet(tmp_path / "out" / "runs.parquet")
     assert len(runs) == 60 and set(runs["variant"]) == set(results["variant"])
     for name in ("history.png", "importances.png", "parameters.png", "report.json"):
@@ -277,7 +284,7 @@ seeds: [1]
 budget: 24
 batch: 4
 optimizer: OPTIMIZER
-objective: {metric: mean_cycle_time, direction: minimize}
+objective: {metric: mean_time_between_products, direction: minimize}
 parameters:
   - !Float {name: bring, path: "operator.actions[bring].duration.mean", low: 1.6, high: 4.0, log: true}
   - !Float {name: tape, path: "operator.actions[tape].duration.mean", low: 3.0, high: 8.0, step: 0.5}
@@ -306,7 +313,7 @@ def test_every_candidate_is_in_its_ranges_and_written_exactly(tmp_path, optimize
 
     def record(values, seed):
         seen.append(values)
-        return {"mean_cycle_time": values["bring"] + values["tape"] - values["filled"]}
+        return {"mean_time_between_products": values["bring"] + values["tape"] - values["filled"]}
 
     results = run_search(search, tmp_path / "out", evaluator=FunctionEvaluator(record), progress=None).results
     assert len(seen) == 24 and set(results["status"]) == {"ok"}

@@ -100,7 +100,8 @@ def test_the_optimise_preset_writes_a_best_scenario_that_simulate_runs_as_it_is(
         """A toy cell: the cycle shortest with the operator at x = 0.95; unsafe for tray_y > -0.3."""
         shipped = abs(values["stand_x"] - 0.98) < 1e-9 and abs(values["tray_y"] + 0.32) < 1e-9
         return {
-            "mean_cycle_time": 30.0 + 100 * (values["stand_x"] - 0.95) ** 2 + (1.0 if shipped else 0.0),
+            "mean_time_between_products": 30.0 + 100 * (values["stand_x"] - 0.95) ** 2
+                                          + (1.0 if shipped else 0.0),
             "products_finished": 3,
             "safety": {"violations_total": int(values["tray_y"] > -0.3)},
         }
@@ -174,16 +175,18 @@ def test_the_paired_fresh_comparison_needs_pairs_with_a_difference():
     from hrc_drake.search.command import _paired_verdict
     from hrc_drake.search.report import paired_fresh
 
-    search = SimpleNamespace(objective=SimpleNamespace(metric="mean_cycle_time", direction="minimize"))
-    rows = [{"variant": v, "seed": s, "status": "ok", "mean_cycle_time": 30.0}
+    search = SimpleNamespace(objective=SimpleNamespace(metric="mean_time_between_products",
+                                                       direction="minimize"))
+    rows = [{"variant": v, "seed": s, "status": "ok", "mean_time_between_products": 30.0}
             for v in ("best_fresh", "shipped_fresh") for s in (1, 2, 3)]
     same = paired_fresh(search, rows, [1, 2, 3])
     assert same["differences"] == [0.0, 0.0, 0.0] and same["wilcoxon_p"] is None
     assert _paired_verdict(same) == "no paired test (the same figure on every fresh seed)"
     one = paired_fresh(search, rows, [1])
     assert _paired_verdict(one) == "no paired test (1 fresh seed(s) with a figure for both)"
-    rows[0]["mean_cycle_time"], rows[1]["mean_cycle_time"] = 29.0, float("nan")  # seed 2 has no pair
-    unpaired = {"variant": "best_fresh", "seed": 4, "status": "ok", "mean_cycle_time": 1.0}
+    # seed 2 has no pair
+    rows[0]["mean_time_between_products"], rows[1]["mean_time_between_products"] = 29.0, float("nan")
+    unpaired = {"variant": "best_fresh", "seed": 4, "status": "ok", "mean_time_between_products": 1.0}
     partial = paired_fresh(search, rows + [unpaired], [1, 2, 3])
     assert partial["differences"] == [-1.0, 0.0] and partial["wilcoxon_p"] is not None
     search.objective.direction = "maximize"
