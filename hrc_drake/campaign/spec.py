@@ -474,14 +474,30 @@ def _seeds(path: Path, node) -> list[int]:
     return list(node)
 
 
+def spec_scenario_file(spec_path: Path, name, field: str) -> Path:
+    """The scenario a campaign or search spec names: a file relative to the spec, else a shipped
+    scenario's bare name (`ScenarioError` naming the spec's field)."""
+    from hrc_drake.cell.shipped import example_names, example_path, is_bare_name
+    from hrc_drake.untrusted import one_line
+
+    if not isinstance(name, str) or not name:
+        raise ScenarioError(spec_path, field, f"must name a scenario file, got {name!r}")
+    file = (spec_path.parent / name).resolve()
+    if file.is_file():
+        return file
+    shipped = example_path(name) if is_bare_name(name) else None
+    if shipped is not None:
+        return shipped
+    raise ScenarioError(spec_path, field, f"no such scenario file: {one_line(str(file))} (or the bare name "
+                        f"of a shipped scenario: {', '.join(example_names())})")
+
+
 def _scenarios(path: Path, names: list[str]) -> dict[str, Path]:
     if not names:
         raise ScenarioError(path, "scenarios", "names no scenario file")
     out: dict[str, Path] = {}
     for k, name in enumerate(names):
-        file = (path.parent / name).resolve()
-        if not file.is_file():
-            raise ScenarioError(path, f"scenarios[{k}]", f"no such scenario file: {file}")
+        file = spec_scenario_file(path, name, f"scenarios[{k}]")
         label = file.stem
         if label in out:
             raise ScenarioError(path, f"scenarios[{k}]", f"two scenarios are called '{label}'")

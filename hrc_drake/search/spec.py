@@ -25,6 +25,7 @@ from hrc_drake.campaign.spec import (
     _seeds,
     renamed_hint,
     scenario_metric_names,
+    spec_scenario_file,
 )
 from hrc_drake.cell.build import kernel_groups
 from hrc_drake.cell.scenario import (
@@ -383,9 +384,7 @@ def make_search(document: dict, file: str | Path) -> Search:
         raise ScenarioError(path, "replay_fps", f"must be in (0, 120], got {spec.replay_fps!r}")
     if not spec.scenario:
         raise ScenarioError(path, "scenario", "names no scenario file")
-    scenario_path = (path.parent / spec.scenario).resolve()
-    if not scenario_path.is_file():
-        raise ScenarioError(path, "scenario", f"no such scenario file: {scenario_path}")
+    scenario_path = spec_scenario_file(path, spec.scenario, "scenario")
     scenario = load_scenario(scenario_path)  # its own problems named by its own file
     raw = _raw_document(scenario_path.read_bytes().decode("utf-8"), scenario_path)
     metric_names = scenario_metric_names(scenario)
