@@ -294,6 +294,8 @@ def _check_keys(node, cls, path: str, file: str) -> None:
     if len(members) > 1 and all(dataclasses.is_dataclass(m) for m in members):
         _check_union(node, members, path, file)
         return
+    if node is None and type(None) in typing.get_args(cls):
+        return  # an optional field left unset (null)
     cls = _unwrap_optional(cls)
     if dataclasses.is_dataclass(cls):
         if node is None:

@@ -15,6 +15,10 @@ from hrc_drake.messages import shallow_copy
 from hrc_drake.scheduling.best_scenario import delay_support
 from hrc_drake.scheduling.petri import PcTPN
 
+#: the shortest firing delay learned (s): a pcTPN delay is positive (6.1), the cell cannot observe an
+#: action shorter than a third of its 30 Hz tick, and a zero delay would let a Monte Carlo trial fire
+#: round a loop of actions without its time advancing
+MIN_OBSERVED_DELAY = 0.01
 
 class DurationModel:
     """Per-transition delay distributions: the net's prior until `min_samples` observations,
@@ -32,7 +36,8 @@ class DurationModel:
         self.samples_: list[deque] = [deque(maxlen=self.window) for _ in range(net.n_transitions)]
 
     def partial_fit(self, transition, delay: float) -> DurationModel:
-        """Record one observed firing delay (s) of `transition` (name or index)."""
+        """Record one observed firing delay (s) of `transition` (name or index); one shorter than
+        `MIN_OBSERVED_DELAY` counts as that."""
         j = self.net.index_of(transition)
         delay = float(delay)
         if not math.isfinite(delay) or delay < 0:
@@ -41,7 +46,7 @@ class DurationModel:
             )
         # a new deque, not an append: clones share the other transitions' (copy-on-write)
         samples = deque(self.samples_[j], maxlen=self.window)
-        samples.append(delay)
+        samples.append(max(delay, MIN_OBSERVED_DELAY))
         self.samples_[j] = samples
         return self
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hrc_drake.messages import shallow_copy
+from hrc_drake.scheduling.learning import MIN_OBSERVED_DELAY
 from hrc_drake.scheduling.petri import PcTPN
 
 #: the places that tell the operator's activity, in order of precedence (a token in an earlier
@@ -119,6 +120,7 @@ class DurationsByOperator:
             )
         if activity is None or not self.robot_ends[j] or activity not in self.activities.names:
             return self
+        delay = max(delay, MIN_OBSERVED_DELAY)  # as DurationModel: a learned delay is positive
         key = (j, self.activities.names.index(activity))
         samples = deque(self.samples_.get(key, ()), maxlen=self.window)  # copy-on-write
         samples.append(delay)

@@ -155,3 +155,17 @@ def test_the_config_names_the_variants_and_validates_them():
                        (MonteCarloScheduler(wait_grid=1), "s.wait_grid")):
         with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
             bad.validate("s")
+
+
+def test_an_observed_zero_delay_is_learned_as_the_shortest_observable_one():
+    """A pcTPN delay is positive: a zero-second observation (an artefact) must not let a trial
+    fire round a loop of actions without its time advancing (found by the Monte Carlo property
+    test: 5000 firings short of the horizon)."""
+    from hrc_drake.scheduling.learning import MIN_OBSERVED_DELAY
+
+    net = _net(tc.fig_7_11, 3.0)
+    j = int(np.flatnonzero(~net.controllable)[0])
+    model = DurationModel(net).partial_fit(j, 0.0).partial_fit(j, 2.5)
+    assert list(model.samples_[j]) == [MIN_OBSERVED_DELAY, 2.5]
+    with pytest.raises(ValueError):
+        model.partial_fit(j, -0.01)
