@@ -457,7 +457,7 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
     """The ISO/TS 15066 safety controller of the scenario's mode and the contact monitor (always:
     a cell without a safety system still has its contacts counted in its verdict); the controller
     reads the camera's measurement (`frame_port`) beside the estimate."""
-    from hrc_drake.cell.scenario import judge_values, safety_limits
+    from hrc_drake.cell.scenario import judge_values, robot_claims, safety_limits
     from hrc_drake.safety.regions import FixedBox
     from hrc_drake.safety.systems import apply_safety_config
 
@@ -484,7 +484,8 @@ def _add_safety(builder, scenario: Scenario, scenario_path, plant, capsule_kin, 
         payloads=capsule_payloads(scenario, plant, capsule_kin, scenario_path),
         swept_volumes=None if swept is None else swept.GetOutputPort("swept_volumes"),
         swept_horizon=float(getattr(scenario.motion_model, "horizon", 0.0)),
-        camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE)
+        camera_noise=lay.camera.noise_std, monitor_period=1.0 / CELL_RATE,
+        robot_claims=robot_claims(scenario, scenario_path))
     if controller is not None:
         systems["safety_controller"] = controller
     systems["safety_monitor"] = monitor

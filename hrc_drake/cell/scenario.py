@@ -1227,6 +1227,13 @@ def arm_payloads(sc: Scenario) -> dict[str, float]:
     return out
 
 
+def robot_claims(sc: Scenario, file) -> tuple[str, ...]:
+    """What the judge takes from the scenario's own robots without a check (`RobotModel.claims`,
+    e.g. capsules of collision meshes it cannot read): each a departure of the verdict."""
+    return tuple(f"robot {robot.name!r}: {claim}" for i, robot in enumerate(sc.robots)
+                 for claim in _robot_record(robot, file, f"robots[{i}]").claims)
+
+
 def safety_departures(sc: Scenario, file) -> list[str]:
     """Every way a scenario departs from the standard's judging (a changed judge, a controller
     whose S_h is not ISO 13855's): its verdict will be NON-CONFORMING."""
@@ -1235,7 +1242,7 @@ def safety_departures(sc: Scenario, file) -> list[str]:
 
     standard, changed = judge_values(sc, file)
     out = [] if changed is None else [f"judge changed: {d}" for d in deviations(changed, standard)]
-    return out + list(controller_departures(sc.safety))
+    return out + list(controller_departures(sc.safety)) + list(robot_claims(sc, file))
 
 
 def _check_safety(sc: Scenario, file) -> None:

@@ -14,6 +14,12 @@ import numpy as np
 
 #: the largest URDF read (bytes): a robot's description is kilobytes; meshes live in other files
 MAX_URDF_BYTES = 5_000_000
+#: the most links (and joints) a robot description may have: a robot has tens
+MAX_LINKS = 500
+#: the largest offset (m) of an origin and the largest dimension (m) of a collision shape
+MAX_OFFSET, MAX_SIZE = 100.0, 10.0
+#: the largest collision mesh read (bytes)
+MAX_MESH_BYTES = 50_000_000
 
 
 def rpy_matrix(rpy) -> np.ndarray:
@@ -37,13 +43,17 @@ def pose_matrix(xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
     return X
 
 
-def _floats(text: str | None, default: str, where: str, count: int | None = None) -> np.ndarray:
+def _floats(
+    text: str | None, default: str, where: str, count: int | None = None, limit: float = MAX_OFFSET
+) -> np.ndarray:
     try:
         values = np.array([float(v) for v in (text or default).split()], dtype=float)
     except ValueError:
         raise ValueError(f"{where}: not numbers: {text!r}") from None
     if (count is not None and values.size != count) or not np.all(np.isfinite(values)):
         raise ValueError(f"{where}: expected {count or 'finite'} finite numbers, got {text!r}")
+    if np.any(np.abs(values) > limit):
+        raise ValueError(f"{where}: {text!r} is beyond {limit:g} m, not a robot's dimension")
     return values
 
 
@@ -77,6 +87,8 @@ class CollisionShape:
     kind: str
     pose: np.ndarray
     size: tuple[float, ...]
+    #: a mesh's file name as the URDF writes it ("" for a primitive)
+    filename: str = ""
 
 
 @dataclass(frozen=True)
@@ -93,14 +105,20 @@ def parse_urdf(text: str) -> ET.Element:
     declarations, not XML or not a robot)."""
     if len(text.encode("utf-8", "surrogatepass")) > MAX_URDF_BYTES:
         raise ValueError(f"larger than {MAX_URDF_BYTES} bytes: not a robot description")
-    if "<!ENTITY" in text.upper():
-        raise ValueError("declares XML entities, which a robot description never needs (refused)")
+    if "<!ENTITY" in text.upper() or "<!DOCTYPE" in text.upper():
+        # entities expand, and a DTD's attribute defaults would make this reader see other values
+        # than Drake's parser: a robot description needs neither
+        raise ValueError(
+            "declares a DOCTYPE or XML entities, which a robot description never needs (refused)"
+        )
     try:
         root = ET.fromstring(text)
     except ET.ParseError as err:
         raise ValueError(f"not valid XML: {err}") from None
     if root.tag != "robot":
         raise ValueError(f"the root element is <{root.tag}>, not <robot>")
+    if len(root.findall("link")) > MAX_LINKS or len(root.findall("joint")) > MAX_LINKS:
+        raise ValueError(f"more than {MAX_LINKS} links or joints: not a robot description")
     return root
 
 
@@ -144,18 +162,28 @@ def read_urdf_joints(text: str) -> dict[str, UrdfJoint]:
     return joints
 
 
-def _shape(geometry, where: str) -> tuple[str, tuple[float, ...]]:
-    """(kind, dimensions) of a <geometry> element."""
+def _shape(geometry, where: str) -> tuple[str, tuple[float, ...], str]:
+    """(kind, dimensions, mesh file name) of a <geometry> element; a mesh's dimensions: its scale."""
     for element in geometry:
         tag = element.tag.split("}")[-1]
         if tag in ("cylinder", "capsule"):
-            return tag, (float(element.get("radius", "nan")), float(element.get("length", "nan")))
+            size = _floats(
+                f"{element.get('radius', 'nan')} {element.get('length', 'nan')}",
+                "",
+                f"{where} {tag}",
+                2,
+                MAX_SIZE,
+            )
+            return tag, tuple(size), ""
         if tag == "sphere":
-            return tag, (float(element.get("radius", "nan")),)
+            return tag, tuple(_floats(element.get("radius"), "nan", f"{where} sphere", 1, MAX_SIZE)), ""
         if tag == "box":
-            return tag, tuple(_floats(element.get("size"), "", f"{where} box size", 3))
-        return tag, ()
-    return "none", ()
+            return tag, tuple(_floats(element.get("size"), "", f"{where} box size", 3, MAX_SIZE)), ""
+        if tag == "mesh":
+            scale = _floats(element.get("scale"), "1 1 1", f"{where} mesh scale", 3, MAX_SIZE)
+            return tag, tuple(scale), element.get("filename") or ""
+        return tag, (), ""
+    return "none", (), ""
 
 
 def read_urdf_links(text: str) -> dict[str, UrdfLink]:
@@ -164,15 +192,21 @@ def read_urdf_links(text: str) -> dict[str, UrdfLink]:
     for element in parse_urdf(text).findall("link"):
         name = element.get("name") or "?"
         mass_element = element.find("inertial/mass")
-        mass = float(mass_element.get("value", "0")) if mass_element is not None else 0.0
+        mass = (
+            float(_floats(mass_element.get("value"), "0", f"URDF link {name!r} mass", 1, 1e4)[0])
+            if mass_element is not None
+            else 0.0
+        )
+        if mass < 0:
+            raise ValueError(f"URDF link {name!r}: a negative mass {mass}")
         shapes = []
         for k, collision in enumerate(element.findall("collision")):
             where = f"URDF link {name!r} collision {k}"
             geometry = collision.find("geometry")
-            kind, size = _shape(geometry if geometry is not None else [], where)
-            if size and not all(np.isfinite(size)) or any(s < 0 for s in size):
+            kind, size, filename = _shape(geometry if geometry is not None else [], where)
+            if any(v < 0 for v in size):
                 raise ValueError(f"{where}: bad {kind} dimensions {size}")
-            shapes.append(CollisionShape(kind, _origin(collision, where), size))
+            shapes.append(CollisionShape(kind, _origin(collision, where), size, filename))
         links[name] = UrdfLink(name, mass, tuple(shapes))
     return links
 
@@ -205,3 +239,22 @@ def read_urdf_transmissions(text: str) -> set[str]:
     return {
         joint.get("name") for joint in parse_urdf(text).findall("transmission/joint") if joint.get("name")
     }
+
+
+def mesh_vertices(path) -> np.ndarray | None:
+    """The vertices (n, 3) of a collision mesh's convex hull (Drake's, of the formats its
+    collision geometry reads: OBJ, VTK, glTF); None for a file it cannot read or one over
+    `MAX_MESH_BYTES`."""
+    from pathlib import Path
+
+    from pydrake.geometry import Convex
+
+    path = Path(path)
+    if not path.is_file() or path.stat().st_size > MAX_MESH_BYTES:
+        return None
+    try:
+        hull = Convex(str(path)).GetConvexHull()
+    except Exception:  # noqa: BLE001 (Drake raises RuntimeError or ValueError for a file it cannot read)
+        return None
+    points = np.array([hull.vertex(i) for i in range(hull.num_vertices())], dtype=float).reshape(-1, 3)
+    return points if len(points) and np.all(np.isfinite(points)) else None

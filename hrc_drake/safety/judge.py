@@ -367,6 +367,10 @@ class Judge:
         dt = time - run.last_time if math.isfinite(run.last_time) else 0.0
         robot = tuple(np.asarray(x, dtype=float) for x in robot)
         regions = tuple(np.asarray(x, dtype=float) for x in regions)
+        if not all(np.all(np.isfinite(x)) for x in robot):
+            # fail closed: a NaN speed or distance would make every comparison below false
+            raise ValueError(f"the judge got a robot capsule that is not finite at t = {time:.3f} s: the "
+                             "robot's description or its motion is broken; nothing is judged from it")
         robot_velocity = _velocity(run.last_robot, robot, dt)
         body_velocity = _velocity(run.last_regions, regions, dt)
         end_speeds = np.maximum(

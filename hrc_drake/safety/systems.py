@@ -805,7 +805,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
                         path_preview=None, requested_override, judge_values: JudgeValues,
                         judge_changes: JudgeValues | None = None,
                         payloads=None, swept_volumes=None, swept_horizon: float = 0.0,
-                        camera_noise: float = 0.0, monitor_period: float = 1.0 / 30.0):
+                        camera_noise: float = 0.0, monitor_period: float = 1.0 / 30.0,
+                        robot_claims: tuple[str, ...] = ()):
     """Add the safety controller of `config` ("safety_controller"; none for `NoSafety`) and the
     judge ("safety_monitor", always) to `builder` and connect them.
 
@@ -873,6 +874,8 @@ def apply_safety_config(config, builder, *, plant, kinematics, body_model, limit
         judges.append(judge(judge_changes))
     elif departures:
         judges.append(judge(own_model_values(config, judge_values, swept_horizon)))
+    # what the judge takes from a scenario's own robot unchecked: named, the verdict NON-CONFORMING
+    departures += list(robot_claims)
     monitor = builder.AddSystem(SafetyMonitor(tuple(judges), dynamics, input_size, monitor_period,
                                               mode_name(config), tuple(departures)))
     monitor.set_name("safety_monitor")

@@ -80,3 +80,19 @@ def test_validate_refuses_a_bad_own_robot_naming_the_field(tmp_path, fields, whe
     with pytest.raises(ScenarioError) as err:
         load_scenario(path)
     assert err.value.field == where, str(err.value)
+
+
+def test_what_the_judge_takes_unchecked_makes_the_verdict_non_conforming(tmp_path):
+    """Masses far lighter than the robot's capsules (placeholder inertials, or a scenario making
+    its robot's effective mass small) are the scenario's claim: named, and the verdict says so."""
+    import re
+
+    path = _own_cell(tmp_path)
+    urdf = tmp_path / "my_cobot.urdf"
+    urdf.write_text(re.sub(r'<mass value="[0-9.e-]+"/>', '<mass value="0.01"/>', urdf.read_text()))
+    scenario = load_scenario(path)
+    claims = [d for d in safety_departures(scenario, path) if "kg/m^3" in d]
+    assert len(claims) == 1 and claims[0].startswith("robot 'ur5e'")
+    result = simulate(build_cell(scenario), 2.0)
+    safety = result.metrics["safety"]
+    assert safety["verdict_code"] == "non_conforming" and "kg/m^3" in safety["verdict"]
