@@ -725,3 +725,28 @@ def test_a_safe_line_never_calls_a_logged_contact_over_its_limit_within_it():
     at_limit = {**figures_, "contact_count": 1, "contacts": [{"worst": 1.0}]}
     line = verdict_line("safe", "hybrid", at_limit, 120.0)
     assert line.endswith("; 1 contact, within its body region's limit")
+
+
+# -- between samples: a link may not pass through a body part unseen ----------------------------
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.5])
+def test_a_tool_passing_through_a_hand_between_two_samples_is_judged(offset):
+    """At 15 m/s the tool moves 0.5 m per 1/30 s: both samples clear of the hand, the pass between
+    them a contact at 15 m/s, far beyond the hand's transient limit (140 N x 2 over sqrt(mu k) =
+    194.5 N s/m: 1.44 m/s). The samples fall on either side of the hand wherever they lie."""
+    step = 15.0 * DT
+    xs = -0.6 + offset * step + step * np.arange(4)  # ..., -0.35 or -0.1, +0.15 or +0.4, ...
+    j = judge(PowerForceLimiting())
+    run = run_path(j, xs)
+    assert run.min_clearance < 0.0
+    report = figures(j, run)
+    assert report["violations_total"] >= 1 and report["verdict_code"] == "unsafe"
+
+
+def test_slow_motion_is_judged_at_the_samples_alone():
+    """Below the sweep step nothing between samples is looked at: a robot at rest 1 cm from the
+    hand stays 1 cm from it."""
+    j = judge(PowerForceLimiting())
+    run = run_path(j, np.full(10, -(HAND_RADIUS + TOOL_RADIUS + 0.01)))
+    assert run.min_clearance == pytest.approx(0.01, abs=1e-9)
