@@ -344,7 +344,7 @@ def _validate(args) -> int:
 
 
 def _import(args) -> int:
-    from hrc_drake.errors import check_input_file
+    from hrc_drake.errors import check_input_file, check_input_folder
     from hrc_drake.staged_files import check_outputs_apart
     from hrc_drake.untrusted import one_line
 
@@ -362,7 +362,10 @@ def _import(args) -> int:
         raise ScenarioError(out, "--out", "the skeleton CSV needs another suffix than .yaml: the "
                                           "scenario of --cell is written beside it as .yaml")
     source = Path(args.source)
-    check_input_file(source, "recording")
+    if args.format == "kth":  # the KTH hand-over set is a folder of CSV files
+        check_input_folder(source, "KTH hand-over recording")
+    else:
+        check_input_file(source, "recording")
     columns = Path(args.columns) if args.columns else None
     if columns is not None:
         check_input_file(columns, "column map")

@@ -56,6 +56,17 @@ class EnvironmentFailure(RuntimeError):
     be written, a folder another campaign holds. Says what happened and what to do."""
 
 
+def check_input_folder(path: Path, kind: str) -> None:
+    """`path` is a readable folder (a recording stored as one, e.g. the KTH hand-over); else
+    `ScenarioError` saying what it is instead."""
+    if not os.path.exists(path):
+        raise ScenarioError(path, "", f"no such folder: give the {kind}'s folder")
+    if not os.path.isdir(path):
+        raise ScenarioError(path, "", f"is a file, not a folder: give the {kind}'s folder")
+    if not os.access(path, os.R_OK | os.X_OK):
+        raise ScenarioError(path, "", "cannot be read (permission denied)")
+
+
 def check_input_file(path: Path, kind: str = "scenario") -> None:
     """`path` is a readable regular file; else `ScenarioError` saying what it is instead: missing,
     a dangling link or a link loop, a folder, a FIFO or device (which reading would block on)."""

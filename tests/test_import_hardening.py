@@ -326,3 +326,23 @@ def test_an_out_that_cannot_be_written_is_refused(tmp_path, capsys, out_of):
     before = _files(tmp_path)
     _refused(capsys, ["lego", str(source), "--rate", "15", "--out", str(out_of(tmp_path))], "--out")
     assert _files(tmp_path) == before
+
+
+def test_the_readme_tour_imports_the_kth_folder_into_a_cell_with_its_replay(tmp_path, capsys):
+    """The tour's last command, as a newcomer types it: the KTH hand-over set is a folder."""
+    kth = dataset_dir("kth_handover")
+    out = tmp_path / "out" / "kth.csv"
+    replay = tmp_path / "out" / "kth.html"
+    assert main(["import", "kth", str(kth), "--out", str(out), "--cell", "box_pcb_coexistence",
+                 "--replay", str(replay)]) == 0
+    assert _files(tmp_path / "out") == ["kth.csv", "kth.html", "kth.json", "kth.yaml"]
+    assert load_scenario(out.with_suffix(".yaml")).operator.recorded
+
+
+def test_a_folder_recording_and_a_file_recording_are_told_apart(tmp_path, capsys):
+    kth = dataset_dir("kth_handover")
+    _refused(capsys, ["kth", str(kth / "baton_pose_saved.csv"), "--out", str(tmp_path / "k.csv")],
+             "is a file, not a folder: give the KTH hand-over recording's folder")
+    _refused(capsys, ["lego", str(kth), "--rate", "15", "--out", str(tmp_path / "l.csv")],
+             "is a folder, not a recording file")
+    assert not list(tmp_path.iterdir())
