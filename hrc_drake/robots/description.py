@@ -25,6 +25,7 @@ from hrc_drake.robots.records import MODELS_PACKAGE, ArmModel, Capsule, RobotMod
 from hrc_drake.robots.urdf import (
     UrdfJoint,
     UrdfLink,
+    file_parser,
     mesh_vertices,
     read_urdf_joints,
     read_urdf_links,
@@ -687,20 +688,12 @@ def _check_shipped_model_alone(robot) -> None:
 def _drake_check(path: Path) -> None:
     """Drake's parser reads the file as the cell will (meshes included): its refusal named here."""
     from pydrake.geometry import SceneGraph
-    from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import MultibodyPlant
 
     plant, scene_graph = MultibodyPlant(0.0), SceneGraph()
     plant.RegisterAsSourceForSceneGraph(scene_graph)
     try:
-        parser = Parser(plant)
-        parser.SetAutoRenaming(True)
-        folder = path.parent
-        for candidate in (folder, *folder.parents[:3]):
-            if (candidate / "package.xml").is_file():
-                parser.package_map().PopulateFromFolder(str(candidate))
-                break
-        parser.AddModels(str(path))
+        file_parser(plant, path).AddModels(str(path))
     except Exception as err:  # noqa: BLE001 (Drake raises RuntimeError or ValueError: all name the file)
         raise DescriptionError("urdf", f"Drake cannot read it: {str(err)[:500]}") from None
 

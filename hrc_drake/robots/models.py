@@ -35,6 +35,7 @@ from hrc_drake.robots.registry import (
     get_robot_model,
     shipped_robot_models,
 )
+from hrc_drake.robots.urdf import file_parser
 
 #: the package holding the URDF / SDF model files (package data)
 MODELS_PACKAGE = "hrc_drake.models"
@@ -103,16 +104,8 @@ def add_robot(
 def _parse_urdf(plant: MultibodyPlant, record: RobotModel, name: str) -> ModelInstanceIndex:
     """The record's URDF as one model instance called `name`."""
     if record.urdf_path:
-        # a robot of the user's: parsed from its file so that its meshes' relative paths and a
-        # ROS package around it resolve; auto-renaming lets two robots share one URDF
-        parser = Parser(plant)
-        parser.SetAutoRenaming(True)
-        folder = Path(record.urdf_path).parent
-        for candidate in (folder, *folder.parents[:3]):
-            if (candidate / "package.xml").is_file():
-                parser.package_map().PopulateFromFolder(str(candidate))
-                break
-        instances = parser.AddModels(record.urdf_path)
+        # a robot of the user's: parsed from its file so that its meshes' relative paths resolve
+        instances = file_parser(plant, record.urdf_path).AddModels(record.urdf_path)
         if len(instances) != 1:
             raise ValueError(f"{record.urdf_path}: expected one robot, the file holds {len(instances)} "
                              "models")

@@ -258,3 +258,21 @@ def mesh_vertices(path) -> np.ndarray | None:
         return None
     points = np.array([hull.vertex(i) for i in range(hull.num_vertices())], dtype=float).reshape(-1, 3)
     return points if len(points) and np.all(np.isfinite(points)) else None
+
+
+def file_parser(plant, urdf_path):
+    """A Drake `Parser` for a URDF file of the user's: auto-renaming (two robots may share one
+    file), and a ROS package around the file (package.xml up to three folders above it) mapped so
+    that its meshes' package:// names resolve."""
+    from pathlib import Path
+
+    from pydrake.multibody.parsing import Parser
+
+    parser = Parser(plant)
+    parser.SetAutoRenaming(True)
+    folder = Path(urdf_path).parent
+    for candidate in (folder, *folder.parents[:3]):
+        if (candidate / "package.xml").is_file():
+            parser.package_map().PopulateFromFolder(str(candidate))
+            break
+    return parser
