@@ -281,6 +281,11 @@ class FuzzyScheduler(_SchedulerCommon):
 
     #: T_sch (s); 7.5.3 uses 50 s
     horizon: float = 50.0
+    #: T_sch from the events in it (issue 53): the time the cell takes for this many events at its
+    #: expected rate (each agent one action end per mean delay, learned online), re-set at each
+    #: decision. 7.5.3 chose its 50 s "to have at an average 4 events within the scheduling
+    #: horizon"; null: the fixed `horizon`
+    horizon_events: float | None = None
     #: w_1, w_2 of eq. (7.16): the weights of the human's and the robots' waits
     w_human: float = 1.0
     w_robot: float = 1.0
@@ -320,6 +325,9 @@ class FuzzyScheduler(_SchedulerCommon):
         check(isinstance(self.merge, bool), f"{path}.merge", f"{self.merge!r} must be true or false")
         check(_finite(self.horizon) and 0 < self.horizon <= 3600, f"{path}.horizon",
               f"{self.horizon} must be in (0, 3600] s")
+        events = self.horizon_events
+        check(events is None or (_finite(events) and 0 < events <= 100), f"{path}.horizon_events",
+              f"{events} must be in (0, 100] events (or null)")
         for name in ("w_human", "w_robot"):
             value = getattr(self, name)
             check(_finite(value) and 0 <= value <= 1e6, f"{path}.{name}", f"{value} must be in [0, 1e6]")

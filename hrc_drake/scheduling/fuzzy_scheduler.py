@@ -685,6 +685,7 @@ class FuzzyPolicy:
         merge: bool = True,
         robot_wait_measure: str = "seconds",
         ties: str = "first",
+        horizon_events: float | None = None,
     ):
         if not horizon > 0 or not math.isfinite(horizon):
             raise ValueError(f"{type(self).__name__}: horizon must be finite and > 0, got {horizon}")
@@ -699,6 +700,10 @@ class FuzzyPolicy:
         self.stats_ = FuzzyStats()
         self.net = net
         self.horizon = float(horizon)
+        if horizon_events is not None and not (math.isfinite(horizon_events) and 0 < horizon_events <= 100):
+            raise ValueError(f"{type(self).__name__}: horizon_events must be in (0, 100], got "
+                             f"{horizon_events}")
+        self.horizon_events = None if horizon_events is None else float(horizon_events)
         self.w_human, self.w_robot = float(w_human), float(w_robot)
         self.eps = float(eps)
         self.learn = learn
@@ -727,12 +732,37 @@ class FuzzyPolicy:
             return fuzzify_samples(list(self.durations_.samples_[j]))
         return fuzzify_distribution(self.net.delays[j])
 
+    def event_rate(self) -> float:
+        """The cell's expected events per second: each agent ends one action (or wait) per mean
+        delay of its uncontrollable transitions (a delay's value: the mean of its fuzzy number's
+        four corners), the learned delays where there are, else the net's."""
+        rate = 0.0
+        # the human's transitions name no agent (its pattern drives them): one more agent
+        owners = [agents or ("human",) for agents in self.net.agents]
+        for agent in sorted({a for agents in owners for a in agents}):
+            delays = [self.fuzzy_delay(j) for j in range(self.net.n_transitions)
+                      if not self.net.controllable[j] and agent in owners[j]]
+            means = [(d.a + d.b + d.c + d.d) / 4.0 for d in delays]
+            means = [m for m in means if m > 0]
+            if means:
+                rate += 1.0 / float(np.mean(means))
+        return rate
+
+    def current_horizon(self) -> float:
+        """T_sch: `horizon`, or with `horizon_events` the time the cell takes for that many events
+        at `event_rate` (7.5.3 chose 50 s "to have at an average 4 events within the scheduling
+        horizon"), within [1, 3600] s."""
+        if self.horizon_events is None:
+            return self.horizon
+        rate = self.event_rate()
+        return float(np.clip(self.horizon_events / rate, 1.0, 3600.0)) if rate > 0 else self.horizon
+
     def tree(self, marking, roots=None, elapsed=None) -> FuzzyReachabilityTree:
         """The fuzzy reachability tree from `marking` with the current d."""
         return FuzzyReachabilityTree(
             self.net,
             [self.fuzzy_delay(j) for j in range(self.net.n_transitions)],
-            self.horizon,
+            self.current_horizon(),
             marking,
             roots=roots,
             elapsed=elapsed,
@@ -770,7 +800,7 @@ class FuzzyPolicy:
         if tree.truncated and not self.stats_.truncated:
             _log.warning("%s: the tree was cut at max_nodes = %d, reaching %.1f s of T_sch = %.1f s "
                          "(counted in stats_.truncated)", type(self).__name__, self.max_nodes,
-                         tree.depth_reached, self.horizon)
+                         tree.depth_reached, tree.horizon)
         self.stats_ = self.stats_.add(len(tree.nodes), tree.depth_reached, tree.truncated, tied)
         return int(tree.nodes[best].transition)
 

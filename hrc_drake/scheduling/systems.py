@@ -81,7 +81,8 @@ def make_policy(net: PcTPN, config, seed: int, path: str = "scheduler"):
                     eps=config.eps, window=config.window, min_samples=config.min_samples, learn=config.learn,
                     max_nodes=config.max_nodes, grid_points=config.grid_points,
                     normalize_possibilities=config.normalize_possibilities, random_state=seed,
-                    merge=config.merge, robot_wait_measure=config.robot_wait_measure, ties=config.ties)
+                    merge=config.merge, robot_wait_measure=config.robot_wait_measure, ties=config.ties,
+                    horizon_events=config.horizon_events)
     if isinstance(config, BestScenarioScheduler):
         for field, action in (("collaboration", config.collaboration), ("feed_action", config.feed_action)):
             key = f"{action}:commit" if field == "collaboration" else f"{action}:begin"
