@@ -102,12 +102,13 @@ def best_scenario_policy(net, horizon=60.0, levels=(0.2, 0.8), order=2):
 
 
 def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max_nodes: int = 300,
-                     merge: bool = True) -> dict:
+                     merge: bool = True, horizon_events: float | None = None) -> dict:
     """Time of one fuzzy (7.4, Algorithm 5) and one uniform (eq. 7.21-7.23) decision at T_sch =
-    `horizon` on the torch_clock net (t_w = 5 s, 7.5.3), over the markings a round-robin run of
-    that net meets (decisions with a choice); also the trees' sizes (nodes), how many of them the
-    node cap (max_nodes) cut short of T_sch, how far ahead they reached (s, median) and the
-    share of decisions taken by the tie rule (root children of equal J)."""
+    `horizon` (or the time of `horizon_events` events at the net's rate) on the torch_clock net
+    (t_w = 5 s, 7.5.3), over the markings a round-robin run of that net meets (decisions with a
+    choice); also the trees' sizes (nodes), how many of them the node cap (max_nodes) cut short
+    of T_sch, how far ahead they reached (s, median), the share of decisions taken by the tie
+    rule (root children of equal J) and of markings where fuzzy and uniform chose alike."""
     from pathlib import Path
 
     from hrc_drake.cell.scenario import load_scenario
@@ -123,21 +124,25 @@ def fuzzy_latency_ms(n_decisions: int, horizon: float = 50.0, seed: int = 0, max
     simulate_cell(net, recorder, np.random.default_rng(seed), max_time=40.0 * n_decisions)
     asked = [a for a in recorder.asked  # decisions with a choice
              if net.enabled(a[0])[net.agent_transitions(a[1])].sum() > 1][:n_decisions]
-    out = {}
+    out, choices = {}, {}
     for name, kind in (("fuzzy", FuzzyPolicy), ("uniform", UniformPolicy)):
-        policy = kind(net, horizon=horizon, max_nodes=max_nodes, merge=merge)
-        times, nodes, depths = [], [], []
+        policy = kind(net, horizon=horizon, max_nodes=max_nodes, merge=merge, horizon_events=horizon_events)
+        times, nodes, depths, chosen = [], [], [], []
         for marking, agent, now, elapsed in asked:
             t0 = time.perf_counter()
-            policy.decide(marking, agent, now, elapsed)
+            chosen.append(policy.decide(marking, agent, now, elapsed))
             times.append(time.perf_counter() - t0)
             nodes.append(policy.last_tree_size_)
             depths.append(policy.last_depth_reached_)
+        choices[name] = chosen
         s = policy.stats_  # counts every decision with a choice (FuzzyStats)
         out[name] = {"ms_median": 1000 * float(np.median(times)), "ms_max": 1000 * float(np.max(times)),
                      "nodes_median": int(np.median(nodes)), "truncated": s.truncated,
                      "depth_reached_s_median": float(np.median(depths)),
-                     "ties_pct": round(100.0 * s.ties / max(s.decisions, 1), 1), "decisions": len(times)}
+                     "ties_pct": round(100.0 * s.ties / max(s.decisions, 1), 1), "decisions": len(times),
+                     "t_sch_s": round(policy.current_horizon(), 2)}
+    same = [a == b for a, b in zip(choices["fuzzy"], choices["uniform"], strict=True)]
+    out["fuzzy"]["same_choice_as_uniform_pct"] = round(100.0 * float(np.mean(same)), 1) if same else None
     return out
 
 
@@ -484,6 +489,21 @@ def latencies(size: str, result: dict) -> None:
     f = fuzzy["fuzzy"]
     result["fuzzy"] = {key: f[key] for key in ("depth_reached_s_median", "nodes_median", "ties_pct",
                                                "ms_median", "truncated", "decisions")}
+    # at the thesis's event count (7.5.3: T_sch for "an average 4 events"), the literal tree
+    # (Algorithm 5: no merging) with no practical cap
+    at4 = fuzzy_latency_ms(pick(size, 2, 10, 50), max_nodes=1_000_000, merge=False, horizon_events=4.0)
+    f4 = at4["fuzzy"]
+    result["fuzzy"].update({"events_in_horizon": 4.0, "t_sch_s": f4["t_sch_s"],
+                            "nodes_median": f4["nodes_median"], "latency_ms_median": f4["ms_median"],
+                            "depth_reached_s_median": f4["depth_reached_s_median"],
+                            "ties_pct": f4["ties_pct"],
+                            "same_choice_as_uniform_pct": f4["same_choice_as_uniform_pct"],
+                            "truncated": f4["truncated"], "decisions": f4["decisions"]})
+    result["fuzzy_T50"]["fuzzy"]["t_sch_s"] = 50.0
+    print(f"  fuzzy (7.4) at 4 events in the horizon (T_sch = {f4['t_sch_s']} s at the net's rate), literal "
+          f"tree: {f4['nodes_median']} nodes, {f4['ms_median']:.1f} ms median ({f4['ms_max']:.1f} max), "
+          f"{f4['ties_pct']} % ties, the uniform scheduler's choice in {f4['same_choice_as_uniform_pct']} % "
+          f"of {f4['decisions']} decisions", flush=True)
     result["fuzzy"]["reach"] = fuzzy_reach(size)
     result["fuzzy"]["sweep_weights"] = sweep_fuzzy_weights(size)
     print("  fuzzy w_1, w_2 (event level, idle per product, time per product): "
