@@ -1230,8 +1230,19 @@ def arm_payloads(sc: Scenario) -> dict[str, float]:
 def robot_claims(sc: Scenario, file) -> tuple[str, ...]:
     """What the judge takes from the scenario's own robots without a check (`RobotModel.claims`,
     e.g. capsules of collision meshes it cannot read): each a departure of the verdict."""
-    return tuple(f"robot {robot.name!r}: {claim}" for i, robot in enumerate(sc.robots)
-                 for claim in _robot_record(robot, file, f"robots[{i}]").claims)
+    records = [_robot_record(robot, file, f"robots[{i}]") for i, robot in enumerate(sc.robots)]
+    claims = [f"robot {robot.name!r}: {claim}" for robot, record in zip(sc.robots, records, strict=True)
+              for claim in record.claims]
+    # the judge has one stop model for the cell, the slowest robot's: a robot of the scenario's own
+    # that stops slower than a shipped one would let the shipped robot's stops pass more leniently
+    shipped = [r.stopping_deceleration for r in records if r.shipped]
+    own = [(r.stopping_deceleration, robot.name) for robot, r in zip(sc.robots, records, strict=True)
+           if not r.shipped]
+    if shipped and own and min(own)[0] < min(shipped):
+        a, name = min(own)
+        claims.append(f"robot {name!r} stops at {a:g} m/s^2, slower than the shipped robots' "
+                      f"{min(shipped):g}: the judge's one stop model would judge their stops by it")
+    return tuple(claims)
 
 
 def safety_departures(sc: Scenario, file) -> list[str]:
