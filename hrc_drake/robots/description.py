@@ -554,8 +554,8 @@ def build_record(
             described_by=described_by,
             claims=tuple(claims),
         )
-    except ValueError as err:
-        raise DescriptionError("chains", str(err)) from None
+    except ValueError as err:  # the record's own checks: its capsules' bounds, its arms
+        raise DescriptionError("capsules" if "capsule" in str(err) else "chains", str(err)) from None
 
 
 #: the keys of a shipped description file
