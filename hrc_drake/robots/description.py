@@ -623,6 +623,9 @@ def urdf_location(spec: str, scenario_file=None) -> Path:
     """The file of `robots[i].urdf`: `package://<python package>/<path>` or a path relative to
     the scenario's folder (the working folder for a scenario made in code). A package is found
     without importing it (no code of it runs); its path may not climb out of it."""
+    if not spec.isprintable():
+        # Drake's parser names the file in its own warnings, which reach the terminal unescaped
+        raise DescriptionError("urdf", f"{spec!r}: the file name holds a control character; rename the file")
     if spec.startswith("package://"):
         package, _, rest = spec[len("package://") :].partition("/")
         parts = rest.split("/")

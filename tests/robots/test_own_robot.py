@@ -196,9 +196,11 @@ def test_a_control_character_in_a_name_is_shown_escaped(tmp_path):
         robot_record(robot, tmp_path / "c.yaml")
     assert "\x1b" not in str(err.value) and "\n" not in str(err.value)
     assert "tool\\x1b[2J\\n" in err.value.reason
+    shutil.copy(ARM, tmp_path / "arm\x07.urdf")  # there, but its name would reach Drake's warnings
     with pytest.raises(DescriptionError) as err:
         robot_record(_robot(tmp_path, urdf="arm\x07.urdf"), tmp_path / "c.yaml")
     assert "\x07" not in str(err.value) and "arm\\x07.urdf" in err.value.reason
+    assert "control character" in err.value.reason
 
 
 def _capsules(radius_upper: float) -> list[CapsuleSpec]:
