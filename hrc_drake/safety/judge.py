@@ -378,7 +378,10 @@ class Judge:
         )
         fastest = float(end_speeds.max(initial=0.0))
         distance = capsule_clearances(*robot, *regions)
-        missed = _contact_between_samples(run.last_robot, run.last_regions, robot, regions, distance)
+        # the tick's largest end displacements, from the speeds already measured
+        body_fastest = max(float(np.linalg.norm(v, axis=1).max(initial=0.0)) for v in body_velocity)
+        missed = _contact_between_samples(run.last_robot, run.last_regions, robot, regions, distance,
+                                          (fastest + body_fastest) * dt)
         # the pairs are judged where they came closest: a contact the sample missed (the robot passed
         # through a body part between two samples) is judged at that instant, with the tick's motion
         seen_robot, seen_regions, distance = missed if missed is not None else (robot, regions, distance)
@@ -811,20 +814,15 @@ SWEEP_STEP = 0.01
 MAX_SWEEP = 200
 
 
-def _largest_move(last, now) -> float:
-    return float(max(np.max(np.linalg.norm(now[0] - last[0], axis=1), initial=0.0),
-                     np.max(np.linalg.norm(now[1] - last[1], axis=1), initial=0.0)))
-
-
-def _contact_between_samples(last_robot, last_regions, robot, regions, distance):
+def _contact_between_samples(last_robot, last_regions, robot, regions, distance, move: float):
     """(robot, regions, clearances) at the instant between the last sample and this one (capsule
     ends moving linearly) where a robot-body pair's clearance is least, when that instant holds a
     contact the samples do not show (a link passed through a body part between them); else None.
     Looked at only where the tick's motion could have closed a clearance: a clearance changes by
-    at most the sum of the two capsules' largest end displacements."""
+    at most the sum of the two capsules' largest end displacements (`move`, m: the robot's and the
+    body's largest over the tick)."""
     if last_robot is None or last_regions is None or not distance.size or distance.min() <= 0.0:
         return None
-    move = _largest_move(last_robot, robot) + _largest_move(last_regions, regions)
     if move <= SWEEP_STEP or distance.min() > move:
         return None
     steps = min(math.ceil(move / SWEEP_STEP), MAX_SWEEP)
