@@ -283,16 +283,22 @@ def _config_hash(scenario_path: Path, overrides: dict, duration: float, extra_me
     return hashlib.sha256(text).hexdigest()[:16]
 
 
-def load_campaign(path: str | Path) -> Campaign:
-    """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
+def load_spec(path: str | Path, kind: str, make):
+    """`make(document, path)` on the spec file `path` (a campaign or a search), its errors placed at
+    the line and column where the file writes the field."""
     path = Path(path)
-    check_input_file(path, "campaign")
+    check_input_file(path, kind)
     marks: dict = {}
     try:
-        return make_campaign(_read_raw(path, marks), path)
+        return make(_read_raw(path, marks), path)
     except ScenarioError as err:
-        located(err, path, marks)  # a field written in the file: its line and column
+        located(err, path, marks)
         raise
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and check a campaign file, and load every scenario x variant; `ScenarioError` on any problem."""
+    return load_spec(path, "campaign", make_campaign)
 
 
 def make_campaign(document: dict, file: str | Path) -> Campaign:

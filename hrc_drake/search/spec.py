@@ -21,8 +21,8 @@ from pathlib import Path
 from hrc_drake.campaign.spec import (
     LABEL,
     MAX_RUNS,
-    _read_raw,
     _seeds,
+    load_spec,
     renamed_hint,
     scenario_metric_names,
     spec_scenario_file,
@@ -35,10 +35,9 @@ from hrc_drake.cell.scenario import (
     dump_raw,
     load_scenario,
     load_typed,
-    located,
 )
 from hrc_drake.config_common import MAX_SIMULATED_DURATION
-from hrc_drake.errors import ScenarioError, check_input_file
+from hrc_drake.errors import ScenarioError
 from hrc_drake.search import params as P
 
 PRESETS = ("", "falsify", "optimise")
@@ -295,14 +294,7 @@ def random_search_seed(seed: int) -> int:
 
 def load_search(path: str | Path) -> Search:
     """Read and check a search file; `ScenarioError` on any problem."""
-    path = Path(path)
-    check_input_file(path, "search")
-    marks: dict = {}
-    try:
-        return make_search(_read_raw(path, marks), path)
-    except ScenarioError as err:
-        located(err, path, marks)  # a field written in the file: its line and column
-        raise
+    return load_spec(path, "search", make_search)
 
 
 def _typed(cls, node, where: str, path: Path, hand_read=()):
