@@ -36,13 +36,38 @@ def _wait_of(net: PcTPN, agent: str) -> int:
     return net.transition_index[f"{agent}:wait"]
 
 
+def fire_joins(net: PcTPN, marking) -> np.ndarray:
+    """`marking` after every join that is enabled has fired (a free partner joins a held action at
+    once, 6.3.3; zero delay)."""
+    m = np.array(marking, copy=True)
+    for _ in range(net.n_transitions + 1):
+        en = net.enabled(m)
+        joins = [k for k in range(net.n_transitions) if en[k] and net.role[k] == "join"]
+        if not joins:
+            break
+        m = m + net.incidence[:, joins[0]]
+    return m
+
+
+def _human_waits_for(net: PcTPN, marking, action: str) -> bool:
+    """Whether the human intends `action` and waits for its preconditions (a marked ``hwait``
+    place before one of its starts)."""
+    for k in range(net.n_transitions):
+        if net.role[k] == "begin" and not net.controllable[k] and net.action[k] == action:
+            pre = np.flatnonzero(net.pre[:, k])
+            if any(net.places[i].startswith("hwait:") and marking[i] > 0 for i in pre):
+                return True
+    return False
+
+
 def _reactive_commit(net: PcTPN, marking, agent: str, en) -> int | None:
-    """The agent's commitment to a collaboration the human waits for and that can start at
-    once after the commitment (its parts are there)."""
+    """The agent's commitment to a collaboration the human waits for: one that can start at once
+    after the commitment (its parts are there and its partners join), or, for an arm that holds
+    for a partner still busy (hold model, 6.3.3), one the human already waits for."""
     for j in net.agent_transitions(agent):
         if net.role[j] != "commit" or not en[j]:
             continue
-        after = marking + net.incidence[:, j]
+        after = fire_joins(net, marking + net.incidence[:, j])
         en_after = net.enabled(after)
         for k in range(net.n_transitions):
             if (
@@ -52,12 +77,29 @@ def _reactive_commit(net: PcTPN, marking, agent: str, en) -> int | None:
                 and en_after[k]
             ):
                 return int(j)
+        if len(net.agents[j]) == 1 and _human_waits_for(net, after, net.action[j]):
+            return int(j)
     return None
+
+
+#: roles of the transitions by which a robot starts work of its own (an action, or its hold on an
+#: action of two robots)
+_WORK = ("begin", "hold")
 
 
 def _work_choices(net: PcTPN, en, agent: str) -> np.ndarray:
     js = net.agent_transitions(agent)
-    return np.array([j for j in js if en[j] and net.role[j] == "begin"], dtype=int)
+    return np.array([j for j in js if en[j] and net.role[j] in _WORK], dtype=int)
+
+
+def _start_of(net: PcTPN, action: str, agent: str) -> int | None:
+    """The transition by which `agent` starts robot action `action`: its begin, or its hold on an
+    action of two robots (hold model); None when `action` is not a robot action of `agent`."""
+    for key in (f"{action}:begin", f"{action}:hold:{agent}"):
+        j = net.transition_index.get(key)
+        if j is not None and net.controllable[j] and agent in net.agents[j]:
+            return j
+    return None
 
 
 class _Policy:
@@ -117,14 +159,14 @@ class RoundRobinPolicy(_Policy):
         for agent in net.robot_agents:
             names = programs.get(agent)
             if names is None:
-                js = [j for j in net.agent_transitions(agent) if net.role[j] == "begin"]
+                js = [j for j in net.agent_transitions(agent) if net.role[j] in _WORK]
             else:
                 js = []
                 for name in names:
-                    key = f"{name}:begin"
-                    if key not in net.transition_index or agent not in net.agents[net.transition_index[key]]:
+                    j = _start_of(net, name, agent)
+                    if j is None:
                         raise ValueError(f"RoundRobinPolicy: {name!r} is not a robot action of {agent!r}")
-                    js.append(net.transition_index[key])
+                    js.append(j)
             self.programs[agent] = js
         self.pointer = {agent: 0 for agent in net.robot_agents}
 
@@ -194,8 +236,8 @@ class BestOfRolloutsPlanPolicy(_Policy):
         best = int(np.lexsort((batch.costs, -products))[0])
         path = batch.paths[best][batch.paths[best] >= 0]
         self.plan: dict[str, list[int]] = {a: [] for a in net.robot_agents}
-        for j in path:
-            if net.controllable[j] and net.role[j] == "begin":
+        for j in path:  # a held action's partner joins by itself, so it is in the holder's plan only
+            if net.controllable[j] and net.role[j] in _WORK:
                 for agent in net.agents[j]:
                     self.plan[agent].append(int(j))
         self.pointer = {a: 0 for a in net.robot_agents}

@@ -290,6 +290,10 @@ class BestScenarioPolicy:
     def __init__(self, net: PcTPN, collaboration: str, human_action: str = "", feed_action: str = "",
                  c_r: float = 1.0, c_h: float = 1.0, horizon: float = 60.0, ties: str = "most_work",
                  learn: bool = True, max_nodes: int = 200_000, levels=(0.2, 0.8), forecaster=None):
+        if any(role in ("hold", "join") for role in net.role):
+            raise ValueError("BestScenarioPolicy: the net starts joint actions by holds (6.3.3); the planner "
+                             "of 7.2 targets the one commitment t_c of Fig. 7.3: compile it with "
+                             "joint_actions=\"simultaneous\"")
         self.net = net
         self.forecaster = forecaster
         self.levels = (float(levels[0]), float(levels[1]))

@@ -3,7 +3,8 @@ ground truth, with the true duration distributions. Uncontrollable transitions (
 intentions and starts, every action's end, the end of a wait) race as in 6.2.1; the robots'
 controllable transitions fire only when the scheduler policy commands them, each time a robot
 is free (7.1, receding horizon). A robot's wait lasts t_w (6.3.1) or, with the `wait_grid`
-variant, ends on the next global t_w tick (`montecarlo.wait_delay`).
+variant, ends on the next global t_w tick (`montecarlo.wait_delay`). Events due now fire before
+the next decision, so an arm freed beside its holding partner joins it at once (6.3.3).
 """
 
 from __future__ import annotations
@@ -103,6 +104,9 @@ def simulate_cell(
                 run.events.append((t, a, action, role))
             if with_human and hasattr(policy, "human_event"):  # a policy that forecasts the human
                 policy.human_event(action, role, t)
+        elif role == "join" and _starts_action(net, j):  # the partner joined: both arms begin
+            for a in net.agents[j]:
+                run.events.append((t, a, action, "begin"))
         elif role == "wait":
             run.events.append((t, net.agents[j][0], "", "wait_begin"))
         elif role == "wait_end":
@@ -145,7 +149,9 @@ def simulate_cell(
                         "which is not an enabled controllable transition of that agent"
                     )
                 fire(j)
-            update_clocks()
+                update_clocks()
+                if np.any(fire_at <= t):  # e.g. a partner joins a held action before it decides
+                    break
         j = int(np.argmin(fire_at))
         t_next = fire_at[j]
         if not np.isfinite(t_next) or t_next > max_time:
@@ -182,6 +188,11 @@ def simulate_cell(
             break
     run.end_time = t
     return run
+
+
+def _starts_action(net: PcTPN, j: int) -> bool:
+    """Whether transition j starts its action (marks a ``busy:`` place)."""
+    return any(net.places[i].startswith("busy:") for i in np.flatnonzero(net.post[:, j]))
 
 
 def _has_human(net: PcTPN, j: int) -> bool:

@@ -8,6 +8,9 @@ Places made for a flow:
 - ``busy:<action>`` (or ``busy:<action>#<k>`` for a human step) an action in progress;
 - ``cwait:<action>`` robots committed to a human-robot collaboration, waiting (cost c_R per robot)
   (6.3.3, superposition of the robot and human nets);
+- ``held:<action>:<robot>`` (joint actions of two robots, `JOINT_ACTIONS` "hold") the first arm
+  free has committed to the action, taking its parts, and holds (cost c_R) until its partner
+  frees, as both agents of 6.3.3 "are allowed to wait when the two red places are marked";
 - ``buf:<b>`` parts in buffer b, ``space:<b>`` free spots of an intermediate buffer (a spot is
   freed when the next action *starts*, taking the part; the producer reserves it at its start);
 - ``res:<r>`` units of a shared resource (returned when the action ends);
@@ -18,7 +21,12 @@ actions involving the human), ``<a>:end`` (uncontrollable, the action's duration
 ``<robot>:wait`` / ``<robot>:wait_end`` (quantum t_w), ``intent:<k>`` (human intention),
 ``<a>:commit`` and ``<a>:giveup`` (robots start a collaboration, taking its parts, resources
 and output spots, and wait for the human; they give up and put everything back after
-``collab_patience`` s, like t_W of Fig. 7.3), ``<a>:release:<robot>`` (uncontrollable, the
+``collab_patience`` s, like t_W of Fig. 7.3); for an action of two robots (hold model)
+``<a>:hold:<robot>`` (role "hold"; ``<a>:commit:<robot>``, role "commit", when the human takes part),
+``<a>:join:<partner>`` (role "join", uncontrollable, zero delay: the partner, once free, joins
+at once; the action starts, or with the human the robots wait for it in ``cwait``) and
+``<a>:giveup:<robot>`` (the holding arm gives up after ``collab_patience``),
+``<a>:release:<robot>`` (uncontrollable, the
 duration of the robot's part: an agent of `early_release` is available again before the action
 ends, Fig. 7.3).
 """
@@ -32,10 +40,11 @@ from dataclasses import replace
 import numpy as np
 
 from hrc_drake.distributions import Distribution, validate_distribution
+from hrc_drake.scheduling.config import JOINT_ACTIONS
 from hrc_drake.scheduling.flow import Buffer, Flow, FlowAction
 from hrc_drake.scheduling.petri import PcTPN
 
-IDLE_ROLES = ("wait", "wait_end", "giveup", "commit")
+IDLE_ROLES = ("wait", "wait_end", "giveup", "commit", "hold")
 
 
 class FlowError(ValueError):
@@ -110,6 +119,25 @@ def _fixed(t: float) -> Distribution:
     return Distribution(kind="fixed", mean=float(t))
 
 
+def _hold_and_join(nb: _NetBuilder, a: FlowAction, robots: list[str], robot_cost: dict[str, float],
+                   patience: float, takes: list[str], start: list[str], hold_role: str) -> None:
+    """The start of an action of two robots as 6.3.3's superposition (`JOINT_ACTIONS` "hold"):
+    either arm, when free, may commit (``<a>:<hold_role>:<r>``, controllable, taking the action's parts
+    and spots) and holds in ``held:<a>:<r>`` at the cost of an idle robot; its partner joins
+    the moment it is free (``<a>:join:<partner>``, uncontrollable with zero delay, marking
+    `start`); the holding arm gives up after `patience` and puts the parts back."""
+    for arm, partner in ((robots[0], robots[1]), (robots[1], robots[0])):
+        held = nb.place(f"held:{a.name}:{arm}", cost=robot_cost[arm], idle_agent=arm)
+        nb.transition(f"{a.name}:{hold_role}:{arm}", [f"avail:{arm}", *takes], [held], True, _fixed(0.0),
+                      agents=[arm], action=a.name, role=hold_role)
+        # the joining arm first: the Scheduler commands it when it reports ready
+        nb.transition(f"{a.name}:join:{partner}", [held, f"avail:{partner}"], start, False, _fixed(0.0),
+                      agents=[partner, arm], action=a.name, role="join")
+        if math.isfinite(patience):
+            nb.transition(f"{a.name}:giveup:{arm}", [held], [f"avail:{arm}", *takes], False,
+                          _fixed(patience), agents=[arm], action=a.name, role="giveup")
+
+
 def compile_flow(
     flow: Flow,
     buffers: list[Buffer],
@@ -125,6 +153,7 @@ def compile_flow(
     agent_costs: dict[str, float] | None = None,
     check: bool = True,
     max_states: int = 5000,
+    joint_actions: str = "hold",
 ) -> PcTPN:
     """Compile an assembly flow into a pcTPN (thesis 6.3, Table 6.1).
 
@@ -138,6 +167,8 @@ def compile_flow(
     giving up (t_W of Fig. 7.3); default 5 t_w; math.inf never gives up.
     agent_costs: robot agent -> idle cost replacing c_R (e.g. 0 for a cart, 6.3.4).
     check: run the structural checks (`check_structure`) and raise FlowError on problems.
+    joint_actions: how an action of two robots starts (`JOINT_ACTIONS`): "hold" (6.3.3) or
+    the "simultaneous" variant.
     """
     robot_agents = list(robot_agents or [])
     pattern = list(human_pattern or [])
@@ -150,6 +181,8 @@ def compile_flow(
     patience = 5.0 * wait_quantum if collab_patience is None else float(collab_patience)
     if not patience > 0:
         raise FlowError(f"collab_patience must be > 0, got {collab_patience}")
+    if joint_actions not in JOINT_ACTIONS:
+        raise FlowError(f"joint_actions must be one of {list(JOINT_ACTIONS)}, got {joint_actions!r}")
     intention = human_intention or _fixed(0.0)
     agent_costs = dict(agent_costs or {})
     for ag in agent_costs:
@@ -262,6 +295,22 @@ def compile_flow(
         robots = [r for r in a.agents if r != human_agent]
         staying = [r for r in robots if r not in a.early_release]
         with_human = human_agent in a.agents
+        held = joint_actions == "hold" and len(robots) == 2
+        if not with_human and held:
+            busy = nb.place(f"busy:{a.name}")
+            _hold_and_join(nb, a, robots, robot_cost, patience, takes(a),
+                           [busy] + frees_at_start(a) + early_parts(a, a.name), "hold")
+            nb.transition(
+                f"{a.name}:end",
+                [busy],
+                [f"avail:{r}" for r in staying] + gives_at_end(a),
+                False,
+                delay_of(a),
+                agents=staying,
+                action=a.name,
+                role="end",
+            )
+            continue
         if not with_human:
             busy = nb.place(f"busy:{a.name}")
             nb.transition(
@@ -290,16 +339,19 @@ def compile_flow(
             cwait = nb.place(
                 f"cwait:{a.name}", cost=sum(robot_cost[r] for r in robots), idle_agent=",".join(robots)
             )
-            nb.transition(
-                f"{a.name}:commit",
-                [f"avail:{r}" for r in robots] + takes(a),
-                [cwait],
-                True,
-                _fixed(0.0),
-                agents=robots,
-                action=a.name,
-                role="commit",
-            )
+            if held:
+                _hold_and_join(nb, a, robots, robot_cost, patience, takes(a), [cwait], "commit")
+            else:
+                nb.transition(
+                    f"{a.name}:commit",
+                    [f"avail:{r}" for r in robots] + takes(a),
+                    [cwait],
+                    True,
+                    _fixed(0.0),
+                    agents=robots,
+                    action=a.name,
+                    role="commit",
+                )
             if math.isfinite(patience):
                 nb.transition(
                     f"{a.name}:giveup",
@@ -394,9 +446,12 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
     fired = np.zeros(net.n_transitions, dtype=bool)
     complete = True
     dead = None
+    join = np.array([r == "join" for r in net.role], dtype=bool)
     while queue:
         m = queue.popleft()
         en = np.all(pre_k <= m[:, None], axis=0)
+        if np.any(en & join):  # a partner joins the moment it is free (zero delay): nothing else fires first
+            en &= join
         # a robot in its wait comes back; deadness is judged on the markings without waits
         if not np.any(en & progress) and not np.any(en & wait_end):
             trace, key = [], m.tobytes()
@@ -441,7 +496,7 @@ def check_structure(net: PcTPN, max_states: int = 5000) -> dict:
 
 def net_from_flow(flow, buffers, human_agent, human_pattern, robot_agents, config) -> PcTPN:
     """Compile a flow with the net fields of the scheduler `config` (wait_quantum t_w,
-    cost_robot c_R, cost_human c_H, max_wait, agent_costs where the kind has them)."""
+    cost_robot c_R, cost_human c_H, joint_actions, max_wait, agent_costs where the kind has them)."""
     return compile_flow(
         flow,
         buffers,
@@ -453,6 +508,7 @@ def net_from_flow(flow, buffers, human_agent, human_pattern, robot_agents, confi
         cost_human=float(config.cost_human),
         collab_patience=getattr(config, "max_wait", 0.0) or None,
         agent_costs=dict(getattr(config, "agent_costs", {})),
+        joint_actions=getattr(config, "joint_actions", "hold"),
     )
 
 

@@ -16,6 +16,12 @@ from hrc_drake.errors import check
 ROLLOUTS = ("uniform", "work_first")
 #: delay models of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.DURATION_MODELS)
 DURATION_MODELS = ("empirical", "uniform_support")
+#: how an action of two robot agents starts (`hrc_drake.scheduling.compiler.compile_flow`):
+#: "hold" (6.3.3, the default) the first arm free commits and holds until its partner frees;
+#: "simultaneous" (a variant, the former model) one transition needs both arms free at the same
+#: instant, so arms that come free at different times meet only when their waits of t_w happen to
+#: end together. Actions of three or more robots always start simultaneously.
+JOINT_ACTIONS = ("hold", "simultaneous")
 #: roots of the Monte Carlo trials (hrc_drake.scheduling.montecarlo.ROOT_CHOICES)
 ROOT_CHOICES = ("all_enabled", "agent")
 
@@ -50,6 +56,10 @@ class _SchedulerCommon:
     rate: float = 10.0
     #: robot agent -> its idle cost per second in place of c_R (a cart that only transports: 0, 6.3.4)
     agent_costs: dict[str, float] = field(default_factory=dict)
+    #: how an action of two robot agents starts (JOINT_ACTIONS):
+    #: "hold" (6.3.3: the first arm free commits and holds until its partner frees) or
+    #: "simultaneous" (a variant: both arms must be free at the same instant)
+    joint_actions: str = "hold"
 
     def _validate_common(self, path: str) -> None:
         check(
@@ -65,6 +75,8 @@ class _SchedulerCommon:
         for agent, value in self.agent_costs.items():
             check(_finite(value) and 0 <= value <= 1e6, f"{path}.agent_costs.{agent}",
                   f"{value} must be in [0, 1e6]")
+        check(self.joint_actions in JOINT_ACTIONS, f"{path}.joint_actions",
+              f"{self.joint_actions!r} is not one of {list(JOINT_ACTIONS)}")
 
     def validate(self, path: str) -> None:
         """Raise ConfigError naming `path.<field>` for a bad value."""
@@ -250,9 +262,16 @@ class BestScenarioScheduler(_SchedulerCommon):
     learn: bool = True
     #: guard on the reachability tree's size per decision
     max_nodes: int = 200_000
+    #: the net of Fig. 7.3 commits the robots to the collaboration by one transition, the target
+    #: t_c of every plan: the robots start joint actions together ("simultaneous", the only model
+    #: the planner takes)
+    joint_actions: str = "simultaneous"
 
     def validate(self, path: str) -> None:
         self._validate_common(path)
+        check(self.joint_actions == "simultaneous", f"{path}.joint_actions",
+              "the best-scenario planner (7.2) targets the one commitment t_c of Fig. 7.3's net; it takes "
+              "only \"simultaneous\"")
         check(isinstance(self.collaboration, str) and self.collaboration != "", f"{path}.collaboration",
               "name the human-robot action whose commitment ends a plan")
         check(bool(self.human_action) == bool(self.feed_action), f"{path}.feed_action",

@@ -18,7 +18,7 @@ from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.scheduling import _kernels
 
 #: transition roles produced by the flow compiler
-ROLES = ("begin", "end", "wait", "wait_end", "intent", "commit", "giveup", "other")
+ROLES = ("begin", "end", "wait", "wait_end", "intent", "commit", "giveup", "hold", "join", "other")
 
 
 @dataclass

@@ -137,12 +137,30 @@ class SchedulerCore:
 
 
 def _give_up_after(net: PcTPN, j: int) -> float:
-    """How long the robots of commanded transition j wait for the human: the fixed delay of
-    the collaboration's give-up transition (T_wait, Fig. 7.3) for a commitment, else inf."""
-    if net.role[j] != "commit":
+    """How long the robots of commanded transition j wait for their partners: the fixed delay of
+    the give-up transition (T_wait, Fig. 7.3) of a commitment to a collaboration or of an arm's
+    hold on an action of two robots (6.3.3), else inf."""
+    joined = [net.places[i] for i in np.flatnonzero(net.post[:, j])]
+    if net.role[j] == "join" and any(p.startswith("cwait:") for p in joined):
+        k = net.transition_index.get(f"{net.action[j]}:giveup")  # both arms now wait for the human
+        return math.inf if k is None else float(net.delays[k].mean)
+    if net.role[j] not in ("commit", "hold"):
         return math.inf
-    k = net.transition_index.get(f"{net.action[j]}:giveup")
+    name = f"{net.action[j]}:giveup"
+    if net.transitions[j].count(":") == 2:  # one arm's commitment or hold: <action>:<role>:<agent>
+        name += f":{net.agents[j][0]}"
+    k = net.transition_index.get(name)
     return math.inf if k is None else float(net.delays[k].mean)
+
+
+def _join_of(net: PcTPN, marking, agent: str) -> int | None:
+    """The join by which free `agent` takes its place beside a partner that holds for an action
+    of both (6.3.3; the agent joins at once, not by the policy's choice), or None."""
+    enabled = net.enabled(marking)
+    for k in range(net.n_transitions):
+        if net.role[k] == "join" and net.agents[k][0] == agent and enabled[k]:
+            return k
+    return None
 
 
 class Scheduler(LeafSystem):
@@ -243,11 +261,15 @@ class Scheduler(LeafSystem):
             for other in self.robot_agents:
                 if other not in idle:
                     marking[net.place_index[f"avail:{other}"]] = 0
-            j = int(core.policy.decide(marking, agent, now=t, elapsed=tracker.elapsed(t)))
-            idle -= set(net.agents[j])
+            j = _join_of(net, marking, agent)
+            if j is None:
+                j = int(core.policy.decide(marking, agent, now=t, elapsed=tracker.elapsed(t)))
+            # a join commands only the arm that joins: its partner already holds for the action
+            agents = net.agents[j][:1] if net.role[j] == "join" else net.agents[j]
+            idle -= set(agents)
             tracker.command(j, t)
             action = None if net.role[j] == "wait" else net.action[j]
-            for a in net.agents[j]:
+            for a in agents:
                 commands.append(
                     RobotCommand(
                         time=t,

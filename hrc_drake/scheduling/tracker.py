@@ -113,8 +113,21 @@ class NetTracker:
         return any(self.m[i] > 0 and (p == f"busy:{action}" or p.startswith(f"busy:{action}#"))
                    for i, p in enumerate(net.places))
 
+    def _settle_holds(self, action: str, t: float):
+        """An arm the belief still has holding for `action` (6.3.3 hold model) when the cell shows
+        the action beginning has been joined: fire its partner's join (forced)."""
+        net = self.net
+        for k in range(net.n_transitions):
+            if net.role[k] == "join" and net.action[k] == action and any(
+                net.places[i].startswith("held:") and self.m[i] > 0 for i in np.flatnonzero(net.pre[:, k])
+            ):
+                self._fire(k, t, observe=False)
+                return
+
     def human_event(self, action: str, kind: str, t: float):
         """Apply a HumanEvent (begin | end | wait_begin | wait_end) to the belief."""
+        if kind == "begin":
+            self._settle_holds(action, t)
         if kind in ("begin", "wait_begin"):
             if self._collaboration_under_way(action):
                 return  # a collaboration its robots' begin has started already
@@ -147,6 +160,7 @@ class NetTracker:
         still has it doing)."""
         net = self.net
         if kind == "begin":
+            self._settle_holds(action, t)
             j = self._find("begin", action, "cwait:")
             if j is not None:
                 if self._find("begin", action, "hwait:") is None:

@@ -108,7 +108,7 @@ def test_a_revoked_command_makes_the_arm_ready_again():
     assert ex.activity()["left"] == "idle"
 
 
-def _collaboration_flow(early: bool):
+def _collaboration_flow(early: bool, joint_actions: str = "hold"):
     d = Distribution(kind="fixed", mean=10.0)
     release = {"left": Distribution(kind="fixed", mean=3.0)} if early else {}
     buffers = [Buffer("raw", kind="raw"), Buffer("mid", capacity=1), Buffer("out", kind="product")]
@@ -118,7 +118,8 @@ def _collaboration_flow(early: bool):
                    early_release=release),
         FlowAction("solo", ["left"], ["raw"], ["out"], duration=Distribution(kind="fixed", mean=1.0)),
     ])
-    return compile_flow(flow, buffers, "human", ["prep", "together"], ["left", "right"], wait_quantum=1.0)
+    return compile_flow(flow, buffers, "human", ["prep", "together"], ["left", "right"], wait_quantum=1.0,
+                        joint_actions=joint_actions)
 
 
 def test_early_release_returns_the_arm_before_the_collaboration_ends():
@@ -158,18 +159,25 @@ def test_the_released_arm_works_while_the_collaboration_goes_on():
     assert _solo_during_collaboration(early=True) > 0
 
 
-def test_the_robots_begin_of_a_collaboration_before_the_humans_keeps_one_human_token():
-    net = _collaboration_flow(early=False)
+@pytest.mark.parametrize("joint_actions", ["simultaneous", "hold", "hold_unjoined"])
+def test_the_robots_begin_of_a_collaboration_before_the_humans_keeps_one_human_token(joint_actions):
+    net = _collaboration_flow(early=False, joint_actions=joint_actions.removesuffix("_unjoined"))
     tracker = NetTracker(net)
     tracker.human_event("prep", "begin", 0.0)
     tracker.human_event("prep", "end", 2.0)
     tracker.human_event("together", "wait_begin", 2.0)
-    tracker.command(net.transition_index["together:commit"], 2.5)
+    if joint_actions == "simultaneous":
+        tracker.command(net.transition_index["together:commit"], 2.5)
+    else:  # one arm holds; its partner joins (or the belief missed the join: the begin settles it)
+        tracker.command(net.transition_index["together:commit:right"], 2.4)
+        if joint_actions == "hold":
+            tracker.command(net.transition_index["together:join:left"], 2.5)
     tracker.robot_event("right", "together", "begin", 2.6)  # the robots saw the grant first
     tracker.human_event("together", "begin", 2.7)
     human = [p for i, p in enumerate(net.places)
              if tracker.m[i] and p.startswith(("step:", "hwait:", "busy:"))]
     assert human == ["busy:together#1"]
+    assert not any(tracker.m[i] for i, p in enumerate(net.places) if p.startswith(("held:", "cwait:")))
 
 
 # ------------------------------------------------------------------ scenario checks and the cell

@@ -118,8 +118,10 @@ def test_algorithm_3_tags_an_arrival_set_impossible():
 
 
 def _use_case_a_net():
+    """Use case a's net as the best-scenario planner takes it: joint actions start together."""
     flow, buffers, pattern, robots = tc.use_case_a(1)
-    return compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0)
+    return compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=1.0,
+                        joint_actions="simultaneous")
 
 
 def test_the_human_and_the_explicit_waits_never_fire_while_planning():
@@ -184,7 +186,8 @@ def test_a_human_waiting_for_its_operation_is_supplied_whatever_the_forecast():
     A forecast of the collaboration at once would have the planner commit (the human never
     fires while planning) and the robots wait in vain: case 1 applies instead."""
     flow, buffers, pattern, robots = tc.use_case_a(2)
-    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0,
+                       joint_actions="simultaneous")
     m = net.m0.copy()
     m[net.place_index["step:0"]] = 0
     m[net.place_index["hwait:1"]] = 1  # the human intends its step 1, the second IC
@@ -201,7 +204,8 @@ def test_case_1_is_left_to_the_feeding_arm_whoever_decides_first():
     right arm, asked first, must not commit the left arm to the collaboration (a cell once
     stalled so: the human waited for a board the left arm never fused)."""
     flow, buffers, pattern, robots = tc.use_case_a(2)
-    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0)
+    net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0,
+                       joint_actions="simultaneous")
     policy = BestScenarioPolicy(net, "collab", "ic", "fuse", horizon=60.0)
     m = net.m0.copy()
     m[net.place_index["step:0"]] = 0
