@@ -14,12 +14,19 @@ Prints a line per run and, as its last line, one JSON object: `use_case_b.<patte
 with `cycle_median`, `cycle_mean`, `products`, `human_wait_per_product`, and
 `use_case_b.<pattern>.wilcoxon_p` (cycles), `.wilcoxon_p_runs`.
 
+The cell's operator has stationary normal durations and the arms share seeds (paired); the
+thesis had 5 different people per group, learning as they went. `use_case_b.volunteers` is that
+design at event level (`tools/volunteer_study.py`, `hrc_drake.scheduling.volunteers`): 60
+simulated people per scheduler and pattern (10 in --quick), each with their own learning curve;
+`.pattern<k>.between_subjects.p_less` (5 vs 5 people, the thesis's pooled test),
+`.power.groups_of_5`, `.people_needed_p05`, and the same per person (`_people`).
+
 The runs go through the campaign API (`hrc_drake.campaign`): one campaign, a variant per pattern
 and scheduler (`pattern1-A`, ...), the per-product samples from the `per_product` extra metrics.
 
 Usage:
     python3 tools/bench_use_case_b.py [--seeds N] [--quick | --smoke] [--workers W]
-        [--address tcp://HOST:PORT] [--out DIR]
+        [--address tcp://HOST:PORT] [--out DIR] [--volunteers-only]
 --quick: 2 seeds, A and B only (about a minute on 2 cores); --smoke: one seed of A and B, 1 s
 runs (figures meaningless; the tests run it). --workers 1 (default): in this
 process; W > 1: a Dask `LocalCluster` of W processes. --out keeps the campaign's runs.parquet (a
@@ -171,14 +178,66 @@ def summarize(rows: list[dict], arms: list[str], patterns=PATTERNS, test=("A", "
     return out
 
 
+#: simulated people per scheduler and pattern in the volunteers' study (smoke, quick, full)
+VOLUNTEER_POOLS = {"smoke": 5, "quick": 10, "full": 60}
+
+
+def volunteers_study(size: str) -> dict:
+    """The between-subjects study of 7.5.2 with simulated volunteers (`volunteer_study`), at event
+    level on `thesis_cells.use_case_b` (the cell's flow): Scheduler A against B per pattern, 9
+    products per person, on the pooled cycle times as the thesis's Fig. 7.19 test."""
+    from volunteer_study import compare, run_pool, summary_line
+
+    from hrc_drake.scheduling import thesis_cells as tc
+    from hrc_drake.scheduling.compiler import compile_flow
+    from hrc_drake.scheduling.montecarlo import MonteCarloPolicy
+    from hrc_drake.scheduling.volunteers import VolunteerPopulation
+
+    people = VOLUNTEER_POOLS[size]
+    trials = 20 if size == "smoke" else 150
+    arms = {"A": "empirical", "B": "uniform_support"}
+    population = VolunteerPopulation()
+    out: dict = {"people_per_pool": people, "population": {
+        "learning_rates": list(population.learning_rates), "speed_cv": population.speed_cv,
+        "reference_execution": population.reference}}
+    print(f"Simulated volunteers (event level, {people} people per scheduler and pattern, 9 products each; "
+          "learning curve, skewed durations)", flush=True)
+    for number in (1, 2):
+        flow, buffers, pattern, robots = tc.use_case_b(number)
+        net = compile_flow(flow, buffers, "human", pattern, robots, wait_quantum=3.0, cost_robot=0.5,
+                           cost_human=1.0, agent_costs=tc.USE_CASE_B_AGENT_COSTS)
+        human = {a.name: a.duration for a in flow.actions if "human" in a.agents}
+        pools = {}
+        for offset, (arm, durations) in enumerate(arms.items()):
+            def make_policy(net, seed, durations=durations):
+                return MonteCarloPolicy(net, n_trials=trials, horizon=30.0, random_state=seed,
+                                        durations=durations)
+
+            # each arm its own people: seeds differ by arm and pattern (between subjects)
+            pools[arm] = run_pool(net, make_policy, human, people, N_PRODUCTS, 7000 + 100 * number + offset,
+                                  population, 3000.0, f"pattern {number} {arm}")
+        result = compare(pools, "A", "B", "cycles", seed=number)
+        print(summary_line(f"pattern {number}, cycle times A < B", result, "1 - 0.9971" if number == 1
+                           else "1 - 0.9926"), flush=True)
+        out[f"pattern{number}"] = result
+    return out
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeded runs per arm and pattern")
     parser.add_argument("--quick", action="store_true", help="2 seeds, A and B only")
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    parser.add_argument("--volunteers-only", action="store_true",
+                        help="only the simulated volunteers' study (event level), not the Drake cell's runs")
     add_campaign_arguments(parser)
     args = parser.parse_args(argv)
+    if args.volunteers_only:
+        size = "smoke" if args.smoke else "quick" if args.quick else "full"
+        result = {"use_case_b": {"volunteers": volunteers_study(size)}}
+        print(json.dumps(result))
+        return result
     seeds = 1 if args.smoke else 2 if args.quick else args.seeds
     arms = ["A", "B"] if args.quick or args.smoke else ["A", "B", "RR"]
     n_runs = len(PATTERNS) * seeds * len(arms)
@@ -192,6 +251,8 @@ def main(argv=None) -> dict:
               + (f", RR {block['RR']['cycle_median']} s" if "RR" in block else "")
               + f"; one-sided rank sum A < B p = {block['wilcoxon_p']} (cycles), {block['wilcoxon_p_runs']} "
               "(runs' mean cycles); thesis: A below B", flush=True)
+    size = "smoke" if args.smoke else "quick" if args.quick else "full"
+    out["volunteers"] = volunteers_study(size)
     result = {"use_case_b": out, "seeds": seeds}
     print(json.dumps(result))
     return result

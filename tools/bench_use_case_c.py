@@ -25,9 +25,16 @@ Prints a line per run and, as its last line, one JSON object: `use_case_c.<A|B>.
 `.idle_mean`, `.cycle_median`, `.products`, `.runs`, `.idle_samples`, and `use_case_c.<A|B>.wilcoxon_p`
 (idle), `.wilcoxon_p_cycle`; `seeds`. (The scheduler's decision time is not measured here.)
 
+The cell's operator has stationary normal durations and the arms share seeds; the thesis had 5
+different people per scheduler, learning as they went. `use_case_c.volunteers` is that design at
+event level (`tools/volunteer_study.py`, `hrc_drake.scheduling.volunteers`): 60 simulated people
+per scheduler and experiment (10 in --quick), each with their own learning curve;
+`.<A|B>.<idle|cycle>.between_subjects.p_less` (5 vs 5 people, the thesis's pooled test),
+`.power.groups_of_5`, `.people_needed_p05`, and the same per person (`_people`).
+
 Usage:
     PYTHONPATH=. python3 tools/bench_use_case_c.py [--seeds N] [--quick | --smoke] [--workers W]
-        [--address tcp://HOST:PORT] [--out DIR]
+        [--address tcp://HOST:PORT] [--out DIR] [--volunteers-only]
 --quick: 2 seeds, fuzzy and uniform only (about a minute on 2 cores); --smoke: one seed of fuzzy
 and uniform, 1 s runs (figures meaningless; the tests run it). --workers 1 (default): in this
 process, one run after the other; W > 1: a Dask `LocalCluster` of W processes. --out keeps the
@@ -140,14 +147,70 @@ def run_rows(seeds: int, arms: list[str], workers: int, address: str | None, out
     return rows
 
 
+#: simulated people per scheduler and experiment in the volunteers' study (smoke, quick, full)
+VOLUNTEER_POOLS = {"smoke": 5, "quick": 10, "full": 60}
+
+
+def volunteers_study(size: str) -> dict:
+    """The between-subjects study of 7.5.3 with simulated volunteers (`volunteer_study`), at event
+    level on the shipped campaign's cell (torch_clock.yaml with each arm's scheduler and flow
+    priors; Experiment A with the torch-only overrides): fuzzy against uniform, 5 (A) or 10 (B)
+    products per person, on the operator's waiting time per product (Fig. 7.27) and the cycle
+    times (Fig. 7.28), as the thesis tests them."""
+    from volunteer_study import compare, run_pool, summary_line
+
+    from hrc_drake.cell.scenario import load_scenario_with
+    from hrc_drake.scheduling.systems import make_policy, net_from_scenario
+    from hrc_drake.scheduling.volunteers import VolunteerPopulation
+
+    people = VOLUNTEER_POOLS[size]
+    population = VolunteerPopulation()
+    out: dict = {"people_per_pool": people}
+    print(f"Simulated volunteers (event level, {people} people per scheduler and experiment; learning "
+          "curve, skewed durations; no slow-down near the operator at event level)", flush=True)
+    for experiment, (n_products, _) in EXPERIMENTS.items():
+        pools = {}
+        for offset, arm in enumerate(("fuzzy", "uniform")):
+            variant = scheduler_overrides(arm)
+            scenario = load_scenario_with(SCENARIO, {**variant, **experiment_overrides(experiment, variant)})
+            config = scenario.scheduler
+            if size == "smoke":
+                config.max_nodes = 30
+            net = net_from_scenario(scenario, config)
+            human = {a.name: a.duration for a in scenario.operator.actions}
+
+            def policy(net, seed, config=config):
+                return make_policy(net, config, seed)
+
+            seed = 9000 + 100 * ord(experiment) + offset  # each arm and experiment its own people
+            pools[arm] = run_pool(net, policy, human, people, n_products, seed, population, 3000.0,
+                                  f"{experiment} {arm}")
+        block = {"idle": compare(pools, "fuzzy", "uniform", "human_wait", seed=ord(experiment)),
+                 "cycle": compare(pools, "fuzzy", "uniform", "cycles", seed=ord(experiment) + 1)}
+        thesis = {"A": ("0.0023", "0.065"), "B": ("0.0251", "0.122")}[experiment]
+        print(summary_line(f"Experiment {experiment}, idle fuzzy < uniform", block["idle"], thesis[0]),
+              flush=True)
+        print(summary_line(f"Experiment {experiment}, cycle fuzzy < uniform", block["cycle"], thesis[1]),
+              flush=True)
+        out[experiment] = block
+    return out
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeded runs per arm and experiment")
     parser.add_argument("--quick", action="store_true", help="2 seeds, fuzzy and uniform only")
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    parser.add_argument("--volunteers-only", action="store_true",
+                        help="only the simulated volunteers' study (event level), not the Drake cell's runs")
     add_campaign_arguments(parser)
     args = parser.parse_args(argv)
+    if args.volunteers_only:
+        size = "smoke" if args.smoke else "quick" if args.quick else "full"
+        result = {"use_case_c": {"volunteers": volunteers_study(size)}}
+        print(json.dumps(result))
+        return result
     seeds = 1 if args.smoke else 2 if args.quick else args.seeds
     arms = ["fuzzy", "uniform"] if args.quick or args.smoke else ["fuzzy", "uniform", "round_robin"]
     n_runs = len(EXPERIMENTS) * seeds * len(arms)
@@ -176,6 +239,7 @@ def main(argv=None) -> dict:
         print(f"Experiment {experiment}: idle median fuzzy {block['fuzzy']['idle_median']} s, uniform "
               f"{block['uniform']['idle_median']} s, p = {block['wilcoxon_p']} (thesis {thesis}); cycle p = "
               f"{block['wilcoxon_p_cycle']}", flush=True)
+    out["volunteers"] = volunteers_study("smoke" if args.smoke else "quick" if args.quick else "full")
     result = {"use_case_c": out, "seeds": seeds}
     print(json.dumps(result))
     return result

@@ -57,6 +57,7 @@ def simulate_cell(
     max_time: float = 3600.0,
     learn: bool = True,
     wait_grid: bool | None = None,
+    operator=None,
 ) -> CellRun:
     """Run the cell until `n_cycles` human pattern cycles, `n_products` products or `max_time`.
 
@@ -66,6 +67,9 @@ def simulate_cell(
     the next multiple of t_w (the grid variant, on which robots that wait meet, as actions of
     several arms need). None: the policy's own `wait_grid` (a `MonteCarloPolicy` models its
     waits so), else True (the baselines, as before).
+    operator: the true durations of the human's actions, an object with
+    ``duration(action, repetition, rng) -> s`` (repetition: 1 for the person's first execution of
+    the action; e.g. a `volunteers.Volunteer`); None: the net's delays.
     """
     if wait_grid is None:
         wait_grid = bool(getattr(policy, "wait_grid", True))
@@ -87,6 +91,8 @@ def simulate_cell(
     cycle_place = net.place_index.get("step:0")
     human = net.human_agent
     human_waiting: set[int] = set()
+    human_end = np.array([net.role[j] == "end" and _has_human(net, j) for j in range(n_t)], dtype=bool)
+    repetitions: dict[str, int] = {}
 
     def fire(j: int):
         nonlocal m
@@ -122,6 +128,10 @@ def simulate_cell(
         for j in np.flatnonzero(en & unc & ~en_prev):
             if net.role[j] == "wait_end":
                 delay = float(wait_delay(t, net.wait_quantum, wait_grid))
+            elif operator is not None and human_end[j]:
+                action = net.action[j]
+                repetitions[action] = repetitions.get(action, 0) + 1
+                delay = float(operator.duration(action, repetitions[action], rng))
             else:
                 delay = sample_duration(net.delays[j], rng)
             fire_at[j] = t + delay
