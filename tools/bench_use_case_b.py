@@ -169,12 +169,14 @@ def summarize(rows: list[dict], arms: list[str], patterns=PATTERNS, test=("A", "
                           "human_wait_per_product": _round(sum(r["human_wait"] for r in mine) / products)
                           if products else None,
                           "run_mean_cycles": [_round(np.mean(r["cycles"])) for r in mine if r["cycles"]]}
+        out[pattern] = block
+        if not all(arm in arms for arm in test):  # a run of some arms only: no test
+            continue
         first, second = ([c for r in rows if r["pattern"] == pattern and r["arm"] == arm for c in r["cycles"]]
                          for arm in test)
         block["wilcoxon_p"] = _one_sided(first, second)
         block["wilcoxon_p_runs"] = _one_sided(block[test[0]]["run_mean_cycles"],
                                               block[test[1]]["run_mean_cycles"])
-        out[pattern] = block
     return out
 
 
