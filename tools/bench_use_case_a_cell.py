@@ -73,8 +73,8 @@ def main(argv=None) -> dict:
     out = summarize(rows, arms, PATTERNS, test=("best_scenario", "round_robin"))
     for pattern, block in out.items():
         if "wilcoxon_p" not in block:  # not both arms of the thesis's comparison
-            print(f"{pattern}: " + ", ".join(f"{arm} {block[arm]['cycle_mean']} s per product" for arm in arms),
-                  flush=True)
+            means = ", ".join(f"{arm} {block[arm]['cycle_mean']} s per product" for arm in arms)
+            print(f"{pattern}: {means}", flush=True)
             continue
         bs, rr = block["best_scenario"]["cycle_mean"], block["round_robin"]["cycle_mean"]
         gain = 100 * (1 - bs / rr) if bs and rr else None
