@@ -92,8 +92,11 @@ def compare(pools: dict, first: str, second: str, metric: str, seed: int, draws:
         needed, by_size = people_needed(pool_a, pool_b, rng, SIZES, draws=max(draws // 2, 1), unit=unit)
         out["power"][f"by_group_size{suffix}"] = {str(k): round(v, 3) for k, v in by_size.items()}
         out[f"people_needed_p05{suffix}"] = needed
-    out["median_all_first"] = round(float(np.median(np.concatenate(pool_a))), 3)
-    out["median_all_second"] = round(float(np.median(np.concatenate(pool_b))), 3)
+    for name, pool in (("first", pool_a), ("second", pool_b)):  # every person of the pool, pooled
+        samples = np.concatenate(pool)
+        out[f"median_all_{name}"] = round(float(np.median(samples)), 3)
+        out[f"quartiles_all_{name}"] = [round(float(q), 3) for q in np.percentile(samples, [25, 50, 75])]
+        out[f"mean_all_{name}"] = round(float(samples.mean()), 3)
     return out
 
 
