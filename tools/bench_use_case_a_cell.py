@@ -15,8 +15,8 @@ Prints a line per run and, as its last line, one JSON object:
 The runs go through the campaign API, as `bench_use_case_b.py`'s (`run_patterns`).
 
 Usage:
-    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick | --smoke] [--arms A,B] [--workers W]
-        [--address A] [--out DIR]
+    python3 tools/bench_use_case_a_cell.py [--seeds N] [--quick | --smoke] [--arms A,B] [--no-safety]
+        [--workers W] [--address A] [--out DIR]
 --smoke: one seed of the best scenario and the round robin, 1 s runs (figures meaningless; the
 tests run it).
 """
@@ -54,6 +54,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--quick", action="store_true", help="2 seeds, best scenario and round robin only")
     parser.add_argument("--smoke", action="store_true",
                         help="a few seconds: the whole path once, figures meaningless (the tests run it)")
+    parser.add_argument("--no-safety", action="store_true",
+                        help="without the ISO/TS 15066 layer (safety: !NoSafety), as the thesis's Ch. 7 ran")
     parser.add_argument("--arms", default=None,
                         help=f"comma-separated arms to run (of {', '.join(SCHEDULERS)}; default: all)")
     add_campaign_arguments(parser)
@@ -69,7 +71,8 @@ def main(argv=None) -> dict:
     print(f"{n_runs} runs ({seeds} seeds x {len(arms)} arms x 2 patterns), {args.address or args.workers} "
           "workers", flush=True)
     rows = run_patterns("use_case_a_cell", ROOT / "diagrams" / "pcb_collab.yaml", PATTERNS, SCHEDULERS, arms,
-                        seeds, N_PRODUCTS, SMOKE_DURATION if args.smoke else DURATION, args)
+                        seeds, N_PRODUCTS, SMOKE_DURATION if args.smoke else DURATION, args,
+                        extra="safety: !NoSafety {}" if args.no_safety else "")
     out = summarize(rows, arms, PATTERNS, test=("best_scenario", "round_robin"))
     for pattern, block in out.items():
         if "wilcoxon_p" not in block:  # not both arms of the thesis's comparison

@@ -79,12 +79,13 @@ def untimed_flow(base: Path, scheduler: str) -> dict:
 
 
 def pattern_campaign(name: str, base: Path, patterns: dict[str, str], schedulers: dict[str, str],
-                     arms: list[str], seeds: int, duration: float):
+                     arms: list[str], seeds: int, duration: float, extra: str = ""):
     """`base` as a campaign: a variant `<pattern>-<arm>` per operator pattern and scheduler (the
-    YAML texts above, overrides of the scenario), seeds 100, 101, ...; per-product samples."""
+    YAML texts above, overrides of the scenario), seeds 100, 101, ...; per-product samples.
+    extra: YAML text of further overrides every variant takes (e.g. the safety mode)."""
     variants = {
         f"{p}-{arm}": {**_raw_document(f"operator: {{pattern: {patterns[p]}}}\nscheduler: {schedulers[arm]}"),
-                       **untimed_flow(base, schedulers[arm])}
+                       **untimed_flow(base, schedulers[arm]), **(_raw_document(extra) if extra else {})}
         for p in patterns
         for arm in arms
     }
@@ -135,9 +136,9 @@ def pattern_rows(frame, n_products: int) -> list[dict]:
 
 
 def run_patterns(name: str, base: Path, patterns: dict[str, str], schedulers: dict[str, str], arms: list[str],
-                 seeds: int, n_products: int, duration: float, args) -> list[dict]:
-    """Every pattern x arm x seed of `base` as one campaign; a row per run, printed."""
-    campaign = pattern_campaign(name, base, patterns, schedulers, arms, seeds, duration)
+                 seeds: int, n_products: int, duration: float, args, extra: str = "") -> list[dict]:
+    """Every pattern x arm x seed of `base` as one campaign (`pattern_campaign`); a row per run, printed."""
+    campaign = pattern_campaign(name, base, patterns, schedulers, arms, seeds, duration, extra)
     with tempfile.TemporaryDirectory() as tmp:
         (frame,) = run_campaigns([campaign], args.workers, args.address, Path(args.out or tmp))
     rows = pattern_rows(frame, n_products)
