@@ -13,12 +13,14 @@ or withdrawn after its patience.
 An action of several agents (a collaboration, thesis 6.3.3) starts when every one of them has
 asked for it (a rendezvous: the parts are taken once) and ends when the last one finishes its
 part; each agent is free again when its own part ends (the left arm of Fig. 7.3 leaves first).
+A partner that arrives renews the patience of those already waiting for the action.
 """
 
 from __future__ import annotations
 
+import math
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from hrc_drake.messages import WorldRequest, WorldSnapshot, shallow_copy
 from hrc_drake.scheduling.flow import Buffer, FlowAction
@@ -91,6 +93,7 @@ class CellWorld:
             if request.kind == "finish":
                 self.finish(request.agent, request.action, request.time)
             elif request.kind == "start":
+                self._renew_partners(request)
                 self.pending[request.agent] = request
             else:
                 raise ValueError(f"world request of unknown kind {request.kind!r} from {request.agent!r}")
@@ -112,6 +115,17 @@ class CellWorld:
             elif not self.is_joint(request.agent, request.action):
                 self.granted[request.agent] = request.seq
                 del self.pending[request.agent]
+
+    def _renew_partners(self, request: WorldRequest) -> None:
+        """An agent that asks with finite patience for a shared action renews the patience of its
+        partners already waiting for it with finite patience: their wait counts from its arrival,
+        as the net's give-up of a held action counts from the join (6.3.3)."""
+        if not (math.isfinite(request.patience) and self.is_joint(request.agent, request.action)):
+            return
+        for agent, other in list(self.pending.items()):
+            if agent != request.agent and other.action == request.action and math.isfinite(other.patience):
+                renewed = max(other.patience, request.time + request.patience - other.time)
+                self.pending[agent] = replace(other, patience=renewed)
 
     def _try_start_joint(self, action: str) -> bool:
         """Start a shared action when every one of its agents asks for it (rendezvous)."""

@@ -34,9 +34,9 @@ Where the text leaves a choice open, the simplest reading is taken:
   branched; the others decide in the child (the same arrival time), as the cell asks free
   robots one at a time. Algorithm 5 line 10 branches on all of them, which repeats every
   combination once per order; False does that.
-- a join of a held action of two robots (`compiler.JOINT_ACTIONS` "hold") fires at alpha_f with
-  possibility 1 before any controllable conflict: the partner joins the moment it is free, as the
-  cell has it.
+- a join of a held action of two robots (`config.JOINT_ACTIONS` "hold") fires at alpha_f with
+  possibility 1 before any controllable conflict below the root: the partner joins the moment it
+  is free, as the cell has it (the root is the deciding robot's choice, never a join).
 - ties of J at the root (the text names no rule) go to the lowest transition index (the flow
   order; waits come last), or with `ties="random"` to one drawn by the seeded generator; the
   policy counts them (`FuzzyStats.ties`).
@@ -399,7 +399,7 @@ class FuzzyReachabilityTree:
     def _children(self, i: int) -> list[FuzzyNode]:
         net, f = self.net, self.nodes[i]
         enabled = sorted(f.enab)
-        joins = [j for j in enabled if self._is_join[j]]
+        joins = [j for j in enabled if self._is_join[j]] if i > 0 else []
         if joins:  # a free partner joins a held action at once (6.3.3), before anyone decides
             f.conflict = "uncontrollable"
             return [self._child(i, joins[0], f.arrival, 1.0, same_epoch=True)]

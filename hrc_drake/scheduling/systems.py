@@ -138,19 +138,20 @@ class SchedulerCore:
 
 def _give_up_after(net: PcTPN, j: int) -> float:
     """How long the robots of commanded transition j wait for their partners: the fixed delay of
-    the give-up transition (T_wait, Fig. 7.3) of a commitment to a collaboration or of an arm's
-    hold on an action of two robots (6.3.3), else inf."""
-    joined = [net.places[i] for i in np.flatnonzero(net.post[:, j])]
-    if net.role[j] == "join" and any(p.startswith("cwait:") for p in joined):
-        k = net.transition_index.get(f"{net.action[j]}:giveup")  # both arms now wait for the human
-        return math.inf if k is None else float(net.delays[k].mean)
-    if net.role[j] not in ("commit", "hold"):
+    the give-up transition (T_wait, Fig. 7.3) that takes back what j commits (a commitment to a
+    collaboration, an arm's hold on an action of two robots, 6.3.3, or, for the arm that joins
+    a hold, the holder's), else inf. Found by the net's arcs, not by names (names may hold ':')."""
+    if net.role[j] not in ("commit", "hold", "join"):
         return math.inf
-    name = f"{net.action[j]}:giveup"
-    if net.transitions[j].count(":") == 2:  # one arm's commitment or hold: <action>:<role>:<agent>
-        name += f":{net.agents[j][0]}"
-    k = net.transition_index.get(name)
-    return math.inf if k is None else float(net.delays[k].mean)
+    waiting = {int(i) for i in np.flatnonzero(net.post[:, j])
+               if net.places[i].startswith(("held:", "cwait:"))}
+    if not waiting and net.role[j] == "join":  # an action of two robots: its holder's patience
+        waiting = {int(i) for i in np.flatnonzero(net.pre[:, j]) if net.places[i].startswith("held:")}
+    for k in range(net.n_transitions):
+        pre = {int(i) for i in np.flatnonzero(net.pre[:, k])}
+        if net.role[k] == "giveup" and net.action[k] == net.action[j] and pre and pre <= waiting:
+            return float(net.delays[k].mean)
+    return math.inf
 
 
 def _join_of(net: PcTPN, marking, agent: str) -> int | None:
@@ -252,22 +253,38 @@ class Scheduler(LeafSystem):
         if ready and hasattr(core.policy, "set_forecast_from") and self._forecast.HasValue(context):
             core.policy.set_forecast_from(self._forecast.Eval(context), t)
         idle = set(core.idle) | set(ready)
-        for agent in ready:
-            avail = net.place_index[f"avail:{agent}"]
-            if tracker.m[avail] <= 0 or agent not in idle:
-                continue  # already commanded with a partner in this tick
-            # the policy sees only the really idle arms as available
+
+        def masked() -> np.ndarray:
+            """The belief as the policy sees it: only the really idle arms are available."""
             marking = tracker.m.copy()
             for other in self.robot_agents:
                 if other not in idle:
                     marking[net.place_index[f"avail:{other}"]] = 0
-            j = _join_of(net, marking, agent)
-            if j is None:
-                j = int(core.policy.decide(marking, agent, now=t, elapsed=tracker.elapsed(t)))
-            # a join commands only the arm that joins: its partner already holds for the action
-            agents = net.agents[j][:1] if net.role[j] == "join" else net.agents[j]
-            idle -= set(agents)
+            return marking
+
+        # first every idle arm whose partner holds for an action of both joins it (6.3.3: at once,
+        # not by the policy's choice); the belief fires the join when the cell starts the action
+        # (the robots' "begin", `NetTracker._settle_holds`), so a join the cell never starts
+        # leaves the belief as it was
+        orders = []
+        for agent in sorted(idle):
+            j = _join_of(net, masked(), agent)
+            if j is not None and tracker.m[net.place_index[f"avail:{agent}"]] > 0:
+                idle.discard(agent)
+                orders.append((j, (agent,)))
+        for agent in ready:
+            avail = net.place_index[f"avail:{agent}"]
+            if tracker.m[avail] <= 0 or agent not in idle:
+                continue  # already commanded with a partner in this tick, or joining
+            marking = masked()
+            j = int(core.policy.decide(marking, agent, now=t, elapsed=tracker.elapsed(t)))
+            if not (net.controllable[j] and agent in net.agents[j] and net.enabled(marking)[j]):
+                raise ValueError(f"Scheduler: the policy chose {net.transitions[j]!r} for {agent!r}, "
+                                 "which is not an enabled controllable transition of that agent")
+            idle -= set(net.agents[j])
             tracker.command(j, t)
+            orders.append((j, net.agents[j]))
+        for j, agents in orders:
             action = None if net.role[j] == "wait" else net.action[j]
             for a in agents:
                 commands.append(

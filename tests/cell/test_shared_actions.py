@@ -45,6 +45,23 @@ def test_a_shared_action_starts_when_all_its_agents_ask_and_ends_with_the_last()
     assert world.completions[-1].time == 4.0
 
 
+def test_a_partner_that_arrives_renews_the_patience_of_those_waiting():
+    buffers = [Buffer("raw", kind="raw"), Buffer("mid", capacity=1), Buffer("out", kind="product")]
+    world = CellWorld(buffers, [FlowAction("pair", ["left", "right"], ["mid"], ["out"])])
+    world.handle_requests([_req(0.0, "left", "start", 1, action="pair", patience=5.0)])
+    world.handle_requests([_req(4.0, "right", "start", 1, action="pair", patience=5.0)])  # no part yet
+    assert world.next_deadline() == 9.0
+    world.handle_requests([], now=6.0)
+    assert not world.withdrawn and set(world.pending) == {"left", "right"}
+    world.handle_requests([], now=9.0)
+    assert world.withdrawn == {"left": 1, "right": 1}
+    # an agent that waits for ever renews nobody
+    world = CellWorld(buffers, [FlowAction("pair", ["left", "right"], ["mid"], ["out"])])
+    world.handle_requests([_req(0.0, "left", "start", 1, action="pair", patience=5.0),
+                           _req(4.0, "right", "start", 1, action="pair")])
+    assert world.next_deadline() == 5.0
+
+
 def test_a_start_is_withdrawn_after_its_patience_and_the_others_keep_waiting():
     world = _world()
     world.handle_requests([_req(0.0, "left", "start", 1, patience=5.0), _req(0.0, "right", "start", 1)])
@@ -246,7 +263,9 @@ def _run(path, duration=240.0):
 def test_use_case_a_cell_best_scenario_beats_round_robin(tmp_path, diagrams_dir):
     best = _run(diagrams_dir / "pcb_collab.yaml")
     rr = tmp_path / "rr.yaml"
-    round_robin = "scheduler: !RoundRobinScheduler {programs: {yumi_left: [fuse, check]}, wait_quantum: 3}\n"
+    # like with like: the round robin on the best-scenario scheduler's net (joint actions started together)
+    round_robin = ("scheduler: !RoundRobinScheduler {programs: {yumi_left: [fuse, check]}, wait_quantum: 3, "
+                   "joint_actions: simultaneous}\n")
     rr.write_text(f"extends: {diagrams_dir / 'pcb_collab.yaml'}\n{round_robin}{UNTIMED}")
     robin = _run(rr)
     for result in (best, robin):

@@ -158,8 +158,8 @@ def test_the_fuzzy_tree_joins_before_any_choice():
 
 def test_the_drake_cell_holds_and_joins(tmp_path, diagrams_dir):
     """pcb_collab with the Monte Carlo scheduler as written (waits of t_w): one arm is commanded
-    into the check and holds, its partner is commanded the moment it reports ready and never gives
-    up (the action starts at once); products come. The simultaneous variant makes none."""
+    into the check and holds, its partner is commanded the moment it reports ready; products
+    come. The simultaneous variant makes none."""
     from hrc_drake.cell.build import build_cell
     from hrc_drake.cell.run import simulate
     from hrc_drake.cell.scenario import Tagged, load_scenario_with
@@ -173,11 +173,42 @@ def test_the_drake_cell_holds_and_joins(tmp_path, diagrams_dir):
         result = simulate(build_cell(scenario, path), 120.0, progress=None)
         products[joint] = result.metrics["products_finished"]
         if joint == "hold":
-            checks = [c for c in result.log.decisions if c.action == "check"]
-            holders = [c for c in checks if c.give_up_after == 15.0]
-            joiners = [c for c in checks if c.give_up_after == math.inf]
-            assert holders and joiners
-            # each join follows a hold of the other arm
-            for j in joiners:
-                assert any(h.agent != j.agent and h.time <= j.time for h in holders)
+            checks = sorted((c for c in result.log.decisions if c.action == "check"), key=lambda c: c.time)
+            # commands come in pairs, the holder's first: each arm waits T_wait = 5 t_w for the other
+            assert checks and all(c.give_up_after == 15.0 for c in checks)
+            pairs = list(zip(checks[::2], checks[1::2], strict=False))
+            assert all(a.agent != b.agent for a, b in pairs)
+            assert any(b.time > a.time for a, b in pairs)  # an arm held before its partner joined
     assert products["hold"] >= 2 and products["simultaneous"] == 0
+
+
+def test_give_up_delays_are_found_by_the_arcs_whatever_the_names():
+    """Names may hold ':'; the give-up of a hold, of a join and of a commitment is the one that
+    takes back what they commit."""
+    from hrc_drake.scheduling.systems import _give_up_after
+
+    buffers = [Buffer("raw", kind="raw"), Buffer("product", kind="product")]
+    for joint in ("hold", "simultaneous"):
+        flow = Flow(actions=[
+            FlowAction("pcb:check", ["yumi:l", "yumi:r"], ["raw"], ["product"], duration=_fixed(2.0)),
+            FlowAction("co:op", ["h", "yumi:l", "yumi:r"], ["raw"], ["product"], duration=_fixed(2.0)),
+        ])
+        net = compile_flow(flow, buffers, "h", ["co:op"], ["yumi:l", "yumi:r"], wait_quantum=1.0,
+                           collab_patience=4.0, joint_actions=joint)
+        committing = [j for j in range(net.n_transitions) if net.role[j] in ("hold", "commit", "join")]
+        assert committing
+        for j in committing:
+            assert _give_up_after(net, j) == 4.0, net.transitions[j]
+        assert _give_up_after(net, net.transition_index["yumi:l:wait"]) == math.inf
+
+
+def test_the_fuzzy_root_never_decides_a_join():
+    flow, buffers, human, robots = tc.use_case_a(1)
+    net = compile_flow(flow, buffers, "human", human, robots, wait_quantum=3.0)
+    m = net.m0.copy()
+    m[net.place_index["buf:with_ic"]] += 1
+    m[net.place_index["space:with_ic"]] -= 1
+    m = m + net.incidence[:, net.transition_index["check:hold:yumi_left"]]
+    assert net.enabled(m)[net.transition_index["check:join:yumi_right"]]
+    j = FuzzyPolicy(net, horizon=12.0, random_state=0).decide(m, "yumi_right")
+    assert net.controllable[j] and "yumi_right" in net.agents[j]
