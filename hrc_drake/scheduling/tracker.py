@@ -114,8 +114,9 @@ class NetTracker:
                    for i, p in enumerate(net.places))
 
     def _settle_holds(self, action: str, t: float):
-        """An arm the belief still has holding for `action` (6.3.3 hold model) when the cell shows
-        the action beginning has been joined: fire its partner's join (forced)."""
+        """The cell shows `action` beginning: an arm the belief still has holding for it (6.3.3
+        hold model) has been joined by its partner, so fire that join (forced; the Scheduler
+        commands a join without firing it, as the cell may never start the action)."""
         net = self.net
         for k in range(net.n_transitions):
             if net.role[k] == "join" and net.action[k] == action and any(
