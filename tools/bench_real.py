@@ -25,8 +25,11 @@ gpdm (8.2) `real_gpdm`: one GPDM per reach kind fitted on the same person's othe
     one out) predicts the arm 0.3 s ahead, against constant-velocity extrapolation.
 
 Usage:
-    python3 tools/bench_real.py [--quick | --smoke] [--data DIR] [--parts prediction,tracking,intention,gpdm]
-        [--trials N] [--seconds S]
+    python3 tools/bench_real.py [--quick | --smoke] [--data DIR] [--people tuning|test|all|folder]
+        [--parts prediction,tracking,intention,gpdm] [--trials N] [--seconds S]
+--people: which UE participants (docs/real_claims.yaml splits the shipped ones into tuning and
+test people; `folder` takes every participant of --data's folder, e.g. held-out ones); default:
+tuning for the shipped data, folder for --data.
 --smoke: every part once on the smallest setting (one trial per set, 3.5 s each, only the trials
 taken are read, 5 Monte Carlo trials, 50 particles, the other tools' quick settings): figures
 meaningless.
@@ -71,6 +74,7 @@ from hrc_drake.human.importers import (  # noqa: E402
 )
 from hrc_drake.messages import L_ELBOW, L_SHOULDER, L_WRIST, R_ELBOW, R_SHOULDER, R_WRIST  # noqa: E402
 from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
+from hrc_drake.real_claims import SELECTIONS, select_people  # noqa: E402
 
 MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
 PARTS = ("prediction", "tracking", "intention", "gpdm")
@@ -96,10 +100,11 @@ def log(text: str) -> None:
 
 
 def recordings(root: Path, trials: int | None, seconds: float | None,
-               read_all: bool = True) -> tuple[dict, list]:
+               read_all: bool = True, people=None) -> tuple[dict, list]:
     """(frames imported per set, [(name, points (T, 8, 3) at RATE, z up)]) of the first `trials`
     trials of each set under `root` (None: all), each cut to `seconds` (None: whole). read_all:
-    every trial is read to count the frames of the sets (else only the trials taken)."""
+    every trial is read to count the frames of the sets (else only the trials taken). people: the
+    UE participants (None: the claims file's tuning people)."""
     frames, out = {}, []
     sources = []
     try:
@@ -111,7 +116,9 @@ def recordings(root: Path, trials: int | None, seconds: float | None,
     except FileNotFoundError as err:
         log(f"skipped: {err}")
     try:
-        ue = sorted(p for p in dataset_dir("ue_adl", root).glob("*/*.csv") if "static" not in p.name)
+        folder = dataset_dir("ue_adl", root)
+        chosen = select_people(folder, "tuning") if people is None else tuple(people)
+        ue = sorted(p for person in chosen for p in (folder / person).glob("*.csv") if "static" not in p.name)
         sources += [(f"ue:{p.stem}", lambda p=p: read_ue_adl(p)) for p in ue]
     except FileNotFoundError as err:
         log(f"skipped: {err}")
@@ -132,8 +139,12 @@ def recordings(root: Path, trials: int | None, seconds: float | None,
         frames[kind] = frames.get(kind, 0) + recording.frames
         if enough:
             continue
+        try:
+            placed, _, _ = place_in_cell(synthesize_missing(recording), Placement())
+        except ValueError as err:  # e.g. a shoulder the source never recorded (flag_stuck_points)
+            log(f"skipped {name}: {err}")
+            continue
         taken[kind] = taken.get(kind, 0) + 1
-        placed, _, _ = place_in_cell(synthesize_missing(recording), Placement())
         points = resample(placed, RATE).points
         out.append((name, points if seconds is None else points[: int(seconds * RATE)]))
     return frames, out
@@ -296,9 +307,9 @@ def with_particles(specs: dict, particles: int) -> dict:
             for name, (kind, options) in specs.items()}
 
 
-def gpdm_part(root: Path, quick: bool) -> dict:
+def gpdm_part(root: Path, quick: bool, people=None) -> dict:
     """8.2's GPDM on the seated reaches (`real_gpdm`): the same person's other trials train it."""
-    result = gpdm_figures(root, seed=0, quick=quick)
+    result = gpdm_figures(root, seed=0, quick=quick, people=people)
     return {"gpdm": result["real"], "gpdm_synthetic": result["synthetic"],
             "gpdm_settings": result["settings"], "gpdm_sweep": result["sweep"]}
 
@@ -313,6 +324,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, default=None,
                         help="cut each recording to this length (default: whole)")
     parser.add_argument("--data", default=None, help="a data folder laid out like data/ (default: it)")
+    parser.add_argument("--people", choices=SELECTIONS, default=None,
+                        help="the UE participants: a split of docs/real_claims.yaml or every one in the "
+                             "folder (default: tuning for data/, folder for --data)")
     parser.add_argument("--parts", default=",".join(PARTS),
                         help=f"comma-separated parts to run (default: all of {','.join(PARTS)})")
     args = parser.parse_args(argv)
@@ -331,9 +345,15 @@ def main(argv: list[str] | None = None) -> None:
     # the other tools have a quick setting, none smaller
     quick = args.quick or args.smoke
     root = data_root(args.data)
+    selection = args.people or ("folder" if args.data else "tuning")
+    try:
+        people = select_people(dataset_dir("ue_adl", root), selection)
+    except FileNotFoundError:
+        people = ()
     log(f"real recordings from {root} ({trials or 'all'} trial(s) per set, "
-        f"{f'{seconds:g} s' if seconds else 'whole'} each, {RATE:g} Hz)")
-    frames, sequences = recordings(root, trials, seconds, read_all=not args.smoke)
+        f"{f'{seconds:g} s' if seconds else 'whole'} each, {RATE:g} Hz); UE people ({selection}): "
+        f"{', '.join(people) or 'none'}")
+    frames, sequences = recordings(root, trials, seconds, read_all=not args.smoke, people=people)
     log(f"imported frames per set: {frames}")
     figures = {
         "quick": bool(args.quick),
@@ -342,6 +362,7 @@ def main(argv: list[str] | None = None) -> None:
         "rate_hz": RATE,
         "sequences": [name for name, _ in sequences],
         "frames_imported": frames,
+        "people": {"selection": selection, "ue_adl": list(people)},
         "seconds_tested": {"real": sum(len(p) for _, p in sequences) / RATE, "synthetic": synthetic_s},
     }
     parts = args.parts.split(",")
@@ -353,14 +374,14 @@ def main(argv: list[str] | None = None) -> None:
                                         quick=quick, trackers=trackers))
     if "intention" in parts:
         log("\n== intention (3.1): the seated reaches, forward / across / rest")
-        intention = intention_figures(root, seed=0, quick=quick)
+        intention = intention_figures(root, seed=0, quick=quick, people=people)
         figures["intention_detail"] = intention
         for key, value in intention_keys(intention).items():
             prefix, model, name = key.split(".")
             figures.setdefault(prefix, {}).setdefault(model, {})[name] = value
     if "gpdm" in parts:
         log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")
-        figures.update(gpdm_part(root, quick))
+        figures.update(gpdm_part(root, quick, people))
     print(json.dumps(figures))
 
 

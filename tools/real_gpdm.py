@@ -64,6 +64,7 @@ from hrc_drake.human.operator import OperatorTask, SyntheticOperator  # noqa: E4
 from hrc_drake.motion.config import ProactivePlanner  # noqa: E402
 from hrc_drake.motion.gpdm import GPDM  # noqa: E402
 from hrc_drake.motion.proactive import ARM_POINTS  # noqa: E402
+from hrc_drake.real_claims import select_people  # noqa: E402
 
 RATE = 30.0
 #: the cells' prediction horizon (diagrams/*.yaml `GPMotionModel {horizon: 0.3}`)
@@ -178,12 +179,15 @@ def _trial(person: str, kind: str, index: int, points: np.ndarray) -> dict:
     return {"person": person, "kind": kind, "index": index, "poses": poses, "start": start, "end": end}
 
 
-def real_trials(root) -> list[dict]:
-    """The UE seated reaches (`data/real/ue_adl`): read, thorax and head synthesised, placed in the
-    cell (`Placement()`), resampled to 30 Hz, segmented."""
+def real_trials(root, people=None) -> list[dict]:
+    """The UE seated reaches (`data/real/ue_adl`) of `people` (None: the claims file's tuning
+    people, `hrc_drake.real_claims`): read, thorax and head synthesised, placed in the cell
+    (`Placement()`), resampled to 30 Hz, segmented."""
     out = []
     folder = dataset_dir("ue_adl", root)
-    for path in sorted(p for p in folder.glob("*/*.csv") if "static" not in p.name):
+    people = select_people(folder, "tuning") if people is None else tuple(people)
+    paths = [p for person in people for p in (folder / person).glob("*.csv") if "static" not in p.name]
+    for path in sorted(paths):
         person, rest = path.parent.name, path.stem[len(path.parent.name):]
         kind, index = rest[:2], int(rest[2:])
         if kind not in KINDS:
@@ -340,18 +344,19 @@ def sweep(trials: list[dict], seed: int) -> list[dict]:
     return rows
 
 
-def gpdm_figures(root=None, seed: int = 0, quick: bool = False) -> dict:
+def gpdm_figures(root=None, seed: int = 0, quick: bool = False, people=None) -> dict:
     """{"real": ..., "synthetic": ..., "settings": ..., "sweep": ...}: the GPDM of 8.2 against
     constant velocity at the 0.3 s horizon (module docstring). "real" and "synthetic" hold, pooled
     over both kinds for same-person leave-one-out: rms_m (GPDM, 8.2's begin alignment),
     constant_velocity_rms_m, gpdm_phase_rms_m, gpdm_anchored_rms_m, hold_rms_m, each also as
     *wrist_rms_m and *remaining_rms_m (whole remaining reach), predictions; "same_person" and
     "other_person" the same figures with "per_kind"; trials, persons, gpdm_fits,
-    reach_s_median. quick: three synthetic reaches per kind instead of five, no sweep ([])."""
+    reach_s_median. quick: three synthetic reaches per kind instead of five, no sweep ([]).
+    people: the UE participants (None: the claims file's tuning people)."""
     start = time.process_time()
     log(f"\n{'set':<10} {'training':<13} {'kind':<4} {'gpdm':>8} {'phase':>8} {'anch.':>8} {'c.vel.':>8} "
         f"{'hold':>8} {'gpdm rem':>9} {'cv rem':>9} {'n':>6}  (RMS m at {HORIZON:g} s; rem: remaining reach)")
-    trials = real_trials(data_root(root))
+    trials = real_trials(data_root(root), people)
     real = evaluate(trials, seed, "real")
     synthetic = evaluate(synthetic_trials(seed, 3 if quick else 5), seed, "synthetic")
     for name, row in (("real", real), ("synthetic", synthetic)):

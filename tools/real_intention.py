@@ -74,6 +74,7 @@ from hrc_drake.human.importers import (  # noqa: E402
     synthesize_missing,
 )
 from hrc_drake.messages import R_WRIST  # noqa: E402
+from hrc_drake.real_claims import select_people  # noqa: E402
 
 METHODS = ("M1", "M2", "M3")
 RATE = 30.0
@@ -202,12 +203,14 @@ def right_hand_trace(estimator, times, points, gaze=None, gaze_valid=None) -> np
 # ---------------------------------------------------------------- real reaches
 
 
-def real_reaches(root) -> list[dict]:
-    """Every FR/AR trial of ue_adl under `root`: participant, trial, kind, times, points (T, 8, 3)
-    at RATE in the cell (z up), reach start and end (`reach_span` of the right wrist)."""
+def real_reaches(root, people=None) -> list[dict]:
+    """Every FR/AR trial of ue_adl under `root` of the participants `people` (None: the claims
+    file's tuning people, `hrc_drake.real_claims`): participant, trial, kind, times, points
+    (T, 8, 3) at RATE in the cell (z up), reach start and end (`reach_span` of the right wrist)."""
     folder = dataset_dir("ue_adl", root)
+    people = select_people(folder, "tuning") if people is None else tuple(people)
     out = []
-    for path in sorted(folder.glob("*/*.csv")):
+    for path in sorted(p for person in people for p in (folder / person).glob("*.csv")):
         match = re.fullmatch(r"(.+?)(FR|AR)(\d+)", path.stem)
         if not match:
             continue
@@ -338,20 +341,21 @@ def evaluate_synthetic(items, model, with_rest: bool, seed: int) -> dict:
 
 
 def intention_figures(root=None, seed: int = 0, quick: bool = False, with_rest: bool = True,
-                      two_goal_variant: bool = True) -> dict:
+                      two_goal_variant: bool = True, people=None) -> dict:
     """The intention section of issue 37 (thesis 3.1): commit fraction, missed and wrong
-    commitments of M1, M2, M3 on the real seated reaches, the synthetic operator beside them."""
+    commitments of M1, M2, M3 on the real seated reaches of `people` (None: the tuning people),
+    the synthetic operator beside them."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a goal slightly out of a synthetic arm's reach is fine here
-        return _figures(root, seed, quick, with_rest, two_goal_variant)
+        return _figures(root, seed, quick, with_rest, two_goal_variant, people)
 
 
-def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bool) -> dict:
+def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bool, people=None) -> dict:
     from hrc_drake.intention.likelihood import default_model
 
     model = default_model()
     root = data_root(root)
-    reaches = real_reaches(root)
+    reaches = real_reaches(root, people)
     if not reaches:
         raise FileNotFoundError(f"no FR/AR reaches under {root}")
     durations = [r["times"][r["end"]] - r["times"][r["start"]] for r in reaches]

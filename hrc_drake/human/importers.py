@@ -44,7 +44,9 @@ TABLE_HEIGHT_RANGE_M = (0.3, 1.5)
 class Recording:
     """A real recording as skeleton points: times (T,) s from 0, points (T, 8, 3) m (NaN where a
     frame does not hold the point), tracked (T, 8); `synthesized`: points built from others
-    (`synthesize_missing`), `up`: the recording frame's up direction (unit)."""
+    (`synthesize_missing`), `up`: the recording frame's up direction (unit); `fixed`: points the
+    source holds constant for the whole recording (kept for placing it, never measurements to
+    score against, `flag_stuck_points`)."""
 
     times: np.ndarray
     points: np.ndarray
@@ -54,10 +56,39 @@ class Recording:
     synthesized: tuple[str, ...] = ()
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     notes: tuple[str, ...] = field(default_factory=tuple)
+    fixed: tuple[str, ...] = ()
 
     @property
     def frames(self) -> int:
         return len(self.times)
+
+
+#: a point closer than this to the origin in every frame, or moving less than this over the
+#: whole recording, is stuck (m): no sensor holds a real joint that still (`flag_stuck_points`)
+STUCK_TOLERANCE = 1e-6
+
+
+def flag_stuck_points(recording: Recording) -> Recording:
+    """A point at the origin in every frame it holds is no measurement: it becomes untracked. A
+    point constant over the whole recording (two or more frames) is one the source holds fixed:
+    it stays (a recording is placed by its shoulders) and is named in `fixed`, so that nothing
+    scores against it. Each case is named in `notes`."""
+    points, tracked = recording.points.copy(), recording.tracked.copy()
+    notes, fixed = list(recording.notes), list(recording.fixed)
+    for k, name in enumerate(SKELETON_POINTS):
+        held = points[tracked[:, k], k]
+        if len(held) == 0:
+            continue
+        where = f"{name.replace('_', ' ')}"
+        if np.all(np.linalg.norm(held, axis=1) < STUCK_TOLERANCE):
+            tracked[:, k] = False
+            points[:, k] = np.nan
+            notes.append(f"{where} at the origin in all {len(held)} frames: untracked")
+        elif len(held) > 1 and np.all(np.ptp(held, axis=0) < STUCK_TOLERANCE) and name not in fixed:
+            fixed.append(name)
+            notes.append(f"{where} constant over all {len(held)} frames: held fixed by the source, "
+                         "not scored")
+    return replace(recording, points=points, tracked=tracked, notes=tuple(notes), fixed=tuple(fixed))
 
 
 def _recording(points: np.ndarray, rate: float, source: str, up, notes=()) -> Recording:
@@ -66,7 +97,7 @@ def _recording(points: np.ndarray, rate: float, source: str, up, notes=()) -> Re
     points = np.where(tracked[..., None], points, np.nan)
     times = np.arange(len(points)) / rate
     up = tuple(float(u) for u in up)
-    return Recording(times, points, tracked, float(rate), source, (), up, tuple(notes))
+    return flag_stuck_points(Recording(times, points, tracked, float(rate), source, (), up, tuple(notes)))
 
 
 def _check_rate(rate: float, where: str) -> float:
@@ -153,7 +184,8 @@ def read_lego(path, rate: float) -> Recording:
     """One LEGO trial (`Task*/Human*/trial*.txt`). The source does not state its frame rate
     (4.5 mm per frame median wrist motion: 15-30 Hz); `rate` must be given."""
     recording = read_joint_table(path, LEGO_COLUMNS, "m", rate, None, 0, up=(0.0, -1.0, 0.0))
-    return replace(recording, notes=(f"frame rate not stated by the source: {rate:g} Hz assumed",))
+    return replace(recording, notes=(f"frame rate not stated by the source: {rate:g} Hz assumed",
+                                     *recording.notes))
 
 
 #: KTH hand-over segments (`data/real/kth_handover`) whose origins stand for our points: the upper
@@ -268,6 +300,66 @@ def read_ue_adl(trial, static=None) -> Recording:
                     points[k, slot] = fit[0] @ landmark + fit[1]
     return _recording(points, rate, str(trial), (0.0, 0.0, 1.0),
                       (f"joint centres from the clusters and {static.name}",))
+
+
+#: the tape measures of `anthropometrics.csv` (UE ADL), mm, and the bounds a person's can have
+UE_TAPE_COLUMNS = ("left_upper_arm_mm", "left_lower_arm_mm", "right_upper_arm_mm", "right_lower_arm_mm")
+UE_TAPE_RANGE_MM = (120.0, 550.0)
+
+
+def read_ue_anthropometrics(path) -> dict[str, dict[str, float]]:
+    """`anthropometrics.csv` of the UE ADL set: participant -> height_m and the tape-measured
+    upper and lower arm lengths (`UE_TAPE_COLUMNS`, mm). Untrusted: a missing column, a value
+    that is not a number in range or a repeated participant is refused, naming file and line."""
+    path = Path(path)
+    with path.open(newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    wanted = ("participant", "height_m", *UE_TAPE_COLUMNS)
+    if not rows or any(c not in rows[0] for c in wanted):
+        raise ValueError(f"{path}: needs the columns {list(wanted)}")
+    out: dict[str, dict[str, float]] = {}
+    for line, row in enumerate(rows, start=2):
+        name = row["participant"].strip()
+        if not name.isalnum() or name in out:
+            raise ValueError(f"{path}:{line}: participant {name!r} is empty, not alphanumeric or repeated")
+        values = {}
+        bounds = [("height_m", (1.0, 2.5))] + [(c, UE_TAPE_RANGE_MM) for c in UE_TAPE_COLUMNS]
+        for column, (low, high) in bounds:
+            try:
+                value = float(row[column])
+            except (TypeError, ValueError):
+                raise ValueError(f"{path}:{line}: {column} {row[column]!r} is not a number") from None
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"{path}:{line}: {column} {value} is outside [{low}, {high}]")
+            values[column] = value
+        out[name] = values
+    return out
+
+
+def ue_static_segment_lengths(static) -> dict[str, float]:
+    """Segment lengths (mm) from a UE ADL static trial, between the landmarks a tape measures:
+    upper arm from the acromion (the centroid of its marker cluster) to the elbow (between the
+    epicondyles), lower arm from the elbow to the wrist (between the styloid processes); and the
+    importer's own upper arm from its shoulder joint centre (the greater tubercle, `UE_JOINTS`).
+    Keys: `<side>_upper_arm_mm`, `<side>_lower_arm_mm`, `<side>_joint_centre_upper_arm_mm`."""
+    _, names, positions = read_vicon_trajectories(static)
+    mean = np.nanmean(positions, axis=0)
+    index = {n: k for k, n in enumerate(names)}
+
+    def at(*markers):
+        missing = [m for m in markers if m not in index]
+        if missing:
+            raise ValueError(f"{static}: the markers {missing} are missing")
+        return np.mean([mean[index[m]] for m in markers], axis=0)
+
+    out = {}
+    for side, name in (("L", "left"), ("R", "right")):
+        acromion = at(*(f"{side}SHO{k}" for k in range(1, 5)))
+        elbow, wrist = at(f"{side}LEP", f"{side}MEP"), at(f"{side}SPR", f"{side}SPU")
+        out[f"{name}_upper_arm_mm"] = 1000.0 * float(np.linalg.norm(acromion - elbow))
+        out[f"{name}_lower_arm_mm"] = 1000.0 * float(np.linalg.norm(elbow - wrist))
+        out[f"{name}_joint_centre_upper_arm_mm"] = 1000.0 * float(np.linalg.norm(at(f"{side}GTH") - elbow))
+    return out
 
 
 def synthesize_missing(recording: Recording, neck: float = 0.25) -> Recording:

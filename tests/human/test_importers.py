@@ -56,8 +56,11 @@ def test_nan_frames_stay_untracked_and_bad_cells_are_named(tmp_path):
     recording = read_lego(trial, 15.0)
     raw = np.loadtxt(trial)
     assert int(np.isnan(raw).sum()) == 12
-    assert int((~recording.tracked).sum()) == 2 * 2 + 2 * recording.frames  # + thorax, head: not recorded
+    # + thorax and head (not recorded) + the right shoulder, (0, 0, 0) in every frame: untracked
+    assert int((~recording.tracked).sum()) == 2 * 2 + 3 * recording.frames
     assert "15 Hz assumed" in recording.notes[0]
+    assert "right shoulder at the origin in all 1207 frames: untracked" in recording.notes
+    assert recording.fixed == ("left_shoulder",)  # the source holds the shoulders constant
     bad = tmp_path / "bad.txt"
     bad.write_text("0 0 0 1 1 1\n0 0 zero 1 1 1\n")
     with pytest.raises(ValueError, match=r"bad.txt:2: column 2: 'zero' is not a number"):
@@ -252,3 +255,73 @@ def test_each_unit_reads_a_known_point(tmp_path, units, value):
     path.write_text(f"{value} 0 0\n{value} 0 0\n")
     recording = read_joint_table(path, {"left_wrist": (0, 1, 2)}, units, 10.0)
     assert recording.points[0, L_WRIST, 0] == pytest.approx(1.234, abs=1e-12)
+
+
+def test_stuck_points_are_flagged():
+    """A point at the origin in every frame is untracked; one constant over the whole recording is
+    named `fixed` (kept, never scored); moving points, a single frame and gaps are left alone."""
+    from hrc_drake.human.importers import STUCK_TOLERANCE, _recording
+
+    rng = np.random.default_rng(0)
+    points = rng.normal(0.0, 0.2, (50, 8, 3))
+    points[:, THORAX] = np.nan
+    points[:, R_SHOULDER] = 0.0
+    points[:, L_SHOULDER] = (0.1, 0.2, 1.3)
+    points[10:20, L_SHOULDER] = np.nan  # gaps do not unfix it
+    points[:, L_ELBOW] = (0.3, 0.1, 1.0)
+    points[7, L_ELBOW, 2] += 10 * STUCK_TOLERANCE  # it moved once: a measurement
+    recording = _recording(points, 30.0, "toy", (0.0, 0.0, 1.0))
+    assert not recording.tracked[:, R_SHOULDER].any() and np.isnan(recording.points[:, R_SHOULDER]).all()
+    assert recording.fixed == ("left_shoulder",) and recording.tracked[:, L_SHOULDER].sum() == 40
+    assert recording.tracked[:, L_ELBOW].all() and recording.tracked[:, L_WRIST].all()
+    assert any("right shoulder at the origin in all 50 frames" in n for n in recording.notes)
+    assert any("left shoulder constant over all 40 frames" in n for n in recording.notes)
+    single = _recording(points[:1], 30.0, "one frame", (0.0, 0.0, 1.0))
+    assert single.fixed == ()
+
+
+def test_ue_segment_lengths_against_the_tape_measures():
+    """The markers of every UE participant's static trial against their tape-measured arms
+    (`anthropometrics.csv`): the lower arm (elbow to wrist, between the epicondyles and the styloid
+    processes) within 3 cm for every arm; the upper arm from the acromion within 3 cm in the median
+    and 3.5 cm for every arm (measured: median 1.9 cm, at most 3.4 cm, 14 of 18 arms within 3 cm).
+    The importer's shoulder joint centre (the greater tubercle) lies below the acromion a tape
+    starts from, so its upper arm is shorter than the tape (measured: by 3.8 cm in the median)."""
+    from hrc_drake.human.importers import read_ue_anthropometrics, ue_static_segment_lengths
+
+    folder = dataset_dir("ue_adl")
+    tape = read_ue_anthropometrics(folder / "anthropometrics.csv")
+    assert len(tape) == 9
+    upper, lower, joint_centre = [], [], []
+    for person, measured in tape.items():
+        lengths = ue_static_segment_lengths(folder / person / f"{person}_static.csv")
+        for side in ("left", "right"):
+            upper.append(lengths[f"{side}_upper_arm_mm"] - measured[f"{side}_upper_arm_mm"])
+            lower.append(lengths[f"{side}_lower_arm_mm"] - measured[f"{side}_lower_arm_mm"])
+            tape_upper = measured[f"{side}_upper_arm_mm"]
+            joint_centre.append(lengths[f"{side}_joint_centre_upper_arm_mm"] - tape_upper)
+    assert np.max(np.abs(lower)) <= 30.0
+    assert np.median(np.abs(upper)) <= 30.0 and np.max(np.abs(upper)) <= 35.0
+    assert np.median(joint_centre) < -20.0
+
+
+def test_the_anthropometrics_file_is_checked(tmp_path):
+    from hrc_drake.human.importers import read_ue_anthropometrics
+
+    header = ("participant,height_m,left_upper_arm_mm,left_lower_arm_mm,right_upper_arm_mm,"
+              "right_lower_arm_mm\n")
+    bad = tmp_path / "a.csv"
+    for row, message in [("P1,1.7,325,235,325,abc", "right_lower_arm_mm 'abc' is not a number"),
+                         ("P1,1.7,325,235,325,2550", r"right_lower_arm_mm 2550.0 is outside"),
+                         ("P1,17,325,235,325,255", "height_m 17.0 is outside"),
+                         ("P1,1.7,325,235,325,nan", "is outside"),
+                         ("P\x1b1,1.7,325,235,325,255", "not alphanumeric")]:
+        bad.write_text(header + row + "\n")
+        with pytest.raises(ValueError, match=message):
+            read_ue_anthropometrics(bad)
+    bad.write_text(header + "P1,1.7,325,235,325,255\nP1,1.7,325,235,325,255\n")
+    with pytest.raises(ValueError, match=r"a.csv:3: participant 'P1' .* repeated"):
+        read_ue_anthropometrics(bad)
+    bad.write_text("participant,height_m\nP1,1.7\n")
+    with pytest.raises(ValueError, match="needs the columns"):
+        read_ue_anthropometrics(bad)
