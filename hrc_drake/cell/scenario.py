@@ -44,6 +44,7 @@ from hrc_drake.errors import (
     check_input_file,
     yaml_syntax_error,
 )
+from hrc_drake.human.config import HIP_HEIGHT_RANGE
 
 BUFFER_KINDS = ("raw", "intermediate", "product")
 ROBOT_MODES = ("kinematic", "dynamic")
@@ -918,6 +919,10 @@ def check_scenario(sc: Scenario, file: str | Path = "<scenario>") -> None:
         if not 0 < getattr(seg, name) <= MAX_SEGMENT_LENGTH:
             raise ScenarioError(file, f"operator.segments.{name}",
                                 f"must be in (0, {MAX_SEGMENT_LENGTH:g}] m, got {getattr(seg, name)}")
+    low, high = HIP_HEIGHT_RANGE
+    if seg.hip_height != 0 and not low <= seg.hip_height <= high:  # NaN fails here too
+        raise ScenarioError(file, "operator.segments.hip_height",
+                            f"must be 0 (standing) or in [{low:g}, {high:g}] m, got {seg.hip_height}")
     op_actions = _unique(file, "operator.actions", [a.name for a in op.actions])
     for i, a in enumerate(op.actions):
         af = f"operator.actions[{i}]"

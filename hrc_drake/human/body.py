@@ -10,7 +10,8 @@ the operator faces), y to the operator's left. q (12,):
 
 Geometry (documented choice, the thesis gives none):
     hip height      h = HIP_FRACTION * (torso + neck + LEG_OFFSET) = 0.53 * (torso + neck + 0.75),
-                    i.e. ~0.53 of a stature estimated as torso + neck + 0.75 m
+                    i.e. ~0.53 of a stature estimated as torso + neck + 0.75 m (standing), or
+                    `Segments.hip_height` when it is set (e.g. seated, `human.calibration`)
     torso axis      u = R_z(yaw) R_y(flexion) e_z   (flexion > 0 leans forward)
     thorax          hip + torso * u   (top of the torso segment, at shoulder height)
     head            thorax + neck * u
@@ -31,6 +32,7 @@ import math
 import numpy as np
 
 from hrc_drake.human import _kernels
+from hrc_drake.human.config import HIP_HEIGHT_RANGE
 from hrc_drake.messages import (
     HEAD,
     L_ELBOW,
@@ -137,7 +139,13 @@ class BodyModel:
         self.shoulder_width = lengths["shoulder_width"]
         self.upper_arm = lengths["upper_arm"]
         self.forearm = lengths["forearm"]
-        self.hip_height = HIP_FRACTION * (self.torso + self.neck + LEG_OFFSET)
+        hip = getattr(segments, "hip_height", 0.0)
+        hip = 0.0 if hip is None else float(hip)
+        if hip != 0.0 and not (math.isfinite(hip) and HIP_HEIGHT_RANGE[0] <= hip <= HIP_HEIGHT_RANGE[1]):
+            raise ValueError(f"BodyModel: hip_height={hip!r} must be 0 (standing) or in "
+                             f"{list(HIP_HEIGHT_RANGE)} m")
+        # standing: the hip follows the stature; a hip height given (seated) replaces it
+        self.hip_height = hip if hip > 0.0 else HIP_FRACTION * (self.torso + self.neck + LEG_OFFSET)
         self.hand_length = HAND_FRACTION * self.forearm
         base_lower = [-_BASE_RANGE, -_BASE_RANGE, -2 * np.pi, -0.3]
         base_upper = [_BASE_RANGE, _BASE_RANGE, 2 * np.pi, 1.2]

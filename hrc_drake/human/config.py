@@ -13,6 +13,9 @@ from hrc_drake.config_common import Pose
 from hrc_drake.distributions import Distribution, validate_distribution
 from hrc_drake.errors import check
 
+#: the hip heights (m) a `Segments.hip_height` may set: a low stool to a tall person standing
+HIP_HEIGHT_RANGE = (0.3, 1.5)
+
 
 @dataclass
 class Segments:
@@ -23,6 +26,9 @@ class Segments:
     shoulder_width: float = 0.40
     upper_arm: float = 0.30
     forearm: float = 0.27
+    #: the hip's height above the floor (m): 0 stands (the height follows the stature, `BodyModel`);
+    #: a value in [0.3, 1.5] m sets it, e.g. a person seated at a table (`human.calibration`)
+    hip_height: float = 0.0
 
 
 @dataclass
