@@ -70,6 +70,7 @@ def test_misses_are_pooled_and_their_interval_is_over_people(br):
 
 def test_a_sequence_belongs_to_its_person(br):
     assert br.person_of("lego:Task3/Human2/trial2") == "lego:Human2"
+    assert br.person_of("lego30:Task3/Human2/trial2") == "lego30:Human2"
     assert br.person_of("ue:ADL004FR3") == "ue:ADL004"
     assert br.person_of("kth:giver") == "kth:giver"
 

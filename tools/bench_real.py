@@ -122,8 +122,8 @@ def person_of(name: str) -> str:
     """The person a sequence shows: lego:Task1/Human2/trial1 -> lego:Human2, ue:ADL004FR1 ->
     ue:ADL004, kth:giver -> kth:giver."""
     kind, rest = name.split(":", 1)
-    if kind == "lego":
-        return f"lego:{rest.split('/')[1]}"
+    if kind.startswith("lego"):
+        return f"{kind}:{rest.split('/')[1]}"
     if kind == "ue":
         match = re.fullmatch(r"(.+?)(FR|AR)\d+", rest)
         return f"ue:{match.group(1) if match else rest}"
@@ -131,19 +131,21 @@ def person_of(name: str) -> str:
 
 
 def recordings(root: Path, trials: int | None, seconds: float | None,
-               read_all: bool = True, people=None) -> tuple[dict, list]:
+               read_all: bool = True, people=None, lego_rates=(LEGO_RATE,)) -> tuple[dict, list]:
     """(frames imported per set, [(name, points (T, 8, 3) at RATE, z up)]) of the first `trials`
     trials of each set under `root` (None: all), each cut to `seconds` (None: whole). read_all:
     every trial is read to count the frames of the sets (else only the trials taken). people: the
-    UE participants (None: the claims file's tuning people)."""
+    UE participants (None: the claims file's tuning people). lego_rates: the rates (Hz) the LEGO
+    trials are read at (the source states none): the set `lego` at the first, `lego<rate>` at each
+    other."""
     frames, out = {}, []
     sources = []
     try:
         lego = sorted(dataset_dir("lego_assembly_arm", root).glob("Task*/Human*/trial*.txt"))
-        sources += [
-            (f"lego:{p.parent.parent.name}/{p.parent.name}/{p.stem}", lambda p=p: read_lego(p, LEGO_RATE))
-            for p in lego
-        ]
+        for k, rate in enumerate(lego_rates):
+            kind = "lego" if k == 0 else f"lego{rate:g}"
+            sources += [(f"{kind}:{p.parent.parent.name}/{p.parent.name}/{p.stem}",
+                         lambda p=p, rate=rate: read_lego(p, rate)) for p in lego]
     except FileNotFoundError as err:
         log(f"skipped: {err}")
     try:
@@ -567,6 +569,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--people", choices=SELECTIONS, default=None,
                         help="the UE participants: a split of docs/real_claims.yaml or every one in the "
                              "folder (default: tuning for data/, folder for --data)")
+    parser.add_argument("--lego-rates", default=None,
+                        help="the rates (Hz) to read the LEGO trials at, comma-separated: the source states "
+                             "none (default: 15,30; 15 with --quick or --smoke)")
     parser.add_argument("--oracle", action="store_true",
                         help="also the former pipeline (whole-file body, shoulders raised), labelled a "
                              "comparison")
@@ -596,7 +601,9 @@ def main(argv: list[str] | None = None) -> None:
     log(f"real recordings from {root} ({trials or 'all'} trial(s) per set, "
         f"{f'{seconds:g} s' if seconds else 'whole'} each, {RATE:g} Hz); UE people ({selection}): "
         f"{', '.join(people) or 'none'}")
-    frames, sequences = recordings(root, trials, seconds, read_all=not args.smoke, people=people)
+    lego_rates = tuple(float(r) for r in (args.lego_rates or ("15" if quick else "15,30")).split(","))
+    frames, sequences = recordings(root, trials, seconds, read_all=not args.smoke, people=people,
+                                   lego_rates=lego_rates)
     log(f"imported frames per set: {frames}")
     figures = {
         "quick": bool(args.quick),
@@ -605,7 +612,9 @@ def main(argv: list[str] | None = None) -> None:
         "rate_hz": RATE,
         "sequences": [name for name, _ in sequences],
         "frames_imported": frames,
-        "people": {"selection": selection, "ue_adl": list(people)},
+        "people": {"selection": selection, "ue_adl": list(people),
+                   "tuning": list(load_claims().people_of("ue_adl", "tuning")),
+                   "test": list(load_claims().people_of("ue_adl", "test"))},
         "seconds_tested": {"real": sum(len(p) for _, p in sequences) / RATE, "synthetic": synthetic_s},
     }
     parts = args.parts.split(",")
