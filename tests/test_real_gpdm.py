@@ -82,3 +82,38 @@ def test_same_seed_same_numbers():
     assert first[other]["rms_m"] == second[other]["rms_m"]
     assert first["gpdm_fits"] == 12 + 4  # one per held-out trial, one per (person, kind)
     assert np.isfinite(first["rms_m"]) and first["rms_m"] < first["hold_rms_m"]
+
+
+def test_the_begin_is_detected_from_the_past_only():
+    rate = 30.0
+    wrist = np.zeros((60, 3))
+    wrist[20:, 0] = np.arange(40) * 0.5 / rate  # 0.5 m/s from frame 20
+    begin = rg.causal_start(wrist, rate)
+    assert begin is not None and 20 <= begin <= 20 + rg.CAUSAL_WINDOW
+    later = wrist.copy()
+    later[begin + 1 :] = 9.0
+    assert rg.causal_start(later, rate) == begin
+    assert rg.causal_start(np.zeros((60, 3)), rate) is None
+
+
+def test_the_mean_of_other_reaches_is_time_aligned_at_their_begins():
+    a = np.zeros((4, 3, 3))
+    b = np.ones((6, 3, 3))
+    c = np.full((8, 3, 3), 2.0)
+    mean = rg.mean_of_reaches([a, b, c])
+    assert mean.shape == (6, 3, 3)  # the median length
+    assert np.allclose(mean[0], 1.0) and np.allclose(mean[5], 1.0)  # a holds its last pose
+
+
+def test_the_differences_are_negative_when_the_gpdm_wins_and_have_intervals_over_people():
+    def errors(gpdm, other):
+        block = lambda v: {"horizon": np.full((4, 3), v), "remaining": np.zeros((0, 3))}  # noqa: E731
+        return {"gpdm": block(gpdm), "constant_velocity": block(other), "mean_of_other_reaches": block(other)}
+
+    by_person = {"p1": [errors(0.01, 0.04)], "p2": [errors(0.02, 0.05)], "p3": [errors(0.01, 0.02)]}
+    out = rg.person_differences(by_person, seed=0, draws=200)
+    assert out["rms_m_minus_constant_velocity"] < 0
+    low, high = out["rms_m_minus_constant_velocity.ci95"]
+    assert low <= out["rms_m_minus_constant_velocity"] <= high < 0
+    alone = rg.person_differences({"p1": by_person["p1"]}, seed=0)
+    assert alone["rms_m_minus_constant_velocity.ci95"] is None

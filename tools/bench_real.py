@@ -549,11 +549,17 @@ def with_particles(specs: dict, particles: int) -> dict:
             for name, (kind, options) in specs.items()}
 
 
-def gpdm_part(root: Path, quick: bool, people=None) -> dict:
-    """8.2's GPDM on the seated reaches (`real_gpdm`): the same person's other trials train it."""
-    result = gpdm_figures(root, seed=0, quick=quick, people=people)
-    return {"gpdm": result["real"], "gpdm_synthetic": result["synthetic"],
-            "gpdm_settings": result["settings"], "gpdm_sweep": result["sweep"]}
+def gpdm_part(root: Path, quick: bool, people=None, oracle: bool = False) -> dict:
+    """8.2's GPDM on the seated reaches (`real_gpdm`): the same person's other trials train it,
+    each reach begins where a cell detects it from the past; with `oracle` also the former begin,
+    segmented from the whole trial, as a labelled comparison."""
+    result = gpdm_figures(root, seed=0, quick=quick, people=people, causal=True)
+    out = {"gpdm": result["real"], "gpdm_synthetic": result["synthetic"],
+           "gpdm_settings": result["settings"], "gpdm_sweep": result["sweep"]}
+    if oracle:
+        segmented = gpdm_figures(root, seed=0, quick=True, people=people, causal=False)
+        out["gpdm_oracle_segmented_begin"] = segmented["real"]
+    return out
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -642,7 +648,7 @@ def main(argv: list[str] | None = None) -> None:
             figures.setdefault(prefix, {}).setdefault(model, {})[name] = value
     if "gpdm" in parts:
         log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")
-        figures.update(gpdm_part(root, quick, people))
+        figures.update(gpdm_part(root, quick, people, args.oracle))
     figures["claims"] = evaluate_claims(load_claims(), flatten(figures))
     log("\nclaims (docs/real_claims.yaml):")
     for ident, entry in figures["claims"].items():

@@ -79,7 +79,10 @@ CV_WINDOW = 1
 PHASE_WINDOW = 3
 ARM = list(ARM_POINTS["right"])
 KINDS = ("FR", "AR")
-METHODS = ("gpdm", "gpdm_phase", "gpdm_anchored", "constant_velocity", "hold")
+METHODS = ("gpdm", "gpdm_phase", "gpdm_anchored", "constant_velocity", "hold", "mean_of_other_reaches")
+#: the reach's begin event as a cell detects it, from the past only (issue 56): the wrist's speed
+#: over the last CAUSAL_WINDOW frames (backward differences) reaches CAUSAL_SPEED (m/s)
+CAUSAL_SPEED, CAUSAL_WINDOW = 0.15, 3
 #: synthetic operator: hips, facing, and the goals of the two reaches at the real targets (cell frame)
 SYNTH_BASE, SYNTH_YAW = (1.05, 0.0), math.pi
 SYNTH_GOALS = {"FR": (0.55, 0.20, 0.87), "AR": (0.59, 0.02, 0.86), "home": (0.80, 0.17, 0.81)}
@@ -111,6 +114,27 @@ def segment_reach(speed: np.ndarray, fraction: float = SPEED_FRACTION) -> tuple[
     return start, end
 
 
+def causal_start(wrist: np.ndarray, rate: float, floor: int = 0) -> int | None:
+    """The first frame (>= `floor`) at which the wrist's mean speed over the last `CAUSAL_WINDOW`
+    frames reaches `CAUSAL_SPEED`: the begin event as a cell sees it, from past frames only
+    (`segment_reach` reads the whole trial, its future speed peak included)."""
+    wrist = np.asarray(wrist, dtype=float)
+    for k in range(max(CAUSAL_WINDOW, floor), len(wrist)):
+        speed = np.linalg.norm(wrist[k] - wrist[k - CAUSAL_WINDOW]) * rate / CAUSAL_WINDOW
+        if speed >= CAUSAL_SPEED:
+            return k
+    return None
+
+
+def mean_of_reaches(reaches: list[np.ndarray]) -> np.ndarray:
+    """The time-aligned mean (L, P, 3) of reaches (each (T_i, P, 3) from its begin event): frame k
+    the mean over the reaches at k, each holding its last pose after its end; L the median length
+    (as Phi of eq. 8.26)."""
+    length = int(np.median([len(r) for r in reaches]))
+    held = [r[np.minimum(np.arange(length), len(r) - 1)] for r in reaches]
+    return np.mean(held, axis=0)
+
+
 def constant_velocity(observed: np.ndarray, steps: int, window: int = CV_WINDOW) -> np.ndarray:
     """Poses at the next 1..steps frames (steps, ...) of `observed` (k, ...), the past up to now:
     now + s x (mean per-frame velocity over the last `window` frames, fewer if fewer observed)."""
@@ -138,11 +162,13 @@ def _held(phi: np.ndarray, k) -> np.ndarray:
 
 
 def trial_errors(phi: np.ndarray, poses: np.ndarray, start: int, end: int, steps: int,
-                 cv_window: int = CV_WINDOW) -> dict:
+                 cv_window: int = CV_WINDOW, mean_phi: np.ndarray | None = None) -> dict:
     """Squared point errors of every method on one held-out reach (module docstring):
-    method -> {"horizon": (n, P), "remaining": (m, P)} for poses (T, P, 3), Phi (L, P * 3)."""
+    method -> {"horizon": (n, P), "remaining": (m, P)} for poses (T, P, 3), Phi (L, P * 3);
+    mean_phi (L', P, 3): the time-aligned mean of the training reaches (default: Phi itself)."""
     n_points = poses.shape[1]
     phi = np.asarray(phi, dtype=float).reshape(len(phi), n_points, 3)
+    mean_phi = phi if mean_phi is None else np.asarray(mean_phi, dtype=float)
     flat_phi = phi.reshape(len(phi), -1)
     anchored = phi + (poses[start] - phi[0])
     out = {m: {"horizon": [], "remaining": []} for m in METHODS}
@@ -159,6 +185,7 @@ def trial_errors(phi: np.ndarray, poses: np.ndarray, start: int, end: int, steps
             "gpdm": (_held(phi, t - start + steps), _held(phi, later - start)),
             "gpdm_phase": (_held(phi, k_phase + steps), _held(phi, k_phase + ahead)),
             "gpdm_anchored": (_held(anchored, t - start + steps), _held(anchored, later - start)),
+            "mean_of_other_reaches": (_held(mean_phi, t - start + steps), _held(mean_phi, later - start)),
         }
         cv = constant_velocity(past, max(steps, int(ahead[-1]) if len(ahead) else 1), cv_window)
         preds["constant_velocity"] = (cv[steps - 1], cv[ahead - 1])
@@ -172,14 +199,21 @@ def trial_errors(phi: np.ndarray, poses: np.ndarray, start: int, end: int, steps
 
 
 # ------------------------------------------------------------------------------ data
-def _trial(person: str, kind: str, index: int, points: np.ndarray) -> dict:
-    """A trial record: the arm's poses (T, 3, 3) and its segmented reach."""
+def _trial(person: str, kind: str, index: int, points: np.ndarray, causal: bool = False) -> dict | None:
+    """A trial record: the arm's poses (T, 3, 3) and its reach: segmented from the whole trial, or
+    with `causal` from its begin event detected from the past only (`causal_start`) to the
+    segmented end (None when no begin is detected before it)."""
     poses = points[:, ARM]
     start, end = segment_reach(wrist_speed(poses[:, -1], RATE))
+    if causal:
+        begin = causal_start(poses[:, -1], RATE)
+        if begin is None or begin >= end:
+            return None
+        start = begin
     return {"person": person, "kind": kind, "index": index, "poses": poses, "start": start, "end": end}
 
 
-def real_trials(root, people=None) -> list[dict]:
+def real_trials(root, people=None, causal: bool = False) -> list[dict]:
     """The UE seated reaches (`data/real/ue_adl`) of `people` (None: the claims file's tuning
     people, `hrc_drake.real_claims`): read, thorax and head synthesised, placed in the cell
     (`Placement()`), resampled to 30 Hz, segmented."""
@@ -197,11 +231,15 @@ def real_trials(root, people=None) -> list[dict]:
         if not np.all(np.isfinite(points[:, ARM])):
             log(f"skipped {path.stem}: untracked arm points")
             continue
-        out.append(_trial(person, kind, index, points))
+        trial = _trial(person, kind, index, points, causal)
+        if trial is None:
+            log(f"skipped {path.stem}: no begin detected from the past before the reach's end")
+            continue
+        out.append(trial)
     return out
 
 
-def synthetic_trials(seed: int, per_kind: int = 5) -> list[dict]:
+def synthetic_trials(seed: int, per_kind: int = 5, causal: bool = False) -> list[dict]:
     """Reaches of the synthetic operator to the real targets (module docstring): two persons,
     pattern FR, home, AR, home; each FR/AR action cut from 0.2 s before its begin to 0.3 s after
     its end (the hand still: the next action's head lead)."""
@@ -234,7 +272,9 @@ def synthetic_trials(seed: int, per_kind: int = 5) -> list[dict]:
                 lo = int(np.searchsorted(times, begins.pop(event.action) - 0.2))
                 hi = int(np.searchsorted(times, event.time + 0.3))  # the next reach waits 0.3 s
                 counts[event.action] += 1
-                out.append(_trial(f"synthetic{p + 1}", event.action, counts[event.action], points[lo:hi]))
+                trial = _trial(f"synthetic{p + 1}", event.action, counts[event.action], points[lo:hi], causal)
+                if trial is not None:
+                    out.append(trial)
     return out
 
 
@@ -285,6 +325,7 @@ def evaluate(trials: list[dict], seed: int, label: str = "", cv_window: int = CV
     steps = int(round(HORIZON * RATE))
     fits = 0
     result = {}
+    by_person: dict[str, list[dict]] = {}
     for mode in ("same_person", "other_person"):
         per_kind = {}
         for kind in KINDS:
@@ -294,10 +335,14 @@ def evaluate(trials: list[dict], seed: int, label: str = "", cv_window: int = CV
                 if not train:
                     continue
                 if key not in cache:
-                    cache[key] = _fit([_reach(t) for t in train], [seed, fits])
+                    cache[key] = (_fit([_reach(t) for t in train], [seed, fits]),
+                                  mean_of_reaches([_reach(t) for t in train]))
                     fits += 1
-                errors.append(trial_errors(cache[key], trial["poses"], trial["start"], trial["end"], steps,
-                                           cv_window))
+                phi, mean_phi = cache[key]
+                errors.append(trial_errors(phi, trial["poses"], trial["start"], trial["end"], steps,
+                                           cv_window, mean_phi))
+                if mode == "same_person":
+                    by_person.setdefault(trial["person"], []).append(errors[-1])
             if errors:
                 per_kind[kind] = (errors, _summary(errors))
         if not per_kind:
@@ -314,7 +359,35 @@ def evaluate(trials: list[dict], seed: int, label: str = "", cv_window: int = CV
     top.pop("per_kind", None)
     durations = [(t["end"] - t["start"]) / RATE for t in trials]
     return {**top, **result, "trials": len(trials), "persons": sorted({t["person"] for t in trials}),
-            "gpdm_fits": fits, "reach_s_median": float(np.median(durations))}
+            "gpdm_fits": fits, "reach_s_median": float(np.median(durations)),
+            **person_differences(by_person, seed)}
+
+
+def _rms(errors: list[dict], method: str) -> float:
+    horizon = [e[method]["horizon"] for e in errors if len(e[method]["horizon"])]
+    return float(np.sqrt(np.concatenate(horizon).mean())) if horizon else math.nan
+
+
+def person_differences(by_person: dict, seed: int, draws: int = 2000) -> dict:
+    """The same-person GPDM's RMS minus constant velocity's and minus the mean of the other
+    reaches' (m; negative: the GPDM is better), each with a 95 % interval over people drawn with
+    replacement (None with fewer than two people), and every person's RMS per method."""
+    out = {"per_person": {p: {m: _rms(e, m) for m in ("gpdm", "constant_velocity", "mean_of_other_reaches")}
+                          for p, e in sorted(by_person.items())}}
+    people = sorted(by_person)
+    rng = np.random.default_rng([seed, 56])
+    for other, key in (("constant_velocity", "rms_m_minus_constant_velocity"),
+                       ("mean_of_other_reaches", "rms_m_minus_mean_of_other_reaches")):
+        errors = [e for p in people for e in by_person[p]]
+        out[key] = _rms(errors, "gpdm") - _rms(errors, other) if errors else None
+        values = []
+        if len(people) >= 2:
+            for _ in range(draws):
+                chosen = [e for k in rng.choice(len(people), len(people)) for e in by_person[people[k]]]
+                values.append(_rms(chosen, "gpdm") - _rms(chosen, other))
+        out[f"{key}.ci95"] = ([float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))]
+                              if values else None)
+    return out
 
 
 def resegmented(trials: list[dict], fraction: float) -> list[dict]:
@@ -344,7 +417,7 @@ def sweep(trials: list[dict], seed: int) -> list[dict]:
     return rows
 
 
-def gpdm_figures(root=None, seed: int = 0, quick: bool = False, people=None) -> dict:
+def gpdm_figures(root=None, seed: int = 0, quick: bool = False, people=None, causal: bool = False) -> dict:
     """{"real": ..., "synthetic": ..., "settings": ..., "sweep": ...}: the GPDM of 8.2 against
     constant velocity at the 0.3 s horizon (module docstring). "real" and "synthetic" hold, pooled
     over both kinds for same-person leave-one-out: rms_m (GPDM, 8.2's begin alignment),
@@ -352,13 +425,16 @@ def gpdm_figures(root=None, seed: int = 0, quick: bool = False, people=None) -> 
     *wrist_rms_m and *remaining_rms_m (whole remaining reach), predictions; "same_person" and
     "other_person" the same figures with "per_kind"; trials, persons, gpdm_fits,
     reach_s_median. quick: three synthetic reaches per kind instead of five, no sweep ([]).
-    people: the UE participants (None: the claims file's tuning people)."""
+    people: the UE participants (None: the claims file's tuning people). causal: each reach begins
+    where a cell would detect it from the past (`causal_start`), not where the whole trial's
+    segmentation puts it; "rms_m_minus_*" with 95 % intervals over people compare the GPDM with
+    constant velocity and with the time-aligned mean of the person's other reaches."""
     start = time.process_time()
     log(f"\n{'set':<10} {'training':<13} {'kind':<4} {'gpdm':>8} {'phase':>8} {'anch.':>8} {'c.vel.':>8} "
         f"{'hold':>8} {'gpdm rem':>9} {'cv rem':>9} {'n':>6}  (RMS m at {HORIZON:g} s; rem: remaining reach)")
-    trials = real_trials(data_root(root), people)
+    trials = real_trials(data_root(root), people, causal)
     real = evaluate(trials, seed, "real")
-    synthetic = evaluate(synthetic_trials(seed, 3 if quick else 5), seed, "synthetic")
+    synthetic = evaluate(synthetic_trials(seed, 3 if quick else 5, causal), seed, "synthetic")
     for name, row in (("real", real), ("synthetic", synthetic)):
         log(f"{name}: GPDM {row['rms_m']:.3f} m vs constant velocity {row['constant_velocity_rms_m']:.3f} m"
             f" (same person; other person {row['other_person']['rms_m']:.3f} vs "
@@ -367,7 +443,10 @@ def gpdm_figures(root=None, seed: int = 0, quick: bool = False, people=None) -> 
     settings = {"horizon_s": HORIZON, "rate_hz": RATE, "speed_fraction": SPEED_FRACTION,
                 "cv_window_frames": CV_WINDOW, "phase_window_frames": PHASE_WINDOW,
                 "observation": "right shoulder, elbow, wrist (9-D)", "alignment": "begin event (8.2)",
-                "seed": seed, "quick": bool(quick), "cpu_s": time.process_time() - start}
+                "seed": seed, "quick": bool(quick), "cpu_s": time.process_time() - start,
+                "begin": ("detected from the past only: the wrist's speed over the last "
+                          f"{CAUSAL_WINDOW} frames >= {CAUSAL_SPEED} m/s") if causal
+                else "segmented from the whole trial (its future speed peak included)"}
     return {"real": real, "synthetic": synthetic, "settings": settings, "sweep": rows}
 
 
