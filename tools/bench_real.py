@@ -638,7 +638,7 @@ def main(argv: list[str] | None = None) -> None:
     if "tracking" in parts:
         log("\n== tracking (Ch. 9): real and synthetic arms through the cell's camera, occluders added")
         figures.update(tracking_figures(sequences, synthetic_points(synthetic_s, seed=7), seed=0,
-                                        quick=quick, trackers=trackers))
+                                        quick=quick, trackers=trackers, person_of=person_of))
     if "intention" in parts:
         log("\n== intention (3.1): the seated reaches, forward / across / rest")
         intention = intention_figures(root, seed=0, quick=quick, people=people)

@@ -282,14 +282,60 @@ def _table(label: str, table: dict) -> None:
             f"{s['volume_radius_m']:8.3f} {s['hidden_point_frames']:7d}")
 
 
+def coverage_intervals(real: list[dict], synthetic_table: dict, trackers, person_of, seed: int,
+                       draws: int = 1000) -> dict:
+    """Per tracker: the coverage of every hidden point and of the hidden arm points (cases 1-3)
+    on the real sequences, each with a 95 % interval over people drawn with replacement (None with
+    fewer than two), and the first minus the synthetic operator's (its interval shifted by the
+    synthetic point figure: one synthetic operator has no spread over people)."""
+    people: dict[str, list[dict]] = {}
+    for r in real:
+        people.setdefault(person_of(r["name"]), []).append(r)
+    names = sorted(people)
+    rng = np.random.default_rng([seed, 9])
+
+    def arm_rows(runs, t):
+        out = []
+        for r in runs:
+            row = r["rows"][t]
+            keep = np.isin(r["case_of"][row["frame"], row["point"]], (0, 1, 2))
+            out.append({k: v[keep] for k, v in row.items()})
+        return out
+
+    out = {}
+    for t in trackers:
+        entry = {}
+        for key, rows_of in (("coverage_all_hidden", lambda runs, t=t: [r["rows"][t] for r in runs]),
+                             ("coverage_arm_hidden", lambda runs, t=t: arm_rows(runs, t))):
+            value = stats(rows_of(real))["coverage"]
+            values = []
+            if len(names) >= 2:
+                for _ in range(draws):
+                    chosen = [r for k in rng.choice(len(names), len(names)) for r in people[names[k]]]
+                    v = stats(rows_of(chosen))["coverage"]
+                    if np.isfinite(v):
+                        values.append(v)
+            ci = [float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))] if values else None
+            entry[key], entry[f"{key}.ci95"] = value, ci
+        synthetic = synthetic_table.get(t, {}).get("coverage", float("nan"))
+        entry["coverage_all_hidden_minus_synthetic"] = entry["coverage_all_hidden"] - synthetic
+        ci = entry["coverage_all_hidden.ci95"]
+        entry["coverage_all_hidden_minus_synthetic.ci95"] = (
+            [ci[0] - synthetic, ci[1] - synthetic] if ci is not None and np.isfinite(synthetic) else None)
+        entry["people"] = len(names)
+        out[t] = entry
+    return out
+
+
 def tracking_figures(sequences, synthetic, seed: int = 0, quick: bool = False, camera=None,
-                     trackers=tuple(TRACKERS), arm: str = "moving") -> dict:
+                     trackers=tuple(TRACKERS), arm: str = "moving", person_of=None) -> dict:
     """Ch. 9 tracking figures on real and synthetic motion, the same procedure for both.
 
     sequences: [(name "<set>:<trial>", points (T, 8, 3) in the cell frame at 30 Hz, NaN = untracked)];
     synthetic: points (T, 8, 3) of the synthetic operator (noise-free: `synthetic_points`), or None;
     seed: windows, camera noise and particle filters (same seed, same figures); quick: sequences
-    cut to QUICK_SECONDS; camera: the analytic camera (default: pcb_occlusion.yaml's).
+    cut to QUICK_SECONDS; camera: the analytic camera (default: pcb_occlusion.yaml's); person_of:
+    a sequence's name -> its person, whom the intervals draw (default: each sequence its own).
     Returns {"tracking": {tracker: stats} pooled over the real sequences, "tracking_synthetic":
     {tracker: stats}, "tracking_by_set": {set: {tracker: stats}}, "tracking_by_case": {"real" |
     "synthetic": {case: {tracker: stats}}} (case of each lost point, `arm_cases`: wrist / elbow /
@@ -343,6 +389,15 @@ def tracking_figures(sequences, synthetic, seed: int = 0, quick: bool = False, c
     for s in sets:
         _table(f"real:{s}", figures["tracking_by_set"][s])
     _table("synthetic", figures["tracking_synthetic"])
+    intervals = coverage_intervals(real, figures["tracking_synthetic"], trackers,
+                                   person_of or (lambda name: name), seed)
+    for t, entry in intervals.items():
+        figures["tracking"][t].update(entry)
+        ci = entry["coverage_all_hidden.ci95"]
+        interval = "" if ci is None else f"[{ci[0]:.3f}, {ci[1]:.3f}] "
+        log(f"  {t:<12} coverage of every hidden point {entry['coverage_all_hidden']:.3f} {interval}over "
+            f"{entry['people']} people; arm points {entry['coverage_arm_hidden']:.3f}; minus synthetic "
+            f"{entry['coverage_all_hidden_minus_synthetic']:+.3f}")
     pf_real, pf_syn = figures["tracking"].get("pf"), figures["tracking_synthetic"].get("pf")
     claim = {}
     if pf_real and pf_syn and np.isfinite(pf_real["coverage"]) and np.isfinite(pf_syn["coverage"]):
