@@ -644,7 +644,7 @@ def main(argv: list[str] | None = None) -> None:
         intention = intention_figures(root, seed=0, quick=quick, people=people)
         figures["intention_detail"] = intention
         for key, value in intention_keys(intention).items():
-            prefix, model, name = key.split(".")
+            prefix, model, name = key.split(".", 2)
             figures.setdefault(prefix, {}).setdefault(model, {})[name] = value
     if "gpdm" in parts:
         log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")

@@ -407,6 +407,7 @@ def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bo
                 log(f"{m:<6} {data:<10} {s['reaches']:>7} {frac:>11} {s['missed_pct']:>8.1f} "
                     f"{s['wrong_commit_pct']:>8.1f} {ci:>12} {s['wrong_first_pct']:>11.1f}")
         if name == variants[0][0]:
+            add_people_intervals(block, reaches, real, seed)
             figures["real"], figures["synthetic"] = block["real"], block["synthetic"]
             figures["m3_equals_m2_on_real"] = m3_is_m2
             figures["per_reach"] = {trial: {m: (None if math.isnan(o["commit_fraction"])
@@ -418,13 +419,43 @@ def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bo
     return figures
 
 
+def add_people_intervals(block: dict, reaches: list[dict], real: dict, seed: int, draws: int = 2000) -> None:
+    """Into block["real"][m]: the wrong-commitment % with a 95 % interval over people drawn with
+    replacement (`wrong_commit_pct.ci95`; None with fewer than two people), each person's %, and
+    the real minus the synthetic % with that interval shifted by the synthetic figure (the
+    synthetic operators' own spread is not in it)."""
+    rng = np.random.default_rng([seed, 56])
+    for m, outcomes in real.items():
+        by_person: dict[str, list[dict]] = {}
+        for reach, outcome in zip(reaches, outcomes, strict=True):
+            by_person.setdefault(reach["participant"], []).append(outcome)
+        people = sorted(by_person)
+
+        def pct(rows):
+            return 100.0 * sum(o["wrong"] for o in rows) / len(rows)
+
+        values = [pct([o for k in rng.choice(len(people), len(people)) for o in by_person[people[k]]])
+                  for _ in range(draws)] if len(people) >= 2 else []
+        ci = [float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))] if values else None
+        row, synthetic = block["real"][m], block["synthetic"][m]["wrong_commit_pct"]
+        row["wrong_commit_pct.ci95"] = ci
+        row["wrong_commit_pct_per_person"] = {p: round(pct(v), 1) for p, v in by_person.items()}
+        if row["wrong_commit_pct"] is not None and synthetic is not None:
+            row["wrong_commit_pct_minus_synthetic"] = round(row["wrong_commit_pct"] - synthetic, 2)
+            row["wrong_commit_pct_minus_synthetic.ci95"] = (None if ci is None
+                                                            else [ci[0] - synthetic, ci[1] - synthetic])
+
+
 def bench_keys(figures: dict) -> dict:
     """The flat keys of the issue: intention.<model>.* (real) and intention_synthetic.<model>.*."""
     out = {}
     for data, prefix in (("real", "intention"), ("synthetic", "intention_synthetic")):
         for m, row in figures[data].items():
-            for key in ("commit_fraction_median", "wrong_commit_pct", "missed_pct", "wrong_first_pct"):
-                out[f"{prefix}.{m}.{key}"] = row[key]
+            for key in ("commit_fraction_median", "wrong_commit_pct", "missed_pct", "wrong_first_pct",
+                        "wrong_commit_pct.ci95", "wrong_commit_pct_minus_synthetic",
+                        "wrong_commit_pct_minus_synthetic.ci95"):
+                if key in row:
+                    out[f"{prefix}.{m}.{key}"] = row[key]
     return out
 
 
