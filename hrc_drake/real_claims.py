@@ -15,12 +15,15 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 #: the file the bench reads by default
 CLAIMS_FILE = Path(__file__).resolve().parents[1] / "docs" / "real_claims.yaml"
 VERDICTS = ("holds", "does not hold", "inconclusive", "not measured")
 SPLITS = ("tuning", "test")
+#: fewer people than this give no verdict: an interval over 2-4 people covers far less than 95 %
+MIN_PEOPLE = 5
 _KEY = re.compile(r"[A-Za-z0-9_]+(\.[A-Za-z0-9_]+)*")
 _NAME = re.compile(r"[A-Za-z0-9_]+")
 _MAX_BYTES = 200_000
@@ -40,6 +43,7 @@ class Claim:
     key: str
     data: str
     registered: str
+    people: str = "test"
     below: float | None = None
     above: float | None = None
     replaces: str = ""
@@ -91,7 +95,7 @@ def _text(entry: dict, field: str, where: str, required: bool = True) -> str:
 def _claim(entry, where: str, earlier: dict) -> Claim:
     if not isinstance(entry, dict):
         raise ClaimsError(f"{where}: must be a mapping")
-    known = {"id", "thesis", "key", "data", "below", "above", "registered", "replaces", "why"}
+    known = {"id", "thesis", "key", "data", "people", "below", "above", "registered", "replaces", "why"}
     unknown = sorted(set(entry) - known)
     if unknown:
         raise ClaimsError(f"{where}: unknown fields {unknown}; known: {sorted(known)}")
@@ -111,12 +115,33 @@ def _claim(entry, where: str, earlier: dict) -> Claim:
     why = _text(entry, "why", where, required=False)
     if replaces and (replaces not in earlier or not why.strip()):
         raise ClaimsError(f"{where}.replaces: {replaces!r} must name an earlier claim, with a `why`")
+    people = entry.get("people")
+    if people not in (*SPLITS, "all"):
+        raise ClaimsError(f"{where}.people: {people!r} must say whose figures judge it: tuning, test or all")
     registered = _date(entry.get("registered", ""), f"{where}.registered")
     if replaces and registered < earlier[replaces].registered:
         raise ClaimsError(f"{where}.registered: a replacement cannot predate the claim it replaces")
-    return Claim(ident, _text(entry, "thesis", where), key, _text(entry, "data", where), registered,
+    return Claim(ident, _text(entry, "thesis", where), key, _text(entry, "data", where), registered, people,
                  float(bound) if side == "below" else None, float(bound) if side == "above" else None,
                  replaces, why)
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """The safe loader, refusing a mapping that repeats a key (the later one would win unseen)."""
+
+
+def _unique_mapping(loader, node, deep=False):
+    loader.flatten_mapping(node)
+    out = {}
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in out:
+            raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        out[key] = loader.construct_object(value_node, deep=deep)
+    return out
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _unique_mapping)
 
 
 def load_claims(path: str | Path = CLAIMS_FILE) -> Claims:
@@ -129,7 +154,7 @@ def load_claims(path: str | Path = CLAIMS_FILE) -> Claims:
     if len(data) > _MAX_BYTES:
         raise ClaimsError(f"{path}: {len(data)} bytes, more than a claims file's {_MAX_BYTES}")
     try:
-        document = yaml.safe_load(data.decode("utf-8"))
+        document = yaml.load(data.decode("utf-8"), Loader=_UniqueKeyLoader)  # noqa: S506 (a safe loader)
     except (UnicodeDecodeError, yaml.YAMLError) as err:
         raise ClaimsError(f"{path}: not UTF-8 YAML ({err})") from None
     if not isinstance(document, dict) or set(document) != {"registered", "people", "claims"}:
@@ -176,18 +201,57 @@ def verdict(claim: Claim, ci95) -> str:
     return "holds" if low > claim.above else "does not hold" if high <= claim.above else "inconclusive"
 
 
-def evaluate(claims: Claims, figures: dict) -> dict:
+def evaluate(claims: Claims, figures: dict, people: str) -> dict:
     """Each claim's verdict from the bench's flat figures (key -> estimate, key + ".ci95" ->
-    [low, high]): id -> {key, rule, estimate, ci95, verdict, registered (, replaces)}."""
+    [low, high], key + ".people" -> how many people the interval is over), run on the `people`
+    selection: id -> {key, rule, people, estimate, ci95, verdict, why, registered (, replaces)}.
+    A claim on other people than the run's is "not measured"; one whose interval is over fewer than
+    `MIN_PEOPLE` people is "inconclusive"."""
     out = {}
     for claim in claims.claims:
         ci95 = figures.get(f"{claim.key}.ci95")
-        entry = {"key": claim.key, "rule": claim.rule, "estimate": figures.get(claim.key), "ci95": ci95,
-                 "verdict": verdict(claim, ci95), "registered": claim.registered}
+        n_people = figures.get(f"{claim.key}.people")
+        result, why = verdict(claim, ci95), ""
+        if claim.people != people:
+            result, why = ("not measured",
+                           f"the claim is on {_whose(claim.people)}, the run on {_whose(people)}")
+        elif result != "not measured" and (n_people is None or n_people < MIN_PEOPLE):
+            result, why = "inconclusive", f"{n_people} people, fewer than {MIN_PEOPLE}"
+        entry = {"key": claim.key, "rule": claim.rule, "people": claim.people,
+                 "estimate": figures.get(claim.key), "ci95": ci95, "people_in_interval": n_people,
+                 "verdict": result, "why": why,
+                 "registered": claim.registered}
         if claim.replaces:
             entry["replaces"] = claim.replaces
         out[claim.id] = entry
     return out
+
+
+def _whose(selection: str) -> str:
+    return "every participant" if selection in ("all", "folder") else f"the {selection} people"
+
+
+def people_interval(values, counts=None) -> tuple[float | None, list | None, int]:
+    """The mean over people of their values, its 95 % interval and the number of people: Student's
+    t over the per-person values (the person is the unit), widened, for a proportion, to the exact
+    (Clopper-Pearson) interval of the pooled counts (`counts`: (events, trials)), so that people
+    who all show 0 do not give an interval of width 0. (None, None, n) when a value is not finite
+    or fewer than two people have one."""
+    from scipy import stats
+
+    values = np.asarray([v for v in values], dtype=float)
+    n = int(len(values))
+    if n < 2 or not np.all(np.isfinite(values)):
+        return (float(values.mean()) if n and np.all(np.isfinite(values)) else None), None, n
+    mean = float(values.mean())
+    half = float(stats.t.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
+    low, high = mean - half, mean + half
+    if counts is not None:
+        events, trials = (int(c) for c in counts)
+        if trials > 0:
+            exact = stats.binomtest(events, trials).proportion_ci(0.95, method="exact")
+            low, high = min(low, exact.low), max(high, exact.high)
+    return mean, [low, high], n
 
 
 #: the people selections a real-data tool takes: a split of the claims file, or every participant

@@ -6,7 +6,8 @@ Every import statement counts, at module level or inside a function:
 (b) nothing imports from a higher layer. Layers from the bottom:
     0 `messages`, `errors`, `distributions`, `config_common`, `systems` (the Drake helpers), `rng`,
       `allocator`, `kernels` (the numba kernels), `traces`, `interrupts` (signals), `provenance`
-      (the code's version), `datasets` (where the real recordings are), `untrusted` (free text made
+      (the code's version), `datasets` (where the real recordings are), `real_claims` (the
+      real-data bench's pre-registered claims), `untrusted` (free text made
       harmless where it is written), `staged_files` (a command's outputs all or nothing), `console`
       (a progress line warnings do not break);
     1 the cores: every module of human, perception, intention, prediction, scheduling, motion,
@@ -35,7 +36,8 @@ REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "hrc_drake"
 
 LAYER0 = {"messages", "errors", "distributions", "config_common", "systems", "rng", "allocator", "kernels",
-          "traces", "interrupts", "provenance", "datasets", "untrusted", "staged_files", "console"}
+          "traces", "interrupts", "provenance", "datasets", "real_claims", "untrusted", "staged_files",
+          "console"}
 AREAS = {"human", "perception", "intention", "prediction", "scheduling", "motion", "robots", "safety"}
 #: robots/ modules built on Drake (MultibodyPlant, InverseKinematics): layer 2, beside systems.py
 ROBOTS_DRAKE_MODULES = {"models", "ik", "poses", "systems"}

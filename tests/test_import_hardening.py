@@ -246,7 +246,7 @@ def _arm(scale=1.0, shoulder_width=0.38):
 
 
 @pytest.mark.parametrize("rows, units, reason", [
-    ([[0.0] * 12] * 40, "m", "the upper arm (left_shoulder to left_elbow) is 0 m long"),
+    ([[0.0] * 12] * 40, "m", "left shoulder at the origin in all 40 frames: untracked"),
     (_arm(shoulder_width=0.0), "m", "the shoulder width"),
     (_arm(scale=1e300), "m", "upper arm"),
     (_arm(scale=100.0), "m", "(in cm? it would be 0.304 m: --units cm)"),

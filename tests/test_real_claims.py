@@ -2,6 +2,7 @@
 docs/real_claims.yaml): the shipped file, the rules' verdicts at their edges, and files the bench
 must refuse."""
 
+import numpy as np
 import pytest
 
 from hrc_drake.real_claims import Claim, ClaimsError, evaluate, load_claims, verdict
@@ -21,7 +22,7 @@ def test_the_shipped_file_splits_people_and_states_each_claim():
 
 
 def _claim(**rule):
-    return Claim("c", "t", "k", "d", "2026-12-08", **rule)
+    return Claim("c", "t", "k", "d", "2026-12-08", "test", **rule)
 
 
 @pytest.mark.parametrize("ci95, expected", [
@@ -45,19 +46,48 @@ def test_an_above_rule_at_its_edges(ci95, expected):
 
 def test_evaluate_reports_every_claim_and_never_invents_one():
     claims = load_claims()
-    key = "importer.segment_error_mm.median"
-    figures = {key: 18.6, f"{key}.ci95": [12.0, 24.0]}
-    out = evaluate(claims, figures)
+    key = "importer.segment_error_mm.mean"
+    figures = {key: 18.6, f"{key}.ci95": [12.0, 24.0], f"{key}.people": 7}
+    out = evaluate(claims, figures, "test")
     assert set(out) == {c.id for c in claims.claims}
     assert out["importer_segments"]["verdict"] == "holds" and out["importer_segments"]["rule"] == "< 30"
     assert all(v["verdict"] == "not measured" for k, v in out.items() if k != "importer_segments")
+
+
+def test_a_claim_is_judged_only_on_its_people_and_on_enough_of_them():
+    claims = load_claims()
+    key = "importer.segment_error_mm.mean"
+    figures = {key: 18.6, f"{key}.ci95": [12.0, 24.0], f"{key}.people": 7}
+    tuning = evaluate(claims, figures, "tuning")["importer_segments"]
+    assert tuning["verdict"] == "not measured" and "the test people" in tuning["why"]
+    few = evaluate(claims, {**figures, f"{key}.people": 4}, "test")["importer_segments"]
+    assert few["verdict"] == "inconclusive" and "fewer than 5" in few["why"]
+    unknown = evaluate(claims, {key: 18.6, f"{key}.ci95": [12.0, 24.0]}, "test")["importer_segments"]
+    assert unknown["verdict"] == "inconclusive"  # no count of people: no verdict either
+
+
+def test_the_interval_over_people_is_students_t_widened_to_the_exact_one():
+    from scipy import stats
+
+    from hrc_drake.real_claims import people_interval
+
+    values = [-0.068, 0.002, -0.001, 0.012, -0.034, -0.048, -0.063]
+    mean, (low, high), n = people_interval(values)
+    half = stats.t.ppf(0.975, 6) * np.std(values, ddof=1) / np.sqrt(7)
+    assert n == 7 and mean == pytest.approx(np.mean(values)) and high - low == pytest.approx(2 * half)
+    assert high > 0  # 3 of 7 people do not gain: the interval says so
+    # everyone at 0 of 100: the exact interval of 0 / 700 keeps it from width 0
+    zero_mean, (zero_low, zero_high), _ = people_interval([0.0] * 7, (0, 700))
+    assert zero_mean == 0.0 and zero_low == 0.0 and 0.004 < zero_high < 0.006
+    assert people_interval([10.0, 12.0, float("nan")])[1] is None  # a person without a figure
+    assert people_interval([3.0])[1] is None
 
 
 GOOD = """registered: "2026-12-08"
 people:
   ue_adl: {tuning: [A1], test: [B1, B2]}
 claims:
-  - {id: one, thesis: t, key: a.b, data: d, below: 0.05, registered: "2026-12-08"}
+  - {id: one, thesis: t, key: a.b, data: d, people: test, below: 0.05, registered: "2026-12-08"}
 """
 
 
@@ -73,11 +103,17 @@ claims:
     (GOOD.replace("id: one", "id: one, colour: red"), "unknown fields"),
     (GOOD.replace('registered: "2026-12-08"}', 'registered: "yesterday"}'), "not a date"),
     (GOOD.replace("thesis: t", 'thesis: "a\\x1b[31m"'), "control characters"),
-    (GOOD + '  - {id: one, thesis: t, key: a.c, data: d, below: 1, registered: "2026-12-09"}\n', "unique"),
-    (GOOD + '  - {id: two, thesis: t, key: a.c, data: d, below: 1, registered: "2026-12-09", '
-            'replaces: one}\n', "with a `why`"),
-    (GOOD + '  - {id: two, thesis: t, key: a.c, data: d, below: 1, registered: "2026-12-01", replaces: one, '
-            'why: w}\n', "cannot predate"),
+    (GOOD + '  - {id: one, thesis: t, key: a.c, data: d, people: test, below: 1, registered: "2026-12-09"}\n',
+     "unique"),
+    (GOOD.replace("people: test, ", ""), "must say whose figures"),
+    (GOOD.replace("below: 0.05,", "below: 0.05, below: 0.5,"), "duplicate key"),
+    (GOOD.replace("ue_adl: {tuning: [A1], test: [B1, B2]}",
+                  "ue_adl: {tuning: [A1], test: [B1, B2]}\n  ue_adl: {tuning: [B1], test: [B2]}"),
+     "duplicate key"),
+    (GOOD + '  - {id: two, thesis: t, key: a.c, data: d, people: test, below: 1, '
+            'registered: "2026-12-09", replaces: one}\n', "with a `why`"),
+    (GOOD + '  - {id: two, thesis: t, key: a.c, data: d, people: test, below: 1, registered: "2026-12-01", '
+            'replaces: one, why: w}\n', "cannot predate"),
     (GOOD + "extra: 1\n", "exactly the keys"),
     ("- 1\n", "exactly the keys"),
     ("registered: [\n", "not UTF-8 YAML"),
@@ -93,11 +129,12 @@ def test_bad_claims_files_are_refused_naming_the_field(tmp_path, text, message):
 
 def test_a_replacement_keeps_the_claim_it_replaces(tmp_path):
     path = tmp_path / "claims.yaml"
-    path.write_text(GOOD + '  - {id: two, thesis: t, key: a.c, data: d, below: 1, registered: "2026-12-09", '
-                           'replaces: one, why: "the metric named the wrong windows"}\n')
+    path.write_text(GOOD + '  - {id: two, thesis: t, key: a.c, data: d, people: test, below: 1, '
+                           'registered: "2026-12-09", replaces: one, '
+                           'why: "the metric named the wrong windows"}\n')
     claims = load_claims(path)
     assert [c.id for c in claims.claims] == ["one", "two"]
-    assert evaluate(claims, {})["two"]["replaces"] == "one"
+    assert evaluate(claims, {}, "test")["two"]["replaces"] == "one"
 
 
 def test_an_oversized_or_binary_file_is_refused(tmp_path):

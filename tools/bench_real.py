@@ -87,7 +87,7 @@ from hrc_drake.messages import (  # noqa: E402
     SKELETON_POINTS,
 )
 from hrc_drake.motion.geometry import point_capsule_distance  # noqa: E402
-from hrc_drake.real_claims import SELECTIONS, load_claims, select_people  # noqa: E402
+from hrc_drake.real_claims import SELECTIONS, load_claims, people_interval, select_people  # noqa: E402
 from hrc_drake.real_claims import evaluate as evaluate_claims  # noqa: E402
 
 MODELS = ("gp_a", "gp_b", "gp_c", "worst_case")
@@ -113,6 +113,9 @@ def log(text: str) -> None:
     print(text, flush=True)
 
 
+#: the sets the pooled (headline) figures take: one reading of each recording (the LEGO trials at
+#: their first rate; `lego<rate>` sets stand apart)
+HEADLINE_SETS = ("lego", "ue", "kth")
 #: what `recordings` learnt of each sequence it returns: its set, its person, the points its source
 #: holds fixed (indices; never scored)
 SEQUENCE_META: dict[str, dict] = {}
@@ -122,8 +125,8 @@ def person_of(name: str) -> str:
     """The person a sequence shows: lego:Task1/Human2/trial1 -> lego:Human2, ue:ADL004FR1 ->
     ue:ADL004, kth:giver -> kth:giver."""
     kind, rest = name.split(":", 1)
-    if kind.startswith("lego"):
-        return f"{kind}:{rest.split('/')[1]}"
+    if kind.startswith("lego"):  # the same person at another assumed rate is still that person
+        return f"lego:{rest.split('/')[1]}"
     if kind == "ue":
         match = re.fullmatch(r"(.+?)(FR|AR)\d+", rest)
         return f"ue:{match.group(1) if match else rest}"
@@ -346,7 +349,6 @@ POINT_NOISE = 0.01
 ONSET_SPEED, ONSET_WINDOW = 0.15, 0.2
 #: the GP models' warm-up on a long recording (s), as before; a UE reach is tested from its onset
 WARMUP_S = 3.0
-BOOTSTRAP_DRAWS = 2000
 
 
 def causal_onset(measured: np.ndarray, rate: float = RATE) -> int | None:
@@ -409,16 +411,19 @@ def evaluate_deployed(name: str, truth: np.ndarray, n_trials: int, seed: int, fi
     test starts after `WARMUP_S`, or with `from_onset` at the reach's causally detected onset."""
     rng = np.random.default_rng(seed)
     measured = truth + rng.normal(0.0, POINT_NOISE, truth.shape)
-    calibration = calibrate_body(measured, RATE)
-    body = BodyModel(calibration.segments)
-    qs, stds = joint_sequence(body, measured, 0.02)
     if from_onset:
         onset = causal_onset(measured)
         warmup = max(ORDER + 2, onset) if onset is not None else len(measured)
+        # the body from the frames before the reach only: nothing the scored windows see
+        calibration = calibrate_body(measured[: max(1, warmup)], RATE)
     else:
         warmup = int(round(WARMUP_S * RATE))
+        calibration = calibrate_body(measured, RATE)  # its first 2 s, inside the warm-up
+    body = BodyModel(calibration.segments)
+    qs, stds = joint_sequence(body, measured, 0.02)
     scored = [k for k in ARM_POINTS if k not in set(fixed)]
-    out = {"fit_error_m": float(np.nanmedian(fit_errors(body, truth))), "seated": calibration.seated,
+    out = {"fit_error_m": float(np.nanmedian(fit_errors(body, truth, scored))),
+           "seated": calibration.seated,
            "hip_height_m": calibration.segments.hip_height, "warmup_frames": int(warmup)}
     for kind in MODELS:
         predictor, deltas, filtered, _ = run_model(body, qs, stds, kind, ORDER, 1.0 / RATE, n_trials, HORIZON,
@@ -432,33 +437,16 @@ def _pooled_fraction(rows: list[dict], kind: str, part: str) -> float:
     return sum(len(r[kind][f"misses_{part}"]) for r in rows) / tested if tested else math.nan
 
 
-def _pooled_p90(rows: list[dict], kind: str) -> float:
-    misses = [m for r in rows for m in r[kind]["misses_moving"]]
-    tested = sum(r[kind]["tested_moving"] for r in rows)
+def _p90(misses: list, tested: int) -> float:
     return float(np.percentile(misses, 90)) if misses else (0.0 if tested else math.nan)
 
 
-def bootstrap_ci(by_person: dict, statistic, rng: np.random.Generator, draws: int = BOOTSTRAP_DRAWS):
-    """95 % percentile interval of `statistic(rows)` over people drawn with replacement (by_person:
-    person -> that person's rows); None with fewer than two people or no finite draw."""
-    people = sorted(by_person)
-    if len(people) < 2:
-        return None
-    values = []
-    for _ in range(draws):
-        chosen = rng.choice(len(people), len(people), replace=True)
-        value = statistic([row for k in chosen for row in by_person[people[k]]])
-        if math.isfinite(value):
-            values.append(value)
-    if not values:
-        return None
-    return [round(float(np.percentile(values, 2.5)), 6), round(float(np.percentile(values, 97.5)), 6)]
-
-
-def summarise_deployed(rows: list[tuple[str, dict]], seed: int = 0) -> dict:
-    """Per model over (person, row) pairs: the miss fraction in moving windows with its 95 %
-    interval over people, the p90 miss distance there (with its interval), the idle share (windows
-    where nobody moves), the miss fraction over every window; and each person's figures."""
+def summarise_deployed(rows: list[tuple[str, dict]]) -> dict:
+    """Per model over (person, row) pairs, the person the unit: the mean over people of their miss
+    fraction in moving windows with its 95 % interval (`real_claims.people_interval`: Student's t,
+    widened to the pooled counts' exact interval), the same for their p90 miss distance there,
+    the pooled figures beside, the idle share (windows where nobody moves), the miss fraction over
+    every window, and each person's figure. People with no moving window have no figure."""
     by_person: dict[str, list[dict]] = {}
     for person, row in rows:
         by_person.setdefault(person, []).append(row)
@@ -466,20 +454,32 @@ def summarise_deployed(rows: list[tuple[str, dict]], seed: int = 0) -> dict:
     out = {}
     for kind in MODELS:
         windows = sum(r[kind]["windows"] for r in all_rows)
-        rng = np.random.default_rng([seed, MODELS.index(kind)])
+        tested = sum(r[kind]["tested_moving"] for r in all_rows)
+        misses = [m for r in all_rows for m in r[kind]["misses_moving"]]
+        per_person, p90s = {}, {}
+        for person, person_rows in sorted(by_person.items()):
+            person_tested = sum(r[kind]["tested_moving"] for r in person_rows)
+            if person_tested:
+                person_misses = [m for r in person_rows for m in r[kind]["misses_moving"]]
+                per_person[person] = len(person_misses) / person_tested
+                p90s[person] = _p90(person_misses, person_tested)
+        fraction, fraction_ci, n = people_interval(list(per_person.values()), (len(misses), tested))
+        p90, p90_ci, _ = people_interval(list(p90s.values()))
         out[kind] = {
-            "miss_fraction_moving": _pooled_fraction(all_rows, kind, "moving"),
-            "miss_fraction_moving.ci95": bootstrap_ci(
-                by_person, lambda r, k=kind: _pooled_fraction(r, k, "moving"), rng),
-            "miss_p90_m_moving": _pooled_p90(all_rows, kind),
-            "miss_p90_m_moving.ci95": bootstrap_ci(by_person, lambda r, k=kind: _pooled_p90(r, k), rng),
+            "miss_fraction_moving": fraction,
+            "miss_fraction_moving.ci95": fraction_ci,
+            "miss_fraction_moving.people": n,
+            "miss_fraction_moving_pooled": len(misses) / tested if tested else None,
+            "miss_p90_m_moving": p90,
+            "miss_p90_m_moving.ci95": p90_ci,
+            "miss_p90_m_moving.people": n,
+            "miss_p90_m_moving_pooled": _p90(misses, tested) if tested else None,
             "idle_share": (1.0 - sum(r[kind]["windows_moving"] for r in all_rows) / windows) if windows
             else None,
             "miss_fraction_all": _pooled_fraction(all_rows, kind, "all"),
             "windows": windows,
             "people": len(by_person),
-            "per_person": {person: _pooled_fraction(person_rows, kind, "moving")
-                           for person, person_rows in sorted(by_person.items())},
+            "per_person": per_person,
         }
     return out
 
@@ -491,7 +491,7 @@ def prediction_deployed(sequences, seconds_synthetic: float, n_trials: int, seed
         f"with {POINT_NOISE} m noise; body from the first {CALIBRATION_SECONDS:g} s")
     rows, fits = [], {}
     for index, (name, points) in enumerate(sequences):
-        meta = SEQUENCE_META.get(name, {"set": name.split(":")[0], "person": name, "fixed": []})
+        meta = SEQUENCE_META[name]  # every sequence comes from `recordings`
         row = evaluate_deployed(name, points, n_trials, seed=1000 * seed + index, fixed=meta["fixed"],
                                 from_onset=meta["set"] == "ue")
         rows.append((meta["person"], meta["set"], row))
@@ -503,16 +503,17 @@ def prediction_deployed(sequences, seconds_synthetic: float, n_trials: int, seed
     truth = synthetic_points(seconds_synthetic, seed=7)
     synthetic = evaluate_deployed("synthetic operator", truth, n_trials, seed=7)
     figures = {
-        "prediction": summarise_deployed([(p, r) for p, _, r in rows], seed),
-        "prediction_by_set": {kind: summarise_deployed([(p, r) for p, s, r in rows if s == kind], seed)
+        # the headline pools one reading of each recording: the LEGO trials at their first rate only
+        "prediction": summarise_deployed([(p, r) for p, s, r in rows if s in HEADLINE_SETS]),
+        "prediction_by_set": {kind: summarise_deployed([(p, r) for p, s, r in rows if s == kind])
                               for kind in sorted({s for _, s, _ in rows})},
-        "prediction_synthetic": summarise_deployed([("synthetic", synthetic)], seed),
+        "prediction_synthetic": summarise_deployed([("synthetic", synthetic)]),
         "prediction_settings": {"moving_speed_mps": MOVING_SPEED, "point_noise_m": POINT_NOISE,
                                 "calibration_s": CALIBRATION_SECONDS, "warmup_s": WARMUP_S,
                                 "ue_from_causal_onset": {"speed_mps": ONSET_SPEED, "window_s": ONSET_WINDOW},
                                 "fixed_points_scored": False},
     }
-    figures["body_fit_error_m"] = body_fit_figures(fits, seed)
+    figures["body_fit_error_m"] = body_fit_figures(fits)
     for kind in MODELS:
         r, s = figures["prediction"][kind], figures["prediction_synthetic"][kind]
         log(f"  {kind:<11} real moving {_percent(r['miss_fraction_moving'])} "
@@ -526,18 +527,17 @@ def _percent(value) -> str:
     return "n/a" if value is None or not math.isfinite(value) else f"{100 * value:.2f} %"
 
 
-def body_fit_figures(fits: dict, seed: int) -> dict:
+def body_fit_figures(fits: dict) -> dict:
     """The body fit error (m; the calibrated body's tracking IK against the recorded arm points,
-    median over frames): per person (median over their sequences), the median over the UE people
-    (seated) with its 95 % interval over people, and per set."""
+    median over frames): per person (median over their sequences), over the UE people (seated)
+    their mean with its 95 % interval (`real_claims.people_interval`) and their median, and per set."""
     per_person = {person: float(np.median(values))
                   for by_set in fits.values() for person, values in by_set.items()}
     out = {"per_person": per_person}
-    ue = {person: [value] for person, value in per_person.items() if person.startswith("ue:")}
+    ue = [value for person, value in per_person.items() if person.startswith("ue:")]
     if ue:
-        out["median"] = float(np.median([v[0] for v in ue.values()]))
-        out["median.ci95"] = bootstrap_ci(ue, lambda r: float(np.median(r)), np.random.default_rng(seed))
-        out["people"] = len(ue)
+        out["mean"], out["mean.ci95"], out["mean.people"] = people_interval(ue)
+        out["median"] = float(np.median(ue))
     out["by_set"] = {kind: float(np.median([np.median(v) for v in by_set.values()]))
                      for kind, by_set in fits.items()}
     return out
@@ -637,7 +637,8 @@ def main(argv: list[str] | None = None) -> None:
         figures["importer"] = importer_figures(root, people)
     if "tracking" in parts:
         log("\n== tracking (Ch. 9): real and synthetic arms through the cell's camera, occluders added")
-        figures.update(tracking_figures(sequences, synthetic_points(synthetic_s, seed=7), seed=0,
+        headline = [(name, points) for name, points in sequences if name.split(":")[0] in HEADLINE_SETS]
+        figures.update(tracking_figures(headline, synthetic_points(synthetic_s, seed=7), seed=0,
                                         quick=quick, trackers=trackers, person_of=person_of))
     if "intention" in parts:
         log("\n== intention (3.1): the seated reaches, forward / across / rest")
@@ -649,11 +650,12 @@ def main(argv: list[str] | None = None) -> None:
     if "gpdm" in parts:
         log("\n== GPDM (8.2) trained on the seated reaches, 0.3 s ahead")
         figures.update(gpdm_part(root, quick, people, args.oracle))
-    figures["claims"] = evaluate_claims(load_claims(), flatten(figures))
+    figures["claims"] = evaluate_claims(load_claims(), flatten(figures), selection)
     log("\nclaims (docs/real_claims.yaml):")
     for ident, entry in figures["claims"].items():
+        why = f"; {entry['why']}" if entry["why"] else ""
         log(f"  {ident:<38} {entry['verdict']:<14} {entry['key']} = {entry['estimate']} {entry['ci95']} "
-            f"(rule {entry['rule']})")
+            f"(rule {entry['rule']}; {entry['people_in_interval']} people){why}")
     print(json.dumps(figures))
 
 
@@ -686,12 +688,12 @@ def importer_figures(root: Path, people) -> dict:
         per_person[person] = float(np.mean([abs(lengths[c] - tape[person][c]) for c in UE_TAPE_COLUMNS]))
     if not per_person:
         return {"segment_error_mm": {"skipped": "no person with a tape measure"}}
-    by_person = {p: [v] for p, v in per_person.items()}
+    mean, ci, n = people_interval(list(per_person.values()))
     median = float(np.median(list(per_person.values())))
     log("\nimporter: arm segments against the tape, mean |error| per person (mm): "
-        + ", ".join(f"{p} {v:.0f}" for p, v in per_person.items()) + f"; median {median:.1f} mm")
-    return {"segment_error_mm": {"median": median, "median.ci95": bootstrap_ci(
-        by_person, lambda r: float(np.median(r)), np.random.default_rng(0)), "per_person": per_person}}
+        + ", ".join(f"{p} {v:.0f}" for p, v in per_person.items()) + f"; mean {mean:.1f} mm {ci}")
+    return {"segment_error_mm": {"mean": mean, "mean.ci95": ci, "mean.people": n, "median": median,
+                                 "per_person": per_person}}
 
 
 if __name__ == "__main__":

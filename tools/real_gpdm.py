@@ -64,7 +64,7 @@ from hrc_drake.human.operator import OperatorTask, SyntheticOperator  # noqa: E4
 from hrc_drake.motion.config import ProactivePlanner  # noqa: E402
 from hrc_drake.motion.gpdm import GPDM  # noqa: E402
 from hrc_drake.motion.proactive import ARM_POINTS  # noqa: E402
-from hrc_drake.real_claims import select_people  # noqa: E402
+from hrc_drake.real_claims import people_interval, select_people  # noqa: E402
 
 RATE = 30.0
 #: the cells' prediction horizon (diagrams/*.yaml `GPMotionModel {horizon: 0.3}`)
@@ -368,25 +368,19 @@ def _rms(errors: list[dict], method: str) -> float:
     return float(np.sqrt(np.concatenate(horizon).mean())) if horizon else math.nan
 
 
-def person_differences(by_person: dict, seed: int, draws: int = 2000) -> dict:
+def person_differences(by_person: dict, seed: int = 0) -> dict:
     """The same-person GPDM's RMS minus constant velocity's and minus the mean of the other
-    reaches' (m; negative: the GPDM is better), each with a 95 % interval over people drawn with
-    replacement (None with fewer than two people), and every person's RMS per method."""
-    out = {"per_person": {p: {m: _rms(e, m) for m in ("gpdm", "constant_velocity", "mean_of_other_reaches")}
-                          for p, e in sorted(by_person.items())}}
-    people = sorted(by_person)
-    rng = np.random.default_rng([seed, 56])
+    reaches' (m; negative: the GPDM is better): the mean over people of each person's difference
+    (paired by person) with its 95 % Student's t interval (`real_claims.people_interval`; None with
+    fewer than two people), how many people, and every person's RMS per method. seed: unused (the
+    interval is not drawn), kept for the callers."""
+    per_person = {p: {m: _rms(e, m) for m in ("gpdm", "constant_velocity", "mean_of_other_reaches")}
+                  for p, e in sorted(by_person.items())}
+    out = {"per_person": per_person}
     for other, key in (("constant_velocity", "rms_m_minus_constant_velocity"),
                        ("mean_of_other_reaches", "rms_m_minus_mean_of_other_reaches")):
-        errors = [e for p in people for e in by_person[p]]
-        out[key] = _rms(errors, "gpdm") - _rms(errors, other) if errors else None
-        values = []
-        if len(people) >= 2:
-            for _ in range(draws):
-                chosen = [e for k in rng.choice(len(people), len(people)) for e in by_person[people[k]]]
-                values.append(_rms(chosen, "gpdm") - _rms(chosen, other))
-        out[f"{key}.ci95"] = ([float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))]
-                              if values else None)
+        differences = [row["gpdm"] - row[other] for row in per_person.values()]
+        out[key], out[f"{key}.ci95"], out[f"{key}.people"] = people_interval(differences)
     return out
 
 

@@ -74,7 +74,7 @@ from hrc_drake.human.importers import (  # noqa: E402
     synthesize_missing,
 )
 from hrc_drake.messages import R_WRIST  # noqa: E402
-from hrc_drake.real_claims import select_people  # noqa: E402
+from hrc_drake.real_claims import people_interval, select_people  # noqa: E402
 
 METHODS = ("M1", "M2", "M3")
 RATE = 30.0
@@ -407,7 +407,7 @@ def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bo
                 log(f"{m:<6} {data:<10} {s['reaches']:>7} {frac:>11} {s['missed_pct']:>8.1f} "
                     f"{s['wrong_commit_pct']:>8.1f} {ci:>12} {s['wrong_first_pct']:>11.1f}")
         if name == variants[0][0]:
-            add_people_intervals(block, reaches, real, seed)
+            add_people_intervals(block, reaches, real, synthetic)
             figures["real"], figures["synthetic"] = block["real"], block["synthetic"]
             figures["m3_equals_m2_on_real"] = m3_is_m2
             figures["per_reach"] = {trial: {m: (None if math.isnan(o["commit_fraction"])
@@ -419,31 +419,33 @@ def _figures(root, seed: int, quick: bool, with_rest: bool, two_goal_variant: bo
     return figures
 
 
-def add_people_intervals(block: dict, reaches: list[dict], real: dict, seed: int, draws: int = 2000) -> None:
-    """Into block["real"][m]: the wrong-commitment % with a 95 % interval over people drawn with
-    replacement (`wrong_commit_pct.ci95`; None with fewer than two people), each person's %, and
-    the real minus the synthetic % with that interval shifted by the synthetic figure (the
-    synthetic operators' own spread is not in it)."""
-    rng = np.random.default_rng([seed, 56])
+def add_people_intervals(block: dict, reaches: list[dict], real: dict, synthetic: dict) -> None:
+    """Into block["real"][m]: the mean over people of their wrong-commitment % with its 95 %
+    interval (`real_claims.people_interval`: Student's t widened to the pooled counts' exact one;
+    None with fewer than two people), each person's %, and the real minus the synthetic % with that
+    interval widened by the synthetic operators' own exact binomial interval."""
+    from scipy.stats import binomtest
+
     for m, outcomes in real.items():
         by_person: dict[str, list[dict]] = {}
         for reach, outcome in zip(reaches, outcomes, strict=True):
             by_person.setdefault(reach["participant"], []).append(outcome)
-        people = sorted(by_person)
-
-        def pct(rows):
-            return 100.0 * sum(o["wrong"] for o in rows) / len(rows)
-
-        values = [pct([o for k in rng.choice(len(people), len(people)) for o in by_person[people[k]]])
-                  for _ in range(draws)] if len(people) >= 2 else []
-        ci = [float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))] if values else None
-        row, synthetic = block["real"][m], block["synthetic"][m]["wrong_commit_pct"]
-        row["wrong_commit_pct.ci95"] = ci
-        row["wrong_commit_pct_per_person"] = {p: round(pct(v), 1) for p, v in by_person.items()}
-        if row["wrong_commit_pct"] is not None and synthetic is not None:
-            row["wrong_commit_pct_minus_synthetic"] = round(row["wrong_commit_pct"] - synthetic, 2)
-            row["wrong_commit_pct_minus_synthetic.ci95"] = (None if ci is None
-                                                            else [ci[0] - synthetic, ci[1] - synthetic])
+        per_person = {p: 100.0 * sum(o["wrong"] for o in v) / len(v) for p, v in sorted(by_person.items())}
+        wrong = sum(o["wrong"] for o in outcomes)
+        mean, ci, n = people_interval([v / 100.0 for v in per_person.values()], (wrong, len(outcomes)))
+        row = block["real"][m]
+        row["wrong_commit_pct_mean_over_people"] = None if mean is None else 100.0 * mean
+        row["wrong_commit_pct.ci95"] = None if ci is None else [100.0 * ci[0], 100.0 * ci[1]]
+        row["wrong_commit_pct.people"] = n
+        row["wrong_commit_pct_per_person"] = {p: round(v, 1) for p, v in per_person.items()}
+        synthetic_wrong = sum(o["wrong"] for o in synthetic[m])
+        if mean is not None and synthetic[m]:
+            exact = binomtest(synthetic_wrong, len(synthetic[m])).proportion_ci(0.95, method="exact")
+            synthetic_pct = 100.0 * synthetic_wrong / len(synthetic[m])
+            row["wrong_commit_pct_minus_synthetic"] = round(100.0 * mean - synthetic_pct, 2)
+            row["wrong_commit_pct_minus_synthetic.ci95"] = (
+                None if ci is None else [100.0 * (ci[0] - exact.high), 100.0 * (ci[1] - exact.low)])
+            row["wrong_commit_pct_minus_synthetic.people"] = n
 
 
 def bench_keys(figures: dict) -> dict:
@@ -452,8 +454,9 @@ def bench_keys(figures: dict) -> dict:
     for data, prefix in (("real", "intention"), ("synthetic", "intention_synthetic")):
         for m, row in figures[data].items():
             for key in ("commit_fraction_median", "wrong_commit_pct", "missed_pct", "wrong_first_pct",
-                        "wrong_commit_pct.ci95", "wrong_commit_pct_minus_synthetic",
-                        "wrong_commit_pct_minus_synthetic.ci95"):
+                        "wrong_commit_pct.ci95", "wrong_commit_pct.people",
+                        "wrong_commit_pct_minus_synthetic", "wrong_commit_pct_minus_synthetic.ci95",
+                        "wrong_commit_pct_minus_synthetic.people"):
                 if key in row:
                     out[f"{prefix}.{m}.{key}"] = row[key]
     return out

@@ -36,6 +36,7 @@ sys.path.insert(0, str(REPO))
 from hrc_drake.human.camera import DepthCameraModel  # noqa: E402
 from hrc_drake.messages import L_ELBOW, L_WRIST, R_ELBOW, R_WRIST, SKELETON_POINTS, SkeletonFrame  # noqa: E402
 from hrc_drake.perception.tracker import SkeletonTracker  # noqa: E402
+from hrc_drake.real_claims import people_interval  # noqa: E402
 
 SCENARIO = REPO / "diagrams" / "pcb_occlusion.yaml"
 RATE = 30.0
@@ -282,17 +283,19 @@ def _table(label: str, table: dict) -> None:
             f"{s['volume_radius_m']:8.3f} {s['hidden_point_frames']:7d}")
 
 
-def coverage_intervals(real: list[dict], synthetic_table: dict, trackers, person_of, seed: int,
-                       draws: int = 1000) -> dict:
-    """Per tracker: the coverage of every hidden point and of the hidden arm points (cases 1-3)
-    on the real sequences, each with a 95 % interval over people drawn with replacement (None with
-    fewer than two), and the first minus the synthetic operator's (its interval shifted by the
-    synthetic point figure: one synthetic operator has no spread over people)."""
+def coverage_intervals(real: list[dict], synthetic_rows: dict, trackers, person_of,
+                       seed: int = 0) -> dict:
+    """Per tracker: the coverage of every hidden point and of the hidden arm points (cases 1-3) on
+    the real sequences, the person the unit: the mean over people of their coverage with its 95 %
+    interval (`real_claims.people_interval`: Student's t widened to the pooled counts' exact one),
+    and the first minus the synthetic operator's (the interval widened by the synthetic figure's own
+    exact binomial interval: one synthetic operator, many hidden point-frames). synthetic_rows:
+    tracker -> the synthetic operator's scored rows. seed: unused (nothing is drawn)."""
+    from scipy.stats import binomtest
+
     people: dict[str, list[dict]] = {}
     for r in real:
         people.setdefault(person_of(r["name"]), []).append(r)
-    names = sorted(people)
-    rng = np.random.default_rng([seed, 9])
 
     def arm_rows(runs, t):
         out = []
@@ -302,27 +305,34 @@ def coverage_intervals(real: list[dict], synthetic_table: dict, trackers, person
             out.append({k: v[keep] for k, v in row.items()})
         return out
 
+    def counts(rows):
+        if not rows:
+            return 0, 0
+        inside = np.concatenate([r["inside"][np.isfinite(r["volume"])] for r in rows])
+        return int(inside.sum()), int(inside.size)
+
     out = {}
     for t in trackers:
         entry = {}
         for key, rows_of in (("coverage_all_hidden", lambda runs, t=t: [r["rows"][t] for r in runs]),
                              ("coverage_arm_hidden", lambda runs, t=t: arm_rows(runs, t))):
-            value = stats(rows_of(real))["coverage"]
-            values = []
-            if len(names) >= 2:
-                for _ in range(draws):
-                    chosen = [r for k in rng.choice(len(names), len(names)) for r in people[names[k]]]
-                    v = stats(rows_of(chosen))["coverage"]
-                    if np.isfinite(v):
-                        values.append(v)
-            ci = [float(np.percentile(values, 2.5)), float(np.percentile(values, 97.5))] if values else None
-            entry[key], entry[f"{key}.ci95"] = value, ci
-        synthetic = synthetic_table.get(t, {}).get("coverage", float("nan"))
-        entry["coverage_all_hidden_minus_synthetic"] = entry["coverage_all_hidden"] - synthetic
-        ci = entry["coverage_all_hidden.ci95"]
-        entry["coverage_all_hidden_minus_synthetic.ci95"] = (
-            [ci[0] - synthetic, ci[1] - synthetic] if ci is not None and np.isfinite(synthetic) else None)
-        entry["people"] = len(names)
+            per_person = {}
+            for person, runs in sorted(people.items()):
+                inside, total = counts(rows_of(runs))
+                if total:
+                    per_person[person] = inside / total
+            mean, ci, n = people_interval(list(per_person.values()), counts(rows_of(real)))
+            entry[key], entry[f"{key}.ci95"], entry[f"{key}.people"] = mean, ci, n
+            entry[f"{key}_per_person"] = per_person
+        inside, total = counts(synthetic_rows.get(t, []))
+        if total and entry["coverage_all_hidden"] is not None:
+            synthetic = inside / total
+            exact = binomtest(inside, total).proportion_ci(0.95, method="exact")
+            ci = entry["coverage_all_hidden.ci95"]
+            entry["coverage_all_hidden_minus_synthetic"] = entry["coverage_all_hidden"] - synthetic
+            entry["coverage_all_hidden_minus_synthetic.ci95"] = (
+                None if ci is None else [ci[0] - exact.high, ci[1] - exact.low])
+            entry["coverage_all_hidden_minus_synthetic.people"] = entry["coverage_all_hidden.people"]
         out[t] = entry
     return out
 
@@ -389,15 +399,20 @@ def tracking_figures(sequences, synthetic, seed: int = 0, quick: bool = False, c
     for s in sets:
         _table(f"real:{s}", figures["tracking_by_set"][s])
     _table("synthetic", figures["tracking_synthetic"])
-    intervals = coverage_intervals(real, figures["tracking_synthetic"], trackers,
-                                   person_of or (lambda name: name), seed)
+    synthetic_rows = {t: [r["rows"][t] for r in synth] for t in trackers}
+    intervals = coverage_intervals(real, synthetic_rows, trackers, person_of or (lambda name: name))
     for t, entry in intervals.items():
         figures["tracking"][t].update(entry)
+        if entry["coverage_all_hidden"] is None:
+            continue
         ci = entry["coverage_all_hidden.ci95"]
         interval = "" if ci is None else f"[{ci[0]:.3f}, {ci[1]:.3f}] "
-        log(f"  {t:<12} coverage of every hidden point {entry['coverage_all_hidden']:.3f} {interval}over "
-            f"{entry['people']} people; arm points {entry['coverage_arm_hidden']:.3f}; minus synthetic "
-            f"{entry['coverage_all_hidden_minus_synthetic']:+.3f}")
+        minus = entry.get("coverage_all_hidden_minus_synthetic")
+        arm_value = entry["coverage_arm_hidden"]
+        log(f"  {t:<12} coverage of every hidden point, mean over {entry['coverage_all_hidden.people']} "
+            f"people {entry['coverage_all_hidden']:.3f} {interval}; arm points "
+            f"{'n/a' if arm_value is None else f'{arm_value:.3f}'}; minus synthetic "
+            f"{'n/a' if minus is None else f'{minus:+.3f}'}")
     pf_real, pf_syn = figures["tracking"].get("pf"), figures["tracking_synthetic"].get("pf")
     claim = {}
     if pf_real and pf_syn and np.isfinite(pf_real["coverage"]) and np.isfinite(pf_syn["coverage"]):

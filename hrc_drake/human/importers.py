@@ -404,7 +404,9 @@ def place_in_cell(recording: Recording, placement: Placement) -> tuple[Recording
     up = up / np.linalg.norm(up)
     both = tr[:, L_SHOULDER] & tr[:, R_SHOULDER]
     if not both.any():
-        raise ValueError(f"{recording.source}: no frame holds both shoulders: the facing cannot be found")
+        why = "; ".join(note for note in recording.notes if note.endswith("untracked"))
+        raise ValueError(f"{recording.source}: no frame holds both shoulders: the facing cannot be found"
+                         + (f" ({why})" if why else ""))
     across = np.median(p[both, R_SHOULDER] - p[both, L_SHOULDER], axis=0)  # left to right
     across = across - (across @ up) * up
     # a person's right is forward x up: forward = up x (left -> right)
