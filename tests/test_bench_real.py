@@ -78,3 +78,26 @@ def test_a_sequence_belongs_to_its_person(br):
 def test_the_figures_are_flattened_for_the_claims(br):
     flat = br.flatten({"a": {"b": {"c": 1, "c.ci95": [0, 2]}, "d": [1, 2]}})
     assert flat == {"a.b.c": 1, "a.b.c.ci95": [0, 2], "a.d": [1, 2]}
+
+
+def test_points_the_source_holds_fixed_are_never_scored(br):
+    """`deployed_misses` tests only the `scored` points: the fixed shoulders of a LEGO trial add
+    nothing to the tested count or the misses."""
+    from types import SimpleNamespace
+
+    from hrc_drake.messages import L_SHOULDER, R_SHOULDER
+
+    class FarCapsules:  # every future point lies outside
+        def build(self, q, plus, minus):
+            return np.array([[9.0, 9.0, 9.0]]), np.array([[9.0, 9.0, 9.5]]), np.array([0.01])
+
+    predictor = SimpleNamespace(steps=3, builder=FarCapsules())
+    truth = _still_then_reach(frames=40, start=0, speed=0.9)
+    deltas = np.zeros((40, 2, 12))
+    filtered = np.zeros((40, 12))
+    every = br.deployed_misses(predictor, deltas, filtered, truth, truth, 5, br.ARM_POINTS)
+    arms = [k for k in br.ARM_POINTS if k not in (L_SHOULDER, R_SHOULDER)]
+    without = br.deployed_misses(predictor, deltas, filtered, truth, truth, 5, arms)
+    windows = 40 - 3 - 5
+    assert every["tested_all"] == windows * 4 * 6 and without["tested_all"] == windows * 4 * 4
+    assert len(without["misses_all"]) == without["tested_all"]  # all outside, none of them a shoulder

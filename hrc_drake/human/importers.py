@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -312,6 +313,8 @@ def read_ue_anthropometrics(path) -> dict[str, dict[str, float]]:
     upper and lower arm lengths (`UE_TAPE_COLUMNS`, mm). Untrusted: a missing column, a value
     that is not a number in range or a repeated participant is refused, naming file and line."""
     path = Path(path)
+    if path.stat().st_size > 100_000:
+        raise ValueError(f"{path}: {path.stat().st_size} bytes, more than an anthropometrics table's 100 kB")
     with path.open(newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
     wanted = ("participant", "height_m", *UE_TAPE_COLUMNS)
@@ -319,16 +322,16 @@ def read_ue_anthropometrics(path) -> dict[str, dict[str, float]]:
         raise ValueError(f"{path}: needs the columns {list(wanted)}")
     out: dict[str, dict[str, float]] = {}
     for line, row in enumerate(rows, start=2):
-        name = row["participant"].strip()
-        if not name.isalnum() or name in out:
+        name = (row.get("participant") or "").strip()
+        if not re.fullmatch(r"[A-Za-z0-9_]+", name) or name in out:
             raise ValueError(f"{path}:{line}: participant {name!r} is empty, not alphanumeric or repeated")
         values = {}
         bounds = [("height_m", (1.0, 2.5))] + [(c, UE_TAPE_RANGE_MM) for c in UE_TAPE_COLUMNS]
         for column, (low, high) in bounds:
             try:
-                value = float(row[column])
+                value = float(row.get(column))
             except (TypeError, ValueError):
-                raise ValueError(f"{path}:{line}: {column} {row[column]!r} is not a number") from None
+                raise ValueError(f"{path}:{line}: {column} {row.get(column)!r} is not a number") from None
             if not (math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"{path}:{line}: {column} {value} is outside [{low}, {high}]")
             values[column] = value

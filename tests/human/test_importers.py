@@ -325,3 +325,12 @@ def test_the_anthropometrics_file_is_checked(tmp_path):
     bad.write_text("participant,height_m\nP1,1.7\n")
     with pytest.raises(ValueError, match="needs the columns"):
         read_ue_anthropometrics(bad)
+    bad.write_text(header + "P1,1.7,325\n")  # a short row
+    with pytest.raises(ValueError, match="left_lower_arm_mm None is not a number"):
+        read_ue_anthropometrics(bad)
+    bad.write_text(header + "P\u00e91,1.7,325,235,325,255\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="not alphanumeric"):
+        read_ue_anthropometrics(bad)
+    bad.write_text(header + "P1,1.7,325,235,325,255\n" * 5000)
+    with pytest.raises(ValueError, match="100 kB"):
+        read_ue_anthropometrics(bad)
