@@ -235,7 +235,8 @@ def people_interval(values, counts=None) -> tuple[float | None, list | None, int
     """The mean over people of their values, its 95 % interval and the number of people: Student's
     t over the per-person values (the person is the unit), widened, for a proportion, to the exact
     (Clopper-Pearson) interval of the pooled counts (`counts`: (events, trials)), so that people
-    who all show 0 do not give an interval of width 0. (None, None, n) when a value is not finite
+    who all show 0 do not give an interval of width 0, and kept within [0, 1]. (None, None, n) when
+    a value is not finite
     or fewer than two people have one."""
     from scipy import stats
 
@@ -251,6 +252,7 @@ def people_interval(values, counts=None) -> tuple[float | None, list | None, int
         if trials > 0:
             exact = stats.binomtest(events, trials).proportion_ci(0.95, method="exact")
             low, high = min(low, exact.low), max(high, exact.high)
+        low, high = max(low, 0.0), min(high, 1.0)  # a proportion
     return mean, [low, high], n
 
 

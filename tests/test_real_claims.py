@@ -79,6 +79,7 @@ def test_the_interval_over_people_is_students_t_widened_to_the_exact_one():
     # everyone at 0 of 100: the exact interval of 0 / 700 keeps it from width 0
     zero_mean, (zero_low, zero_high), _ = people_interval([0.0] * 7, (0, 700))
     assert zero_mean == 0.0 and zero_low == 0.0 and 0.004 < zero_high < 0.006
+    assert people_interval([0.0, 0.0, 0.0, 0.0, 0.3], (3, 500))[1][0] == 0.0  # a proportion stays >= 0
     assert people_interval([10.0, 12.0, float("nan")])[1] is None  # a person without a figure
     assert people_interval([3.0])[1] is None
 
