@@ -205,20 +205,26 @@ def evaluate(claims: Claims, figures: dict, people: str) -> dict:
     """Each claim's verdict from the bench's flat figures (key -> estimate, key + ".ci95" ->
     [low, high], key + ".people" -> how many people the interval is over), run on the `people`
     selection: id -> {key, rule, people, estimate, ci95, verdict, why, registered (, replaces)}.
-    A claim on other people than the run's is "not measured"; one whose interval is over fewer than
-    `MIN_PEOPLE` people is "inconclusive"."""
+    A claim on other people than the run's is "not measured" (a held-out folder's people, "folder",
+    count as test people); one whose interval is over fewer than `MIN_PEOPLE` people is
+    "inconclusive"."""
     out = {}
     for claim in claims.claims:
         ci95 = figures.get(f"{claim.key}.ci95")
         n_people = figures.get(f"{claim.key}.people")
-        result, why = verdict(claim, ci95), ""
-        if claim.people != people:
+        estimate = figures.get(claim.key)
+        # another folder's people (held out, `--data`) are test people: nothing was tuned on them
+        if claim.people != people and not (claim.people == "test" and people == "folder"):
             result, why = ("not measured",
                            f"the claim is on {_whose(claim.people)}, the run on {_whose(people)}")
-        elif result != "not measured" and (n_people is None or n_people < MIN_PEOPLE):
+        elif estimate is None:
+            result, why = "not measured", "the run has no figure for it"
+        elif n_people is None or n_people < MIN_PEOPLE:
             result, why = "inconclusive", f"{n_people} people, fewer than {MIN_PEOPLE}"
+        else:
+            result, why = verdict(claim, ci95), ""
         entry = {"key": claim.key, "rule": claim.rule, "people": claim.people,
-                 "estimate": figures.get(claim.key), "ci95": ci95, "people_in_interval": n_people,
+                 "estimate": estimate, "ci95": ci95, "people_in_interval": n_people,
                  "verdict": result, "why": why,
                  "registered": claim.registered}
         if claim.replaces:

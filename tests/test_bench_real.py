@@ -101,3 +101,28 @@ def test_points_the_source_holds_fixed_are_never_scored(br):
     windows = 40 - 3 - 5
     assert every["tested_all"] == windows * 4 * 6 and without["tested_all"] == windows * 4 * 4
     assert len(without["misses_all"]) == without["tested_all"]  # all outside, none of them a shoulder
+
+
+def test_a_held_out_folder_is_judged_without_a_code_change(br, tmp_path, capsys):
+    """`--data DIR` with another folder laid out like data/ (here a copy of one participant under
+    another name): its people are every participant there, counted as test people; one person is
+    too few for a verdict."""
+    import json
+    import shutil
+
+    from hrc_drake.datasets import dataset_dir
+
+    source = dataset_dir("ue_adl") / "ADL004"
+    target = tmp_path / "real" / "ue_adl" / "HELD1"
+    target.mkdir(parents=True)
+    for path in source.glob("*.csv"):
+        shutil.copy(path, target / path.name.replace("ADL004", "HELD1"))
+    tape = (dataset_dir("ue_adl") / "anthropometrics.csv").read_text().splitlines()
+    rows = [tape[0]] + [line.replace("ADL004", "HELD1", 1) for line in tape if line.startswith("ADL004,")]
+    (target.parent / "anthropometrics.csv").write_text("\n".join(rows) + "\n")
+    br.main(["--smoke", "--data", str(tmp_path), "--parts", "importer"])
+    last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last["people"]["selection"] == "folder" and last["people"]["ue_adl"] == ["HELD1"]
+    claim = last["claims"]["importer_segments"]
+    assert claim["people_in_interval"] == 1 and claim["verdict"] == "inconclusive"
+    assert "fewer than 5" in claim["why"]

@@ -60,6 +60,8 @@ def test_a_claim_is_judged_only_on_its_people_and_on_enough_of_them():
     figures = {key: 18.6, f"{key}.ci95": [12.0, 24.0], f"{key}.people": 7}
     tuning = evaluate(claims, figures, "tuning")["importer_segments"]
     assert tuning["verdict"] == "not measured" and "the test people" in tuning["why"]
+    held_out = evaluate(claims, figures, "folder")["importer_segments"]
+    assert held_out["verdict"] == "holds"  # another folder's (held-out) people are test people
     few = evaluate(claims, {**figures, f"{key}.people": 4}, "test")["importer_segments"]
     assert few["verdict"] == "inconclusive" and "fewer than 5" in few["why"]
     unknown = evaluate(claims, {key: 18.6, f"{key}.ci95": [12.0, 24.0]}, "test")["importer_segments"]
