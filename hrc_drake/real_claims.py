@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from hrc_drake.untrusted import load_unique_yaml
+
 #: the file the bench reads by default
 CLAIMS_FILE = Path(__file__).resolve().parents[1] / "docs" / "real_claims.yaml"
 VERDICTS = ("holds", "does not hold", "inconclusive", "not measured")
@@ -126,24 +128,6 @@ def _claim(entry, where: str, earlier: dict) -> Claim:
                  replaces, why)
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """The safe loader, refusing a mapping that repeats a key (the later one would win unseen)."""
-
-
-def _unique_mapping(loader, node, deep=False):
-    loader.flatten_mapping(node)
-    out = {}
-    for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in out:
-            raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
-        out[key] = loader.construct_object(value_node, deep=deep)
-    return out
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _unique_mapping)
-
-
 def load_claims(path: str | Path = CLAIMS_FILE) -> Claims:
     """Read and check a claims file (YAML, safe loader, at most 200 kB)."""
     path = Path(path)
@@ -154,7 +138,7 @@ def load_claims(path: str | Path = CLAIMS_FILE) -> Claims:
     if len(data) > _MAX_BYTES:
         raise ClaimsError(f"{path}: {len(data)} bytes, more than a claims file's {_MAX_BYTES}")
     try:
-        document = yaml.load(data.decode("utf-8"), Loader=_UniqueKeyLoader)  # noqa: S506 (a safe loader)
+        document = load_unique_yaml(data.decode("utf-8"))
     except (UnicodeDecodeError, yaml.YAMLError) as err:
         raise ClaimsError(f"{path}: not UTF-8 YAML ({err})") from None
     if not isinstance(document, dict) or set(document) != {"registered", "people", "claims"}:

@@ -1,11 +1,14 @@
 """Free text (names in scenarios, recordings' file names) made harmless where it is written: a CSV
 cell a spreadsheet would run as a formula, a YAML comment a line break would end, a plot label
-matplotlib would parse as mathtext, a file name a path separator would move."""
+matplotlib would parse as mathtext, a file name a path separator would move; and YAML read safely
+with no key given twice (`UniqueKeyLoader`)."""
 
 from __future__ import annotations
 
 import hashlib
 import re
+
+import yaml
 
 #: a spreadsheet runs a cell that starts with one of these as a formula (OWASP, "CSV injection")
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
@@ -47,3 +50,32 @@ def headless_pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def unique_key_mapping(loader, node, deep=False) -> dict:
+    """A YAML mapping whose keys are all different: a repeated key would silently replace the first
+    one, so it is refused with its line and column."""
+    loader.flatten_mapping(node)
+    out = {}
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in out:
+            raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        out[key] = loader.construct_object(value_node, deep=deep)
+    return out
+
+
+class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
+    """PyYAML's safe loader (libyaml's where PyYAML has it) refusing repeated mapping keys."""
+
+
+UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, unique_key_mapping)
+
+
+def load_unique_yaml(text: str):
+    """The one document of YAML `text` through `UniqueKeyLoader` (safe constructors only)."""
+    loader = UniqueKeyLoader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
