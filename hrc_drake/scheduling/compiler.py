@@ -296,43 +296,16 @@ def compile_flow(
         staying = [r for r in robots if r not in a.early_release]
         with_human = human_agent in a.agents
         held = joint_actions == "hold" and len(robots) == 2
-        if not with_human and held:
-            busy = nb.place(f"busy:{a.name}")
-            _hold_and_join(nb, a, robots, robot_cost, patience, takes(a),
-                           [busy] + frees_at_start(a) + early_parts(a, a.name), "hold")
-            nb.transition(
-                f"{a.name}:end",
-                [busy],
-                [f"avail:{r}" for r in staying] + gives_at_end(a),
-                False,
-                delay_of(a),
-                agents=staying,
-                action=a.name,
-                role="end",
-            )
-            continue
         if not with_human:
             busy = nb.place(f"busy:{a.name}")
-            nb.transition(
-                f"{a.name}:begin",
-                [f"avail:{r}" for r in robots] + takes(a),
-                [busy] + frees_at_start(a) + early_parts(a, a.name),
-                True,
-                _fixed(0.0),
-                agents=robots,
-                action=a.name,
-                role="begin",
-            )
-            nb.transition(
-                f"{a.name}:end",
-                [busy],
-                [f"avail:{r}" for r in staying] + gives_at_end(a),
-                False,
-                delay_of(a),
-                agents=staying,
-                action=a.name,
-                role="end",
-            )
+            start = [busy] + frees_at_start(a) + early_parts(a, a.name)
+            if held:
+                _hold_and_join(nb, a, robots, robot_cost, patience, takes(a), start, "hold")
+            else:
+                nb.transition(f"{a.name}:begin", [f"avail:{r}" for r in robots] + takes(a), start, True,
+                              _fixed(0.0), agents=robots, action=a.name, role="begin")
+            nb.transition(f"{a.name}:end", [busy], [f"avail:{r}" for r in staying] + gives_at_end(a), False,
+                          delay_of(a), agents=staying, action=a.name, role="end")
             continue
         cwait = None
         if robots:

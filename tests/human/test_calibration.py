@@ -84,3 +84,17 @@ def test_a_hip_height_outside_a_person_is_refused():
     with pytest.raises(ValueError, match="hip_height"):
         BodyModel(Segments(hip_height=float("nan")))
     assert BodyModel(Segments(hip_height=0.0)).hip_height == BodyModel().hip_height
+
+
+@pytest.mark.parametrize("hip, refused", [(0.0, False), (0.3, False), (1.5, False), (0.299, True),
+                                          (1.51, True), (float("nan"), True), (-0.5, True)])
+def test_validate_takes_a_seated_hip_only_within_a_persons_range(diagrams_dir, hip, refused):
+    from hrc_drake.cell.scenario import ScenarioError, load_scenario_with
+
+    overrides = {"operator": {"segments": {"hip_height": hip}}}
+    if refused:
+        with pytest.raises(ScenarioError, match="operator.segments.hip_height"):
+            load_scenario_with(diagrams_dir / "pcb_ic.yaml", overrides)
+    else:
+        scenario = load_scenario_with(diagrams_dir / "pcb_ic.yaml", overrides)
+        assert scenario.operator.segments.hip_height == hip
